@@ -1,0 +1,206 @@
+"""The :class:`Motion` container: a skeleton plus per-frame local rotations and root positions.
+
+Arrays are NumPy float64 (exact file round trips); :meth:`Motion.torch` hands out tensors.
+Operations return new motions: windows, resampling, mirroring, root normalisation.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import torch
+
+from .kinematics import FKResult, forward_kinematics
+from .rotations import quat_canonical, quat_from_axis_angle, quat_mul, quat_rotate, quat_slerp
+from .skeleton import Skeleton
+
+
+def _t(x: np.ndarray) -> torch.Tensor:
+    return torch.from_numpy(np.ascontiguousarray(x, dtype=np.float64))
+
+
+@dataclass
+class Motion:
+    """A clip of skeletal animation.
+
+    Attributes:
+        skeleton: the :class:`~retarget_lib.skeleton.Skeleton` (rest offsets in metres).
+        rotations: ``(T, J, 4)`` local joint rotations, unit wxyz, float64.
+        root_positions: ``(T, 3)`` root (Hips) world positions in metres.
+        fps: frames per second.
+        name: free-form clip name.
+        meta: free-form metadata (source file, unit scale, BVH channel layout for writing, ...).
+    """
+
+    skeleton: Skeleton
+    rotations: np.ndarray
+    root_positions: np.ndarray
+    fps: float
+    name: str = ""
+    meta: dict = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        self.rotations = np.asarray(self.rotations, dtype=np.float64)
+        self.root_positions = np.asarray(self.root_positions, dtype=np.float64)
+        T, nj = self.rotations.shape[:2]
+        if self.rotations.shape != (T, self.skeleton.num_joints, 4):
+            raise ValueError(f"rotations must be (T, {self.skeleton.num_joints}, 4), "
+                             f"got {self.rotations.shape}")
+        if self.root_positions.shape != (T, 3):
+            raise ValueError(f"root_positions must be ({T}, 3), got {self.root_positions.shape}")
+        if T == 0:
+            raise ValueError("a Motion needs at least one frame")
+        if not (np.isfinite(self.rotations).all() and np.isfinite(self.root_positions).all()):
+            raise ValueError(f"motion {self.name!r} contains NaN or inf")
+        self.fps = float(self.fps)
+
+    # ------------------------------------------------------------------ basics
+    @property
+    def num_frames(self) -> int:
+        return self.rotations.shape[0]
+
+    @property
+    def duration(self) -> float:
+        """Length in seconds."""
+        return self.num_frames / self.fps
+
+    def copy(self, **changes) -> "Motion":
+        kw = dict(skeleton=self.skeleton.copy(), rotations=self.rotations.copy(),
+                  root_positions=self.root_positions.copy(), fps=self.fps, name=self.name,
+                  meta=dict(self.meta))
+        kw.update(changes)
+        return Motion(**kw)
+
+    def torch(self, dtype=torch.float32) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """``(rotations (T,J,4), root_positions (T,3), offsets (J,3))`` as tensors."""
+        return (torch.as_tensor(self.rotations, dtype=dtype),
+                torch.as_tensor(self.root_positions, dtype=dtype),
+                torch.as_tensor(self.skeleton.offsets, dtype=dtype))
+
+    def fk(self) -> FKResult:
+        """Global joint positions ``(T, J, 3)`` and rotations ``(T, J, 4)`` (NumPy float64)."""
+        return forward_kinematics(self.rotations, self.skeleton.offsets, self.skeleton.parents,
+                                  self.root_positions)
+
+    def global_positions(self) -> np.ndarray:
+        """``(T, J, 3)`` world joint positions."""
+        return self.fk().positions
+
+    # ---------------------------------------------------------------- editing
+    def slice(self, start: int, stop: int | None = None) -> "Motion":
+        """Frames ``start:stop`` as a new motion."""
+        return self.copy(rotations=self.rotations[start:stop].copy(),
+                         root_positions=self.root_positions[start:stop].copy())
+
+    def windows(self, length: int, stride: int | None = None, pad_last: bool = False) -> list["Motion"]:
+        """Cut into fixed-length windows.
+
+        Args:
+            length: frames per window (e.g. 81 for TDCN training, 120 for "short" evaluation).
+            stride: step between window starts (default ``length``: non-overlapping).
+            pad_last: also emit a final window that ends at the last frame, overlapping the previous
+                one, so that every frame is covered (clips shorter than ``length`` give one window
+                padded by repeating the edge frames).
+
+        Returns:
+            list of motions of exactly ``length`` frames.
+        """
+        stride = stride or length
+        T = self.num_frames
+        if T < length:
+            if not pad_last:
+                return []
+            idx = np.clip(np.arange(length), 0, T - 1)
+            return [self.copy(rotations=self.rotations[idx], root_positions=self.root_positions[idx])]
+        starts = list(range(0, T - length + 1, stride))
+        if pad_last and starts[-1] + length < T:
+            starts.append(T - length)
+        return [self.slice(s, s + length) for s in starts]
+
+    def resample(self, fps: float) -> "Motion":
+        """Resample in time: slerp for rotations, linear for root positions.
+
+        Args:
+            fps: new frame rate (e.g. 30 from CMU's 120 or the Biovision file's 100).
+        """
+        if abs(fps - self.fps) < 1e-9:
+            return self.copy()
+        T = self.num_frames
+        n_new = max(1, int(np.floor((T - 1) * fps / self.fps + 1e-9)) + 1)
+        t = np.arange(n_new) * (self.fps / fps)
+        i0 = np.clip(np.floor(t).astype(int), 0, T - 1)
+        i1 = np.clip(i0 + 1, 0, T - 1)
+        a = t - i0
+        rot = quat_slerp(_t(self.rotations[i0]), _t(self.rotations[i1]),
+                         _t(np.broadcast_to(a[:, None], (n_new, self.skeleton.num_joints))))
+        root = self.root_positions[i0] * (1 - a[:, None]) + self.root_positions[i1] * a[:, None]
+        return self.copy(rotations=rot.numpy(), root_positions=root, fps=fps)
+
+    def mirror(self) -> "Motion":
+        """Left/right mirror image across the YZ plane (x -> -x); needs a symmetric joint set.
+
+        Left and right joints swap (names starting with Left/Right); rotations are reflected
+        (``(w, x, y, z) -> (w, x, -y, -z)``) and offsets get ``x`` negated.
+        """
+        names = self.skeleton.joint_names
+        idx = {n: i for i, n in enumerate(names)}
+
+        def partner(n: str) -> str:
+            for a, b in (("Left", "Right"), ("Right", "Left")):
+                if a in n:
+                    return n.replace(a, b)
+            return n
+
+        swap = [idx.get(partner(n), i) for i, n in enumerate(names)]
+        rot = self.rotations[:, swap] * np.array([1.0, 1.0, -1.0, -1.0])
+        off = self.skeleton.offsets[swap] * np.array([-1.0, 1.0, 1.0])
+        root = self.root_positions * np.array([-1.0, 1.0, 1.0])
+        skel = Skeleton(names, self.skeleton.parents, off)
+        return self.copy(skeleton=skel, rotations=rot, root_positions=root,
+                         name=(self.name + "_mirror") if self.name else "mirror")
+
+    def facing(self) -> np.ndarray:
+        """``(T, 3)`` horizontal facing direction (unit, y = 0) of the root frame at each frame.
+
+        Uses the right->left hip axis when both up-legs exist (forward = left x up), else the
+        root's rotated +Z.
+        """
+        pos, grot = self.fk()
+        names = self.skeleton.joint_names
+        if "LeftUpLeg" in names and "RightUpLeg" in names:
+            across = pos[:, names.index("LeftUpLeg")] - pos[:, names.index("RightUpLeg")]
+            fwd = np.cross(across, np.array([0.0, 1.0, 0.0]))  # left (+X) x up (+Y) = +Z
+        else:
+            fwd = quat_rotate(_t(grot[:, 0]), _t(np.array([0.0, 0.0, 1.0]))).numpy()
+        fwd[:, 1] = 0.0
+        return fwd / np.maximum(np.linalg.norm(fwd, axis=-1, keepdims=True), 1e-9)
+
+    def normalize_root(self, face_z: bool = True, on_ground: bool = True) -> "Motion":
+        """Put frame 0's root above the origin, facing +Z; optionally feet on the ground (y = 0).
+
+        Rotates the whole clip about world +Y so the character faces +Z at frame 0, translates so the
+        root starts at ``x = z = 0``, and (``on_ground``) shifts vertically so that the lowest joint
+        over the clip's first second touches ``y = 0``.
+        """
+        rot = self.rotations.copy()
+        root = self.root_positions.copy()
+        if face_z:
+            f0 = self.facing()[0]
+            yaw = np.arctan2(f0[0], f0[2])  # angle from +Z towards +X
+            qy = quat_from_axis_angle(_t(np.array([0.0, -yaw, 0.0])))
+            rot[:, 0] = quat_canonical(quat_mul(qy, _t(rot[:, 0]))).numpy()
+            root = quat_rotate(qy, _t(root)).numpy()
+        root[:, [0, 2]] -= root[0, [0, 2]]
+        out = self.copy(rotations=rot, root_positions=root)
+        if on_ground:
+            n = max(1, min(self.num_frames, int(round(self.fps))))
+            low = out.global_positions()[:n, :, 1].min()
+            out.root_positions[:, 1] -= low
+        return out
+
+    def with_skeleton(self, skeleton: Skeleton) -> "Motion":
+        """The same local rotations on another skeleton with the same joint names (a 'copy')."""
+        if skeleton.joint_names != self.skeleton.joint_names:
+            raise ValueError("with_skeleton needs the same joint names")
+        return self.copy(skeleton=skeleton.copy())

@@ -1,0 +1,373 @@
+"""Skeletons: joint names, parents, rest offsets; the canonical 22 joints and name maps.
+
+A :class:`Skeleton` is a tree of joints. ``offsets[j]`` is joint ``j``'s rest position relative to
+its parent, expressed in the parent's frame (metres); ``offsets[root]`` is the root's rest position.
+
+The canonical 22 joints are Mixamo's (``mixamorig:`` prefix stripped), as used by NKN (Villegas et
+al. 2018) and TDCN (Kim et al. 2020, Sec. 5 "Data preprocessing"). :func:`to_canonical22` maps a
+motion on another joint set (Mixamo with fingers, CMU 31 joints, the 21-joint Biovision/
+MotionBuilder layout of ``Boxing_Toes.bvh``, SMPL-X body joints) onto them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Sequence
+
+import numpy as np
+import torch
+
+from .rotations import matrix_to_quat, quat_canonical, quat_conjugate, quat_mul, quat_to_matrix
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .motion import Motion
+
+CANONICAL22: tuple[str, ...] = (
+    "Hips", "Spine", "Spine1", "Spine2", "Neck", "Head",
+    "LeftUpLeg", "LeftLeg", "LeftFoot", "LeftToeBase",
+    "RightUpLeg", "RightLeg", "RightFoot", "RightToeBase",
+    "LeftShoulder", "LeftArm", "LeftForeArm", "LeftHand",
+    "RightShoulder", "RightArm", "RightForeArm", "RightHand",
+)
+CANONICAL22_PARENTS: tuple[int, ...] = (
+    -1, 0, 1, 2, 3, 4,
+    0, 6, 7, 8,
+    0, 10, 11, 12,
+    3, 14, 15, 16,
+    3, 18, 19, 20,
+)
+#: joint index of each canonical name
+J = {name: i for i, name in enumerate(CANONICAL22)}
+#: canonical index of each joint's mirror image (left <-> right)
+MIRROR22: tuple[int, ...] = tuple(
+    J[n.replace("Left", "#").replace("Right", "Left").replace("#", "Right")] for n in CANONICAL22
+)
+#: the bones summed by :meth:`Skeleton.height` (NKN/TDCN ``H``): root->head chain + left leg chain
+HEIGHT_BONES: tuple[tuple[int, int], ...] = (
+    (J["Spine"], J["Hips"]), (J["Spine1"], J["Spine"]), (J["Spine2"], J["Spine1"]),
+    (J["Neck"], J["Spine2"]), (J["Head"], J["Neck"]),
+    (J["LeftLeg"], J["LeftUpLeg"]), (J["LeftFoot"], J["LeftLeg"]), (J["LeftToeBase"], J["LeftFoot"]),
+)
+
+
+class JointSetError(ValueError):
+    """A motion's joints cannot be mapped onto the canonical 22 (the message names the missing ones)."""
+
+
+@dataclass
+class Skeleton:
+    """A joint tree with rest offsets.
+
+    Attributes:
+        joint_names: ``J`` names.
+        parents: ``J`` parent indices; the root's parent is ``-1``; parents precede children.
+        offsets: ``(J, 3)`` float64 rest offsets in metres (parent frame); row of the root = rest
+            root position.
+        end_sites: ``{joint index: (3,) offset}`` of BVH ``End Site`` leaves (kept for writing).
+    """
+
+    joint_names: tuple[str, ...]
+    parents: tuple[int, ...]
+    offsets: np.ndarray
+    end_sites: dict[int, np.ndarray] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        self.joint_names = tuple(str(n) for n in self.joint_names)
+        self.parents = tuple(int(p) for p in self.parents)
+        self.offsets = np.asarray(self.offsets, dtype=np.float64).reshape(-1, 3)
+        n = len(self.joint_names)
+        if len(self.parents) != n or self.offsets.shape[0] != n:
+            raise ValueError(
+                f"Skeleton: {n} names, {len(self.parents)} parents, {self.offsets.shape[0]} offsets"
+            )
+        if len(set(self.joint_names)) != n:
+            dup = sorted({x for x in self.joint_names if self.joint_names.count(x) > 1})
+            raise ValueError(f"Skeleton: duplicate joint names {dup}")
+        for j, p in enumerate(self.parents):
+            if (j == 0) != (p == -1) or p >= j:
+                raise ValueError(f"Skeleton: joint {j} ({self.joint_names[j]}) has parent {p}; "
+                                 "the root must be joint 0 and parents must precede children")
+
+    # ------------------------------------------------------------------ basics
+    @property
+    def num_joints(self) -> int:
+        return len(self.joint_names)
+
+    def index(self, name: str) -> int:
+        """Index of joint ``name`` (raises ``KeyError`` naming the joint)."""
+        try:
+            return self.joint_names.index(name)
+        except ValueError:
+            raise KeyError(f"no joint named {name!r} in skeleton") from None
+
+    def children(self, j: int) -> list[int]:
+        return [c for c, p in enumerate(self.parents) if p == j]
+
+    def copy(self) -> "Skeleton":
+        return Skeleton(self.joint_names, self.parents, self.offsets.copy(),
+                        {k: v.copy() for k, v in self.end_sites.items()})
+
+    def scaled(self, factor: float) -> "Skeleton":
+        """The same skeleton with every length multiplied by ``factor``."""
+        return Skeleton(self.joint_names, self.parents, self.offsets * factor,
+                        {k: v * factor for k, v in self.end_sites.items()})
+
+    def bone_lengths(self) -> np.ndarray:
+        """``(J,)`` length of each joint's offset (the root's entry is its rest-position norm)."""
+        return np.linalg.norm(self.offsets, axis=-1)
+
+    def rest_positions(self) -> np.ndarray:
+        """``(J, 3)`` global joint positions in the rest pose (all local rotations identity)."""
+        pos = np.zeros_like(self.offsets)
+        for j, p in enumerate(self.parents):
+            pos[j] = self.offsets[j] if p < 0 else pos[p] + self.offsets[j]
+        return pos
+
+    def is_canonical22(self) -> bool:
+        return self.joint_names == CANONICAL22 and self.parents == CANONICAL22_PARENTS
+
+    def height(self) -> float:
+        """Character height ``H`` as defined by NKN/TDCN (TDCN Eqs. 11-12, 15-16).
+
+        Sum of the rest bone lengths on the root->head chain (Hips-Spine-Spine1-Spine2-Neck-Head,
+        5 bones) plus the left leg chain (LeftUpLeg-LeftLeg-LeftFoot-LeftToeBase, 3 bones). Needs
+        the canonical joint names (any order).
+
+        Returns:
+            ``H`` in metres.
+        """
+        idx = {n: i for i, n in enumerate(self.joint_names)}
+        missing = [n for n in CANONICAL22[:10] if n not in idx]
+        if missing:
+            raise JointSetError(f"height() needs canonical joints; missing {missing}")
+        pos = self.rest_positions()
+        return float(sum(np.linalg.norm(pos[idx[CANONICAL22[a]]] - pos[idx[CANONICAL22[b]]])
+                         for a, b in HEIGHT_BONES))
+
+    def leg_length(self) -> float:
+        """Rest height of the hips above the lowest foot joint (metres), used to scale root motion."""
+        pos = self.rest_positions()
+        feet = [i for i, n in enumerate(self.joint_names) if n in ("LeftToeBase", "RightToeBase",
+                                                                   "LeftFoot", "RightFoot")]
+        if not feet:
+            raise JointSetError("leg_length() needs foot joints")
+        return float(pos[0, 1] - pos[feet, 1].min())
+
+
+def canonical22_skeleton(offsets: np.ndarray) -> Skeleton:
+    """A :class:`Skeleton` on the canonical 22 joints with the given ``(22, 3)`` offsets."""
+    return Skeleton(CANONICAL22, CANONICAL22_PARENTS, offsets)
+
+
+# ---------------------------------------------------------------------- name maps
+#: Mixamo: names are canonical once the ``mixamorig:`` (or ``mixamorig1:`` ...) prefix is removed.
+MIXAMO_MAP: dict[str, str] = {n: n for n in CANONICAL22}
+
+#: CMU (cgspeed BVH conversion, 31 joints). Folded: LHipJoint, RHipJoint, Neck1, fingers, thumbs.
+CMU_MAP: dict[str, str] = {
+    "Hips": "Hips", "LowerBack": "Spine", "Spine": "Spine1", "Spine1": "Spine2",
+    "Neck": "Neck", "Head": "Head",
+    "LeftUpLeg": "LeftUpLeg", "LeftLeg": "LeftLeg", "LeftFoot": "LeftFoot", "LeftToeBase": "LeftToeBase",
+    "RightUpLeg": "RightUpLeg", "RightLeg": "RightLeg", "RightFoot": "RightFoot",
+    "RightToeBase": "RightToeBase",
+    "LeftShoulder": "LeftShoulder", "LeftArm": "LeftArm", "LeftForeArm": "LeftForeArm",
+    "LeftHand": "LeftHand",
+    "RightShoulder": "RightShoulder", "RightArm": "RightArm", "RightForeArm": "RightForeArm",
+    "RightHand": "RightHand",
+}
+
+#: Biovision / MotionBuilder 21-joint layout (``Boxing_Toes.bvh``). It has two spine joints, so
+#: ``Spine2`` is *inserted* halfway along the Chest->Neck bone (identity rotation).
+BIOVISION_MAP: dict[str, str] = {
+    "Hips": "Hips", "Ab": "Spine", "Chest": "Spine1", "Neck": "Neck", "Head": "Head",
+    "LeftHip": "LeftUpLeg", "LeftKnee": "LeftLeg", "LeftAnkle": "LeftFoot", "LeftToes": "LeftToeBase",
+    "RightHip": "RightUpLeg", "RightKnee": "RightLeg", "RightAnkle": "RightFoot",
+    "RightToes": "RightToeBase",
+    "LeftCollar": "LeftShoulder", "LeftShoulder": "LeftArm", "LeftElbow": "LeftForeArm",
+    "LeftWrist": "LeftHand",
+    "RightCollar": "RightShoulder", "RightShoulder": "RightArm", "RightElbow": "RightForeArm",
+    "RightWrist": "RightHand",
+}
+
+#: SMPL-X body joints (the first 22 of SMPL-X / SMPL), one-to-one.
+SMPLX_BODY_NAMES: tuple[str, ...] = (
+    "pelvis", "left_hip", "right_hip", "spine1", "left_knee", "right_knee", "spine2",
+    "left_ankle", "right_ankle", "spine3", "left_foot", "right_foot", "neck", "left_collar",
+    "right_collar", "head", "left_shoulder", "right_shoulder", "left_elbow", "right_elbow",
+    "left_wrist", "right_wrist",
+)
+SMPLX_MAP: dict[str, str] = {
+    "pelvis": "Hips", "spine1": "Spine", "spine2": "Spine1", "spine3": "Spine2", "neck": "Neck",
+    "head": "Head",
+    "left_hip": "LeftUpLeg", "left_knee": "LeftLeg", "left_ankle": "LeftFoot", "left_foot": "LeftToeBase",
+    "right_hip": "RightUpLeg", "right_knee": "RightLeg", "right_ankle": "RightFoot",
+    "right_foot": "RightToeBase",
+    "left_collar": "LeftShoulder", "left_shoulder": "LeftArm", "left_elbow": "LeftForeArm",
+    "left_wrist": "LeftHand",
+    "right_collar": "RightShoulder", "right_shoulder": "RightArm", "right_elbow": "RightForeArm",
+    "right_wrist": "RightHand",
+}
+
+NAME_MAPS: dict[str, dict[str, str]] = {
+    "mixamo": MIXAMO_MAP, "cmu": CMU_MAP, "biovision": BIOVISION_MAP, "smplx": SMPLX_MAP,
+}
+
+
+def strip_prefix(name: str) -> str:
+    """Remove a namespace prefix such as ``mixamorig:`` / ``mixamorig1:`` / ``Armature|``."""
+    for sep in (":", "|"):
+        if sep in name:
+            name = name.rsplit(sep, 1)[1]
+    return name
+
+
+def detect_convention(joint_names: Sequence[str]) -> str:
+    """Guess which name map fits a joint set: ``"cmu"``, ``"biovision"``, ``"smplx"`` or ``"mixamo"``.
+
+    Args:
+        joint_names: names as in the file (prefixes allowed).
+    """
+    names = {strip_prefix(n) for n in joint_names}
+    if {"LHipJoint", "LowerBack"} & names:
+        return "cmu"
+    if {"Ab", "Chest", "LeftCollar"} <= names:
+        return "biovision"
+    if {"pelvis", "spine3", "left_collar"} <= names:
+        return "smplx"
+    return "mixamo"
+
+
+def canonical_name_map(joint_names: Sequence[str], convention: str | None = None) -> dict[int, int]:
+    """Map source joint indices to canonical indices.
+
+    Args:
+        joint_names: the source names (prefixes allowed).
+        convention: a key of :data:`NAME_MAPS`, or ``None`` to detect it.
+
+    Returns:
+        ``{source index: canonical index}`` for every source joint that is kept.
+
+    Raises:
+        JointSetError: naming the canonical joints that no source joint maps to.
+    """
+    convention = convention or detect_convention(joint_names)
+    table = NAME_MAPS[convention]
+    out: dict[int, int] = {}
+    for i, n in enumerate(joint_names):
+        c = table.get(strip_prefix(n))
+        if c is not None:
+            out[i] = J[c]
+    found = set(out.values())
+    optional = {J["Spine2"]} if convention == "biovision" else set()
+    missing = [CANONICAL22[c] for c in range(22) if c not in found and c not in optional]
+    if missing:
+        raise JointSetError(
+            f"cannot map onto the canonical 22 joints ({convention} naming): missing {missing}; "
+            f"joints present: {list(joint_names)}"
+        )
+    return out
+
+
+def to_canonical22(motion: "Motion", convention: str | None = None) -> "Motion":
+    """Fold a motion on any supported joint set onto the canonical 22 joints.
+
+    Kept joints keep their world positions. Removed joints are folded into their kept ancestors:
+
+    * leaves (fingers, ``*_End``, thumbs) are dropped;
+    * a removed joint between two kept ones (CMU ``LHipJoint``, ``Neck1``) is absorbed: the kept
+      child's rest offset becomes the rest-pose sum along the removed chain, and every kept
+      joint's global rotation is re-fitted so that it maps its kept children's rest offsets onto
+      their actual world positions (Wahba/Kabsch fit; for a single child the swing that aligns the
+      bone, keeping the original twist). When the removed joints do not bend (zero offsets, or no
+      rotation) this is exact; otherwise the residual is the change of the folded bone's length;
+    * the 21-joint Biovision layout gets ``Spine2`` inserted halfway along Chest->Neck.
+
+    Args:
+        motion: any :class:`~retarget_lib.motion.Motion`.
+        convention: a key of :data:`NAME_MAPS`, or ``None`` to detect it from the names.
+
+    Returns:
+        A new Motion on :data:`CANONICAL22` with the same fps and frame count.
+
+    Raises:
+        JointSetError: if required joints are missing (named in the message).
+    """
+    from .kinematics import forward_kinematics
+    from .motion import Motion
+
+    sk = motion.skeleton
+    if sk.is_canonical22():
+        return motion.copy()
+    convention = convention or detect_convention(sk.joint_names)
+    cmap = canonical_name_map(sk.joint_names, convention)
+    src_of = {c: s for s, c in cmap.items()}
+    gpos, grot = motion.fk()
+    rest = sk.rest_positions()
+    T = motion.num_frames
+    new_rest = np.zeros((22, 3))
+    target_pos = np.zeros((T, 22, 3))
+    orig_rot = np.zeros((T, 22, 4))
+    for c, s in src_of.items():
+        new_rest[c] = rest[s]
+        target_pos[:, c] = gpos[:, s]
+        orig_rot[:, c] = grot[:, s]
+    if J["Spine2"] not in src_of:  # biovision: insert Spine2 halfway along Chest -> Neck
+        chest, neck = src_of[J["Spine1"]], src_of[J["Neck"]]
+        new_rest[J["Spine2"]] = 0.5 * (rest[chest] + rest[neck])
+        target_pos[:, J["Spine2"]] = 0.5 * (gpos[:, chest] + gpos[:, neck])
+        orig_rot[:, J["Spine2"]] = grot[:, chest]
+    offsets = new_rest.copy()
+    for c, p in enumerate(CANONICAL22_PARENTS):
+        if p >= 0:
+            offsets[c] = new_rest[c] - new_rest[p]
+    # BVH rest rotations are identity, so rest offsets are in world axes for every joint.
+    new_grot = fit_global_rotations(orig_rot, target_pos, offsets, CANONICAL22_PARENTS)
+    g = torch.from_numpy(new_grot)
+    local = g.clone()
+    par = torch.tensor(CANONICAL22_PARENTS[1:])
+    local[:, 1:] = quat_mul(quat_conjugate(g[:, par]), g[:, 1:])
+    meta = dict(motion.meta, folded_from=convention)
+    return Motion(canonical22_skeleton(offsets), quat_canonical(local).numpy(),
+                  target_pos[:, 0].copy(), motion.fps, name=motion.name, meta=meta)
+
+
+def fit_global_rotations(rotations: np.ndarray, positions: np.ndarray, offsets: np.ndarray,
+                         parents: Sequence[int], prior: float = 1e-4) -> np.ndarray:
+    """Re-fit each joint's global rotation so that it maps its children's rest offsets onto their
+    actual world positions (used when joints are folded away).
+
+    For joint ``j`` with children ``c`` (non-zero offsets ``o_c``) and targets
+    ``d_c = x_c - x_j`` this solves Wahba's problem ``max_R tr(R^T M)``,
+    ``M = sum_c d_c o_c^T + prior * s^2 * G_j`` by SVD, where ``G_j`` is the original rotation; the
+    small prior fixes the twist about a single bone and keeps the result equal to ``G_j`` whenever
+    ``G_j`` already fits. Leaves keep ``G_j``.
+
+    Args:
+        rotations: ``(T, J, 4)`` original global rotations, wxyz.
+        positions: ``(T, J, 3)`` world positions to reproduce.
+        offsets: ``(J, 3)`` rest offsets (world axes in the rest pose).
+        parents: ``J`` parents.
+        prior: weight of the original rotation relative to the squared bone lengths.
+
+    Returns:
+        ``(T, J, 4)`` global rotations, wxyz, float64.
+    """
+    rot = torch.from_numpy(np.asarray(rotations, dtype=np.float64))
+    pos = torch.from_numpy(np.asarray(positions, dtype=np.float64))
+    off = torch.from_numpy(np.asarray(offsets, dtype=np.float64))
+    out = rot.clone()
+    for j in range(len(parents)):
+        kids = [c for c, p in enumerate(parents) if p == j and off[c].norm() > 1e-9]
+        if not kids:
+            continue
+        d = pos[:, kids] - pos[:, j:j + 1]  # (T, k, 3)
+        o = off[kids]  # (k, 3)
+        scale = float((o * o).sum())
+        m = torch.einsum("tki,kj->tij", d, o) + prior * scale * quat_to_matrix(rot[:, j])
+        u, _, vh = torch.linalg.svd(m)
+        det = torch.det(u @ vh)
+        fix = torch.ones_like(u[..., 0, :])
+        fix[:, 2] = det
+        r = (u * fix.unsqueeze(-2)) @ vh
+        out[:, j] = matrix_to_quat(r)
+    return quat_canonical(out).numpy()
