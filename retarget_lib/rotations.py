@@ -310,7 +310,8 @@ def quat_to_euler(q: Tensor, order: str, degrees: bool = False) -> Tensor:
     sign = 1.0 if (j - i) % 3 == 1 else -1.0
     # For R = Ri(a) Rj(b) Rk(c):  R[i, k] = sign * sin(b)
     sb = (sign * m[..., i, k]).clamp(-1.0, 1.0)
-    b = torch.asin(sb)
+    # atan2 instead of asin: full precision near the poles
+    b = torch.atan2(sb, torch.hypot(m[..., i, i], m[..., i, j]))
     a = torch.atan2(-sign * m[..., j, k], m[..., k, k])
     c = torch.atan2(-sign * m[..., i, j], m[..., i, i])
     lock = sb.abs() > 1.0 - 1e-7

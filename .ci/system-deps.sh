@@ -1,0 +1,16 @@
+#!/usr/bin/env bash
+# Install the Debian packages the suite uses, if they are missing and we may (root).
+set -euo pipefail
+pkgs=(libegl1 libgl1 libgl1-mesa-dri libglx-mesa0 assimp-testmodels)
+missing=()
+for p in "${pkgs[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -eq 0 ]; then exit 0; fi
+if [ "$(id -u)" -ne 0 ]; then
+  echo "system-deps: missing ${missing[*]}; run: sudo apt-get install ${missing[*]}" >&2
+  exit 0
+fi
+echo "system-deps: installing ${missing[*]}"
+apt-get update -qq
+DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null

@@ -1,0 +1,53 @@
+# retarget-notebooks — two commands do everything (see README):
+#   make        set up .venv, build the embedded dataset, execute every notebook into build/
+#   make test   unit tests + every notebook executed by nbval
+# Both are idempotent: stamps and the data cache make a second run reuse what is built.
+
+PYTHON ?= python3
+VENV   := .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed
+NOTEBOOKS := $(sort $(wildcard notebooks/[0-9][0-9]_*.ipynb))
+export VTK_DEFAULT_OPENGL_WINDOW := vtkEGLRenderWindow
+export RETARGET_PROFILE ?= fast
+
+.PHONY: all setup system-deps data notebooks test unit nbval bench clean-build
+
+all: notebooks
+
+# Debian packages: offscreen OpenGL (EGL + Mesa) for pyvista and the CMU clips (assimp-testmodels).
+# Installed only when missing and we are root; otherwise the data step falls back to `apt-get download`.
+system-deps:
+	@bash .ci/system-deps.sh
+
+$(STAMP): pyproject.toml
+	$(MAKE) system-deps
+	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/pip install -q --upgrade pip
+	$(BIN)/pip install -q torch==2.13.0
+	$(BIN)/pip install -q -e '.[dev]'
+	touch $(STAMP)
+
+setup: $(STAMP)
+
+data: $(STAMP)
+	$(BIN)/retarget data build
+
+notebooks: data
+	@mkdir -p build/notebooks
+	$(BIN)/python -m retarget_lib.notebook_runner --out build/notebooks $(NOTEBOOKS)
+
+unit: data
+	$(BIN)/pytest -q -n 2 --dist loadfile tests
+
+nbval: data
+	$(BIN)/pytest -q -n 2 --dist loadfile --nbval-lax notebooks
+
+test: data
+	$(BIN)/pytest -q -n 2 --dist loadfile tests --nbval-lax notebooks
+
+bench: data
+	$(BIN)/retarget bench
+
+clean-build:
+	rm -rf build

@@ -1,0 +1,139 @@
+"""Speed benchmarks (``retarget bench``): every timing is reported beside a reference measured in
+the same run, as a ratio — never as an absolute pass/fail in a unit test.
+
+FK: 64 clips x 240 frames x 22 joints; forward, and forward + backward; reference = a per-frame,
+per-joint NumPy loop (how FK is often written first).
+"""
+
+from __future__ import annotations
+
+import statistics
+import time
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+import torch
+
+from .kinematics import forward_kinematics
+from .skeleton import CANONICAL22_PARENTS
+
+
+@dataclass
+class BenchRow:
+    """One benchmark line: what was timed, its median seconds, and the reference it is compared to."""
+
+    name: str
+    seconds: float
+    reference: str = ""
+    reference_seconds: float | None = None
+    target: str = ""
+
+    @property
+    def speedup(self) -> float | None:
+        return None if self.reference_seconds is None else self.reference_seconds / self.seconds
+
+
+def time_it(fn: Callable[[], object], repeat: int = 7, warmup: int = 2, min_time: float = 0.0) -> float:
+    """Median wall time of ``fn()`` in seconds over ``repeat`` runs after ``warmup`` runs."""
+    for _ in range(warmup):
+        fn()
+    times = []
+    t_start = time.perf_counter()
+    while len(times) < repeat or time.perf_counter() - t_start < min_time:
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times)
+
+
+def numpy_fk_loop(rotations: np.ndarray, offsets: np.ndarray, parents, root: np.ndarray) -> np.ndarray:
+    """Reference FK: a Python loop over frames and joints with NumPy 3-vectors.
+
+    Args:
+        rotations: ``(F, J, 4)`` local wxyz.
+        offsets: ``(J, 3)``.
+        parents: ``J`` parents.
+        root: ``(F, 3)``.
+
+    Returns:
+        ``(F, J, 3)`` global positions.
+    """
+    out = np.empty(rotations.shape[:2] + (3,))
+    for f in range(rotations.shape[0]):
+        gq = [None] * len(parents)
+        for j, p in enumerate(parents):
+            w, x, y, z = rotations[f, j]
+            if p < 0:
+                gq[j] = (w, x, y, z)
+                out[f, j] = root[f]
+                continue
+            pw, px, py, pz = gq[p]
+            gq[j] = (pw * w - px * x - py * y - pz * z, pw * x + px * w + py * z - pz * y,
+                     pw * y - px * z + py * w + pz * x, pw * z + px * y - py * x + pz * w)
+            u = np.array((px, py, pz))
+            t = 2.0 * np.cross(u, offsets[j])
+            out[f, j] = out[f, p] + offsets[j] + pw * t + np.cross(u, t)
+    return out
+
+
+def bench_fk(clips: int = 64, frames: int = 240, quick: bool = False) -> list[BenchRow]:
+    """FK forward and forward+backward vs the NumPy loop, on random unit quaternions."""
+    gen = torch.Generator().manual_seed(0)
+    rot = torch.randn(clips, frames, 22, 4, generator=gen)
+    rot = rot / rot.norm(dim=-1, keepdim=True)
+    off = torch.randn(22, 3, generator=gen) * 0.1
+    root = torch.randn(clips, frames, 3, generator=gen)
+    repeat = 5 if quick else 15
+    fwd = time_it(lambda: forward_kinematics(rot, off, CANONICAL22_PARENTS, root), repeat=repeat)
+    rot_g = rot.clone().requires_grad_()
+
+    def fwd_bwd():
+        rot_g.grad = None
+        forward_kinematics(rot_g, off, CANONICAL22_PARENTS, root).positions.square().sum().backward()
+
+    fb = time_it(fwd_bwd, repeat=repeat)
+    # the NumPy loop is slow: time a slice of clips and scale to the full batch (linear in frames)
+    n_ref = 2 if quick else 8
+    r_np, o_np, t_np = (rot[:n_ref].reshape(-1, 22, 4).double().numpy(), off.double().numpy(),
+                        root[:n_ref].reshape(-1, 3).double().numpy())
+    ref = time_it(lambda: numpy_fk_loop(r_np, o_np, CANONICAL22_PARENTS, t_np), repeat=1, warmup=0)
+    ref *= clips / n_ref
+    label = f"{clips}x{frames}x22"
+    ref_name = f"NumPy per-frame loop ({n_ref} clips timed, scaled)"
+    return [
+        BenchRow(f"FK forward {label}", fwd, ref_name, ref, "<= 10 ms"),
+        BenchRow(f"FK forward+backward {label}", fb, ref_name, ref),
+    ]
+
+
+BENCHES: dict[str, Callable[..., list[BenchRow]]] = {"fk": bench_fk}
+
+
+def format_table(rows: list[BenchRow]) -> str:
+    """Markdown table of benchmark rows."""
+    lines = ["| benchmark | median | reference (same run) | speed-up | target |", "|---|---|---|---|---|"]
+    for r in rows:
+        ref = "" if r.reference_seconds is None else f"{r.reference}: {_fmt(r.reference_seconds)}"
+        sp = "" if r.speedup is None else f"{r.speedup:,.0f}x"
+        lines.append(f"| {r.name} | {_fmt(r.seconds)} | {ref} | {sp} | {r.target} |")
+    return "\n".join(lines)
+
+
+def _fmt(s: float) -> str:
+    return f"{s * 1e3:.2f} ms" if s < 1 else f"{s:.2f} s"
+
+
+def run(quick: bool = False, only: list[str] | None = None) -> str:
+    """Run the benchmarks and return the Markdown table (also the header line with the machine)."""
+    import os
+    import platform
+
+    rows: list[BenchRow] = []
+    for name, fn in BENCHES.items():
+        if only and name not in only:
+            continue
+        rows += fn(quick=quick)
+    header = (f"machine: {platform.machine()}, {os.cpu_count()} CPUs, torch {torch.__version__}, "
+              f"{torch.get_num_threads()} threads{' (quick)' if quick else ''}")
+    return header + "\n\n" + format_table(rows)

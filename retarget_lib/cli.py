@@ -1,0 +1,72 @@
+"""Command line: ``retarget …`` (also ``python -m retarget_lib …``).
+
+::
+
+    retarget data build|list|verify      build the embedded dataset; list/verify data_manifest.yaml
+    retarget bench [--quick]             speed table (ratios against references in the same run)
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from .data.cache import DataError
+
+
+def _cmd_data(args: argparse.Namespace) -> int:
+    from .data import manifest
+
+    if args.action == "list":
+        print(manifest.cache_summary())
+        print(manifest.source_table())
+        return 0
+    if args.action == "verify":
+        statuses = manifest.verify()
+        for s in statuses:
+            state = "ok" if s.verified else ("absent (optional)" if not s.present else "present")
+            print(f"{s.id}: {state} — {s.detail}")
+        print("all required sources verified")
+        return 0
+    from .data.build import build_all
+
+    build_all(force=args.force)
+    return 0
+
+
+def _cmd_bench(args: argparse.Namespace) -> int:
+    from .bench import run
+
+    print(run(quick=args.quick, only=args.only))
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``retarget`` argument parser."""
+    parser = argparse.ArgumentParser(prog="retarget", description="retarget-notebooks command line")
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    p = sub.add_parser("data", help="build / list / verify the data sources in data_manifest.yaml")
+    p.add_argument("action", choices=["build", "list", "verify"])
+    p.add_argument("--force", action="store_true", help="rebuild even if the cache is up to date")
+    p.set_defaults(func=_cmd_data)
+
+    p = sub.add_parser("bench", help="speed benchmarks (ratios against same-run references)")
+    p.add_argument("--quick", action="store_true", help="fewer repeats (CI smoke run)")
+    p.add_argument("--only", nargs="*", help="names of benchmarks to run (default: all)")
+    p.set_defaults(func=_cmd_bench)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point; returns the exit status (2 with a one-line message on data/input errors)."""
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except (DataError, ValueError, FileNotFoundError) as e:
+        print(f"retarget {args.command}: error: {e}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,171 @@
+"""``data_manifest.yaml``: what each data source is, where it comes from, and whether it checks out.
+
+``retarget data list`` prints :func:`source_table`; ``retarget data verify`` runs :func:`verify`.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+
+import yaml
+
+from .cache import REPO_ROOT, DataError, cache_dir, sha256_file
+
+MANIFEST_PATH = REPO_ROOT / "data_manifest.yaml"
+
+
+@lru_cache(maxsize=1)
+def load_manifest(path: str | None = None) -> dict:
+    """The parsed manifest (cached). Raises :class:`DataError` if it is missing or malformed."""
+    p = Path(path) if path else MANIFEST_PATH
+    if not p.exists():
+        raise DataError(f"data manifest not found at {p}")
+    with open(p) as f:
+        data = yaml.safe_load(f)
+    if not isinstance(data, dict) or "sources" not in data:
+        raise DataError(f"{p}: expected a mapping with a 'sources' key")
+    for sid, src in data["sources"].items():
+        for key in ("kind", "origin", "license"):
+            if key not in src:
+                raise DataError(f"{p}: source {sid!r} lacks {key!r}")
+    return data
+
+
+def source(source_id: str) -> dict:
+    """One source's manifest entry (raises :class:`DataError` naming the known ids)."""
+    sources = load_manifest()["sources"]
+    if source_id not in sources:
+        raise DataError(f"unknown data source {source_id!r}; known: {sorted(sources)}")
+    return sources[source_id]
+
+
+@dataclass
+class SourceStatus:
+    """Result of checking one source."""
+
+    id: str
+    kind: str
+    present: bool
+    verified: bool | None  # None: nothing to verify / optional and absent
+    detail: str
+
+
+def mixamo_local_dir() -> Path:
+    """The reviewer's Mixamo folder: ``$RETARGET_MIXAMO`` or the manifest's ``path``."""
+    return Path(os.environ.get("RETARGET_MIXAMO", REPO_ROOT / source("mixamo-local")["path"]))
+
+
+def _check_cmu() -> SourceStatus:
+    from .cmu import cmu_clip_path
+
+    src = source("cmu-assimp")
+    try:
+        paths = {name: cmu_clip_path(name, fetch=False) for name in src["files"]}
+    except DataError as e:
+        return SourceStatus("cmu-assimp", src["kind"], False, None, str(e))
+    bad = [n for n, p in paths.items() if sha256_file(p) != src["files"][n]["sha256"]]
+    where = next(iter(paths.values())).parent
+    if bad:
+        return SourceStatus("cmu-assimp", src["kind"], True, False, f"checksum mismatch: {bad} in {where}")
+    return SourceStatus("cmu-assimp", src["kind"], True, True, f"{len(paths)} clips in {where}")
+
+
+def _check_mannequin() -> SourceStatus:
+    src = source("mannequin-x")
+    spec = importlib.util.find_spec("mannequin")
+    if spec is None or not spec.submodule_search_locations:
+        return SourceStatus("mannequin-x", src["kind"], False, None,
+                            f"package not installed: {src['how_to_get']}")
+    path = Path(list(spec.submodule_search_locations)[0]) / "assets" / "wooden.npz"
+    if not path.exists():
+        return SourceStatus("mannequin-x", src["kind"], False, None, f"{path} missing: {src['how_to_get']}")
+    ok = sha256_file(path) == src["sha256"]
+    return SourceStatus("mannequin-x", src["kind"], True, ok,
+                        str(path) if ok else f"checksum mismatch for {path}")
+
+
+def _check_synthetic() -> SourceStatus:
+    from .synthetic import dataset_path, fingerprint_of
+
+    src = source("synthetic")
+    path = dataset_path()
+    if not path.exists():
+        return SourceStatus("synthetic", src["kind"], False, None, "not built: run `retarget data build`")
+    expected = src.get("fingerprint")
+    got = fingerprint_of(path)
+    if expected is None:
+        return SourceStatus("synthetic", src["kind"], True, None, f"built; fingerprint {got} (none recorded)")
+    ok = got == expected
+    return SourceStatus("synthetic", src["kind"], True, ok,
+                        f"{path}" if ok else f"fingerprint {got} != manifest {expected}; "
+                        "rebuild with `retarget data build --force`")
+
+
+def _check_mixamo_local() -> SourceStatus:
+    from .mixamo_local import scan_mixamo_folder
+
+    src = source("mixamo-local")
+    root = mixamo_local_dir()
+    if not root.exists():
+        return SourceStatus("mixamo-local", src["kind"], False, None,
+                            f"optional; not present at {root} (set RETARGET_MIXAMO)")
+    try:
+        found = scan_mixamo_folder(root)
+    except DataError as e:
+        return SourceStatus("mixamo-local", src["kind"], True, False, str(e))
+    n_motions = sum(len(c.motions) for c in found)
+    return SourceStatus("mixamo-local", src["kind"], True, True,
+                        f"{len(found)} characters, {n_motions} motions in {root}")
+
+
+_CHECKS = {
+    "synthetic": _check_synthetic,
+    "cmu-assimp": _check_cmu,
+    "mannequin-x": _check_mannequin,
+    "mixamo-local": _check_mixamo_local,
+}
+
+
+def check_sources() -> list[SourceStatus]:
+    """Check every source listed in the manifest (those without a checker are reported as such)."""
+    out = []
+    for sid, src in load_manifest()["sources"].items():
+        check = _CHECKS.get(sid)
+        if check is None:
+            out.append(SourceStatus(sid, src["kind"], False, None, "no checker"))
+        else:
+            out.append(check())
+    return out
+
+
+def verify() -> list[SourceStatus]:
+    """Check every source; raise :class:`DataError` listing each required source that fails."""
+    statuses = check_sources()
+    manifest = load_manifest()["sources"]
+    problems = [s for s in statuses
+                if not manifest[s.id].get("optional") and (not s.present or s.verified is False)]
+    if problems:
+        lines = "\n".join(f"  {s.id}: {s.detail}" for s in problems)
+        raise DataError(f"data verification failed:\n{lines}")
+    return statuses
+
+
+def source_table() -> str:
+    """A plain-text table of the sources and their status."""
+    rows = [("id", "kind", "license", "status")]
+    manifest = load_manifest()["sources"]
+    for s in check_sources():
+        state = ("ok" if s.verified else "present" if s.verified is None else "BAD") if s.present \
+            else ("absent (optional)" if manifest[s.id].get("optional") else "MISSING")
+        rows.append((s.id, s.kind, str(manifest[s.id]["license"])[:38], f"{state}: {s.detail}"))
+    widths = [max(len(r[i]) for r in rows) for i in range(3)]
+    return "\n".join(f"{r[0]:<{widths[0]}}  {r[1]:<{widths[1]}}  {r[2]:<{widths[2]}}  {r[3]}" for r in rows)
+
+
+def cache_summary() -> str:
+    """Where the cache is."""
+    return f"cache: {cache_dir()}"

@@ -1,0 +1,62 @@
+"""``setup_notebook()``: the one call at the top of every notebook."""
+
+from __future__ import annotations
+
+import os
+import random
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+
+@dataclass(frozen=True)
+class NotebookContext:
+    """What :func:`setup_notebook` set up.
+
+    Attributes:
+        seed: the seed given to ``random``, NumPy and torch.
+        profile: ``"fast"`` (CI, workshops) or ``"paper"`` (``$RETARGET_PROFILE``).
+        rng: a NumPy ``Generator`` seeded with ``seed`` for the notebook's own sampling.
+    """
+
+    seed: int
+    profile: str
+    rng: np.random.Generator
+
+
+def seed_everything(seed: int) -> None:
+    """Seed Python's ``random``, NumPy's global RNG and torch (CPU) with ``seed``."""
+    random.seed(seed)
+    np.random.seed(seed)
+    torch.manual_seed(seed)
+
+
+def setup_notebook(seed: int = 0, threads: int | None = None) -> NotebookContext:
+    """Seed everything, configure offscreen rendering and display options.
+
+    Args:
+        seed: seed for ``random``, NumPy and torch (each notebook states its own).
+        threads: torch CPU threads (default: all cores).
+
+    Returns:
+        A :class:`NotebookContext`.
+    """
+    seed_everything(seed)
+    if threads:
+        torch.set_num_threads(threads)
+    os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+    from . import viz
+
+    viz.configure_offscreen()
+    import matplotlib
+
+    matplotlib.rcParams.update({"figure.dpi": 80, "savefig.dpi": 80, "figure.figsize": (7.0, 3.5),
+                                "axes.grid": True, "grid.alpha": 0.3})
+    import pandas as pd
+
+    pd.set_option("display.precision", 3)
+    pd.set_option("display.max_rows", 60)
+    np.set_printoptions(precision=4, suppress=True)
+    torch.set_printoptions(precision=4, sci_mode=False)
+    return NotebookContext(seed, os.environ.get("RETARGET_PROFILE", "fast"), np.random.default_rng(seed))
