@@ -314,7 +314,7 @@ def quat_to_euler(q: Tensor, order: str, degrees: bool = False) -> Tensor:
     b = torch.atan2(sb, torch.hypot(m[..., i, i], m[..., i, j]))
     a = torch.atan2(-sign * m[..., j, k], m[..., k, k])
     c = torch.atan2(-sign * m[..., i, j], m[..., i, i])
-    lock = sb.abs() > 1.0 - 1e-7
+    lock = torch.hypot(m[..., i, i], m[..., i, j]) < torch.finfo(m.dtype).eps ** 0.5
     if lock.any():
         # c := 0, then R = Ri(a) Rj(b): a from the j-axis block
         a_lock = torch.atan2(sign * m[..., k, j], m[..., j, j])

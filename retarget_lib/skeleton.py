@@ -17,7 +17,8 @@ from typing import TYPE_CHECKING, Sequence
 import numpy as np
 import torch
 
-from .rotations import matrix_to_quat, quat_canonical, quat_conjugate, quat_mul, quat_to_matrix
+from .rotations import (matrix_to_quat, quat_between, quat_canonical, quat_conjugate, quat_mul,
+                        quat_rotate)
 
 if TYPE_CHECKING:  # pragma: no cover
     from .motion import Motion
@@ -278,8 +279,12 @@ def to_canonical22(motion: "Motion", convention: str | None = None) -> "Motion":
       child's rest offset becomes the rest-pose sum along the removed chain, and every kept
       joint's global rotation is re-fitted so that it maps its kept children's rest offsets onto
       their actual world positions (Wahba/Kabsch fit; for a single child the swing that aligns the
-      bone, keeping the original twist). When the removed joints do not bend (zero offsets, or no
-      rotation) this is exact; otherwise the residual is the change of the folded bone's length;
+      bone, keeping the original twist). This is exact when every folded bone keeps its rest length
+      and every kept joint's kept children move rigidly together: removed joints that do not rotate
+      (CMU ``LHipJoint`` in the cgspeed files), or a zero-offset rotating joint on its kept parent's
+      only path to kept children (a twist joint). Otherwise it is the least-squares compromise;
+      for a single child the residual is the change of the folded bone's length (CMU ``Neck1``
+      bending: up to 2.2 cm at the head in ``01_01.bvh``);
     * the 21-joint Biovision layout gets ``Spine2`` inserted halfway along Chest->Neck.
 
     Args:
@@ -332,22 +337,28 @@ def to_canonical22(motion: "Motion", convention: str | None = None) -> "Motion":
 
 
 def fit_global_rotations(rotations: np.ndarray, positions: np.ndarray, offsets: np.ndarray,
-                         parents: Sequence[int], prior: float = 1e-4) -> np.ndarray:
+                         parents: Sequence[int]) -> np.ndarray:
     """Re-fit each joint's global rotation so that it maps its children's rest offsets onto their
     actual world positions (used when joints are folded away).
 
-    For joint ``j`` with children ``c`` (non-zero offsets ``o_c``) and targets
-    ``d_c = x_c - x_j`` this solves Wahba's problem ``max_R tr(R^T M)``,
-    ``M = sum_c d_c o_c^T + prior * s^2 * G_j`` by SVD, where ``G_j`` is the original rotation; the
-    small prior fixes the twist about a single bone and keeps the result equal to ``G_j`` whenever
-    ``G_j`` already fits. Leaves keep ``G_j``.
+    For joint ``j`` with children ``c`` (non-zero offsets ``o_c``) and targets ``d_c = x_c - x_j``
+    this solves Wahba's problem ``max_R sum_c d_c . (R o_c)`` (the least-squares fit of the
+    children's positions):
+
+    * children spanning two or three directions determine ``R``: the SVD (Kabsch) solution for
+      ``M = sum_c d_c o_c^T``, equal to the original ``G_j`` whenever ``G_j`` already fits;
+    * children on one line ``u`` (typically a single child) determine only the bone direction:
+      ``R = S G_j`` with ``S`` the shortest rotation taking ``G_j u`` onto
+      ``w = sum_c (o_c . u) d_c``, so the bone points exactly at its target and ``G_j``'s twist
+      about the bone is kept.
+
+    Leaves keep ``G_j``.
 
     Args:
         rotations: ``(T, J, 4)`` original global rotations, wxyz.
         positions: ``(T, J, 3)`` world positions to reproduce.
         offsets: ``(J, 3)`` rest offsets (world axes in the rest pose).
         parents: ``J`` parents.
-        prior: weight of the original rotation relative to the squared bone lengths.
 
     Returns:
         ``(T, J, 4)`` global rotations, wxyz, float64.
@@ -362,8 +373,14 @@ def fit_global_rotations(rotations: np.ndarray, positions: np.ndarray, offsets: 
             continue
         d = pos[:, kids] - pos[:, j:j + 1]  # (T, k, 3)
         o = off[kids]  # (k, 3)
-        scale = float((o * o).sum())
-        m = torch.einsum("tki,kj->tij", d, o) + prior * scale * quat_to_matrix(rot[:, j])
+        sv = torch.linalg.svdvals(o)
+        if len(kids) == 1 or sv[1] <= 1e-3 * sv[0]:  # all children on one line
+            axis = o[o.norm(dim=-1).argmax()]
+            axis = axis / axis.norm()
+            w = torch.einsum("k,tki->ti", o @ axis, d)  # (T, 3)
+            out[:, j] = quat_mul(quat_between(quat_rotate(rot[:, j], axis), w), rot[:, j])
+            continue
+        m = torch.einsum("tki,kj->tij", d, o)
         u, _, vh = torch.linalg.svd(m)
         det = torch.det(u @ vh)
         fix = torch.ones_like(u[..., 0, :])

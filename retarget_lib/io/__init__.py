@@ -1,5 +1,6 @@
-"""File formats: BVH (any joint set), character shape ``.npz``, Collada ``.dae``, glTF export."""
+"""File formats: BVH (any joint set) and the character shape ``.npz`` of public Mixamo preprocessing."""
 
 from .bvh import BVHError, load_bvh, save_bvh
+from .shape import load_shape_npz, save_shape_npz
 
-__all__ = ["BVHError", "load_bvh", "save_bvh"]
+__all__ = ["BVHError", "load_bvh", "save_bvh", "load_shape_npz", "save_shape_npz"]

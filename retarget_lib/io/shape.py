@@ -1,0 +1,147 @@
+"""Character shape ``.npz`` files: the layout used by public Mixamo preprocessing (``mixamo-local``).
+
+Keys (units are the BVH's, usually centimetres):
+
+========================  ===========  ==========================================================
+key                       shape        meaning
+========================  ===========  ==========================================================
+``rest_vertices``         ``(V, 3)``   rest-pose vertices **relative to the root** (hips at 0)
+``rest_faces``            ``(F, 3)``   triangle vertex indices, int
+``skinning_weights``      ``(V, 22)``  LBS weights, rows sum to 1, columns in ``joint_names`` order
+``skeleton``              ``(22, 3)``  rest **offsets** (each joint relative to its parent; row of
+                                       the root = the root's rest position, as in the BVH)
+``joint_names``           ``(22,)``    joint names, ``mixamorig:`` prefixes allowed
+========================  ===========  ==========================================================
+
+:func:`load_shape_npz` returns a :class:`~retarget_lib.data.characters.Character` in the library's
+conventions (canonical joint order, metres, vertices in the world rest pose = file vertices + the
+root's rest position); :func:`save_shape_npz` writes one back.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from ..data.cache import atomic_write
+from ..data.characters import Character
+from ..skeleton import CANONICAL22, canonical22_skeleton, strip_prefix
+
+__all__ = ["SHAPE_KEYS", "load_shape_npz", "save_shape_npz"]
+
+SHAPE_KEYS = ("rest_vertices", "rest_faces", "skinning_weights", "skeleton", "joint_names")
+_UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001}
+_WEIGHT_TOL = 1e-3
+
+
+def _unit_scale(unit: str | float) -> float:
+    """Metres per file unit for ``"m"``, ``"cm"``, ``"mm"`` or a positive number."""
+    if isinstance(unit, str):
+        if unit not in _UNITS:
+            raise ValueError(f"unit must be one of {sorted(_UNITS)} or metres per unit, got {unit!r}")
+        return _UNITS[unit]
+    if not unit > 0:
+        raise ValueError(f"unit must be positive metres per file unit, got {unit!r}")
+    return float(unit)
+
+
+def _infer_scale(height: float) -> float:
+    """Centimetres if the skeleton's NKN height exceeds 5 units (no character is 5 m), else metres."""
+    return 0.01 if height > 5.0 else 1.0
+
+
+def load_shape_npz(path: str | os.PathLike, unit: str | float | None = None) -> Character:
+    """Read a character shape ``.npz``.
+
+    Args:
+        path: the file.
+        unit: the file's length unit: ``"cm"``, ``"m"``, ``"mm"`` or metres per unit; ``None``
+            infers cm vs m from the skeleton's size.
+
+    Returns:
+        The :class:`~retarget_lib.data.characters.Character` (named after the file stem), joints
+        in canonical order, metres, vertices in the world rest pose.
+
+    Raises:
+        ValueError: naming the problem: missing keys, wrong shapes, NaN/inf values, face indices
+            out of range, weight rows not summing to 1 (which rows), missing joints (which).
+    """
+    path = Path(path)
+    with np.load(path, allow_pickle=False) as data:
+        missing = [k for k in SHAPE_KEYS if k not in data.files]
+        if missing:
+            raise ValueError(f"{path}: missing keys {missing} (a shape file needs {list(SHAPE_KEYS)})")
+        arrays = {k: data[k] for k in SHAPE_KEYS}
+    vertices, faces, weights, offsets, names = _validated(arrays, path)
+    order = _canonical_order(names, path)
+    offsets, weights = offsets[order], weights[:, order]
+    scale = _unit_scale(unit) if unit is not None else _infer_scale(canonical22_skeleton(offsets).height())
+    offsets = offsets * scale
+    vertices = vertices * scale + offsets[0]
+    return Character(path.stem, canonical22_skeleton(offsets), vertices, faces, weights,
+                     style=dict(source=str(path), unit_scale=scale))
+
+
+def _validated(arrays: dict, path: Path) -> tuple[np.ndarray, ...]:
+    """Check shapes, finiteness, face indices and weight sums; return the arrays as
+    ``(vertices, faces, weights, offsets, names)``."""
+    vertices, faces, weights, offsets, names = (arrays[k] for k in SHAPE_KEYS)
+    nv = len(vertices)
+    expected = {"rest_vertices": (nv, 3), "rest_faces": (len(faces), 3), "skinning_weights": (nv, 22),
+                "skeleton": (22, 3), "joint_names": (22,)}
+    for key, shape in expected.items():
+        if arrays[key].shape != shape:
+            raise ValueError(f"{path}: {key} must have shape {shape}, got {arrays[key].shape}")
+    if not np.issubdtype(faces.dtype, np.integer):
+        raise ValueError(f"{path}: rest_faces must be integers, got {faces.dtype}")
+    for key in ("rest_vertices", "skinning_weights", "skeleton"):
+        bad = ~np.isfinite(arrays[key]).all(axis=-1)
+        if bad.any():
+            raise ValueError(f"{path}: {key} has NaN or inf in rows {_rows(bad)}")
+    if faces.size and (faces.min() < 0 or faces.max() >= nv):
+        raise ValueError(f"{path}: rest_faces index vertices outside 0..{nv - 1}")
+    off = np.abs(weights.sum(axis=1) - 1.0) > _WEIGHT_TOL
+    if off.any() or (weights < 0).any():
+        rows = off | (weights < 0).any(axis=1)
+        raise ValueError(f"{path}: skinning_weights rows must be >= 0 and sum to 1; rows {_rows(rows)} "
+                         "do not")
+    return (vertices.astype(np.float64), faces.astype(np.int64), weights.astype(np.float64),
+            offsets.astype(np.float64), [strip_prefix(str(n)) for n in names])
+
+
+def _rows(mask: np.ndarray, limit: int = 10) -> str:
+    """The indices where ``mask`` holds, the first ``limit`` of them, and how many in all."""
+    idx = np.flatnonzero(mask)
+    shown = ", ".join(str(i) for i in idx[:limit])
+    return f"[{shown}{', ...' if len(idx) > limit else ''}] ({len(idx)} in all)"
+
+
+def _canonical_order(names: list[str], path: Path) -> list[int]:
+    """File column of each canonical joint; ``ValueError`` naming missing joints."""
+    missing = [n for n in CANONICAL22 if n not in names]
+    if missing:
+        raise ValueError(f"{path}: joint_names lacks canonical joints {missing}; it has {names}")
+    return [names.index(n) for n in CANONICAL22]
+
+
+def save_shape_npz(character: Character, path: str | os.PathLike, unit: str | float = "cm",
+                   prefix: str = "mixamorig:") -> None:
+    """Write a character in the shape ``.npz`` layout (atomically).
+
+    Args:
+        character: any :class:`~retarget_lib.data.characters.Character`.
+        path: destination file (written as given; use a ``.npz`` suffix).
+        unit: the file's length unit (``"cm"`` like Mixamo BVH, ``"m"``, ``"mm"`` or metres per unit).
+        prefix: put before each joint name (``""`` for none).
+    """
+    scale = _unit_scale(unit)
+    offsets = character.skeleton.offsets
+    with atomic_write(path) as f:
+        np.savez(f,
+                 rest_vertices=(character.rest_vertices - offsets[0]) / scale,
+                 rest_faces=character.faces.astype(np.int64),
+                 skinning_weights=character.weights,
+                 skeleton=offsets / scale,
+                 joint_names=np.array([prefix + n for n in character.skeleton.joint_names]))
