@@ -491,26 +491,38 @@ def save_bvh(motion: Motion, path: str | os.PathLike, unit: str | float | None =
     T, nj = motion.num_frames, sk.num_joints
     offsets = sk.offsets / scale
 
-    # motion block, (T, C)
-    starts = np.cumsum([0] + [len(c) for c in channels])
-    data = np.zeros((T, int(starts[-1])))
-    for j, ch in enumerate(channels):
-        xyz = motion.root_positions / scale if j == 0 else np.broadcast_to(offsets[j], (T, 3))
-        for k, c in enumerate(ch):
-            if c.endswith("position"):
-                data[:, starts[j] + k] = xyz[:, "XYZ".index(c[0])]
-    rot = torch.from_numpy(motion.rotations)
-    for order, idx in _euler_groups(channels).items():
-        euler = quat_to_euler(rot[:, idx], order, degrees=True).numpy()  # (T, k, 3)
-        for n, j in enumerate(idx):
-            cols = [starts[j] + k for k, c in enumerate(channels[j]) if c.endswith("rotation")]
-            data[:, cols] = euler[:, n]
-
-    # hierarchy
+    # BVH stores joints depth-first: hierarchy and motion columns both follow that order
     children: list[list[int]] = [[] for _ in range(nj)]
     for j, p in enumerate(sk.parents):
         if p >= 0:
             children[p].append(j)
+    order: list[int] = []
+    stack = [0]
+    while stack:
+        j = stack.pop()
+        order.append(j)
+        stack.extend(reversed(children[j]))
+
+    # motion block, (T, C), columns in depth-first joint order
+    width = {j: len(channels[j]) for j in range(nj)}
+    start, col = {}, 0
+    for j in order:
+        start[j], col = col, col + width[j]
+    data = np.zeros((T, col))
+    for j, ch in enumerate(channels):
+        xyz = motion.root_positions / scale if j == 0 else np.broadcast_to(offsets[j], (T, 3))
+        for k, c in enumerate(ch):
+            if c.endswith("position"):
+                data[:, start[j] + k] = xyz[:, "XYZ".index(c[0])]
+    rot = torch.from_numpy(motion.rotations)
+    for euler_order, idx in _euler_groups(channels).items():
+        euler = quat_to_euler(rot[:, idx], euler_order, degrees=True).numpy()  # (T, k, 3)
+        for n, j in enumerate(idx):
+            cols = [start[j] + k for k, c in enumerate(channels[j]) if c.endswith("rotation")]
+            data[:, cols] = euler[:, n]
+
+    # hierarchy; a leaf without a known end site gets one half its own bone further on, as
+    # exporters such as Blender always write an End Site for leaves
     out = ["HIERARCHY"]
 
     def block(j: int, depth: int) -> None:
@@ -521,8 +533,11 @@ def save_bvh(motion: Motion, path: str | os.PathLike, unit: str | float | None =
         out.append(f"{tab}\tCHANNELS {len(channels[j])} {' '.join(channels[j])}".rstrip())
         for c in children[j]:
             block(c, depth + 1)
-        if j in sk.end_sites:
-            end = np.asarray(sk.end_sites[j]) / scale
+        end = sk.end_sites.get(j)
+        if end is None and not children[j]:
+            end = 0.5 * sk.offsets[j]
+        if end is not None:
+            end = np.asarray(end) / scale
             out.extend([f"{tab}\tEnd Site", f"{tab}\t{{",
                         f"{tab}\t\tOFFSET {' '.join(f'{v:.6f}' for v in end)}", f"{tab}\t}}"])
         out.append(f"{tab}}}")

@@ -1,0 +1,43 @@
+"""``retarget data build``: fetch or build every source into the cache, then verify it."""
+
+from __future__ import annotations
+
+import time
+
+from .cache import DataError
+from .manifest import source, verify
+
+
+def build_all(force: bool = False) -> None:
+    """Fetch the CMU clips, check mannequin-x, build the synthetic dataset; verify all.
+
+    Args:
+        force: rebuild the synthetic dataset even if it is cached.
+
+    Raises:
+        DataError: if a source cannot be fetched or fails its checksum (the message says how to
+            get it).
+    """
+    from .cmu import CMU_CLIPS, cmu_clip_path
+    from .mannequin import mannequin_path
+    from .synthetic import build_synthetic, dataset_path, fingerprint_of
+
+    t0 = time.perf_counter()
+    paths = [cmu_clip_path(name, fetch=True) for name in CMU_CLIPS]
+    print(f"cmu-assimp: {len(paths)} clips in {paths[0].parent}", flush=True)
+    print(f"mannequin-x: {mannequin_path()}", flush=True)
+    existed = dataset_path().exists()
+    path = build_synthetic(force=force)
+    fp = fingerprint_of(path)
+    state = "cached" if existed and not force else f"built in {time.perf_counter() - t0:.0f} s"
+    print(f"synthetic: {path} ({state}); fingerprint {fp}", flush=True)
+    expected = source("synthetic").get("fingerprint")
+    if expected and fp != expected:
+        raise DataError(
+            f"synthetic dataset fingerprint {fp} differs from the manifest's {expected}. A stale "
+            "cache: run `retarget data build --force`. A deliberate change to the generator: record "
+            "the new fingerprint in data_manifest.yaml.")
+    for s in verify():
+        if s.id == "mixamo-local":
+            print(f"mixamo-local: {s.detail}")
+    print("data: all required sources verified", flush=True)
