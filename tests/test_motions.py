@@ -16,7 +16,7 @@ from retarget_lib.data.motions import (
 from retarget_lib.ik import FOOT_CONTACT_JOINTS
 from retarget_lib.rotations import quat_rotate
 from retarget_lib.skeleton import CANONICAL22_PARENTS, J
-from test_ik import make_skeleton
+from skeletons import contact_runs, make_skeleton
 
 SKELETONS = {
     "short_apose": make_skeleton(height=1.3, leg_frac=0.42, arm_deg=45.0),
@@ -29,12 +29,6 @@ FEET = [J[n] for n in FOOT_CONTACT_JOINTS]
 def clips():
     """Seed 0 of every family on both skeletons (built once)."""
     return {(f, k): make_motion(f, sk, 0) for f in MOTION_FAMILIES for k, sk in SKELETONS.items()}
-
-
-def contact_runs(mask):
-    m = np.concatenate(([False], mask, [False]))
-    e = np.flatnonzero(m[1:] != m[:-1])
-    return list(zip(e[::2], e[1::2]))
 
 
 @pytest.mark.parametrize("family", MOTION_FAMILIES)

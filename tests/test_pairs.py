@@ -17,8 +17,7 @@ from retarget_lib.data.pairs import (
 from retarget_lib.ik import FOOT_CONTACT_JOINTS, apply_foot_contact_ik
 from retarget_lib.rotations import quat_conjugate, quat_mul
 from retarget_lib.skeleton import CANONICAL22, J, JointSetError, Skeleton
-from test_ik import make_skeleton
-from test_motions import contact_runs
+from skeletons import contact_runs, make_skeleton
 
 A_POSE = make_skeleton(height=1.5, leg_frac=0.45, arm_deg=45.0, spine_curve_deg=6.0)
 T_POSE = make_skeleton(height=1.9, leg_frac=0.53, arm_deg=0.0)
