@@ -1,0 +1,125 @@
+"""Animations: one :class:`~retarget_lib.viz.render.SceneRenderer` reused for every frame (only
+point coordinates change), a camera fixed on the box that holds the whole clip, written as GIF or
+MP4 with imageio."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from .render import Scene, SceneRenderer, _bounds, _layout_row
+
+
+def render_frames(frames: Sequence[Sequence[Scene]], view="front_side", window_size=(480, 300),
+                  titles: Sequence[str] | None = None, side_by_side: bool = False) -> list[np.ndarray]:
+    """Render a sequence of frames, each a list of scenes with the same structure.
+
+    Args:
+        frames: ``T`` lists of :class:`Scene` (same joint counts / mesh topologies in every frame).
+        view: camera preset or ``(azimuth, elevation)``.
+        window_size: ``(width, height)``.
+        titles: one label per scene, drawn above it in every frame.
+        side_by_side: spread the scenes along x (by their extents over the whole clip) instead of
+            drawing them where they are.
+
+    Returns:
+        ``T`` images ``(H, W, 3)`` uint8.
+    """
+    frames = [list(f) for f in frames]
+    if side_by_side:
+        n = len(frames[0])
+        # one x-shift per scene for the whole clip, from the scenes' extents over all frames
+        ext = [np.concatenate([f[i].points() for f in frames]) for i in range(n)]
+        boxes = [Scene(positions=np.stack([e.min(0), e.max(0)]), parents=(-1, 0), joint_names=["", ""])
+                 for e in ext]
+        placed = _layout_row(boxes)
+        shifts = [p.positions[0] - b.positions[0] for p, b in zip(placed, boxes)]
+        frames = [[s.translated(d) for s, d in zip(f, shifts)] for f in frames]
+    allpts = np.concatenate([s.points() for f in frames for s in f])
+    lo, hi = allpts.min(0), allpts.max(0)
+    size = float(np.median([s.size() for s in frames[0]]))
+    if titles is not None and any(titles):
+        hi = hi + [0, 0.15 * size, 0]
+    r = SceneRenderer(window_size, view)
+    try:
+        images = []
+        for f in frames:
+            r.update(f, size)
+            if not images:
+                r.frame(lo, hi, size)
+            if titles is not None:
+                lo_f, hi_f = _bounds(f)
+                r.set_titles(titles, [[0.5 * (s.points()[:, 0].min() + s.points()[:, 0].max()),
+                                       hi[1] - 0.1 * size, s.points()[:, 2].max()] for s in f])
+            images.append(r.screenshot())
+        return images
+    finally:
+        r.close()
+
+
+def write_animation(images: Sequence[np.ndarray], path: str | Path, fps: float = 10.0) -> Path:
+    """Write frames as ``.gif`` (looping, 256-colour palette shared by all frames) or ``.mp4``.
+
+    Args:
+        images: ``(H, W, 3)`` uint8 frames.
+        path: output path; the suffix picks the format.
+        fps: playback rate.
+
+    Returns:
+        the path.
+    """
+    import imageio.v3 as iio
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if path.suffix.lower() == ".gif":
+        from PIL import Image
+
+        strip = Image.fromarray(np.concatenate(list(images[:: max(1, len(images) // 8)]), axis=0))
+        palette = strip.quantize(colors=128, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE)
+        frames = [Image.fromarray(im).quantize(palette=palette, dither=Image.Dither.NONE) for im in images]
+        frames[0].save(path, save_all=True, append_images=frames[1:], duration=int(round(1000 / fps)),
+                       loop=0, optimize=True, disposal=1)
+    else:
+        iio.imwrite(path, np.stack(images), fps=fps, codec="libx264", macro_block_size=8)
+    return path
+
+
+def animate(frames: Sequence[Sequence[Scene]], path: str | Path, fps: float = 10.0, **kw) -> Path:
+    """Render scene frames (:func:`render_frames`, same keywords) and write them (:func:`write_animation`)."""
+    return write_animation(render_frames(frames, **kw), path, fps)
+
+
+def animate_motion(positions: np.ndarray | Sequence[np.ndarray], parents: Sequence[int], path: str | Path,
+                   fps: float = 10.0, every: int = 3, titles: Sequence[str] | None = None, **kw) -> Path:
+    """Animate one or several skeletons side by side.
+
+    Args:
+        positions: ``(T, J, 3)`` joint positions, or a list of them (same ``T``).
+        parents: ``J`` parents.
+        path: ``.gif`` or ``.mp4``.
+        fps: playback rate of the written file (after taking every ``every``-th frame).
+        every: frame step.
+        titles: one label per skeleton.
+    """
+    seq = [np.asarray(positions)] if np.ndim(positions) == 3 else [np.asarray(p) for p in positions]
+    frames = [[Scene(positions=p[t], parents=parents) for p in seq] for t in range(0, len(seq[0]), every)]
+    return animate(frames, path, fps, titles=titles, side_by_side=len(seq) > 1, **kw)
+
+
+def animate_mesh(vertices: np.ndarray | Sequence[np.ndarray], faces, path: str | Path, fps: float = 10.0,
+                 every: int = 3, titles: Sequence[str] | None = None, **kw) -> Path:
+    """Animate one or several skinned meshes side by side.
+
+    Args:
+        vertices: ``(T, V, 3)`` per-frame vertices, or a list of them (same ``T``).
+        faces: ``(F, 3)`` triangles, or a list (one per mesh).
+        path: ``.gif`` or ``.mp4``.
+        fps: playback rate; every: frame step; titles: one label per mesh.
+    """
+    seq = [np.asarray(vertices)] if np.ndim(vertices) == 3 else [np.asarray(v) for v in vertices]
+    fl = [faces] * len(seq) if np.ndim(faces) == 2 else list(faces)
+    frames = [[Scene(vertices=v[t], faces=f) for v, f in zip(seq, fl)] for t in range(0, len(seq[0]), every)]
+    return animate(frames, path, fps, titles=titles, side_by_side=len(seq) > 1, **kw)

@@ -1,0 +1,124 @@
+"""An ipywidgets motion player (frame slider + play button + character picker) that degrades to a
+still image when no Jupyter front end is attached.
+
+How it degrades: the player's display bundle carries *both* the widget view and a PNG of the
+current frame. A live front end (JupyterLab, Notebook, VS Code) renders the widget; anything that
+cannot — a headless run under nbclient/nbval, the HTML export, GitHub's viewer — falls back to the
+PNG. ``mode="static"`` forces the still image (no widget is created), ``mode="widget"`` the widget.
+"""
+
+from __future__ import annotations
+
+from typing import Mapping
+
+import numpy as np
+
+from .display import png_bytes
+from .render import Scene, SceneRenderer
+
+
+class Player:
+    """Step through motions on characters.
+
+    Args:
+        motions: name -> :class:`~retarget_lib.motion.Motion`.
+        characters: name -> :class:`~retarget_lib.data.characters.Character` (skinned meshes);
+            a motion is drawn on ``characters[motion.meta["performer"]]`` if present, else as a
+            skeleton.
+        mode: ``"auto"`` (widget plus still-image fallback), ``"widget"`` or ``"static"``.
+        window_size: ``(width, height)`` of the picture.
+        view: camera preset.
+    """
+
+    def __init__(self, motions: Mapping, characters: Mapping | None = None, mode: str = "auto",
+                 window_size=(480, 320), view="front_side"):
+        if not motions:
+            raise ValueError("Player needs at least one motion")
+        if mode not in ("auto", "widget", "static"):
+            raise ValueError(f"mode must be 'auto', 'widget' or 'static', got {mode!r}")
+        self.motions = dict(motions)
+        self.characters = dict(characters or {})
+        self.mode, self.window_size, self.view = mode, window_size, view
+        self.name = next(iter(self.motions))
+        self.frame = self.motions[self.name].num_frames // 2
+        self._renderer: SceneRenderer | None = None
+        self._box = None
+        self.widget = None if mode == "static" else self._build_widget()
+
+    # ------------------------------------------------------------------ drawing
+    def scene(self, name: str, frame: int) -> Scene:
+        """The :class:`Scene` of motion ``name`` at ``frame`` (a skinned mesh when possible)."""
+        m = self.motions[name]
+        frame = int(np.clip(frame, 0, m.num_frames - 1))
+        ch = self.characters.get(m.meta.get("performer", ""))
+        if ch is not None and ch.skeleton.offsets.shape == m.skeleton.offsets.shape:
+            return Scene(vertices=ch.skinned(m.rotations[frame], m.root_positions[frame]), faces=ch.faces)
+        return Scene(positions=m.global_positions()[frame], parents=m.skeleton.parents,
+                     joint_names=m.skeleton.joint_names)
+
+    def render(self, name: str | None = None, frame: int | None = None) -> np.ndarray:
+        """``(H, W, 3)`` uint8 picture of ``name`` at ``frame`` (defaults: the current ones)."""
+        name = self.name if name is None else name
+        frame = self.frame if frame is None else frame
+        if self._renderer is None:
+            self._renderer = SceneRenderer(self.window_size, self.view)
+        m = self.motions[name]
+        s = self.scene(name, frame)
+        if self._box is None or self._box[0] != name:
+            pts = m.global_positions().reshape(-1, 3)
+            size = max(s.size(), 0.5)
+            lo, hi = pts.min(0) - 0.15 * size, pts.max(0) + 0.15 * size
+            self._box = (name, lo, hi, size)
+        _, lo, hi, size = self._box
+        self._renderer.update([s], size)
+        self._renderer.frame(lo, hi, size)
+        return self._renderer.screenshot()
+
+    def close(self) -> None:
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+    # ------------------------------------------------------------------ widget
+    def _build_widget(self):
+        import ipywidgets as w
+
+        m = self.motions[self.name]
+        self.image = w.Image(format="png", value=png_bytes(self.render()))
+        self.slider = w.IntSlider(value=self.frame, min=0, max=m.num_frames - 1, description="frame",
+                                  continuous_update=True)
+        self.play = w.Play(value=self.frame, min=0, max=m.num_frames - 1, interval=int(1000 / m.fps))
+        w.jslink((self.play, "value"), (self.slider, "value"))
+        self.picker = w.Dropdown(options=list(self.motions), value=self.name, description="motion")
+        self.slider.observe(self._on_frame, names="value")
+        self.picker.observe(self._on_pick, names="value")
+        return w.VBox([w.HBox([self.picker, self.play, self.slider]), self.image])
+
+    def _on_frame(self, change) -> None:
+        self.frame = int(change["new"])
+        self.image.value = png_bytes(self.render())
+
+    def _on_pick(self, change) -> None:
+        self.name = change["new"]
+        m = self.motions[self.name]
+        self.frame = min(self.frame, m.num_frames - 1)
+        for ctl in (self.slider, self.play):
+            ctl.max = m.num_frames - 1
+        self.play.interval = int(1000 / m.fps)
+        self.image.value = png_bytes(self.render())
+
+    def _repr_mimebundle_(self, include=None, exclude=None):
+        still = png_bytes(self.render())
+        text = f"Player: {self.name} frame {self.frame} ({len(self.motions)} motions)"
+        if self.widget is None:
+            return {"image/png": still, "text/plain": text}
+        bundle = self.widget._repr_mimebundle_(include=include, exclude=exclude) or {}
+        bundle = dict(bundle)
+        bundle["image/png"] = still
+        bundle["text/plain"] = text + " — still image shown where widgets cannot run"
+        return bundle
+
+
+def player(motions: Mapping, characters: Mapping | None = None, mode: str = "auto", **kw) -> Player:
+    """Create a :class:`Player` (display it as a cell's last expression)."""
+    return Player(motions, characters, mode, **kw)

@@ -1,0 +1,754 @@
+"""Offscreen 3-D pictures with PyVista: skeletons, skinned meshes, side-by-side lineups, animations.
+
+Everything renders offscreen (EGL + Mesa on a machine without X or GPU) into ``(H, W, 3)`` uint8
+images. World conventions are the library's: +Y up, characters face +Z, a character's left is +X.
+
+How a picture is built: each character is a :class:`Scene` (a pose ``(J, 3)`` and/or a mesh).
+Joint spheres and bone tubes are generated in NumPy with a fixed topology, so animating only
+overwrites point coordinates and normals of existing VTK arrays; one plotter is reused for all
+frames (:func:`animate`, :class:`~retarget_lib.viz.player.Player`). A flat "shadow" (the geometry
+projected onto ``y = 0``) on a checkerboard floor makes foot contact and sliding readable.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any, Callable, Sequence
+
+import numpy as np
+
+#: camera presets: name -> (azimuth from +Z towards +X, elevation), degrees
+VIEWS: dict[str, tuple[float, float]] = {
+    "front": (0.0, 8.0), "front_side": (30.0, 14.0), "side": (-90.0, 6.0), "top": (0.0, 90.0),
+    "back": (180.0, 10.0),
+}
+LEFT_COLOR, RIGHT_COLOR, CENTER_COLOR = "#2f6fbf", "#d1495b", "#4d4d4d"
+#: one tint per character when several are drawn (source / retargeted / ground truth, ...)
+PALETTE = ("#3b6fb6", "#d1495b", "#2a9d8f", "#e9a23b", "#7b5ea7", "#8c6d46", "#e377c2", "#5f6b73")
+MESH_COLOR = "#d9c6b0"
+_GROUND = ("#f3f3f3", "#e4e4e4")
+_SHADOW = "#c9c9c9"
+_state: dict[str, Any] = {"configured": False}
+
+
+def configure_offscreen(window_size: tuple[int, int] = (640, 400), anti_aliasing: str | None = "msaa"):
+    """Set up PyVista for headless rendering; safe to call many times.
+
+    Sets ``VTK_DEFAULT_OPENGL_WINDOW=vtkEGLRenderWindow`` (unless already set) before any plotter
+    exists, ``pyvista.OFF_SCREEN = True`` and a theme: white background, black text, the default
+    window size and anti-aliasing.
+
+    Args:
+        window_size: default ``(width, height)`` in pixels; 640x400 PNGs stay well under 150 KB.
+        anti_aliasing: ``"msaa"`` (fast on Mesa llvmpipe), ``"ssaa"`` or ``None``.
+
+    Returns:
+        the ``pyvista`` module.
+    """
+    os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+    import pyvista as pv
+
+    pv.OFF_SCREEN = True
+    if not _state["configured"] or tuple(pv.global_theme.window_size) != tuple(window_size):
+        th = pv.global_theme
+        th.background = "white"
+        th.font.color = "black"
+        th.window_size = list(window_size)
+        th.anti_aliasing = anti_aliasing
+        th.show_scalar_bar = False
+        th.jupyter_backend = "static"
+        _state["configured"] = True
+    return pv
+
+
+def _rgb(color) -> np.ndarray:
+    """Any matplotlib colour -> ``(3,)`` float RGB in [0, 1]."""
+    from matplotlib.colors import to_rgb
+
+    return np.asarray(to_rgb(color), dtype=np.float64)
+
+
+def _mix(color, other, t: float) -> np.ndarray:
+    return (1 - t) * _rgb(color) + t * _rgb(other)
+
+
+# ---------------------------------------------------------------------------------- scenes
+@dataclass
+class Scene:
+    """One character to draw: a skeleton pose and/or a triangle mesh.
+
+    Attributes:
+        positions: ``(J, 3)`` joint positions (metres) or ``None``.
+        parents: ``J`` parent indices (root ``-1``); needed with ``positions``.
+        joint_names: ``J`` names; joints named ``Left*``/``Right*`` get side colours (the canonical
+            22 are assumed when ``J == 22`` and no names are given).
+        vertices: ``(V, 3)`` mesh vertices or ``None``.
+        faces: ``(F, 3)`` int triangle indices.
+        scalars: ``(V,)`` per-vertex values coloured with ``cmap`` (e.g. a contact energy).
+        highlight_faces: ``(K,)`` face indices or ``(F,)`` bool mask drawn in ``highlight_color``.
+        point_pairs: ``(P, 2)`` int vertex index pairs or ``(P, 2, 3)`` positions (contact pairs),
+            drawn as two spheres joined by a tube, one colour per pair.
+        color: skeleton tint; ``None`` = blue left / red right / grey centre.
+        mesh_color, mesh_opacity, cmap, clim, highlight_color: mesh appearance (``mesh_opacity``
+            ``None`` = 0.45 when a skeleton is drawn too, else opaque).
+        title: label drawn above the character by the side-by-side renderers.
+    """
+
+    positions: np.ndarray | None = None
+    parents: Sequence[int] | None = None
+    joint_names: Sequence[str] | None = None
+    vertices: np.ndarray | None = None
+    faces: np.ndarray | None = None
+    scalars: np.ndarray | None = None
+    highlight_faces: np.ndarray | None = None
+    point_pairs: np.ndarray | None = None
+    color: Any = None
+    mesh_color: Any = MESH_COLOR
+    mesh_opacity: float | None = None
+    cmap: str = "viridis"
+    clim: tuple[float, float] | None = None
+    highlight_color: Any = "#e63946"
+    title: str = ""
+    meta: dict = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if self.positions is not None:
+            self.positions = np.asarray(self.positions, dtype=np.float64).reshape(-1, 3)
+            if self.parents is None or len(self.parents) != len(self.positions):
+                raise ValueError(f"Scene: {len(self.positions)} joints need as many parents, "
+                                 f"got {None if self.parents is None else len(self.parents)}")
+        if self.vertices is not None:
+            self.vertices = np.asarray(self.vertices, dtype=np.float64).reshape(-1, 3)
+            if self.faces is None:
+                raise ValueError("Scene: vertices need faces (F, 3)")
+            self.faces = np.asarray(self.faces, dtype=np.int64).reshape(-1, 3)
+
+    def points(self) -> np.ndarray:
+        """``(N, 3)`` all positions used for framing (joints, vertices, pair ends)."""
+        parts = [p for p in (self.positions, self.vertices) if p is not None]
+        return np.concatenate(parts) if parts else np.zeros((1, 3))
+
+    def size(self) -> float:
+        """Characteristic size in metres (the largest extent of the points, at least 0.1)."""
+        return max(float(np.ptp(self.points(), axis=0).max()), 0.1)
+
+    def translated(self, offset) -> "Scene":
+        off = np.asarray(offset, dtype=np.float64)
+        pp = self.point_pairs
+        if pp is not None and np.asarray(pp).ndim == 3:
+            pp = np.asarray(pp, dtype=np.float64) + off
+        return replace(self, positions=None if self.positions is None else self.positions + off,
+                       vertices=None if self.vertices is None else self.vertices + off, point_pairs=pp)
+
+
+def as_scene(obj, parents: Sequence[int] | None = None, **kw) -> Scene:
+    """Coerce ``Scene`` / ``(J, 3)`` array / ``(positions, parents)`` tuple / ``Motion`` (frame 0)."""
+    if isinstance(obj, Scene):
+        return replace(obj, **kw) if kw else obj
+    if isinstance(obj, tuple) and len(obj) == 2 and not np.isscalar(obj[1]):
+        return Scene(positions=obj[0], parents=obj[1], **kw)
+    if hasattr(obj, "global_positions") and hasattr(obj, "skeleton"):
+        return Scene(positions=obj.global_positions()[0], parents=obj.skeleton.parents,
+                     joint_names=obj.skeleton.joint_names, **kw)
+    return Scene(positions=obj, parents=parents, **kw)
+
+
+def _joint_colors(scene: Scene) -> np.ndarray:
+    """``(J, 3)`` float RGB per joint: side colours, or tints of ``scene.color``."""
+    n = len(scene.positions)
+    names = scene.joint_names
+    if names is None and n == 22:
+        from ..skeleton import CANONICAL22 as names
+    side = np.zeros(n, dtype=int)  # 0 centre, 1 left, 2 right
+    if names is not None:
+        for j, nm in enumerate(names):
+            low = str(nm).lower().split(":")[-1]
+            side[j] = 1 if low.startswith(("left", "l_")) or "left" in low else (
+                2 if low.startswith(("right", "r_")) or "right" in low else 0)
+    if scene.color is None:
+        table = np.stack([_rgb(CENTER_COLOR), _rgb(LEFT_COLOR), _rgb(RIGHT_COLOR)])
+    else:
+        c = scene.color
+        table = np.stack([_rgb(c), _mix(c, "white", 0.38), _mix(c, "black", 0.32)])
+    return table[side]
+
+
+# ------------------------------------------------------------------------------- geometry
+def _sphere_template(theta: int = 14, phi: int = 10) -> tuple[np.ndarray, np.ndarray]:
+    th = np.linspace(0, 2 * np.pi, theta, endpoint=False)
+    ph = np.linspace(0, np.pi, phi + 1)[1:-1]
+    ring = np.stack([np.outer(np.sin(ph), np.cos(th)), np.repeat(np.cos(ph)[:, None], theta, 1),
+                     np.outer(np.sin(ph), np.sin(th))], -1).reshape(-1, 3)
+    pts = np.concatenate([[[0, 1, 0]], ring, [[0, -1, 0]]])
+    faces = []
+    k = np.arange(theta)
+    k2 = (k + 1) % theta
+    faces += [np.stack([np.zeros(theta, int), 1 + k2, 1 + k], 1)]
+    for r in range(len(ph) - 1):
+        a, b = 1 + r * theta, 1 + (r + 1) * theta
+        faces += [np.stack([a + k, a + k2, b + k2], 1), np.stack([a + k, b + k2, b + k], 1)]
+    last, bottom = 1 + (len(ph) - 1) * theta, len(pts) - 1
+    faces += [np.stack([np.full(theta, bottom), last + k, last + k2], 1)]
+    return pts, np.concatenate(faces)
+
+
+_SPHERE = _sphere_template()
+
+
+class _Geometry:
+    """Fixed-topology triangle soup for one scene; :meth:`compute` maps a scene to points/normals."""
+
+    def __init__(self, scene: Scene, radius: float, tube_sides: int = 12):
+        sp, sf = _SPHERE
+        self.ns, self.sides = len(sp), tube_sides
+        faces, colors, self.nverts = [], [], 0
+        self.bones = np.zeros((0, 2), int)
+        self.radius = radius
+        if scene.positions is not None:
+            n = len(scene.positions)
+            jc = _joint_colors(scene)
+            self.bones = np.array([(p, j) for j, p in enumerate(scene.parents) if p >= 0], int).reshape(-1, 2)
+            self.jrad = np.full(n, radius)
+            names = list(scene.joint_names) if scene.joint_names is not None else (
+                ["Head" if j == 5 else "" for j in range(n)] if n == 22 else [])
+            self.head = names.index("Head") if "Head" in names else None
+            if self.head is not None:
+                self.jrad[self.head] = 3.4 * radius
+            for j in range(n):
+                faces.append(sf + j * self.ns)
+            colors.append(np.repeat(jc, self.ns, 0))
+            base = n * self.ns
+            k = np.arange(tube_sides)
+            k2 = (k + 1) % tube_sides
+            tube = np.concatenate([np.stack([k, k2, tube_sides + k2], 1),
+                                   np.stack([k, tube_sides + k2, tube_sides + k], 1)])
+            for b in range(len(self.bones)):
+                faces.append(tube + base + b * 2 * tube_sides)
+            colors.append(np.repeat(jc[self.bones[:, 1]], 2 * tube_sides, 0))
+            self.nverts = base + len(self.bones) * 2 * tube_sides
+        self.skel_verts = self.nverts
+        self.mesh_faces = None
+        if scene.vertices is not None:
+            self.mesh_faces = scene.faces
+            self.nverts_mesh = len(scene.vertices)
+        self.faces = np.concatenate(faces) if faces else np.zeros((0, 3), int)
+        self.colors = (np.concatenate(colors) * 255).astype(np.uint8) if colors else None
+
+    def skeleton(self, pos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(N, 3)`` points and normals of joint spheres + bone tubes for pose ``pos (J, 3)``."""
+        sp = _SPHERE[0]
+        pos = pos.copy()
+        centres = pos.copy()
+        if self.head is not None:  # skull above the head joint, along the neck direction
+            p = [b[0] for b in self.bones if b[1] == self.head]
+            up = pos[self.head] - pos[p[0]] if p else np.array([0, 1.0, 0])
+            centres[self.head] += 0.55 * self.jrad[self.head] * up / max(np.linalg.norm(up), 1e-9)
+        sph = centres[:, None] + self.jrad[:, None, None] * sp[None]
+        sph_n = np.broadcast_to(sp[None], sph.shape)
+        a, b = pos[self.bones[:, 0]], pos[self.bones[:, 1]]
+        d = b - a
+        ln = np.linalg.norm(d, axis=1, keepdims=True)
+        d = np.where(ln > 1e-9, d / np.maximum(ln, 1e-12), [0.0, 1.0, 0.0])
+        helper = np.eye(3)[np.argmin(np.abs(d), axis=1)]
+        u = np.cross(d, helper)
+        u /= np.linalg.norm(u, axis=1, keepdims=True)
+        v = np.cross(d, u)
+        th = np.linspace(0, 2 * np.pi, self.sides, endpoint=False)
+        ring = np.cos(th)[None, :, None] * u[:, None] + np.sin(th)[None, :, None] * v[:, None]
+        r = 0.55 * self.radius
+        tube = np.concatenate([a[:, None] + r * ring, b[:, None] + r * ring], 1)
+        tube_n = np.concatenate([ring, ring], 1)
+        pts = np.concatenate([sph.reshape(-1, 3), tube.reshape(-1, 3)])
+        nrm = np.concatenate([sph_n.reshape(-1, 3), tube_n.reshape(-1, 3)])
+        return pts, nrm
+
+
+def _vertex_normals(v: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """``(V, 3)`` area-weighted unit vertex normals of mesh ``v (V, 3)``, ``f (F, 3)``."""
+    fn = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    n = np.zeros_like(v)
+    for c in range(3):
+        idx = f[:, c]
+        for k in range(3):
+            n[:, k] += np.bincount(idx, fn[:, k], minlength=len(v))
+    return n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
+
+
+def _polydata(points: np.ndarray, faces: np.ndarray):
+    import pyvista as pv
+
+    return pv.PolyData(points.copy(), np.hstack([np.full((len(faces), 1), 3), faces]).ravel())
+
+
+def _set_points(mesh, points: np.ndarray, normals: np.ndarray | None = None) -> None:
+    """Overwrite a PolyData's points (and active normals) in place."""
+    mesh.points[:] = points
+    mesh.GetPoints().Modified()
+    if normals is not None:
+        mesh.point_data["Normals"][:] = normals
+        mesh.GetPointData().GetNormals().Modified()
+    mesh.Modified()
+
+
+def _checkerboard(x0: float, x1: float, z0: float, z1: float, step: float):
+    """A floor at ``y = 0`` over ``[x0, x1] x [z0, z1]``: one quad per ``step`` square, two greys."""
+    xs = np.arange(x0, x1 + 0.5 * step, step)
+    zs = np.arange(z0, z1 + 0.5 * step, step)
+    gx, gz = np.meshgrid(xs, zs, indexing="ij")
+    pts = np.stack([gx.ravel(), np.zeros(gx.size), gz.ravel()], -1)
+    nx, nz = len(xs), len(zs)
+    i, k = np.meshgrid(np.arange(nx - 1), np.arange(nz - 1), indexing="ij")
+    a = (i * nz + k).ravel()
+    quads = np.stack([np.full_like(a, 4), a, a + 1, a + nz + 1, a + nz], -1)
+    import pyvista as pv
+
+    plane = pv.PolyData(pts, quads.ravel())
+    par = (np.floor(xs[i.ravel()] / step + 0.5) + np.floor(zs[k.ravel()] / step + 0.5)).astype(int) % 2
+    cols = np.stack([_rgb(_GROUND[0]), _rgb(_GROUND[1])])[par]
+    plane.cell_data["rgb"] = (cols * 255).astype(np.uint8)
+    return plane
+
+
+def _nice_step(x: float) -> float:
+    steps = np.array([0.05, 0.1, 0.2, 0.25, 0.5, 1.0, 2.0, 5.0, 10.0])
+    return float(steps[np.argmin(np.abs(np.log(steps / x)))])
+
+
+def _camera_params(lo, hi, view, aspect: float, view_angle: float = 30.0, margin: float = 1.1):
+    """Position/focal point/up/parallel scale that frame the box ``lo..hi`` (``(3,)`` each)."""
+    az, el = VIEWS[view] if isinstance(view, str) else view
+    az, el = np.radians(az), np.radians(el)
+    back = np.array([np.sin(az) * np.cos(el), np.sin(el), np.cos(az) * np.cos(el)])
+    up = np.array([0.0, 1.0, 0.0]) if abs(np.degrees(el)) < 80 else np.array([-np.sin(az), 0, -np.cos(az)])
+    right = np.cross(-back, up)
+    right /= np.linalg.norm(right)
+    up = np.cross(right, -back)
+    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+    c = 0.5 * (lo + hi)
+    rel = corners - c
+    px, py, pz = rel @ right, rel @ up, rel @ back
+    c = c + right * 0.5 * (px.max() + px.min()) + up * 0.5 * (py.max() + py.min())
+    hw, hh = 0.5 * np.ptp(px) * margin, 0.5 * np.ptp(py) * margin
+    tv = np.tan(np.radians(view_angle) / 2)
+    dist = max(hw / (tv * aspect), hh / tv) + pz.max()
+    return dict(position=c + back * dist, focal_point=c, up=up, scale=max(hh, hw / aspect), dist=dist)
+
+
+class SceneRenderer:
+    """One offscreen plotter that draws a fixed set of scenes and updates them in place.
+
+    ``update(scenes)`` with the same structure (joint counts, mesh topologies) only rewrites point
+    arrays; a different structure rebuilds the actors. Used by :func:`animate` and the player.
+
+    Args:
+        window_size: ``(width, height)`` pixels.
+        view: a key of :data:`VIEWS` or ``(azimuth, elevation)`` degrees.
+        parallel: orthographic projection (good for comparing heights in a lineup).
+        ground: draw the checkerboard floor at ``y = 0``; shadow: draw flat shadows on it.
+        font_size: title size in points.
+    """
+
+    def __init__(self, window_size=(640, 400), view="front_side", parallel=False, ground=True,
+                 shadow=True, font_size=12):
+        pv = configure_offscreen()
+        self.pl = pv.Plotter(off_screen=True, window_size=list(window_size))
+        self.window_size, self.view, self.parallel = tuple(window_size), view, parallel
+        self.ground, self.shadow, self.font_size = ground, shadow, font_size
+        self._items: list[dict] = []
+        self._key = None
+        self._floor = None
+        self._texts: list = []
+
+    def close(self) -> None:
+        self.pl.close()
+
+    # -------------------------------------------------------------------------- building
+    @staticmethod
+    def _structure(scenes: Sequence[Scene]):
+        return tuple((None if s.positions is None else tuple(s.parents),
+                      None if s.vertices is None else (len(s.vertices), len(s.faces)),
+                      s.scalars is not None, s.highlight_faces is not None,
+                      None if s.point_pairs is None else np.shape(s.point_pairs)) for s in scenes)
+
+    def _build(self, scenes: Sequence[Scene], size: float) -> None:
+        self.pl.clear_actors()
+        self._items, self._floor = [], None
+        radius = 0.018 * size
+        for i, s in enumerate(scenes):
+            g = _Geometry(s, radius)
+            it: dict[str, Any] = {"geom": g}
+            if s.positions is not None:
+                pts, nrm = g.skeleton(s.positions)
+                m = _polydata(pts, g.faces)
+                m.point_data["Normals"] = nrm
+                m.point_data.active_normals_name = "Normals"
+                m.point_data["rgb"] = g.colors
+                self.pl.add_mesh(m, scalars="rgb", rgb=True, specular=0.3, specular_power=20,
+                                 smooth_shading=False, show_scalar_bar=False)
+                it["skel"] = m
+            if s.vertices is not None:
+                m = _polydata(s.vertices, s.faces)
+                m.point_data["Normals"] = _vertex_normals(s.vertices, s.faces)
+                m.point_data.active_normals_name = "Normals"
+                op = s.mesh_opacity if s.mesh_opacity is not None else (0.45 if s.positions is not None else 1.0)
+                kw = dict(opacity=op, specular=0.15, smooth_shading=False, show_scalar_bar=False)
+                if s.scalars is not None:
+                    m.point_data["values"] = np.asarray(s.scalars, dtype=np.float64).reshape(-1)
+                    clim = s.clim or (float(np.min(s.scalars)), float(np.max(s.scalars)) + 1e-12)
+                    self.pl.add_mesh(m, scalars="values", cmap=s.cmap, clim=clim, **kw)
+                else:
+                    self.pl.add_mesh(m, color=s.mesh_color, **kw)
+                it["mesh"] = m
+                if s.highlight_faces is not None:
+                    hf = np.asarray(s.highlight_faces)
+                    hf = np.flatnonzero(hf) if hf.dtype == bool else hf.astype(int)
+                    it["hl_faces"] = s.faces[hf]
+                    hm = _polydata(self._lifted(s.vertices, m, size), s.faces[hf])
+                    self.pl.add_mesh(hm, color=s.highlight_color, lighting=True, show_scalar_bar=False)
+                    it["hl"] = hm
+            if s.point_pairs is not None:
+                it["pairs_n"] = len(s.point_pairs)
+                pm = self._pairs_mesh(s, size)
+                if pm is not None:
+                    self.pl.add_mesh(pm[0], scalars="rgb", rgb=True, show_scalar_bar=False)
+                    it["pairs"], it["pair_geom"] = pm
+            if self.shadow and (s.positions is not None or s.vertices is not None):
+                parts = [it[k].points for k in ("skel", "mesh") if k in it]
+                fl = [g.faces] if "skel" in it else []
+                if "mesh" in it:
+                    fl.append(s.faces + (len(parts[0]) if "skel" in it else 0))
+                sh = _polydata(self._flat(np.concatenate(parts)), np.concatenate(fl))
+                self.pl.add_mesh(sh, color=_SHADOW, lighting=False, show_scalar_bar=False)
+                it["shadow"] = sh
+            self._items.append(it)
+
+    def _lifted(self, verts, mesh, size):
+        return verts + mesh.point_data["Normals"] * 0.002 * size
+
+    @staticmethod
+    def _flat(points: np.ndarray) -> np.ndarray:
+        p = points.copy()
+        p[:, 1] = 0.002
+        return p
+
+    def _pairs_mesh(self, s: Scene, size: float):
+        """Contact pairs as a 'skeleton' of ``P`` two-joint chains: sphere, tube, sphere."""
+        pp = np.asarray(s.point_pairs)
+        if len(pp) == 0:
+            return None
+        ends = (s.vertices[pp.astype(int)] if pp.ndim == 2 else pp.astype(np.float64)).reshape(-1, 3)
+        n = len(ends) // 2
+        parents = [(-1 if j % 2 == 0 else j - 1) for j in range(2 * n)]
+        g = _Geometry(Scene(positions=ends, parents=parents, joint_names=[""] * (2 * n)), 0.012 * size)
+        from matplotlib import colormaps
+
+        cols = colormaps["tab10"](np.arange(n) % 10)[:, :3]
+        rgb = np.concatenate([np.repeat(np.repeat(cols, 2, 0), g.ns, 0), np.repeat(cols, 2 * g.sides, 0)])
+        pts, nrm = g.skeleton(ends)
+        m = _polydata(pts, g.faces)
+        m.point_data["Normals"] = nrm
+        m.point_data.active_normals_name = "Normals"
+        m.point_data["rgb"] = (rgb * 255).astype(np.uint8)
+        return m, g
+
+    def _set_floor(self, lo: np.ndarray, hi: np.ndarray, size: float) -> None:
+        if not self.ground:
+            return
+        step = _nice_step(size / 3.5)
+        pad = max(0.9 * size, 2 * step)
+        x0, x1 = np.floor((lo[0] - pad) / step) * step, np.ceil((hi[0] + pad) / step) * step
+        z0, z1 = np.floor((lo[2] - pad) / step) * step, np.ceil((hi[2] + pad) / step) * step
+        key = (x0, x1, z0, z1, step)
+        if self._floor == key:
+            return
+        if self._floor is not None:
+            self.pl.remove_actor("floor")
+        plane = _checkerboard(x0, x1, z0, z1, step)
+        self.pl.add_mesh(plane, scalars="rgb", rgb=True, lighting=False, name="floor", show_scalar_bar=False)
+        self._floor = key
+
+    # ---------------------------------------------------------------------------- public
+    def update(self, scenes: Sequence[Scene], size: float | None = None) -> None:
+        """Draw ``scenes``: in place when their structure matches the previous call."""
+        size = size or max(s.size() for s in scenes)
+        key = (self._structure(scenes), round(size, 6))
+        if key != self._key:
+            self._build(scenes, size)
+            self._key = key
+            return
+        for s, it in zip(scenes, self._items):
+            g = it["geom"]
+            parts = []
+            if "skel" in it:
+                pts, nrm = g.skeleton(s.positions)
+                _set_points(it["skel"], pts, nrm)
+                parts.append(pts)
+            if "mesh" in it:
+                nrm = _vertex_normals(s.vertices, s.faces)
+                _set_points(it["mesh"], s.vertices, nrm)
+                parts.append(s.vertices)
+                if "hl" in it:
+                    # the highlight mesh keeps all V vertices, only its faces are a subset
+                    _set_points(it["hl"], s.vertices + nrm * 0.002 * size)
+                if s.scalars is not None:
+                    it["mesh"].point_data["values"][:] = np.asarray(s.scalars).reshape(-1)
+                    it["mesh"].GetPointData().GetArray("values").Modified()
+            if "pairs" in it:
+                pp = np.asarray(s.point_pairs)
+                ends = (s.vertices[pp.astype(int)] if pp.ndim == 2 else pp).reshape(-1, 3)
+                pts, nrm = it["pair_geom"].skeleton(ends)
+                _set_points(it["pairs"], pts, nrm)
+            if "shadow" in it:
+                _set_points(it["shadow"], self._flat(np.concatenate(parts)))
+
+    def frame(self, lo, hi, size: float) -> None:
+        """Place the floor under ``lo..hi`` (``(3,)`` world box) and point the camera at it."""
+        lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+        self._set_floor(lo, hi, size)
+        w, h = self.window_size
+        cam = _camera_params(np.minimum(lo, [np.inf, 0, np.inf]), hi, self.view, w / h)
+        c = self.pl.camera
+        c.position, c.focal_point, c.up = cam["position"], cam["focal_point"], cam["up"]
+        c.view_angle = 30.0
+        if self.parallel:
+            self.pl.enable_parallel_projection()
+            c.parallel_scale = cam["scale"]
+        c.clipping_range = (max(cam["dist"] * 0.02, 1e-3), cam["dist"] * 20 + 100 * size)
+
+    def to_display(self, point) -> tuple[float, float]:
+        """Pixel coordinates ``(x, y)`` (origin bottom-left) of a world point ``(3,)``."""
+        r = self.pl.renderer
+        r.SetWorldPoint(*np.asarray(point, float), 1.0)
+        r.WorldToDisplay()
+        x, y, _ = r.GetDisplayPoint()
+        return x, y
+
+    def set_titles(self, titles: Sequence[str], anchors: Sequence[np.ndarray]) -> None:
+        """Centred text labels at the projected world ``anchors`` (one ``(3,)`` each)."""
+        for t in self._texts:
+            self.pl.remove_actor(t)
+        self._texts = []
+        w, h = self.window_size
+        for text, a in zip(titles, anchors):
+            if not text:
+                continue
+            x, y = self.to_display(a)
+            actor = self.pl.add_text(str(text), position=(x, min(y + 4, h - self.font_size * 1.6)),
+                                     font_size=self.font_size, color="black")
+            actor.GetTextProperty().SetJustificationToCentered()
+            self._texts.append(actor)
+
+    def screenshot(self) -> np.ndarray:
+        """``(H, W, 3)`` uint8 image of the current scene."""
+        self.pl.render()
+        return np.ascontiguousarray(self.pl.screenshot(return_img=True)[..., :3])
+
+
+def _bounds(scenes: Sequence[Scene]) -> tuple[np.ndarray, np.ndarray]:
+    pts = np.concatenate([s.points() for s in scenes])
+    return pts.min(0), pts.max(0)
+
+
+def _layout_row(scenes: Sequence[Scene], gap: float | None = None, extents=None) -> list[Scene]:
+    """Translate scenes along x so they stand next to each other (x-extents + ``gap`` apart).
+
+    ``extents`` (one ``(lo, hi)`` per scene) may come from a whole clip so the offsets stay fixed.
+    """
+    extents = extents or [(s.points().min(0), s.points().max(0)) for s in scenes]
+    gap = gap if gap is not None else 0.35 * float(np.median([s.size() for s in scenes]))
+    out, cursor = [], 0.0
+    for s, (lo, hi) in zip(scenes, extents):
+        width = max(hi[0] - lo[0], 0.2 * s.size())
+        dx = cursor + 0.5 * width - 0.5 * (lo[0] + hi[0])
+        out.append(s.translated([dx, 0, 0]))
+        cursor += width + gap
+    shift = -0.5 * (cursor - gap)
+    return [s.translated([shift, 0, 0]) for s in out]
+
+
+def render_scenes(scenes: Sequence[Scene], titles: Sequence[str] | None = None, view="front_side",
+                  window_size=(640, 400), parallel: bool = False, ground: bool = True,
+                  shadow: bool = True, font_size: int = 12) -> np.ndarray:
+    """Render scenes already placed in world space (no re-layout) into one image.
+
+    Args:
+        scenes: :class:`Scene` objects.
+        titles: one label per scene (``None``: each scene's ``title``), drawn above it.
+        view: a key of :data:`VIEWS` or ``(azimuth, elevation)`` in degrees.
+        window_size: ``(width, height)``.
+
+    Returns:
+        ``(H, W, 3)`` uint8 image.
+    """
+    r = SceneRenderer(window_size, view, parallel, ground, shadow, font_size)
+    try:
+        size = float(np.median([s.size() for s in scenes]))
+        r.update(scenes, size)
+        lo, hi = _bounds(scenes)
+        titles = [s.title for s in scenes] if titles is None else titles
+        if any(titles):
+            hi = hi + [0, 0.12 * size, 0]
+        r.frame(lo, hi, size)
+        r.set_titles(titles, [[0.5 * (s.points()[:, 0].min() + s.points()[:, 0].max()),
+                               s.points()[:, 1].max() + 0.04 * size, s.points()[:, 2].max()] for s in scenes])
+        return r.screenshot()
+    finally:
+        r.close()
+
+
+def render_skeleton(positions, parents: Sequence[int], joint_names: Sequence[str] | None = None,
+                    colors: Sequence | None = None, view="front_side", window_size=(640, 400),
+                    title: str | None = None, parallel: bool = False, ground: bool = True,
+                    shadow: bool = True) -> np.ndarray:
+    """Render one or several overlaid skeleton poses (spheres at joints, tubes for bones).
+
+    One pose gets side colours (left +X blue, right red, centre grey); several poses are overlaid
+    in world space, each tinted with :data:`PALETTE` (left lighter, right darker).
+
+    Args:
+        positions: ``(J, 3)`` joint positions or a list of them (each with the same ``parents``).
+        parents: ``J`` parent indices, root ``-1``.
+        joint_names: ``J`` names for side colours (canonical 22 assumed when ``J == 22``).
+        colors: one colour per pose (``None``: side colours for one pose, palette for several).
+        view: ``"front"``, ``"front_side"``, ``"side"``, ``"top"``, ``"back"`` or ``(az, el)`` deg.
+        window_size: ``(width, height)`` pixels.
+        title: optional caption above the (first) character.
+
+    Returns:
+        ``(H, W, 3)`` uint8 image.
+    """
+    arr = [np.asarray(positions, float)] if np.ndim(positions) == 2 else [np.asarray(p, float) for p in positions]
+    if colors is None:
+        colors = [None] if len(arr) == 1 else [PALETTE[i % len(PALETTE)] for i in range(len(arr))]
+    scenes = [Scene(positions=p, parents=parents, joint_names=joint_names, color=c)
+              for p, c in zip(arr, colors)]
+    titles = [title or ""] + [""] * (len(scenes) - 1)
+    return render_scenes(scenes, titles, view, window_size, parallel, ground, shadow)
+
+
+def render_mesh(vertices, faces, scalars=None, highlight_faces=None, point_pairs=None,
+                skeleton: tuple | None = None, cmap: str = "viridis", clim=None, color=MESH_COLOR,
+                opacity: float | None = None, view="front_side", window_size=(640, 400),
+                title: str | None = None, ground: bool = True, shadow: bool = True) -> np.ndarray:
+    """Render a triangle mesh, optionally coloured per vertex, with highlighted faces, contact
+    pairs and a skeleton overlay.
+
+    Args:
+        vertices: ``(V, 3)`` positions (metres).
+        faces: ``(F, 3)`` int triangles.
+        scalars: ``(V,)`` per-vertex values shown with ``cmap`` over ``clim`` (default min..max).
+        highlight_faces: ``(K,)`` face indices or ``(F,)`` bool mask (e.g. penetrating faces).
+        point_pairs: ``(P, 2)`` int vertex pairs or ``(P, 2, 3)`` positions (e.g. contact pairs).
+        skeleton: ``(positions (J, 3), parents)`` or ``(positions, parents, joint_names)`` overlay;
+            the mesh then turns translucent unless ``opacity`` is given.
+        color: mesh colour when ``scalars`` is None.
+        view, window_size, title: as in :func:`render_skeleton`.
+
+    Returns:
+        ``(H, W, 3)`` uint8 image.
+    """
+    sk = dict(zip(("positions", "parents", "joint_names"), skeleton)) if skeleton is not None else {}
+    s = Scene(vertices=vertices, faces=faces, scalars=scalars, highlight_faces=highlight_faces,
+              point_pairs=point_pairs, cmap=cmap, clim=clim, mesh_color=color, mesh_opacity=opacity,
+              **sk)
+    return render_scenes([s], [title or ""], view, window_size, ground=ground, shadow=shadow)
+
+
+def render_side_by_side(scenes: Sequence, titles: Sequence[str] | None = None, parents=None,
+                        view="front", window_size=None, ncols: int | None = None,
+                        parallel: bool = False, gap: float | None = None, font_size: int = 12) -> np.ndarray:
+    """Several characters next to each other (a lineup or a source / retargeted / truth comparison).
+
+    Each scene is translated along x by its own width plus a gap (35 % of the median character
+    size), so relative sizes stay true. With ``ncols`` the lineup wraps into rows rendered with the
+    same camera scale and stacked vertically.
+
+    Args:
+        scenes: :class:`Scene` objects, ``(J, 3)`` arrays (with ``parents``), ``(positions, parents)``
+            tuples or Motions (frame 0).
+        titles: one label per scene (default: each scene's ``title``).
+        parents: parents for bare arrays.
+        view: camera preset or ``(az, el)``; ``"front"`` by default.
+        window_size: ``(width, height)`` of one row (default: 640x400 up to 3 characters, wider after).
+        ncols: characters per row (default all in one row).
+        parallel: orthographic projection.
+
+    Returns:
+        ``(H, W, 3)`` uint8 image (``rows * height`` tall).
+    """
+    sc = [as_scene(s, parents) for s in scenes]
+    titles = list(titles) if titles is not None else [s.title for s in sc]
+    n = len(sc)
+    ncols = min(ncols or n, n)
+    if window_size is None:
+        window_size = (int(min(max(640, 210 * ncols), 1600)), 400 if ncols <= 6 else 360)
+    rows = [list(range(i, min(i + ncols, n))) for i in range(0, n, ncols)]
+    # all rows share one box size (the widest row), so sizes stay comparable across rows
+    placed = [_layout_row([sc[i] for i in row], gap) for row in rows]
+    widths = [np.ptp(np.concatenate([s.points() for s in p])[:, 0]) for p in placed]
+    span = placed[int(np.argmax(widths))]
+    lo_all, hi_all = _bounds(span)
+    size = float(np.median([s.size() for s in sc]))
+    if any(titles):  # room for labels wider than the outer characters
+        lo_all, hi_all = lo_all - [0.3 * size, 0, 0], hi_all + [0.3 * size, 0, 0]
+    images = []
+    for row, p in zip(rows, placed):
+        lo, hi = _bounds(p)
+        lo = np.array([lo_all[0], min(lo[1], lo_all[1]), lo[2]])
+        hi = np.array([hi_all[0], max(hi[1], hi_all[1]) + (0.12 * size if any(titles) else 0), hi[2]])
+        r = SceneRenderer(window_size, view, parallel, True, True, font_size)
+        try:
+            r.update(p, size)
+            r.frame(lo, hi, size)
+            r.set_titles([titles[i] for i in row],
+                         [[0.5 * (s.points()[:, 0].min() + s.points()[:, 0].max()),
+                           s.points()[:, 1].max() + 0.04 * size, s.points()[:, 2].max()] for s in p])
+            images.append(r.screenshot())
+        finally:
+            r.close()
+    return np.concatenate(images, axis=0)
+
+
+def render_filmstrip(positions: np.ndarray, parents: Sequence[int], frames: Sequence[int],
+                     fps: float | None = None, titles: Sequence[str] | None = None, **kw) -> np.ndarray:
+    """Poses of one clip side by side, each moved so its root stands at ``x = z = 0`` first.
+
+    Args:
+        positions: ``(T, J, 3)`` joint positions (root = joint 0).
+        parents: ``J`` parents.
+        frames: frame indices to show.
+        fps: when given (and ``titles`` is None) each pose is labelled with its time.
+        titles: one label per frame.
+        **kw: passed to :func:`render_side_by_side`.
+
+    Returns:
+        ``(H, W, 3)`` uint8 image.
+    """
+    positions = np.asarray(positions, dtype=np.float64)
+    poses = [positions[f] - positions[f, 0] * np.array([1.0, 0.0, 1.0]) for f in frames]
+    if titles is None and fps is not None:
+        titles = [f"{f / fps:.1f} s" for f in frames]
+    return render_side_by_side([Scene(positions=p, parents=parents) for p in poses], titles=titles, **kw)
+
+
+def save_png(image: np.ndarray, path, max_kb: float | None = 150) -> Path:
+    """Write ``image (H, W, 3)`` uint8 as an optimised PNG.
+
+    If the file exceeds ``max_kb`` it is re-written with a 256-colour adaptive palette (visually
+    identical for these flat-shaded renders, typically 2-3x smaller).
+
+    Returns:
+        the path.
+    """
+    from PIL import Image
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    im = Image.fromarray(np.asarray(image, dtype=np.uint8))
+    im.save(path, optimize=True)
+    if max_kb is not None and path.stat().st_size > max_kb * 1024:
+        im.quantize(colors=256, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE).save(path, optimize=True)
+    return path
