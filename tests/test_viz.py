@@ -1,0 +1,104 @@
+"""Pictures: renders are non-blank, change with the pose, stay small; animations and the player."""
+
+import io
+
+import numpy as np
+import pytest
+
+from retarget_lib import viz
+from retarget_lib.skeleton import CANONICAL22_PARENTS, canonical22_skeleton
+
+
+@pytest.fixture(scope="module")
+def tpose():
+    o = np.zeros((22, 3))
+    o[0] = [0, 0.95, 0]
+    chain = {1: [0, .1, 0], 2: [0, .12, 0], 3: [0, .13, 0], 4: [0, .15, 0], 5: [0, .1, 0],
+             6: [.09, -.05, 0], 7: [0, -.43, 0], 8: [0, -.42, 0], 9: [0, -.05, .13],
+             14: [.06, .1, 0], 15: [.12, 0, 0], 16: [.27, 0, 0], 17: [.25, 0, 0]}
+    for j, v in chain.items():
+        o[j] = v
+    for left, right in ((6, 10), (7, 11), (8, 12), (9, 13), (14, 18), (15, 19), (16, 20), (17, 21)):
+        o[right] = o[left] * [-1, 1, 1]
+    return canonical22_skeleton(o).rest_positions()
+
+
+def content_fraction(img, box=None):
+    """Share of pixels that are neither white background nor floor grey."""
+    sub = img if box is None else img[box]
+    return (np.abs(sub.astype(int) - 255).sum(-1) > 60).mean()
+
+
+def test_skeleton_render_non_blank_centred_and_pose_dependent(tpose):
+    img = viz.render_skeleton(tpose, CANONICAL22_PARENTS)
+    assert img.shape == (400, 640, 3) and img.dtype == np.uint8
+    h, w = img.shape[:2]
+    assert content_fraction(img, (slice(h // 4, 3 * h // 4), slice(w // 3, 2 * w // 3))) > 0.02
+    raised = tpose.copy()
+    raised[[16, 17]] += [0, 0.3, 0]  # lift the left forearm and hand
+    assert np.abs(viz.render_skeleton(raised, CANONICAL22_PARENTS).astype(int) - img).sum() > 1000
+
+
+def test_side_by_side_has_three_characters(tpose):
+    img = viz.render_side_by_side([(tpose, CANONICAL22_PARENTS)] * 3, titles=["a", "b", "c"])
+    w = img.shape[1]
+    thirds = [content_fraction(img[:, k * w // 3:(k + 1) * w // 3]) for k in range(3)]
+    assert min(thirds) > 0.01
+
+
+def test_png_under_budget_and_show(tmp_path, tpose):
+    img = viz.render_side_by_side([(tpose, CANONICAL22_PARENTS)] * 8, ncols=4)
+    path = viz.save_png(img, tmp_path / "a.png")
+    assert path.stat().st_size <= 150 * 1024
+    noise = np.random.default_rng(0).integers(0, 255, (600, 800, 3), dtype=np.uint8)
+    assert len(viz.png_bytes(noise, max_kb=150)) <= 150 * 1024  # incompressible input is downscaled
+    assert viz.show(img).format == "png"
+
+
+def test_gif_has_all_frames(tmp_path, tpose):
+    import imageio.v3 as iio
+
+    T = 10
+    pos = np.repeat(tpose[None], T, 0)
+    pos[:, 17, 1] += np.linspace(0, 0.3, T)
+    path = viz.animate_motion(pos, CANONICAL22_PARENTS, tmp_path / "a.gif", every=1, window_size=(240, 160))
+    frames = iio.imread(path, index=None)
+    assert frames.shape[0] == T
+    assert not np.array_equal(frames[0], frames[-1])
+
+
+def test_mesh_render_with_scalars_and_pairs():
+    import pyvista as pv
+
+    box = pv.Box(bounds=(-0.2, 0.2, 0.0, 1.0, -0.1, 0.1)).triangulate()
+    v, f = np.asarray(box.points), np.asarray(box.faces).reshape(-1, 4)[:, 1:]
+    img = viz.render_mesh(v, f, scalars=v[:, 1], point_pairs=np.array([[0, 1]]), highlight_faces=np.array([0]))
+    assert content_fraction(img) > 0.02
+
+
+def test_plots():
+    ax = viz.plot_root_trajectories({"a": np.zeros((5, 3)), "b": np.ones((5, 3))})
+    assert len([ln for ln in ax.get_lines() if ln.get_label() in ("a", "b")]) == 2
+    ax = viz.plot_timeline({"left": np.array([0, 1, 1, 0]), "right": np.array([1, 0, 0, 1])}, fps=30)
+    assert [t.get_text() for t in ax.get_yticklabels()] == ["left", "right"]
+
+
+def test_player_static_and_widget_modes(tpose):
+    from retarget_lib.motion import Motion
+
+    sk = canonical22_skeleton(np.zeros((22, 3)) + 0.1)
+    rot = np.zeros((12, 22, 4))
+    rot[..., 0] = 1
+    motions = {"a": Motion(sk, rot, np.zeros((12, 3)), 30.0), "b": Motion(sk, rot[:5], np.zeros((5, 3)), 30.0)}
+    still = viz.player(motions, mode="static")
+    bundle = still._repr_mimebundle_()
+    assert still.widget is None and "image/png" in bundle
+    live = viz.player(motions, mode="widget")
+    assert live.slider.max == 11 and list(live.picker.options) == ["a", "b"]
+    live.picker.value = "b"
+    assert live.slider.max == 4
+    bundle = live._repr_mimebundle_()
+    assert "application/vnd.jupyter.widget-view+json" in bundle and "image/png" in bundle
+    live.close()
+    with pytest.raises(ValueError, match="mode"):
+        viz.player(motions, mode="nope")
