@@ -36,8 +36,13 @@ def _cmd_data(args: argparse.Namespace) -> int:
 
 def _cmd_bench(args: argparse.Namespace) -> int:
     from .bench import run
+    from .data.cache import atomic_write
 
-    print(run(quick=args.quick, only=args.only))
+    table = run(quick=args.quick, only=args.only)
+    print(table)
+    if args.out:
+        with atomic_write(args.out, "w") as f:
+            f.write(table + "\n")
     return 0
 
 
@@ -54,6 +59,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("bench", help="speed benchmarks (ratios against same-run references)")
     p.add_argument("--quick", action="store_true", help="fewer repeats (CI smoke run)")
     p.add_argument("--only", nargs="*", help="names of benchmarks to run (default: all)")
+    p.add_argument("--out", help="also write the Markdown table to this file")
     p.set_defaults(func=_cmd_bench)
     return parser
 

@@ -13,7 +13,8 @@ How it is fast (see ``retarget bench``): the data are laid out structure-of-arra
 ``(component, joint, batch)``, with joints sorted by tree depth so that every depth level is a
 contiguous slice. Each level is then a few fused multiply-adds over long contiguous rows: the
 quaternion product is ``a*b = a_w b + a_x P_x(b) + a_y P_y(b) + a_z P_z(b)`` with signed
-permutations ``P`` of ``b`` precomputed for all joints, and cross products use index
+permutations ``P`` of ``b`` (small per-level copies: full-size temporaries cost more in
+page faults than they save), and cross products use index
 permutations instead of ``torch.cross``. The canonical 22 joints need 7 levels instead of 21
 sequential joint steps.
 """
@@ -118,15 +119,14 @@ def forward_kinematics(
 
     # (component, joint, batch) layout, joints sorted by depth
     lq = rotations.expand(lead + (nj, 4)).reshape(n, nj * 4).t().reshape(nj, 4, n)
-    lq = lq.index_select(0, order).transpose(0, 1)  # (4, J, N)
+    lq = lq.index_select(0, order).transpose(0, 1).contiguous()  # (4, J, N)
     if offsets.dim() == 2:
         off = offsets.index_select(0, order).t().unsqueeze(-1)  # (3, J, 1)
     else:
         off = offsets.expand(lead + (nj, 3)).reshape(n, nj * 3).t().reshape(nj, 3, n)
-        off = off.index_select(0, order).transpose(0, 1)  # (3, J, N)
+        off = off.index_select(0, order).transpose(0, 1).contiguous()  # (3, J, N)
     perm = [torch.tensor(p, device=device) for p in _PERM]
     sign = [torch.tensor(s, dtype=dtype, device=device).view(4, 1, 1) for s in _SIGN]
-    lqp = [lq.index_select(0, p) * s for p, s in zip(perm, sign)]
     yzx, zxy = torch.tensor([1, 2, 0], device=device), torch.tensor([2, 0, 1], device=device)
     off_yzx, off_zxy = off.index_select(0, yzx), off.index_select(0, zxy)
     u_yzx, u_zxy = torch.tensor([2, 3, 1], device=device), torch.tensor([3, 1, 2], device=device)
@@ -141,9 +141,10 @@ def forward_kinematics(
     for start, end, pslots in plan.levels:
         pidx = torch.tensor(pslots, device=device)
         pq = gq.index_select(1, pidx)  # (4, k, N) parents' global rotations
-        nq = pq[0] * lq[:, start:end]
+        lq_level = lq[:, start:end]
+        nq = pq[0] * lq_level
         for c in range(3):
-            nq = nq.addcmul(pq[c + 1], lqp[c][:, start:end])
+            nq = nq.addcmul(pq[c + 1], lq_level.index_select(0, perm[c]) * sign[c])
         gq[:, start:end] = nq
         # rotate offsets by the parents: v + w t + u x t, t = 2 u x v
         u_a, u_b = pq.index_select(0, u_yzx), pq.index_select(0, u_zxy)
