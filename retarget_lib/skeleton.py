@@ -297,7 +297,6 @@ def to_canonical22(motion: "Motion", convention: str | None = None) -> "Motion":
     Raises:
         JointSetError: if required joints are missing (named in the message).
     """
-    from .kinematics import forward_kinematics
     from .motion import Motion
 
     sk = motion.skeleton

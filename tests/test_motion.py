@@ -5,7 +5,7 @@ import pytest
 import torch
 
 from retarget_lib.motion import Motion
-from retarget_lib.rotations import quat_from_axis_angle, quat_normalize
+from retarget_lib.rotations import quat_from_axis_angle
 from retarget_lib.skeleton import CANONICAL22, MIRROR22, canonical22_skeleton
 
 

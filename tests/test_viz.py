@@ -1,6 +1,5 @@
 """Pictures: renders are non-blank, change with the pose, stay small; animations and the player."""
 
-import io
 
 import numpy as np
 import pytest
@@ -102,3 +101,19 @@ def test_player_static_and_widget_modes(tpose):
     live.close()
     with pytest.raises(ValueError, match="mode"):
         viz.player(motions, mode="nope")
+
+
+def test_player_character_picker_shows_the_motion_on_that_character():
+    from retarget_lib.data.synthetic import load_synthetic
+
+    ds = load_synthetic()
+    clip = ds.family("wave")[0]
+    other = next(n for n in ds.characters if n != clip.performer)
+    p = viz.player({clip.name: clip.motion}, ds.characters, mode="widget", window_size=(160, 120))
+    assert p.character_picker.options[0] == "performer" and other in p.character_picker.options
+    mine = p.scene(clip.name, 10)
+    p.character_picker.value = other
+    theirs = p.scene(clip.name, 10)
+    assert len(theirs.vertices) == ds.characters[other].num_vertices
+    assert mine.vertices.shape != theirs.vertices.shape or not np.allclose(mine.vertices, theirs.vertices)
+    p.close()

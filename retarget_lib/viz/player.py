@@ -1,5 +1,5 @@
-"""An ipywidgets motion player (frame slider + play button + character picker) that degrades to a
-still image when no Jupyter front end is attached.
+"""An ipywidgets motion player (frame slider + play button + motion picker + character picker) that
+degrades to a still image when no Jupyter front end is attached.
 
 How it degrades: the player's display bundle carries *both* the widget view and a PNG of the
 current frame. A live front end (JupyterLab, Notebook, VS Code) renders the widget; anything that
@@ -21,17 +21,23 @@ class Player:
     """Step through motions on characters.
 
     Args:
-        motions: name -> :class:`~retarget_lib.motion.Motion`.
-        characters: name -> :class:`~retarget_lib.data.characters.Character` (skinned meshes);
-            a motion is drawn on ``characters[motion.meta["performer"]]`` if present, else as a
-            skeleton.
+        motions: name -> :class:`~retarget_lib.motion.Motion` (canonical 22 joints for the
+            character picker).
+        characters: name -> :class:`~retarget_lib.data.characters.Character` (skinned meshes).
+            The character picker offers "performer" (the motion's own skeleton, drawn on
+            ``characters[motion.meta["performer"]]`` when present, else as a skeleton) and every
+            character, on which the motion is shown through ``transfer``.
+        transfer: ``(motion, skeleton) -> motion`` used for another character (default: the
+            ground-truth retargeting of :func:`retarget_lib.data.pairs.retarget_ground_truth`).
         mode: ``"auto"`` (widget plus still-image fallback), ``"widget"`` or ``"static"``.
         window_size: ``(width, height)`` of the picture.
         view: camera preset.
     """
 
+    PERFORMER = "performer"
+
     def __init__(self, motions: Mapping, characters: Mapping | None = None, mode: str = "auto",
-                 window_size=(480, 320), view="front_side"):
+                 window_size=(480, 320), view="front_side", transfer=None):
         if not motions:
             raise ValueError("Player needs at least one motion")
         if mode not in ("auto", "widget", "static"):
@@ -39,18 +45,35 @@ class Player:
         self.motions = dict(motions)
         self.characters = dict(characters or {})
         self.mode, self.window_size, self.view = mode, window_size, view
+        self.transfer = transfer
         self.name = next(iter(self.motions))
+        self.character = self.PERFORMER
+        self._shown: dict[tuple[str, str], object] = {}
         self.frame = self.motions[self.name].num_frames // 2
         self._renderer: SceneRenderer | None = None
         self._box = None
         self.widget = None if mode == "static" else self._build_widget()
 
     # ------------------------------------------------------------------ drawing
-    def scene(self, name: str, frame: int) -> Scene:
-        """The :class:`Scene` of motion ``name`` at ``frame`` (a skinned mesh when possible)."""
-        m = self.motions[name]
+    def shown_motion(self, name: str, character: str):
+        """Motion ``name`` as drawn for ``character`` (transferred once, then cached)."""
+        if character == self.PERFORMER:
+            return self.motions[name]
+        key = (name, character)
+        if key not in self._shown:
+            transfer = self.transfer
+            if transfer is None:
+                from ..data.pairs import retarget_ground_truth as transfer
+            self._shown[key] = transfer(self.motions[name], self.characters[character].skeleton)
+        return self._shown[key]
+
+    def scene(self, name: str, frame: int, character: str | None = None) -> Scene:
+        """The :class:`Scene` of motion ``name`` at ``frame`` on ``character`` (a skinned mesh
+        when a mesh is known, else the skeleton)."""
+        character = self.character if character is None else character
+        m = self.shown_motion(name, character)
         frame = int(np.clip(frame, 0, m.num_frames - 1))
-        ch = self.characters.get(m.meta.get("performer", ""))
+        ch = self.characters.get(m.meta.get("performer", "") if character == self.PERFORMER else character)
         if ch is not None and ch.skeleton.offsets.shape == m.skeleton.offsets.shape:
             return Scene(vertices=ch.skinned(m.rotations[frame], m.root_positions[frame]), faces=ch.faces)
         return Scene(positions=m.global_positions()[frame], parents=m.skeleton.parents,
@@ -62,13 +85,13 @@ class Player:
         frame = self.frame if frame is None else frame
         if self._renderer is None:
             self._renderer = SceneRenderer(self.window_size, self.view)
-        m = self.motions[name]
+        m = self.shown_motion(name, self.character)
         s = self.scene(name, frame)
-        if self._box is None or self._box[0] != name:
+        if self._box is None or self._box[0] != (name, self.character):
             pts = m.global_positions().reshape(-1, 3)
             size = max(s.size(), 0.5)
             lo, hi = pts.min(0) - 0.15 * size, pts.max(0) + 0.15 * size
-            self._box = (name, lo, hi, size)
+            self._box = ((name, self.character), lo, hi, size)
         _, lo, hi, size = self._box
         self._renderer.update([s], size)
         self._renderer.frame(lo, hi, size)
@@ -90,9 +113,13 @@ class Player:
         self.play = w.Play(value=self.frame, min=0, max=m.num_frames - 1, interval=int(1000 / m.fps))
         w.jslink((self.play, "value"), (self.slider, "value"))
         self.picker = w.Dropdown(options=list(self.motions), value=self.name, description="motion")
+        self.character_picker = w.Dropdown(options=[self.PERFORMER] + list(self.characters),
+                                           value=self.PERFORMER, description="character")
         self.slider.observe(self._on_frame, names="value")
         self.picker.observe(self._on_pick, names="value")
-        return w.VBox([w.HBox([self.picker, self.play, self.slider]), self.image])
+        self.character_picker.observe(self._on_character, names="value")
+        return w.VBox([w.HBox([self.picker, self.character_picker]), w.HBox([self.play, self.slider]),
+                       self.image])
 
     def _on_frame(self, change) -> None:
         self.frame = int(change["new"])
@@ -107,9 +134,13 @@ class Player:
         self.play.interval = int(1000 / m.fps)
         self.image.value = png_bytes(self.render())
 
+    def _on_character(self, change) -> None:
+        self.character = change["new"]
+        self.image.value = png_bytes(self.render())
+
     def _repr_mimebundle_(self, include=None, exclude=None):
         still = png_bytes(self.render())
-        text = f"Player: {self.name} frame {self.frame} ({len(self.motions)} motions)"
+        text = f"Player: {self.name} on {self.character}, frame {self.frame} ({len(self.motions)} motions)"
         if self.widget is None:
             return {"image/png": still, "text/plain": text}
         bundle = self.widget._repr_mimebundle_(include=include, exclude=exclude) or {}

@@ -13,10 +13,9 @@ projected onto ``y = 0``) on a checkerboard floor makes foot contact and sliding
 from __future__ import annotations
 
 import os
-import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Any, Sequence
 
 import numpy as np
 
