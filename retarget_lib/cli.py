@@ -3,6 +3,7 @@
 ::
 
     retarget data build|list|verify      build the embedded dataset; list/verify data_manifest.yaml
+    retarget retarget --source IN.bvh --target TARGET.bvh|CHARACTER --method copy|copy-rest --out OUT.bvh
     retarget bench [--quick]             speed table (ratios against references in the same run)
 """
 
@@ -34,6 +35,14 @@ def _cmd_data(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_retarget(args: argparse.Namespace) -> int:
+    from .retarget import retarget_file
+
+    out = retarget_file(args.source, args.target, args.method, args.out)
+    print(f"wrote {out}")
+    return 0
+
+
 def _cmd_bench(args: argparse.Namespace) -> int:
     from .bench import run
     from .data.cache import atomic_write
@@ -55,6 +64,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("action", choices=["build", "list", "verify"])
     p.add_argument("--force", action="store_true", help="rebuild even if the cache is up to date")
     p.set_defaults(func=_cmd_data)
+
+    p = sub.add_parser("retarget", help="retarget a BVH clip to a target skeleton or character")
+    p.add_argument("--source", required=True, help="source BVH (any joint set the library can fold)")
+    p.add_argument("--target", required=True,
+                   help="target BVH (its skeleton, units and joint names are used) or a character name")
+    p.add_argument("--method", required=True, choices=["copy", "copy-rest"],
+                   help="copy: copy local rotations, root scaled by leg length; copy-rest: copy with "
+                        "rest-pose compensation (same global bone directions)")
+    p.add_argument("--out", required=True, help="output .bvh")
+    p.set_defaults(func=_cmd_retarget)
 
     p = sub.add_parser("bench", help="speed benchmarks (ratios against same-run references)")
     p.add_argument("--quick", action="store_true", help="fewer repeats (CI smoke run)")

@@ -387,3 +387,51 @@ def fit_global_rotations(rotations: np.ndarray, positions: np.ndarray, offsets: 
         r = (u * fix.unsqueeze(-2)) @ vh
         out[:, j] = matrix_to_quat(r)
     return quat_canonical(out).numpy()
+
+
+def from_canonical22(motion: "Motion", skeleton: Skeleton, convention: str | None = None) -> "Motion":
+    """Put a canonical-22 motion back on a full joint set (the inverse of :func:`to_canonical22`).
+
+    Used to write a retargeted motion with the target file's own joints, names and rest offsets.
+    Each kept joint gets the product of the canonical local rotations along its canonical path
+    from its kept parent; joints that were folded away (CMU ``LHipJoint``, ``Neck1``, fingers,
+    ``*_End``) get identity. This reproduces the canonical world positions exactly when
+    ``motion.skeleton`` is ``to_canonical22`` of ``skeleton``'s rest pose and the folded joints sit on
+    straight rest chains, as in Mixamo and CMU rigs; for the Biovision layout the inserted
+    ``Spine2`` is merged into the chest (its rotation moves the neck and collars slightly).
+
+    Args:
+        motion: canonical-22 motion (e.g. a retargeting result).
+        skeleton: the full target skeleton (e.g. ``load_bvh(target).skeleton``).
+        convention: a key of :data:`NAME_MAPS`, or ``None`` to detect it.
+
+    Returns:
+        A Motion on ``skeleton`` with ``motion``'s frames, fps and root positions.
+    """
+    from .motion import Motion
+
+    if not motion.skeleton.is_canonical22():
+        raise JointSetError("from_canonical22 needs a canonical-22 motion")
+    convention = convention or detect_convention(skeleton.joint_names)
+    cmap = canonical_name_map(skeleton.joint_names, convention)
+    rot22 = torch.from_numpy(motion.rotations)
+    T = motion.num_frames
+    out = np.zeros((T, skeleton.num_joints, 4))
+    out[..., 0] = 1.0
+    for j, c in cmap.items():
+        # nearest kept ancestor in the target
+        a = skeleton.parents[j]
+        while a >= 0 and a not in cmap:
+            a = skeleton.parents[a]
+        stop = cmap[a] if a >= 0 else -1
+        path = []  # canonical joints from just below ``stop`` down to ``c``
+        k = c
+        while k != stop:
+            path.append(k)
+            k = CANONICAL22_PARENTS[k]
+        q = rot22[:, path[-1]]
+        for k in reversed(path[:-1]):
+            q = quat_mul(q, rot22[:, k])
+        out[:, j] = q.numpy()
+    return Motion(skeleton.copy(), out, motion.root_positions.copy(), motion.fps, name=motion.name,
+                  meta={"converted_from": "canonical22"})

@@ -1,0 +1,61 @@
+"""Retarget a file to a target skeleton or character (the ``retarget retarget`` command).
+
+A target BVH contributes its rest offsets (the character), its joint names, channel layout and
+length unit: the result is written on the target's *full* joint set
+(:func:`~retarget_lib.skeleton.from_canonical22`), so it loads next to the target's own clips.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from .io.bvh import load_bvh, save_bvh
+from .motion import Motion
+from .skeleton import Skeleton, from_canonical22, to_canonical22
+
+METHODS = ("copy", "copy-rest")
+
+
+def _canonical_source(path: str | Path, fps: float = 30.0) -> Motion:
+    m = to_canonical22(load_bvh(path))
+    return m.resample(fps) if abs(m.fps - fps) > 1e-6 else m
+
+
+def resolve_target(target: str) -> tuple[Skeleton, Motion | None]:
+    """``(canonical-22 skeleton, full target motion or None)`` for a BVH path or a character name."""
+    if target.lower().endswith(".bvh"):
+        full = load_bvh(target)
+        return to_canonical22(full.slice(0, 1)).skeleton, full
+    from .data.characters import CHARACTER_NAMES, make_character
+
+    if target not in CHARACTER_NAMES:
+        raise ValueError(f"target {target!r} is neither a .bvh file nor a character; characters: "
+                         f"{', '.join(CHARACTER_NAMES)}")
+    return make_character(target).skeleton, None
+
+
+def retarget_motion(source: Motion, target: Skeleton, method: str) -> Motion:
+    """Retarget a canonical-22 motion onto a canonical-22 target skeleton with ``method``."""
+    from .data.pairs import copy_rotations, copy_rotations_rest_compensated
+
+    if method == "copy":
+        return copy_rotations(source, target)
+    if method == "copy-rest":
+        return copy_rotations_rest_compensated(source, target)
+    raise ValueError(f"unknown method {method!r}; choose from {METHODS}")
+
+
+def retarget_file(source: str | Path, target: str, method: str, out: str | Path) -> Path:
+    """Load ``source``, retarget it to ``target`` with ``method`` and write ``out`` (BVH).
+
+    Returns:
+        the output path.
+    """
+    target_skeleton, target_full = resolve_target(str(target))
+    result = retarget_motion(_canonical_source(source), target_skeleton, method)
+    if target_full is not None:
+        result = from_canonical22(result, target_full.skeleton)
+        result.meta.update({k: target_full.meta[k] for k in ("unit_scale", "unit", "channels",
+                                                              "file_joint_names") if k in target_full.meta})
+    save_bvh(result, out)
+    return Path(out)
