@@ -1,0 +1,116 @@
+"""Experiment configs: YAML files that are small deltas over a base, with profiles and overrides.
+
+A config file may name a ``base:`` (path relative to itself); its keys are deep-merged over the
+base's. A ``profiles:`` mapping holds per-profile deltas (``fast`` for CI and laptops, ``paper`` for
+the papers' sizes) applied after the merge. Command-line ``key=value`` overrides (dotted keys,
+values parsed as YAML) come last. The seed lives in the config like everything else.
+
+Example::
+
+    # configs/tdcn_a3_no_height.yaml  (ablation A3: ours without Lh)
+    base: tdcn_paper.yaml
+    name: A3
+    loss: {height: 0.0}
+"""
+
+from __future__ import annotations
+
+import copy
+import os
+from pathlib import Path
+from typing import Any, Iterable
+
+import yaml
+
+PROFILES = ("fast", "paper")
+
+
+class ConfigError(ValueError):
+    """A config file or override is malformed (the message names the file or key)."""
+
+
+def deep_merge(base: dict, delta: dict) -> dict:
+    """``base`` with ``delta`` merged in recursively (mappings merge, everything else replaces)."""
+    out = copy.deepcopy(base)
+    for k, v in delta.items():
+        if isinstance(v, dict) and isinstance(out.get(k), dict):
+            out[k] = deep_merge(out[k], v)
+        else:
+            out[k] = copy.deepcopy(v)
+    return out
+
+
+def _read(path: Path, seen: tuple[Path, ...] = ()) -> dict:
+    path = path.resolve()
+    if path in seen:
+        raise ConfigError(f"config base cycle: {' -> '.join(str(p) for p in seen + (path,))}")
+    if not path.exists():
+        raise ConfigError(f"config file not found: {path}")
+    with open(path) as f:
+        data = yaml.safe_load(f) or {}
+    if not isinstance(data, dict):
+        raise ConfigError(f"{path}: a config must be a mapping")
+    base = data.pop("base", None)
+    if base is None:
+        return data
+    merged = _read(path.parent / base, seen + (path,))
+    profiles = merged.pop("profiles", {})
+    own_profiles = data.pop("profiles", {})
+    out = deep_merge(merged, data)
+    out["profiles"] = deep_merge(profiles, own_profiles)
+    return out
+
+
+def parse_override(item: str) -> tuple[list[str], Any]:
+    """``"train.steps=200"`` → ``(["train", "steps"], 200)`` (the value is parsed as YAML)."""
+    if "=" not in item:
+        raise ConfigError(f"override {item!r} must look like key.sub=value")
+    key, raw = item.split("=", 1)
+    if not key or any(not part for part in key.split(".")):
+        raise ConfigError(f"override {item!r} has an empty key")
+    return key.split("."), yaml.safe_load(raw)
+
+
+def set_key(config: dict, keys: list[str], value: Any) -> None:
+    """Set ``config[k0][k1]... = value``; unknown top-level sections are refused (typo guard)."""
+    node = config
+    for i, k in enumerate(keys[:-1]):
+        if k not in node or not isinstance(node[k], dict):
+            raise ConfigError(f"unknown config section {'.'.join(keys[: i + 1])!r}; "
+                              f"known: {sorted(kk for kk, vv in node.items() if isinstance(vv, dict))}")
+        node = node[k]
+    if keys[-1] not in node:
+        raise ConfigError(f"unknown config key {'.'.join(keys)!r}; known here: {sorted(node)}")
+    node[keys[-1]] = value
+
+
+def load_config(path: str | os.PathLike, overrides: Iterable[str] = (), profile: str | None = None) -> dict:
+    """Read a config, apply its base chain, the profile and the overrides.
+
+    Args:
+        path: YAML file.
+        overrides: ``key.sub=value`` strings.
+        profile: ``"fast"`` or ``"paper"``; default ``$RETARGET_PROFILE`` or ``"fast"``.
+
+    Returns:
+        the merged config, with ``profile`` and ``config_path`` recorded in it.
+    """
+    profile = profile or os.environ.get("RETARGET_PROFILE", "fast")
+    if profile not in PROFILES:
+        raise ConfigError(f"unknown profile {profile!r}; choose from {PROFILES}")
+    cfg = _read(Path(path))
+    profiles = cfg.pop("profiles", {}) or {}
+    cfg = deep_merge(cfg, profiles.get(profile, {}) or {})
+    for item in overrides:
+        keys, value = parse_override(item)
+        set_key(cfg, keys, value)
+    if "seed" not in cfg:
+        raise ConfigError(f"{path}: every experiment config needs a 'seed'")
+    cfg["profile"] = profile
+    cfg["config_path"] = str(Path(path))
+    return cfg
+
+
+def dump_config(config: dict) -> str:
+    """The config as YAML text (stored next to checkpoints)."""
+    return yaml.safe_dump(config, sort_keys=False)

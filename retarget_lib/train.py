@@ -1,0 +1,169 @@
+"""The training loop every model shares: seeded, logged to CSV, checkpointed atomically, resumable,
+and stopped with a clear message on NaN/inf.
+
+A method supplies a :class:`TrainTask` — its modules, optimisers and a ``step(batch_index)`` that
+returns a dict of float losses — and :func:`fit` does the rest::
+
+    run_dir/config.yaml      the merged config
+    run_dir/losses.csv       one row per step: step, seconds, every loss term
+    run_dir/last.pt          the latest checkpoint (atomic; ``--resume`` continues from it)
+    run_dir/final.pt         written when training completes
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import random
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+import torch
+
+from .config import dump_config
+from .data.cache import atomic_write
+from .notebook import seed_everything
+
+
+class NonFiniteLossError(FloatingPointError):
+    """A loss became NaN or inf; the message names the term, the step and the last checkpoint."""
+
+
+@dataclass
+class TrainTask:
+    """What :func:`fit` trains.
+
+    Attributes:
+        modules: name -> module (their ``state_dict`` is checkpointed).
+        optimizers: name -> optimiser (checkpointed too).
+        step: ``step(i) -> {term: float}``; does one optimisation step and returns its losses.
+        extra_state: name -> object with ``state_dict``/``load_state_dict`` (e.g. a normaliser).
+    """
+
+    modules: dict[str, torch.nn.Module]
+    optimizers: dict[str, torch.optim.Optimizer]
+    step: Callable[[int], dict[str, float]]
+    extra_state: dict = field(default_factory=dict)
+
+
+def _rng_state() -> dict:
+    return {"torch": torch.get_rng_state(), "numpy": np.random.get_state(), "python": random.getstate()}
+
+
+def _set_rng_state(state: dict) -> None:
+    torch.set_rng_state(state["torch"])
+    np.random.set_state(state["numpy"])
+    random.setstate(state["python"])
+
+
+def save_checkpoint(path: str | Path, task: TrainTask, step: int, config: dict) -> Path:
+    """Write modules, optimisers, RNG states, step and config to ``path`` atomically."""
+    state = {
+        "step": step,
+        "config": config,
+        "modules": {k: m.state_dict() for k, m in task.modules.items()},
+        "optimizers": {k: o.state_dict() for k, o in task.optimizers.items()},
+        "extra": {k: e.state_dict() for k, e in task.extra_state.items()},
+        "rng": _rng_state(),
+    }
+    with atomic_write(path) as f:
+        torch.save(state, f)
+    return Path(path)
+
+
+def load_checkpoint(path: str | Path, task: TrainTask | None = None) -> dict:
+    """Read a checkpoint; with ``task``, restore its modules, optimisers, extra state and RNGs."""
+    state = torch.load(path, map_location="cpu", weights_only=False)
+    if task is not None:
+        for k, m in task.modules.items():
+            m.load_state_dict(state["modules"][k])
+        for k, o in task.optimizers.items():
+            o.load_state_dict(state["optimizers"][k])
+        for k, e in task.extra_state.items():
+            e.load_state_dict(state["extra"][k])
+        _set_rng_state(state["rng"])
+    return state
+
+
+def _check_finite(losses: dict[str, float], step: int, run_dir: Path) -> None:
+    bad = [k for k, v in losses.items() if not math.isfinite(v)]
+    if bad:
+        last = run_dir / "last.pt"
+        where = f"; the last good checkpoint is {last}" if last.exists() else ""
+        raise NonFiniteLossError(f"loss term(s) {bad} became non-finite at step {step}{where}. "
+                                 "Lower the learning rate or check the input data for NaNs.")
+
+
+def _truncate_log(path: Path, upto: int) -> None:
+    """Keep the header and the rows with ``step < upto`` (a resumed run rewrites the rest)."""
+    if not path.exists():
+        return
+    with open(path) as f:
+        rows = list(csv.reader(f))
+    keep = rows[:1] + [r for r in rows[1:] if r and int(r[0]) < upto]
+    with atomic_write(path, "w") as f:
+        csv.writer(f).writerows(keep)
+
+
+def fit(task: TrainTask, config: dict, run_dir: str | Path, steps: int, checkpoint_every: int = 100,
+        resume: bool = False, progress: bool = True) -> Path:
+    """Run ``steps`` optimisation steps of ``task``; return the final checkpoint's path.
+
+    Args:
+        task: the :class:`TrainTask`.
+        config: merged config (its ``seed`` seeds everything; it is stored in the checkpoints).
+        run_dir: output folder.
+        steps: total steps (a resumed run continues up to this number).
+        checkpoint_every: steps between ``last.pt`` writes.
+        resume: continue from ``run_dir/last.pt`` if it exists (modules, optimisers, RNGs, log).
+        progress: show a tqdm progress bar.
+
+    Raises:
+        NonFiniteLossError: as soon as a loss is NaN/inf (nothing after it is saved).
+    """
+    from tqdm.auto import tqdm
+
+    run_dir = Path(run_dir)
+    run_dir.mkdir(parents=True, exist_ok=True)
+    with atomic_write(run_dir / "config.yaml", "w") as f:
+        f.write(dump_config(config))
+    seed_everything(int(config["seed"]))
+    start = 0
+    last = run_dir / "last.pt"
+    log_path = run_dir / "losses.csv"
+    if resume and last.exists():
+        start = int(load_checkpoint(last, task)["step"])
+        _truncate_log(log_path, start)
+    elif log_path.exists():
+        log_path.unlink()
+    for m in task.modules.values():
+        m.train()
+    writer, fh, header = None, None, None
+    t0 = time.perf_counter()
+    bar = tqdm(range(start, steps), initial=start, total=steps, disable=not progress, desc=config.get("name", "train"))
+    try:
+        for i in bar:
+            losses = task.step(i)
+            _check_finite(losses, i, run_dir)
+            if writer is None:
+                header = ["step", "seconds"] + list(losses)
+                new = not log_path.exists() or log_path.stat().st_size == 0
+                fh = open(log_path, "a", newline="")
+                writer = csv.writer(fh)
+                if new:
+                    writer.writerow(header)
+            writer.writerow([i, f"{time.perf_counter() - t0:.3f}"] + [f"{losses[k]:.6g}" for k in header[2:]])
+            if progress:
+                bar.set_postfix({k: f"{v:.3g}" for k, v in list(losses.items())[:3]})
+            if (i + 1) % checkpoint_every == 0 or i + 1 == steps:
+                fh.flush()
+                save_checkpoint(last, task, i + 1, config)
+    finally:
+        if fh is not None:
+            fh.close()
+    final = run_dir / "final.pt"
+    save_checkpoint(final, task, steps, config)
+    return final
