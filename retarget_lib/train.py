@@ -25,11 +25,8 @@ import torch
 
 from .config import dump_config
 from .data.cache import atomic_write
+from .losses import NonFiniteLossError
 from .notebook import seed_everything
-
-
-class NonFiniteLossError(FloatingPointError):
-    """A loss became NaN or inf; the message names the term, the step and the last checkpoint."""
 
 
 @dataclass

@@ -1,0 +1,20 @@
+"""Loss functions. :mod:`.tdcn` — TDCN's six training losses (Kim et al. 2020, Eqs. 6-23) and
+the NKN baseline's vanilla-GAN losses, all on plain tensors."""
+
+from .tdcn import (DiscriminatorInputs, MotionTensors, NonFiniteLossError, TDCNLossWeights,
+                   TERM_WEIGHTS, adversarial_loss, adversarial_loss_discriminator,
+                   adversarial_loss_generator, check_finite, cycle_loss, discriminator_inputs,
+                   height_loss, normalized_joint_displacements, normalized_root_displacements,
+                   normalized_root_distances, reconstruction_loss, regularization_loss,
+                   orientation_loss, sigmoid_ce_discriminator_loss, sigmoid_ce_generator_loss,
+                   smooth_l1, total_generator_loss, twist_loss, twist_penalty)
+
+__all__ = [
+    "DiscriminatorInputs", "MotionTensors", "NonFiniteLossError", "TDCNLossWeights",
+    "TERM_WEIGHTS", "adversarial_loss", "adversarial_loss_discriminator",
+    "adversarial_loss_generator", "check_finite", "cycle_loss", "discriminator_inputs",
+    "height_loss", "normalized_joint_displacements", "normalized_root_displacements",
+    "normalized_root_distances", "reconstruction_loss", "regularization_loss", "orientation_loss",
+    "sigmoid_ce_discriminator_loss", "sigmoid_ce_generator_loss", "smooth_l1",
+    "total_generator_loss", "twist_loss", "twist_penalty",
+]
