@@ -117,3 +117,34 @@ def test_player_character_picker_shows_the_motion_on_that_character():
     assert len(theirs.vertices) == ds.characters[other].num_vertices
     assert mine.vertices.shape != theirs.vertices.shape or not np.allclose(mine.vertices, theirs.vertices)
     p.close()
+
+
+def test_titles_stay_inside_the_image_and_apart(tpose):
+    from retarget_lib.viz.render import Scene, SceneRenderer
+
+    scenes = [Scene(positions=tpose + [dx, 0, 0], parents=CANONICAL22_PARENTS) for dx in (-0.5, 0.0, 0.5)]
+    r = SceneRenderer((240, 160), "front")
+    try:
+        r.update(scenes, 1.8)
+        r.frame(np.array([-1.4, 0, -0.2]), np.array([1.4, 1.9, 0.2]), 1.8)
+        r.set_titles(["source", "retargeted", "ground truth"], [[dx, 1.9, 0] for dx in (-0.5, 0.0, 0.5)])
+        boxes = []
+        for actor in r._texts:
+            bb = [0.0] * 4
+            actor.GetBoundingBox(r.pl.renderer, bb)
+            x, y = actor.GetPosition()
+            boxes.append((x - 0.5 * (bb[1] - bb[0]), x + 0.5 * (bb[1] - bb[0]), y))
+        assert len(boxes) == 3
+        assert all(0 <= lo and hi <= 240 for lo, hi, _ in boxes)
+        for (_, hi_a, ya), (lo_b, _, yb) in zip(boxes, boxes[1:]):
+            assert hi_a <= lo_b or ya != yb  # side by side, or staggered onto another line
+    finally:
+        r.close()
+
+
+def test_mp4_keeps_its_size(tmp_path, tpose):
+    import imageio.v3 as iio
+
+    pos = np.repeat(tpose[None], 4, 0)
+    path = viz.animate_motion(pos, CANONICAL22_PARENTS, tmp_path / "a.mp4", every=1, window_size=(240, 150))
+    assert iio.imread(path, index=None).shape[1:3] == (150, 240)  # 150 is not a multiple of 8 or 16

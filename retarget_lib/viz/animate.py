@@ -34,7 +34,11 @@ def render_frames(frames: Sequence[Sequence[Scene]], view="front_side", window_s
         ext = [np.concatenate([f[i].points() for f in frames]) for i in range(n)]
         boxes = [Scene(positions=np.stack([e.min(0), e.max(0)]), parents=(-1, 0), joint_names=["", ""])
                  for e in ext]
-        placed = _layout_row(boxes)
+        # gap from the characters' own size (not the clip box, which grows with walking distance),
+        # widened for long labels so neighbouring titles do not run into each other
+        longest = max((len(str(t)) for t in titles or ()), default=0)
+        gap = float(np.median([s.size() for s in frames[0]])) * (0.35 + 0.06 * longest)
+        placed = _layout_row(boxes, gap)
         shifts = [p.positions[0] - b.positions[0] for p, b in zip(placed, boxes)]
         frames = [[s.translated(d) for s, d in zip(f, shifts)] for f in frames]
     allpts = np.concatenate([s.points() for f in frames for s in f])
@@ -83,7 +87,8 @@ def write_animation(images: Sequence[np.ndarray], path: str | Path, fps: float =
         frames[0].save(path, save_all=True, append_images=frames[1:], duration=int(round(1000 / fps)),
                        loop=0, optimize=True, disposal=1)
     else:
-        iio.imwrite(path, np.stack(images), fps=fps, codec="libx264", macro_block_size=8)
+        # yuv420p needs even sizes only; 8/16 would resize (and warn about) e.g. 480x300
+        iio.imwrite(path, np.stack(images), fps=fps, codec="libx264", macro_block_size=2)
     return path
 
 

@@ -385,7 +385,7 @@ class SceneRenderer:
                 m.point_data["Normals"] = nrm
                 m.point_data.active_normals_name = "Normals"
                 m.point_data["rgb"] = g.colors
-                self.pl.add_mesh(m, scalars="rgb", rgb=True, specular=0.3, specular_power=20,
+                self.pl.add_mesh(m, render=False, scalars="rgb", rgb=True, specular=0.3, specular_power=20,
                                  smooth_shading=False, show_scalar_bar=False)
                 it["skel"] = m
             if s.vertices is not None:
@@ -397,22 +397,22 @@ class SceneRenderer:
                 if s.scalars is not None:
                     m.point_data["values"] = np.asarray(s.scalars, dtype=np.float64).reshape(-1)
                     clim = s.clim or (float(np.min(s.scalars)), float(np.max(s.scalars)) + 1e-12)
-                    self.pl.add_mesh(m, scalars="values", cmap=s.cmap, clim=clim, **kw)
+                    self.pl.add_mesh(m, render=False, scalars="values", cmap=s.cmap, clim=clim, **kw)
                 else:
-                    self.pl.add_mesh(m, color=s.mesh_color, **kw)
+                    self.pl.add_mesh(m, render=False, color=s.mesh_color, **kw)
                 it["mesh"] = m
                 if s.highlight_faces is not None:
                     hf = np.asarray(s.highlight_faces)
                     hf = np.flatnonzero(hf) if hf.dtype == bool else hf.astype(int)
                     it["hl_faces"] = s.faces[hf]
                     hm = _polydata(self._lifted(s.vertices, m, size), s.faces[hf])
-                    self.pl.add_mesh(hm, color=s.highlight_color, lighting=True, show_scalar_bar=False)
+                    self.pl.add_mesh(hm, render=False, color=s.highlight_color, lighting=True, show_scalar_bar=False)
                     it["hl"] = hm
             if s.point_pairs is not None:
                 it["pairs_n"] = len(s.point_pairs)
                 pm = self._pairs_mesh(s, size)
                 if pm is not None:
-                    self.pl.add_mesh(pm[0], scalars="rgb", rgb=True, show_scalar_bar=False)
+                    self.pl.add_mesh(pm[0], render=False, scalars="rgb", rgb=True, show_scalar_bar=False)
                     it["pairs"], it["pair_geom"] = pm
             if self.shadow and (s.positions is not None or s.vertices is not None):
                 parts = [it[k].points for k in ("skel", "mesh") if k in it]
@@ -420,7 +420,7 @@ class SceneRenderer:
                 if "mesh" in it:
                     fl.append(s.faces + (len(parts[0]) if "skel" in it else 0))
                 sh = _polydata(self._flat(np.concatenate(parts)), np.concatenate(fl))
-                self.pl.add_mesh(sh, color=_SHADOW, lighting=False, show_scalar_bar=False)
+                self.pl.add_mesh(sh, render=False, color=_SHADOW, lighting=False, show_scalar_bar=False)
                 it["shadow"] = sh
             self._items.append(it)
 
@@ -464,9 +464,9 @@ class SceneRenderer:
         if self._floor == key:
             return
         if self._floor is not None:
-            self.pl.remove_actor("floor")
+            self.pl.remove_actor("floor", render=False)
         plane = _checkerboard(x0, x1, z0, z1, step)
-        self.pl.add_mesh(plane, scalars="rgb", rgb=True, lighting=False, name="floor", show_scalar_bar=False)
+        self.pl.add_mesh(plane, render=False, scalars="rgb", rgb=True, lighting=False, name="floor", show_scalar_bar=False)
         self._floor = key
 
     # ---------------------------------------------------------------------------- public
@@ -526,18 +526,50 @@ class SceneRenderer:
         return x, y
 
     def set_titles(self, titles: Sequence[str], anchors: Sequence[np.ndarray]) -> None:
-        """Centred text labels at the projected world ``anchors`` (one ``(3,)`` each)."""
+        """Centred text labels just above the projected world ``anchors`` (one ``(3,)`` each).
+
+        Labels are kept inside the image. When neighbours would overlap, the font shrinks (down to
+        65 %), then a label that still collides moves up a line (at most three lines).
+        """
         for t in self._texts:
-            self.pl.remove_actor(t)
+            self.pl.remove_actor(t, render=False)
         self._texts = []
         w, h = self.window_size
-        for text, a in zip(titles, anchors):
-            if not text:
-                continue
-            x, y = self.to_display(a)
-            actor = self.pl.add_text(str(text), position=(x, min(y + 4, h - self.font_size * 1.6)),
-                                     font_size=self.font_size, color="black")
+        items = sorted((self.to_display(a)[0], self.to_display(a)[1], str(t))
+                       for t, a in zip(titles, anchors) if t)
+        if not items:
+            return
+        actors = []
+        for x, y, text in items:
+            actor = self.pl.add_text(text, position=(x, y), font_size=self.font_size, color="black",
+                                     render=False)
             actor.GetTextProperty().SetJustificationToCentered()
+            actors.append(actor)
+
+        def width(actor) -> float:
+            bb = [0.0] * 4
+            actor.GetBoundingBox(self.pl.renderer, bb)
+            return bb[1] - bb[0]
+
+        widths = [width(ac) for ac in actors]
+        scale = min([1.0] + [max(xb - xa, 1.0) / (0.5 * (wa + wb) + 8) for (xa, _, _), (xb, _, _), wa, wb
+                             in zip(items, items[1:], widths, widths[1:])])
+        base = actors[0].GetTextProperty().GetFontSize()  # pyvista's units: 2x font_size
+        fs = max(8, int(round(base * max(scale, 0.65))))
+        line = 0.95 * fs  # one line of text in pixels (measured: 22 px at size 24)
+        right: list[float] = []  # right edge of the last label on each line (base line first)
+        placed = []
+        for (x, y, _), actor in zip(items, actors):
+            actor.GetTextProperty().SetFontSize(fs)
+            tw = width(actor)
+            x = float(np.clip(x, 0.5 * tw + 2, w - 0.5 * tw - 2))
+            free = [k for k, edge in enumerate(right) if x - 0.5 * tw > edge + max(8.0, 0.5 * line)]
+            row = free[0] if free else (len(right) if len(right) < 3 else int(np.argmin(right)))
+            right[row:row + 1] = [x + 0.5 * tw]
+            placed.append((x, y, row))
+        top = h - (1.2 + max(row for _, _, row in placed)) * line  # highest base line
+        for (x, y, row), actor in zip(placed, actors):
+            actor.SetPosition(x, min(y + 4, top) + row * line)
             self._texts.append(actor)
 
     def screenshot(self) -> np.ndarray:
@@ -546,9 +578,28 @@ class SceneRenderer:
         return np.ascontiguousarray(self.pl.screenshot(return_img=True)[..., :3])
 
 
-def _bounds(scenes: Sequence[Scene]) -> tuple[np.ndarray, np.ndarray]:
+def _bounds(scenes: Sequence[Scene], size: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """``(lo (3,), hi (3,))`` box of the scenes' points; with ``size``, padded for the joint
+    spheres and (on skeletons with a ``Head`` joint) the skull drawn above the head joint."""
     pts = np.concatenate([s.points() for s in scenes])
-    return pts.min(0), pts.max(0)
+    lo, hi = pts.min(0), pts.max(0)
+    if size is not None:
+        lo, hi = lo - 0.03 * size, hi + 0.03 * size
+        if any(_has_head(s) for s in scenes):
+            hi[1] += 0.09 * size
+    return lo, hi
+
+
+def _has_head(s: Scene) -> bool:
+    if s.positions is None:
+        return False
+    return "Head" in list(s.joint_names) if s.joint_names is not None else len(s.positions) == 22
+
+
+def _title_anchor(s: Scene, size: float) -> list[float]:
+    """World point just above the scene's padded box (where its label is centred)."""
+    lo, hi = _bounds([s], size)
+    return [0.5 * (lo[0] + hi[0]), hi[1] + 0.02 * size, hi[2]]
 
 
 def _layout_row(scenes: Sequence[Scene], gap: float | None = None, extents=None) -> list[Scene]:
@@ -586,13 +637,12 @@ def render_scenes(scenes: Sequence[Scene], titles: Sequence[str] | None = None, 
     try:
         size = float(np.median([s.size() for s in scenes]))
         r.update(scenes, size)
-        lo, hi = _bounds(scenes)
+        lo, hi = _bounds(scenes, size)
         titles = [s.title for s in scenes] if titles is None else titles
         if any(titles):
-            hi = hi + [0, 0.12 * size, 0]
+            hi = hi + [0, 0.14 * size, 0]
         r.frame(lo, hi, size)
-        r.set_titles(titles, [[0.5 * (s.points()[:, 0].min() + s.points()[:, 0].max()),
-                               s.points()[:, 1].max() + 0.04 * size, s.points()[:, 2].max()] for s in scenes])
+        r.set_titles(titles, [_title_anchor(s, size) for s in scenes])
         return r.screenshot()
     finally:
         r.close()
@@ -689,22 +739,20 @@ def render_side_by_side(scenes: Sequence, titles: Sequence[str] | None = None, p
     placed = [_layout_row([sc[i] for i in row], gap) for row in rows]
     widths = [np.ptp(np.concatenate([s.points() for s in p])[:, 0]) for p in placed]
     span = placed[int(np.argmax(widths))]
-    lo_all, hi_all = _bounds(span)
     size = float(np.median([s.size() for s in sc]))
+    lo_all, hi_all = _bounds(span, size)
     if any(titles):  # room for labels wider than the outer characters
         lo_all, hi_all = lo_all - [0.3 * size, 0, 0], hi_all + [0.3 * size, 0, 0]
     images = []
     for row, p in zip(rows, placed):
-        lo, hi = _bounds(p)
+        lo, hi = _bounds(p, size)
         lo = np.array([lo_all[0], min(lo[1], lo_all[1]), lo[2]])
-        hi = np.array([hi_all[0], max(hi[1], hi_all[1]) + (0.12 * size if any(titles) else 0), hi[2]])
+        hi = np.array([hi_all[0], max(hi[1], hi_all[1]) + (0.14 * size if any(titles) else 0), hi[2]])
         r = SceneRenderer(window_size, view, parallel, True, True, font_size)
         try:
             r.update(p, size)
             r.frame(lo, hi, size)
-            r.set_titles([titles[i] for i in row],
-                         [[0.5 * (s.points()[:, 0].min() + s.points()[:, 0].max()),
-                           s.points()[:, 1].max() + 0.04 * size, s.points()[:, 2].max()] for s in p])
+            r.set_titles([titles[i] for i in row], [_title_anchor(s, size) for s in p])
             images.append(r.screenshot())
         finally:
             r.close()
