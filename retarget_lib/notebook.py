@@ -6,6 +6,8 @@ import os
 import random
 from dataclasses import dataclass
 
+from pathlib import Path
+
 import numpy as np
 import torch
 
@@ -18,11 +20,13 @@ class NotebookContext:
         seed: the seed given to ``random``, NumPy and torch.
         profile: ``"fast"`` (CI, workshops) or ``"paper"`` (``$RETARGET_PROFILE``).
         rng: a NumPy ``Generator`` seeded with ``seed`` for the notebook's own sampling.
+        figures: folder for files a notebook writes (GIFs, MP4s): ``<repo>/build/figures``.
     """
 
     seed: int
     profile: str
     rng: np.random.Generator
+    figures: Path
 
 
 def seed_everything(seed: int) -> None:
@@ -59,4 +63,9 @@ def setup_notebook(seed: int = 0, threads: int | None = None) -> NotebookContext
     pd.set_option("display.max_rows", 60)
     np.set_printoptions(precision=4, suppress=True)
     torch.set_printoptions(precision=4, sci_mode=False)
-    return NotebookContext(seed, os.environ.get("RETARGET_PROFILE", "fast"), np.random.default_rng(seed))
+    from .data.cache import REPO_ROOT
+
+    figures = REPO_ROOT / "build" / "figures"
+    figures.mkdir(parents=True, exist_ok=True)
+    return NotebookContext(seed, os.environ.get("RETARGET_PROFILE", "fast"), np.random.default_rng(seed),
+                           figures)
