@@ -1,0 +1,181 @@
+"""Retargeting networks: the TDCN generator and patch discriminator (Kim et al. 2020) and the NKN
+baselines (Villegas et al. 2018), built from small config dicts.
+
+>>> from retarget_lib.models import build_model
+>>> gen, disc = build_model({"row": "A5", "profile": "fast"})      # causal TDCN, 256 channels
+
+Model config keys (all optional; a ``"model"`` sub-dict is used if present):
+
+=====================  ====================================================================
+``row``                a Table 4 row name (:data:`TABLE4_ROWS`), expanded first; explicit
+                       keys override it
+``kind``               ``"tdcn"`` (default) or ``"nkn"``
+``variant``            TDCN: ``"ours"`` (default), ``"dense"`` (A1), ``"disc81"`` (A4),
+                       ``"causal"`` (A5). NKN: ``"baseline"`` (default), ``"dense"``,
+                       ``"dilated"``, ``"height"``
+``profile``            ``"fast"`` or ``"paper"``; default ``$RETARGET_PROFILE`` or ``"fast"``;
+                       only picks default widths (:data:`PROFILE_WIDTHS`)
+``channels``           generator width (TDCN channels / NKN hidden size)
+``disc_channels``      discriminator width
+``disc_receptive_field``  31 (default) or 81 (A4)
+``dropout``            generator dropout (TDCN default 0.1, Sec. 5)
+``normalize_inputs``   ``False`` (default, the paper) or ``True``: the training code fits the
+                       generator's :class:`~retarget_lib.models.features.FeatureNormalizer`
+``height_loss``        NKN only; defaults to ``True`` for ``variant="height"``
+``dilations``, ``kernel``, ``slope``, ``head_hidden``, ``skip_projection``, ``num_layers``,
+``disc_norm``, ``causal``, ``dense``  passed to the constructors
+=====================  ====================================================================
+
+A2 (unbalanced data) and A3 (no ``L_h``) use the same network as "ours"; their rows only carry
+``data``/``loss`` notes for the training code.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Any, Mapping, NamedTuple
+
+from torch import nn
+
+from .discriminator import PatchDiscriminator
+from .features import FeatureNormalizer, discriminator_features, generator_features
+from .nkn import NKNDiscriminator, NKNGenerator
+from .tdcn import DilatedStack, GeneratorOutput, TDCNGenerator, normalize_quaternions, quaternion_norm
+
+__all__ = [
+    "build_model",
+    "count_parameters",
+    "ModelPair",
+    "TABLE4_ROWS",
+    "PROFILE_WIDTHS",
+    "resolve_config",
+    "TDCNGenerator",
+    "PatchDiscriminator",
+    "NKNGenerator",
+    "NKNDiscriminator",
+    "DilatedStack",
+    "GeneratorOutput",
+    "FeatureNormalizer",
+    "generator_features",
+    "discriminator_features",
+    "normalize_quaternions",
+    "quaternion_norm",
+]
+
+#: default widths per profile (paper: TDCN Sec. 3.2 "1024"; NKN hidden 512; released TDCN disc 256)
+PROFILE_WIDTHS: dict[str, dict[str, int]] = {
+    "fast": {"tdcn": 256, "nkn": 128, "disc": 128},
+    "paper": {"tdcn": 1024, "nkn": 512, "disc": 256},
+}
+
+#: TDCN Table 4 rows → model config deltas (A2/A3 change data/loss, not the network)
+TABLE4_ROWS: dict[str, dict[str, Any]] = {
+    "Baseline": {"kind": "nkn", "variant": "baseline"},
+    "Baseline-dense": {"kind": "nkn", "variant": "dense"},
+    "Baseline-dilated": {"kind": "nkn", "variant": "dilated"},
+    "Baseline-height": {"kind": "nkn", "variant": "height"},
+    "ours": {"kind": "tdcn", "variant": "ours"},
+    "A1": {"kind": "tdcn", "variant": "dense"},
+    "A2": {"kind": "tdcn", "variant": "ours", "data": "unbalanced"},
+    "A3": {"kind": "tdcn", "variant": "ours", "loss": "no_height"},
+    "A4": {"kind": "tdcn", "variant": "disc81"},
+    "A5": {"kind": "tdcn", "variant": "causal"},
+}
+
+_TDCN_VARIANTS = {"ours": {}, "dense": {"dense": True}, "causal": {"causal": True},
+                  "disc81": {"disc_receptive_field": 81}}
+_NKN_VARIANTS = {"baseline": {"backbone": "gru"}, "dense": {"backbone": "dense"},
+                 "dilated": {"backbone": "dilated"},
+                 "height": {"backbone": "gru", "normalize_root": True, "height_loss": True}}
+_KNOWN = {"row", "kind", "variant", "profile", "channels", "disc_channels", "disc_receptive_field",
+          "dropout", "normalize_inputs", "height_loss", "normalize_root", "backbone", "dilations", "kernel",
+          "slope", "head_hidden", "skip_projection", "num_layers", "disc_norm", "causal", "dense",
+          "data", "loss"}
+
+
+class ModelPair(NamedTuple):
+    """``(generator, discriminator)``; both carry the resolved config as ``.config``."""
+
+    generator: nn.Module
+    discriminator: nn.Module
+
+
+def count_parameters(module: nn.Module, trainable_only: bool = True) -> int:
+    """Number of (trainable) parameters of ``module``."""
+    return sum(p.numel() for p in module.parameters() if p.requires_grad or not trainable_only)
+
+
+def resolve_config(config: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """Expand ``row``/``variant``/``profile`` into explicit constructor settings.
+
+    Args:
+        config: a model config (see the module docstring) or an experiment config with a
+            ``"model"`` entry.
+
+    Returns:
+        A new dict with ``kind``, ``variant``, ``profile``, ``channels``, ``disc_channels``,
+        ``disc_receptive_field``, ``normalize_inputs`` and the variant's flags filled in.
+
+    Raises:
+        ValueError: unknown keys, kinds, variants, rows or profiles.
+    """
+    config = dict(config or {})
+    if "model" in config and isinstance(config["model"], Mapping):
+        config = dict(config["model"])
+    unknown = set(config) - _KNOWN
+    if unknown:
+        raise ValueError(f"unknown model config keys {sorted(unknown)}; known: {sorted(_KNOWN)}")
+    cfg: dict[str, Any] = {}
+    if "row" in config:
+        if config["row"] not in TABLE4_ROWS:
+            raise ValueError(f"unknown Table 4 row {config['row']!r}; rows: {list(TABLE4_ROWS)}")
+        cfg.update(TABLE4_ROWS[config["row"]])
+    cfg.update(config)
+    kind = cfg.setdefault("kind", "tdcn")
+    variants = {"tdcn": _TDCN_VARIANTS, "nkn": _NKN_VARIANTS}.get(kind)
+    if variants is None:
+        raise ValueError(f"kind must be 'tdcn' or 'nkn', got {kind!r}")
+    variant = cfg.setdefault("variant", "ours" if kind == "tdcn" else "baseline")
+    if variant not in variants:
+        raise ValueError(f"unknown {kind} variant {variant!r}; variants: {list(variants)}")
+    for key, value in variants[variant].items():
+        cfg.setdefault(key, value)
+    profile = cfg.setdefault("profile", os.environ.get("RETARGET_PROFILE", "fast"))
+    if profile not in PROFILE_WIDTHS:
+        raise ValueError(f"profile must be one of {list(PROFILE_WIDTHS)}, got {profile!r}")
+    cfg.setdefault("channels", PROFILE_WIDTHS[profile][kind])
+    cfg.setdefault("disc_channels", PROFILE_WIDTHS[profile]["disc"])
+    cfg.setdefault("disc_receptive_field", 31)
+    cfg.setdefault("normalize_inputs", False)
+    return cfg
+
+
+def build_model(config: Mapping[str, Any] | None = None) -> ModelPair:
+    """Build a generator and its discriminator from a (small) config dict.
+
+    Args:
+        config: see the module docstring; e.g. ``{"kind": "tdcn", "variant": "causal"}`` or
+            ``{"row": "Baseline-height", "profile": "paper"}``.
+
+    Returns:
+        :class:`ModelPair` ``(generator, discriminator)``, freshly initialised, in train mode.
+        TDCN → (:class:`TDCNGenerator`, :class:`PatchDiscriminator`); NKN →
+        (:class:`NKNGenerator`, :class:`NKNDiscriminator`).
+    """
+    cfg = resolve_config(config)
+    pick = lambda *keys: {k: cfg[k] for k in keys if k in cfg}  # noqa: E731
+    if cfg["kind"] == "tdcn":
+        gen = TDCNGenerator(channels=cfg["channels"],
+                            **pick("dropout", "dilations", "kernel", "causal", "dense", "slope", "head_hidden",
+                                   "skip_projection"))
+        disc = PatchDiscriminator(channels=cfg["disc_channels"], receptive_field=cfg["disc_receptive_field"],
+                                  **({"norm": cfg["disc_norm"]} if "disc_norm" in cfg else {}),
+                                  **pick("slope"))
+    else:
+        gen = NKNGenerator(hidden=cfg["channels"],
+                           **pick("backbone", "normalize_root", "height_loss", "dropout", "dilations",
+                                  "num_layers", "slope"))
+        disc = NKNDiscriminator(**pick("slope"))
+    gen.config = dict(cfg)
+    disc.config = dict(cfg)
+    return ModelPair(gen, disc)

@@ -1,0 +1,254 @@
+"""The NKN baselines of TDCN's Table 4 (Villegas, Yang, Ceylan, Lee: "Neural Kinematic Networks for
+Unsupervised Motion Retargetting", CVPR 2018), as summarised in TDCN Secs. 2, 4.1 and 6.
+
+Generator (:class:`NKNGenerator`, "Baseline")::
+
+    encoder GRU  over  x_t = [p_t (3J), v_t (3)]                   source, per frame
+    decoder GRU  sees  [h_enc_t, s̄B (3J), p̂_{t-1} (3J), v̂_{t-1} (3)]  (zeros at t = 1)
+    linear       →     q̂_t (J×4, raw) and v̂_t (3)
+    FK           p̂_t = f_FK(normalise(q̂_t), s̄B)  (fed back to the next step)
+    root         r̂_t = r̂_0 + Σ_{k<=t} v̂_k
+
+``v_t = r_t - r_{t-1}`` (``v_1 = 0``) is the root *offset* per frame. Because NKN predicts offsets
+and integrates them, root errors accumulate over long clips — the reason TDCN gives for the
+baselines' degradation on long sequences (Sec. 6.1). The start point ``r̂_0`` is the source's
+first root position scaled by ``H(s̄B) / H(s̄A)`` (NKN leaves the first frame's placement to the
+data; this choice makes the test-time start consistent with the height-scaled ground truth).
+
+Variants (Sec. 6, all with ``backbone`` / ``normalize_root``):
+
+* ``Baseline``          — ``backbone="gru"``.
+* ``Baseline-dense``    — ``backbone="dense"``: encoder and decoder GRUs replaced by dense
+  convolution stacks (:class:`~retarget_lib.models.tdcn.DilatedStack` with ``dense=True``, the
+  A1 construction, 81-frame receptive field each).
+* ``Baseline-dilated``  — ``backbone="dilated"``: the GRUs replaced by TDCNs (the same
+  ``DilatedStack`` as the generator, dilations 3, 9, 27).
+  A convolutional decoder computes every frame in parallel, so it cannot see its own previous
+  output: the conv decoders see ``[encoder features, s̄B]`` only.
+* ``Baseline-height``   — same network as Baseline plus TDCN's height loss ``L_h`` "where the
+  root-position offsets are normalized" (Sec. 6): ``normalize_root=True`` feeds ``v_t / H(s̄A)``
+  and the network predicts ``v̂_t / H(s̄B)`` (multiplied back by ``H(s̄B)`` before integration);
+  ``height_loss=True`` tells the training code to add ``L_h``.
+
+Discriminator (:class:`NKNDiscriminator`): NKN's discriminator scores the *whole* sequence with
+a sigmoid cross-entropy loss (TDCN Sec. 4.1/4.2: "the entire sequence of motions was input to the
+discriminator", inputs not height-normalised). Kept simple here: strided 1D convs
+(k=4, stride 2, widths 32-64-128-256, LeakyReLU 0.2, BatchNorm from the second layer, as in the
+public NKN ports) over ``[p_t - p_{t-1} (3J), v_t (3), s̄ (3(J-1))]`` in metres (the skeleton
+condition is concatenated to the input rather than to every hidden layer), then a mean over time
+and a linear layer → one logit per clip. The sigmoid cross-entropy belongs to the loss code.
+"""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import torch
+from torch import nn
+
+from ..kinematics import forward_kinematics
+from ..skeleton import CANONICAL22_PARENTS
+from .features import (NUM_JOINTS, FeatureNormalizer, _batched_offsets, nkn_input_channels,
+                       nkn_source_features, root_velocities, skeleton_height, source_local_positions)
+from .tdcn import (DEFAULT_SLOPE, DilatedStack, GeneratorOutput, edge_pad, init_identity_head,
+                   normalize_quaternions)
+
+Tensor = torch.Tensor
+
+__all__ = ["NKNGenerator", "NKNDiscriminator", "nkn_discriminator_features", "NKN_BACKBONES"]
+
+NKN_BACKBONES = ("gru", "dense", "dilated")
+
+
+class NKNGenerator(nn.Module):
+    """Encoder-decoder retargeting network of Villegas et al. 2018 and its Table 4 variants.
+
+    Args:
+        hidden: GRU hidden size / conv width (NKN: 512).
+        backbone: ``"gru"`` (Baseline), ``"dense"`` (Baseline-dense) or ``"dilated"``
+            (Baseline-dilated).
+        num_layers: stacked GRU layers per RNN (GRU backbone only).
+        normalize_root: root offsets divided by the character height (Baseline-height).
+        height_loss: flag for the training code: add TDCN's ``L_h`` (Baseline-height).
+        dropout: dropout (GRU: on the decoder input and between stacked layers; conv: after
+            every layer). Default 0 for the GRU, 0.1 for the conv backbones (TDCN's rate).
+        dilations: block dilations of the conv backbones.
+        num_joints: ``J``.
+        parents: skeleton parents.
+
+    Attributes:
+        normalizer: :class:`~retarget_lib.models.features.FeatureNormalizer` on the encoder input
+            (identity unless fitted).
+    """
+
+    def __init__(self, hidden: int = 512, backbone: str = "gru", num_layers: int = 1,
+                 normalize_root: bool = False, height_loss: bool = False, dropout: float | None = None,
+                 dilations: Sequence[int] = (3, 9, 27), num_joints: int = NUM_JOINTS,
+                 parents: Sequence[int] = CANONICAL22_PARENTS, slope: float = DEFAULT_SLOPE):
+        super().__init__()
+        if backbone not in NKN_BACKBONES:
+            raise ValueError(f"backbone must be one of {NKN_BACKBONES}, got {backbone!r}")
+        self.backbone, self.hidden, self.num_joints = backbone, hidden, num_joints
+        self.parents = tuple(parents)
+        self.normalize_root, self.height_loss = bool(normalize_root), bool(height_loss)
+        dropout = (0.0 if backbone == "gru" else 0.1) if dropout is None else float(dropout)
+        c_in, c_skel, c_out = nkn_input_channels(num_joints), 3 * num_joints, 4 * num_joints + 3
+        self.normalizer = FeatureNormalizer(c_in)
+        if backbone == "gru":
+            self.encoder = nn.GRU(c_in, hidden, num_layers, batch_first=True,
+                                  dropout=dropout if num_layers > 1 else 0.0)
+            dec_in = hidden + c_skel + 3 * num_joints + 3
+            self.decoder = nn.ModuleList([nn.GRUCell(dec_in if i == 0 else hidden, hidden)
+                                          for i in range(num_layers)])
+            self.dropout = nn.Dropout(dropout) if dropout > 0 else nn.Identity()
+        else:
+            dense = backbone == "dense"
+            self.encoder = DilatedStack(c_in, hidden, dilations, dropout=dropout, dense=dense, slope=slope)
+            self.decoder = DilatedStack(hidden + c_skel, hidden, dilations, dropout=dropout, dense=dense,
+                                        slope=slope)
+        self.out = nn.Linear(hidden, c_out)
+        init_identity_head(self.out, num_joints)
+
+    @property
+    def receptive_field(self) -> int | None:
+        """Frames seen per output: ``None`` (unbounded) for the GRU, else encoder + decoder."""
+        if self.backbone == "gru":
+            return None
+        return self.encoder.receptive_field + self.decoder.receptive_field - 1
+
+    def forward(self, rotations: Tensor, root_positions: Tensor, offsets_src: Tensor,
+                offsets_tgt: Tensor, positions: Tensor | None = None) -> GeneratorOutput:
+        """Retarget with raw outputs (for training).
+
+        Args:
+            rotations: ``(B, T, J, 4)`` source local quaternions (wxyz).
+            root_positions: ``(B, T, 3)`` source root positions.
+            offsets_src: ``(B, J, 3)`` or ``(J, 3)`` source rest offsets.
+            offsets_tgt: ``(B, J, 3)`` or ``(J, 3)`` target rest offsets.
+            positions: optional precomputed source ``p`` ``(B, T, J, 3)``.
+
+        Returns:
+            :class:`~retarget_lib.models.tdcn.GeneratorOutput`: raw q̂ ``(B, T, J, 4)``, r̂
+            ``(B, T, 3)`` = ``r̂_0 + cumsum(v̂)``, and the predicted offsets v̂ ``(B, T, 3)`` in
+            metres per frame.
+        """
+        b, t, j, _ = rotations.shape
+        off_src = _batched_offsets(offsets_src.to(rotations.dtype), b)
+        off_tgt = _batched_offsets(offsets_tgt.to(rotations.dtype), b)
+        if positions is None:
+            positions = source_local_positions(rotations, off_src, self.parents)
+        h_src, h_tgt = skeleton_height(off_src), skeleton_height(off_tgt)
+        x = self.normalizer(nkn_source_features(positions, root_positions,
+                                                h_src if self.normalize_root else None))
+        if self.backbone == "gru":
+            q, v = self._decode_gru(x, off_tgt)
+        else:
+            q, v = self._decode_conv(x, off_tgt)
+        if self.normalize_root:
+            v = v * h_tgt.view(b, 1, 1)
+        start = root_positions[:, 0] * (h_tgt / h_src).view(b, 1)
+        return GeneratorOutput(q, start.unsqueeze(1) + v.cumsum(1), v)
+
+    generate = forward
+
+    def _split(self, out: Tensor) -> tuple[Tensor, Tensor]:
+        j = self.num_joints
+        return out[..., :4 * j].reshape(*out.shape[:-1], j, 4), out[..., 4 * j:]
+
+    def _decode_conv(self, x: Tensor, off_tgt: Tensor) -> tuple[Tensor, Tensor]:
+        b, _, t = x.shape
+        enc = self.encoder(x)  # (B, H, T)
+        skel = off_tgt.reshape(b, -1, 1).expand(b, off_tgt.shape[1] * 3, t)
+        dec = self.decoder.forward_time_major(torch.cat([enc, skel], 1))  # (B, T, H)
+        return self._split(self.out(dec))
+
+    def _decode_gru(self, x: Tensor, off_tgt: Tensor) -> tuple[Tensor, Tensor]:
+        b, _, t = x.shape
+        j = self.num_joints
+        enc, _ = self.encoder(x.transpose(1, 2))  # (B, T, H)
+        skel = off_tgt.reshape(b, 3 * j)
+        states = [x.new_zeros(b, self.hidden) for _ in self.decoder]
+        prev = x.new_zeros(b, 3 * j + 3)  # p̂_{t-1}, v̂_{t-1}; zeros at t = 1 (as NKN)
+        qs, vs = [], []
+        for step in range(t):  # autoregressive: each step needs the previous FK output
+            inp = self.dropout(torch.cat([enc[:, step], skel, prev], -1))
+            for i, cell in enumerate(self.decoder):
+                states[i] = cell(inp if i == 0 else self.dropout(states[i - 1]), states[i])
+            q, v = self._split(self.out(states[-1]))
+            p = forward_kinematics(normalize_quaternions(q), off_tgt, self.parents, None).positions
+            prev = torch.cat([p.reshape(b, 3 * j), v], -1)
+            qs.append(q)
+            vs.append(v)
+        return torch.stack(qs, 1), torch.stack(vs, 1)
+
+    def retarget(self, rotations: Tensor, root_positions: Tensor, offsets_src: Tensor, offsets_tgt: Tensor,
+                 ) -> tuple[Tensor, Tensor]:
+        """Unit quaternions ``(B, T, J, 4)`` and root positions ``(B, T, 3)`` for the target.
+
+        Args: as :meth:`forward`.
+        """
+        out = self.forward(rotations, root_positions, offsets_src, offsets_tgt)
+        return normalize_quaternions(out.rotations), out.root_positions
+
+
+def nkn_discriminator_features(positions: Tensor, root_positions: Tensor, offsets: Tensor) -> Tensor:
+    """NKN discriminator input: ``[p_t - p_{t-1}, r_t - r_{t-1}, s̄ (non-root rows)]`` in metres.
+
+    Args:
+        positions: ``(B, T, J, 3)`` root-relative joint positions.
+        root_positions: ``(B, T, 3)``.
+        offsets: ``(B, J, 3)`` or ``(J, 3)`` rest offsets of the performing skeleton.
+
+    Returns:
+        ``(B, 3J + 3 + 3(J-1), T-1)``.
+    """
+    b, t, j, _ = positions.shape
+    off = _batched_offsets(offsets.to(positions.dtype), b)
+    d = positions.diff(dim=1).reshape(b, t - 1, 3 * j)
+    v = root_velocities(root_positions)[:, 1:]
+    skel = off[:, 1:].reshape(b, 1, -1).expand(b, t - 1, 3 * (j - 1))
+    return torch.cat([d, v, skel], -1).transpose(1, 2)
+
+
+class NKNDiscriminator(nn.Module):
+    """Whole-clip discriminator of the NKN baseline (sigmoid cross-entropy on its logit).
+
+    Args:
+        in_channels: default ``3J + 3 + 3(J-1)`` (:func:`nkn_discriminator_features`).
+        widths: channels of the strided conv layers.
+        slope: LeakyReLU slope.
+
+    Attributes:
+        height_normalized_inputs: ``False`` (NKN does not height-normalise, TDCN Sec. 4.2 (ii)).
+    """
+
+    height_normalized_inputs = False
+
+    def __init__(self, in_channels: int | None = None, widths: Sequence[int] = (32, 64, 128, 256),
+                 slope: float = DEFAULT_SLOPE, num_joints: int = NUM_JOINTS):
+        super().__init__()
+        self.in_channels = 6 * num_joints if in_channels is None else in_channels
+        layers, c = [], self.in_channels
+        for i, w in enumerate(widths):
+            layers += [nn.Conv1d(c, w, 4, stride=2, padding=1, bias=i == 0)]
+            if i > 0:
+                layers.append(nn.BatchNorm1d(w))
+            layers.append(nn.LeakyReLU(slope))
+            c = w
+        self.body = nn.Sequential(*layers)
+        self.out = nn.Linear(c, 1)
+        self.min_frames = 2 ** len(widths)
+
+    @staticmethod
+    def features(positions: Tensor, root_positions: Tensor, offsets: Tensor) -> Tensor:
+        """See :func:`nkn_discriminator_features`."""
+        return nkn_discriminator_features(positions, root_positions, offsets)
+
+    def forward(self, features: Tensor) -> Tensor:
+        """Args: features ``(B, C, T)`` (any ``T >= 1``). Returns: ``(B, 1)`` raw logits."""
+        if features.shape[-1] == 0:
+            raise ValueError("discriminator features need at least one frame pair (clips of >= 2 frames)")
+        missing = self.min_frames - features.shape[-1]
+        if missing > 0:  # each stride-2 layer halves T; edge-pad very short clips
+            features = edge_pad(features, missing // 2, missing - missing // 2)
+        return self.out(self.body(features).mean(-1))

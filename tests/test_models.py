@@ -1,0 +1,360 @@
+"""Models: TDCN generator / patch discriminator (Kim et al. 2020) and NKN baselines.
+
+Shapes for any clip length, measured receptive fields, causality, parameter ratios, long clips,
+NKN root integration, gradient flow, fusion, and every Table 4 row through ``build_model``.
+No timings here (see ``retarget bench``).
+"""
+
+import copy
+
+import pytest
+import torch
+
+from retarget_lib.kinematics import forward_kinematics
+from retarget_lib.models import (TABLE4_ROWS, NKNDiscriminator, NKNGenerator, PatchDiscriminator, TDCNGenerator,
+                                 build_model, count_parameters)
+from retarget_lib.models.features import (GENERATOR_LAYOUT, FeatureNormalizer, discriminator_features,
+                                          discriminator_input_channels, generator_features,
+                                          generator_input_channels, skeleton_height, source_local_positions,
+                                          split_generator_features)
+from retarget_lib.rotations import quat_normalize
+from retarget_lib.skeleton import CANONICAL22_PARENTS, canonical22_skeleton
+
+J = 22
+SMALL = 32  # channel width used for fast tests
+
+
+def _offsets(batch, seed, scale=1.0):
+    g = torch.Generator().manual_seed(seed)
+    off = torch.randn(batch, J, 3, generator=g) * 0.1 * scale
+    off[:, 0] = torch.tensor([0.0, 1.0, 0.0]) * scale
+    return off
+
+
+def _motion(batch, frames, seed=0, dtype=torch.float32):
+    g = torch.Generator().manual_seed(seed)
+    q = quat_normalize(torch.randn(batch, frames, J, 4, generator=g, dtype=dtype) * 0.3
+                       + torch.tensor([1.0, 0, 0, 0], dtype=dtype))
+    r = torch.cumsum(torch.randn(batch, frames, 3, generator=g, dtype=dtype) * 0.01, 1)
+    return q, r, _offsets(batch, seed + 1).to(dtype), _offsets(batch, seed + 2, 0.8).to(dtype)
+
+
+@pytest.fixture(autouse=True)
+def _seed_and_one_thread():
+    """Seeded, single-threaded: these nets are tiny, and multi-threaded OpenMP regions stall badly
+    when the suite runs under ``pytest -n 2`` next to other work."""
+    torch.manual_seed(0)
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(threads)
+
+
+# ----------------------------------------------------------------------------------- features
+
+def test_generator_features_layout_and_roundtrip():
+    q, r, oa, ob = _motion(2, 7)
+    x = generator_features(q, r, oa, ob)
+    assert x.shape == (2, generator_input_channels(), 7) == (2, 223, 7)
+    parts = split_generator_features(x)
+    assert torch.allclose(parts["q"], q) and torch.allclose(parts["r"], r)
+    assert torch.allclose(parts["skeleton"], ob)
+    p = source_local_positions(q, oa)
+    assert torch.allclose(parts["p"], p)
+    assert torch.allclose(p[:, :, 0], torch.zeros(2, 7, 3))  # root at the origin
+    # root rotation is applied: p equals global FK minus the root position
+    glob = forward_kinematics(q, oa[:, None], CANONICAL22_PARENTS, r).positions
+    assert torch.allclose(p, glob - r[..., None, :], atol=1e-5)
+    assert GENERATOR_LAYOUT["skeleton"].stop == 223
+
+
+def test_skeleton_height_matches_skeleton_class():
+    off = _offsets(3, 5).double()
+    h = skeleton_height(off)
+    for b in range(3):
+        assert h[b].item() == pytest.approx(canonical22_skeleton(off[b].numpy()).height(), rel=1e-12)
+
+
+def test_discriminator_features_are_eqs_11_18():
+    q, r, oa, _ = _motion(2, 9, dtype=torch.float64)
+    p = source_local_positions(q, oa)
+    f = discriminator_features(p, r, oa)
+    assert f.shape == (2, discriminator_input_channels(), 8) == (2, 43, 8)
+    h = skeleton_height(oa)
+    l_expected = (p[:, 1:] - p[:, :-1]).norm(dim=-1)[..., 1:] / h[:, None, None]
+    assert torch.allclose(f[:, :21].transpose(1, 2), l_expected)
+    assert torch.allclose(f[:, 21], (r[:, 1:] - r[:, :-1]).norm(dim=-1) / h[:, None])
+    assert torch.allclose(f[:, 22:, 3], oa[:, 1:].norm(dim=-1))
+
+
+def test_feature_normalizer_identity_fit_and_checkpoint():
+    x = torch.randn(4, 10, 30) * 3 + 5
+    x[:, 3] = 2.0  # constant channel: centred, not blown up
+    norm = FeatureNormalizer(10)
+    assert norm.is_identity and torch.equal(norm(x), x)
+    norm.fit([x[:2], x[2:]])
+    y = norm(x)
+    flat = y.transpose(0, 1).reshape(10, -1)
+    keep = [c for c in range(10) if c != 3]
+    assert torch.allclose(flat[keep].mean(1), torch.zeros(9), atol=1e-4)
+    assert torch.allclose(flat[keep].std(1, unbiased=False), torch.ones(9), atol=1e-3)
+    assert torch.allclose(flat[3], torch.zeros_like(flat[3]))
+    # statistics travel with the owning model's state dict
+    g = TDCNGenerator(channels=SMALL)
+    g.normalizer.fit(torch.randn(2, g.in_channels, 20) * 2 + 1)
+    g2 = TDCNGenerator(channels=SMALL)
+    g2.load_state_dict(g.state_dict())
+    assert not g2.normalizer.is_identity
+    assert torch.equal(g2.normalizer.mean, g.normalizer.mean)
+
+
+# ----------------------------------------------------------------------------------- TDCN
+
+@pytest.mark.parametrize("kwargs", [{}, {"causal": True}, {"dense": True}])
+@pytest.mark.parametrize("frames", [1, 5, 81, 200])
+def test_tdcn_one_output_per_input_frame(kwargs, frames):
+    g = TDCNGenerator(channels=SMALL, **kwargs)
+    q, r, oa, ob = _motion(2, frames)
+    out = g.generate(q, r, oa, ob)  # train mode
+    assert out.rotations.shape == (2, frames, J, 4) and out.root_positions.shape == (2, frames, 3)
+    g.eval()
+    with torch.no_grad():
+        qn, rn = g.retarget(q[:1], r[:1], oa[:1], ob[:1])  # batch size 1, eval
+    assert qn.shape == (1, frames, J, 4) and rn.shape == (1, frames, 3)
+    assert torch.allclose(qn.norm(dim=-1), torch.ones(1, frames, J), atol=1e-5)
+
+
+def _changed_outputs(model_fn, features, frame):
+    with torch.no_grad():
+        base = model_fn(features)
+        pert = features.clone()
+        pert[..., frame] += 10.0
+        moved = model_fn(pert)
+    diff = (moved - base).abs().reshape(base.shape[0], base.shape[1], -1).amax(-1)[0]
+    return torch.nonzero(diff > 0).flatten().tolist()
+
+
+def _tdcn_out(g):
+    def fn(x):
+        q, r = g(x)
+        return torch.cat([q.flatten(2), r], -1)  # (B, T, 91)
+    return fn
+
+
+@pytest.mark.parametrize("dense", [False, True])
+def test_tdcn_receptive_field_is_81_frames(dense):
+    g = TDCNGenerator(channels=SMALL, dense=dense).double().eval()
+    assert g.receptive_field == 81
+    x = torch.randn(1, g.in_channels, 200, dtype=torch.float64)
+    assert _changed_outputs(_tdcn_out(g), x, 100) == list(range(60, 141))
+    # at the clip edge the padding copies frame 0: outputs 0..40 see it
+    assert _changed_outputs(_tdcn_out(g), x, 0) == list(range(0, 41))
+
+
+def test_causal_tdcn_sees_only_the_past():
+    g = TDCNGenerator(channels=SMALL, causal=True).double().eval()
+    assert g.receptive_field == 81
+    x = torch.randn(1, g.in_channels, 200, dtype=torch.float64)
+    assert _changed_outputs(_tdcn_out(g), x, 100) == list(range(100, 181))
+    # output t never depends on inputs after t (truncating the future changes nothing)
+    with torch.no_grad():
+        full = _tdcn_out(g)(x)
+        part = _tdcn_out(g)(x[..., :120])
+    assert torch.equal(full[:, :120], part)
+
+
+def test_dense_variant_has_more_parameters():
+    ratios = {}
+    for c in (SMALL, 256, 1024):
+        dilated = count_parameters(TDCNGenerator(channels=c))
+        dense = count_parameters(TDCNGenerator(channels=c, dense=True))
+        ratios[c] = dense / dilated
+    print("A1 dense / dilated parameter ratio:", {c: round(v, 2) for c, v in ratios.items()})
+    assert all(v > 1 for v in ratios.values())
+    assert 6.0 < ratios[1024] < 7.0  # the paper: "6.5 times more parameters"
+
+
+def test_long_clip_in_eval_mode_plain_and_fused():
+    g = TDCNGenerator(channels=64).eval()
+    q, r, oa, ob = _motion(1, 2000)
+    with torch.inference_mode():
+        qn, rn = g.retarget(q, r, oa, ob)
+        gf = copy.deepcopy(g).fuse_for_inference()
+        qf, rf = gf.retarget(q, r, oa, ob)
+    assert qn.shape == (1, 2000, J, 4) and rn.shape == (1, 2000, 3)
+    assert torch.isfinite(qn).all() and torch.isfinite(rn).all()
+    assert torch.allclose(qn, qf, atol=1e-4) and torch.allclose(rn, rf, atol=1e-4)
+
+
+def test_fusion_matches_batchnorm_statistics_and_blocks_training():
+    g = TDCNGenerator(channels=SMALL, skip_projection=True)
+    q, r, oa, ob = _motion(3, 40)
+    for _ in range(3):  # non-trivial running statistics
+        g.generate(q, r, oa, ob)
+    g.eval()
+    with torch.no_grad():
+        a = g(generator_features(q, r, oa, ob))
+        gf = copy.deepcopy(g).fuse_for_inference()
+        b = gf(generator_features(q, r, oa, ob))
+    assert torch.allclose(a[0], b[0], atol=1e-5) and torch.allclose(a[1], b[1], atol=1e-5)
+    with pytest.raises(RuntimeError):
+        gf.train()
+
+
+def test_raw_quaternions_start_near_identity():
+    g = TDCNGenerator(channels=SMALL).eval()
+    q, r, oa, ob = _motion(1, 10)
+    with torch.no_grad():
+        out = g.generate(q, r, oa, ob)
+    assert torch.allclose(out.rotations, torch.tensor([1.0, 0, 0, 0]).expand_as(out.rotations), atol=0.2)
+
+
+# ----------------------------------------------------------------------------- discriminator
+
+@pytest.mark.parametrize("rf", [31, 81])
+def test_patch_discriminator_receptive_field(rf):
+    d = PatchDiscriminator(channels=SMALL, receptive_field=rf).double().eval()
+    assert d.receptive_field == rf
+    x = torch.randn(2, discriminator_input_channels(), 200, dtype=torch.float64)
+    with torch.no_grad():
+        assert d(x).shape == (2, 200 - rf + 1)
+    changed = _changed_outputs(lambda f: d(f).unsqueeze(-1), x, 100)
+    assert changed == list(range(100 - rf + 1, 101))  # score i sees input frames i .. i+rf-1
+
+
+def test_patch_discriminator_short_clip_gets_one_score():
+    d = PatchDiscriminator(channels=SMALL, receptive_field=81)
+    q, r, oa, _ = _motion(4, 81)
+    f = d.features(source_local_positions(q, oa), r, oa)  # 80 feature frames < 81
+    assert d(f).shape == (4, 1)
+
+
+# ----------------------------------------------------------------------------------- NKN
+
+@pytest.mark.parametrize("backbone", ["gru", "dense", "dilated"])
+@pytest.mark.parametrize("frames", [1, 5, 81])
+def test_nkn_shapes(backbone, frames):
+    g = NKNGenerator(hidden=SMALL, backbone=backbone)
+    q, r, oa, ob = _motion(2, frames)
+    out = g(q, r, oa, ob)
+    assert out.rotations.shape == (2, frames, J, 4)
+    assert out.root_positions.shape == out.root_velocities.shape == (2, frames, 3)
+    g.eval()
+    with torch.no_grad():
+        qn, rn = g.retarget(q[:1], r[:1], oa[:1], ob[:1])
+    assert qn.shape == (1, frames, J, 4) and rn.shape == (1, frames, 3)
+
+
+@pytest.mark.parametrize("normalize_root", [False, True])
+def test_nkn_root_is_cumulative_sum_of_velocities(normalize_root):
+    g = NKNGenerator(hidden=SMALL, normalize_root=normalize_root).eval()
+    q, r, oa, ob = _motion(2, 50, dtype=torch.float64)
+    g.double()
+    with torch.no_grad():
+        out = g(q, r, oa, ob)
+    start = r[:, 0] * (skeleton_height(ob) / skeleton_height(oa))[:, None]
+    expected = start[:, None] + torch.cumsum(out.root_velocities, 1)
+    assert torch.allclose(out.root_positions, expected, atol=1e-12)
+    assert torch.allclose(out.root_positions.diff(dim=1), out.root_velocities[:, 1:], atol=1e-12)
+
+
+def test_nkn_gru_decoder_is_online():
+    """The GRU baseline is causal: later source frames do not change earlier outputs."""
+    g = NKNGenerator(hidden=SMALL).eval()
+    q, r, oa, ob = _motion(1, 30)
+    with torch.no_grad():
+        full = g(q, r, oa, ob)
+        part = g(q[:, :20], r[:, :20], oa, ob)
+    assert torch.allclose(full.rotations[:, :20], part.rotations, atol=1e-6)
+
+
+def test_nkn_discriminator_scores_whole_clip():
+    d = NKNDiscriminator()
+    for frames in (2, 9, 120):
+        q, r, oa, _ = _motion(3, frames)
+        f = d.features(source_local_positions(q, oa), r, oa)
+        assert f.shape == (3, d.in_channels, frames - 1)
+        assert d(f).shape == (3, 1)
+
+
+# ------------------------------------------------------------------------------- gradients
+
+def _assert_all_grads(module):
+    missing = [n for n, p in module.named_parameters() if p.grad is None or not p.grad.abs().sum() > 0]
+    assert not missing, f"no gradient reaches {missing}"
+
+
+@pytest.mark.parametrize("row", ["ours", "A1", "A5", "Baseline", "Baseline-dense", "Baseline-dilated",
+                                 "Baseline-height"])
+def test_gradient_reaches_every_generator_parameter(row):
+    gen, _ = build_model({"row": row, "channels": 16})
+    gen.train()
+    q, r, oa, ob = _motion(2, 12)
+    out = gen.generate(q, r, oa, ob)
+    w = torch.randn_like(out.rotations)
+    (out.rotations * w).sum().backward(retain_graph=True)
+    (out.root_positions * torch.randn_like(out.root_positions)).sum().backward()
+    _assert_all_grads(gen)
+
+
+@pytest.mark.parametrize("row", ["ours", "A4", "Baseline"])
+def test_gradient_reaches_every_discriminator_parameter(row):
+    gen, disc = build_model({"row": row, "channels": 16, "disc_channels": 16})
+    disc.train()
+    q, r, oa, _ = _motion(3, 100)
+    f = disc.features(source_local_positions(q, oa), r, oa).requires_grad_(True)
+    score = disc(f)
+    (score * torch.randn_like(score)).sum().backward()
+    _assert_all_grads(disc)
+    assert f.grad is not None and f.grad.abs().sum() > 0
+
+
+# ------------------------------------------------------------------------------- factory
+
+def test_build_model_builds_every_table4_row():
+    expect = {
+        "Baseline": (NKNGenerator, dict(backbone="gru", normalize_root=False, height_loss=False)),
+        "Baseline-dense": (NKNGenerator, dict(backbone="dense")),
+        "Baseline-dilated": (NKNGenerator, dict(backbone="dilated")),
+        "Baseline-height": (NKNGenerator, dict(backbone="gru", normalize_root=True, height_loss=True)),
+        "ours": (TDCNGenerator, dict(causal=False)),
+        "A1": (TDCNGenerator, dict(causal=False)),
+        "A2": (TDCNGenerator, dict(causal=False)),
+        "A3": (TDCNGenerator, dict(causal=False)),
+        "A4": (TDCNGenerator, dict(causal=False)),
+        "A5": (TDCNGenerator, dict(causal=True)),
+    }
+    assert set(expect) == set(TABLE4_ROWS)
+    q, r, oa, ob = _motion(1, 6)
+    for row, (cls, attrs) in expect.items():
+        gen, disc = build_model({"row": row, "profile": "fast", "channels": 16, "disc_channels": 16})
+        assert isinstance(gen, cls), row
+        for k, v in attrs.items():
+            assert getattr(gen, k) == v, (row, k)
+        assert gen.config["row"] == row
+        gen.eval()
+        with torch.no_grad():
+            qn, rn = gen.retarget(q, r, oa, ob)
+        assert qn.shape == (1, 6, J, 4) and rn.shape == (1, 6, 3)
+        if cls is TDCNGenerator:
+            assert gen.receptive_field == 81
+            assert gen.body.dense == (row == "A1")
+            assert isinstance(disc, PatchDiscriminator)
+            assert disc.receptive_field == (81 if row == "A4" else 31)
+        else:
+            assert isinstance(disc, NKNDiscriminator)
+
+
+def test_build_model_profiles_and_errors():
+    g, d = build_model({"kind": "tdcn", "profile": "paper"})
+    assert g.body.channels == 1024 and g.config["channels"] == 1024
+    g, _ = build_model({"kind": "nkn", "profile": "paper"})
+    assert g.hidden == 512
+    g, _ = build_model({"model": {"kind": "tdcn", "variant": "causal", "channels": 8}})
+    assert g.causal and g.body.channels == 8
+    with pytest.raises(ValueError):
+        build_model({"kind": "tdcn", "chanels": 8})
+    with pytest.raises(ValueError):
+        build_model({"kind": "tdcn", "variant": "height"})
+    with pytest.raises(ValueError):
+        build_model({"row": "A9"})
