@@ -130,7 +130,64 @@ def bench_fk(clips: int = 64, frames: int = 240, quick: bool = False) -> list[Be
     ]
 
 
-BENCHES: dict[str, Callable[..., list[BenchRow]]] = {"fk": bench_fk}
+def plain_dilated_body(in_channels: int, channels: int, dilations=(3, 9, 27)) -> torch.nn.Module:
+    """Reference: the TDCN body written plainly (Conv1d + BatchNorm1d + LeakyReLU + Dropout per
+    layer, residual centre crops, nothing fused) — "a plain PyTorch dilated-convolution body"."""
+    nn = torch.nn
+
+    def unit(cin, cout, k, d=1):
+        return nn.Sequential(nn.Conv1d(cin, cout, k, dilation=d), nn.BatchNorm1d(cout), nn.LeakyReLU(0.2),
+                             nn.Dropout(0.1))
+
+    class Body(nn.Module):
+        def __init__(self):
+            super().__init__()
+            self.first = unit(in_channels, channels, 3)
+            self.blocks = nn.ModuleList(nn.Sequential(unit(channels, channels, 3, d), unit(channels, channels, 1))
+                                        for d in dilations)
+            self.pads = dilations
+
+        def forward(self, x):
+            h = self.first(x)
+            for block, d in zip(self.blocks, self.pads):
+                h = h[..., d:-d] + block(h)
+            return h
+
+    return Body()
+
+
+def bench_tdcn(quick: bool = False, frames: int = 1000) -> list[BenchRow]:
+    """TDCN inference on one clip (features, network, output heads, FK), fast and paper width,
+    beside the plain dilated-convolution body of the same width (same run)."""
+    from .models import PROFILE_WIDTHS
+    from .models.tdcn import TDCNGenerator
+
+    gen = torch.Generator().manual_seed(0)
+    q = torch.randn(1, frames, 22, 4, generator=gen)
+    q = q / q.norm(dim=-1, keepdim=True)
+    r = torch.randn(1, frames, 3, generator=gen)
+    off_a, off_b = torch.randn(22, 3, generator=gen) * 0.1, torch.randn(22, 3, generator=gen) * 0.1
+    rows = []
+    targets = {"fast": "<= 50 ms", "paper": "<= 350 ms"}
+    for profile in ("fast", "paper"):
+        width = PROFILE_WIDTHS[profile]["tdcn"]
+        model = TDCNGenerator(channels=width).fuse_for_inference()
+        body = plain_dilated_body(model.in_channels, width).eval()
+        x = torch.randn(1, model.in_channels, frames + 80, generator=gen)
+
+        def full():
+            qh, rh = model.retarget(q, r, off_a, off_b)
+            return forward_kinematics(qh, off_b, CANONICAL22_PARENTS, rh)
+
+        with torch.inference_mode():
+            t = time_it(full, repeat=3 if quick else 9)
+            ref = time_it(lambda: body(x), repeat=3 if quick else 9)
+        rows.append(BenchRow(f"TDCN inference {frames} frames, {profile} width {width} (incl. features, heads, FK)",
+                             t, f"plain dilated-conv body, width {width}", ref, targets[profile]))
+    return rows
+
+
+BENCHES: dict[str, Callable[..., list[BenchRow]]] = {"fk": bench_fk, "tdcn": bench_tdcn}
 
 
 def format_table(rows: list[BenchRow]) -> str:

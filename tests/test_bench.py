@@ -1,0 +1,26 @@
+"""The benchmark code runs and reports ratios (no timing is asserted: speed lives in `retarget bench`)."""
+
+import numpy as np
+import torch
+
+from retarget_lib.bench import bench_fk, bench_tdcn, format_table, numpy_fk_loop, torch_fk_per_joint
+from retarget_lib.kinematics import forward_kinematics
+from retarget_lib.skeleton import CANONICAL22_PARENTS
+
+
+def test_references_compute_the_same_fk():
+    rng = np.random.default_rng(0)
+    rot = rng.normal(size=(4, 22, 4))
+    rot /= np.linalg.norm(rot, axis=-1, keepdims=True)
+    off, root = rng.normal(size=(22, 3)), rng.normal(size=(4, 3))
+    expected = forward_kinematics(rot, off, CANONICAL22_PARENTS, root).positions
+    np.testing.assert_allclose(numpy_fk_loop(rot, off, CANONICAL22_PARENTS, root), expected, atol=1e-12)
+    got = torch_fk_per_joint(torch.from_numpy(rot), torch.from_numpy(off), CANONICAL22_PARENTS, torch.from_numpy(root))
+    np.testing.assert_allclose(got.numpy(), expected, atol=1e-12)
+
+
+def test_bench_rows_and_table():
+    rows = bench_fk(clips=2, frames=8, quick=True) + bench_tdcn(quick=True, frames=40)
+    assert all(r.seconds > 0 and r.reference_seconds > 0 for r in rows)
+    table = format_table(rows)
+    assert table.count("\n") == len(rows) + 1 and "TDCN inference 40 frames" in table
