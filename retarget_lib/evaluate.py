@@ -1,0 +1,189 @@
+"""Evaluation: TDCN's Table 4 protocol (Kim et al. 2020, Sec. 6.1) on the synthetic four-scenario
+split, with the paper's numbers beside ours.
+
+Metric (NKN/TDCN): squared error of the **global** joint positions summed over x, y, z, divided by
+the target character's height ``H``, averaged over joints and frames. Lengths are in
+**centimetres** for this number, as in the Mixamo data both papers use, so magnitudes are
+comparable with the paper's (a ratio of cm² to cm). The squared-height variant divides by ``H²``
+and is unit-free.
+
+Protocol: "short" cuts every test clip into 120-frame chunks (4 s at 30 fps) and retargets each
+chunk on its own; "long" retargets whole clips. Scenario ``k`` is the mean over its pairs; "avg"
+is the mean over the four scenarios.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable, Mapping
+
+import numpy as np
+import pandas as pd
+
+from .data.cache import atomic_write
+from .motion import Motion
+from .skeleton import Skeleton
+
+#: a retargeting method: (source motion, target skeleton) -> motion on the target
+Method = Callable[[Motion, Skeleton], Motion]
+
+SHORT_FRAMES = 120
+METRES_TO_CM = 100.0
+
+#: Table 4 of Kim et al. 2020 (normalised MSE): short (1)-(4), avg, long (1)-(4), avg
+PAPER_TABLE4: dict[str, tuple[float, ...]] = {
+    "Baseline": (4.79, 1.22, 3.99, 18.31, 7.08, 26.14, 4.64, 8.38, 45.34, 21.12),
+    "Baseline-dense": (4.45, 1.73, 3.85, 19.71, 7.44, 23.66, 4.75, 9.14, 35.37, 18.23),
+    "Baseline-dilated": (7.92, 4.53, 7.63, 26.26, 11.59, 30.14, 9.41, 11.24, 49.43, 25.06),
+    "Baseline-height": (2.72, 0.88, 3.29, 6.63, 3.38, 14.86, 2.65, 9.13, 14.89, 10.38),
+    "ours": (2.21, 0.82, 2.70, 4.06, 2.45, 1.65, 0.78, 3.00, 4.49, 2.48),
+    "A1": (1.58, 0.99, 3.00, 4.21, 2.45, 1.63, 0.80, 3.49, 6.33, 3.06),
+    "A2": (3.74, 2.71, 3.71, 9.60, 4.94, 3.99, 2.80, 4.89, 13.14, 6.20),
+    "A3": (6.90, 1.70, 5.26, 25.23, 9.77, 12.27, 2.25, 6.23, 51.66, 18.10),
+    "A4": (2.31, 1.28, 3.70, 4.30, 2.90, 1.97, 1.24, 4.23, 5.31, 3.19),
+    "A5": (1.65, 1.15, 2.86, 5.54, 2.80, 2.03, 0.83, 3.58, 8.39, 3.71),
+}
+TABLE4_COLUMNS = tuple(f"{length} ({k})" if k != "avg" else f"{length} avg"
+                       for length in ("short", "long") for k in ("1", "2", "3", "4", "avg"))
+
+
+def normalized_mse(pred: np.ndarray, truth: np.ndarray, height: float, squared_height: bool = False) -> float:
+    """NKN/TDCN normalised MSE of global joint positions.
+
+    Args:
+        pred: ``(T, J, 3)`` predicted global joint positions (metres).
+        truth: ``(T, J, 3)`` ground-truth global joint positions (metres).
+        height: target height ``H`` (metres, :meth:`Skeleton.height`).
+        squared_height: divide by ``H²`` (unit-free) instead of ``H`` (in cm).
+
+    Returns:
+        ``mean_{t,j} ||pred - truth||² / H`` in cm, or ``/ H²`` (unit-free).
+    """
+    pred, truth = np.asarray(pred, dtype=np.float64), np.asarray(truth, dtype=np.float64)
+    if pred.shape != truth.shape:
+        raise ValueError(f"prediction {pred.shape} and ground truth {truth.shape} differ")
+    sq = ((pred - truth) ** 2).sum(-1).mean()
+    if squared_height:
+        return float(sq / height**2)
+    return float(sq * METRES_TO_CM**2 / (height * METRES_TO_CM))
+
+
+@dataclass
+class EvalCase:
+    """One test pair: a source motion, the target skeleton and the target's ground truth."""
+
+    scenario: int
+    source_name: str
+    target_name: str
+    clip: str
+    source: Motion
+    target: Skeleton
+    truth: Motion
+
+
+def tdcn_cases() -> list[EvalCase]:
+    """The four TDCN scenarios on the synthetic split (``data_manifest.yaml``), with ground truth
+    from :func:`~retarget_lib.data.pairs.retarget_ground_truth` (the source clip performed by the
+    source character, and by the target character)."""
+    from .data.pairs import retarget_ground_truth
+    from .data.synthetic import load_synthetic, tdcn_split
+
+    ds, split = load_synthetic(), tdcn_split()
+    cases = []
+    for scenario, pairs in split.scenarios.items():
+        for p in pairs:
+            clip = ds.clip(f"{p.motion.family}_{p.motion.seed:03d}").motion
+            src_skel, tgt_skel = ds.characters[p.source].skeleton, ds.characters[p.target].skeleton
+            cases.append(EvalCase(int(scenario), p.source, p.target, clip.name,
+                                  retarget_ground_truth(clip, src_skel), tgt_skel,
+                                  retarget_ground_truth(clip, tgt_skel)))
+    return cases
+
+
+def evaluate_case(method: Method, case: EvalCase, short_frames: int = SHORT_FRAMES) -> dict[str, float]:
+    """Short and long normalised MSE (both ``H`` and ``H²`` variants) of one method on one case."""
+    h = case.target.height()
+    out = {}
+    long_pred = method(case.source, case.target).global_positions()
+    truth = case.truth.global_positions()
+    out["long"] = normalized_mse(long_pred, truth, h)
+    out["long_h2"] = normalized_mse(long_pred, truth, h, squared_height=True)
+    chunks = [(s, s + short_frames) for s in range(0, case.source.num_frames - short_frames + 1, short_frames)]
+    chunks = chunks or [(0, case.source.num_frames)]
+    short, short_h2 = [], []
+    for a, b in chunks:
+        pred = method(case.source.slice(a, b), case.target).global_positions()
+        short.append(normalized_mse(pred, truth[a:b], h))
+        short_h2.append(normalized_mse(pred, truth[a:b], h, squared_height=True))
+    out["short"], out["short_h2"] = float(np.mean(short)), float(np.mean(short_h2))
+    return out
+
+
+def evaluate_method(method: Method, cases: list[EvalCase]) -> pd.DataFrame:
+    """Per-case results: one row per case with scenario, names and the four metrics."""
+    return pd.DataFrame([{"scenario": c.scenario, "source": c.source_name, "target": c.target_name,
+                          "clip": c.clip, **evaluate_case(method, c)} for c in cases])
+
+
+def table4_row(per_case: pd.DataFrame, squared_height: bool = False) -> pd.Series:
+    """Scenario means and their average, short then long, in :data:`TABLE4_COLUMNS` order."""
+    suffix = "_h2" if squared_height else ""
+    values = []
+    for length in ("short", "long"):
+        by = per_case.groupby("scenario")[length + suffix].mean().reindex([1, 2, 3, 4])
+        values += list(by.values) + [float(by.mean())]
+    return pd.Series(values, index=list(TABLE4_COLUMNS))
+
+
+def tdcn_table(methods: Mapping[str, Method], cases: list[EvalCase] | None = None,
+               squared_height: bool = False) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Table 4: our measurement of each method, and the paper's numbers beside it.
+
+    Args:
+        methods: row name -> method (row names as in :data:`PAPER_TABLE4` get the paper's numbers).
+        cases: test cases (default :func:`tdcn_cases`).
+        squared_height: report the ``H²`` variant.
+
+    Returns:
+        ``(table, per_case)``: ``table`` has a row per method with our columns and, for rows the
+        paper reports, ``paper <column>`` columns; ``per_case`` has every case's numbers.
+    """
+    cases = cases if cases is not None else tdcn_cases()
+    rows, per_case = {}, []
+    for name, method in methods.items():
+        res = evaluate_method(method, cases)
+        res.insert(0, "method", name)
+        per_case.append(res)
+        ours = table4_row(res, squared_height)
+        paper = PAPER_TABLE4.get(name) if not squared_height else None
+        row = {f"ours {c}": v for c, v in ours.items()}
+        if paper is not None:
+            row.update({f"paper {c}": v for c, v in zip(TABLE4_COLUMNS, paper)})
+        rows[name] = row
+    return pd.DataFrame(rows).T, pd.concat(per_case, ignore_index=True)
+
+
+def markdown_table(table: pd.DataFrame, digits: int = 2) -> str:
+    """A pipe table of ``table`` (index as the first column), numbers with ``digits`` decimals."""
+    def cell(v):
+        return f"{v:.{digits}f}" if isinstance(v, (float, np.floating)) and np.isfinite(v) else ("" if v is None or (isinstance(v, float) and np.isnan(v)) else str(v))
+
+    head = [str(table.index.name or "")] + [str(c) for c in table.columns]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for idx, row in table.iterrows():
+        lines.append("| " + " | ".join([str(idx)] + [cell(v) for v in row.values]) + " |")
+    return "\n".join(lines)
+
+
+def write_table(table: pd.DataFrame, out_dir: str | Path, name: str, note: str = "") -> tuple[Path, Path]:
+    """Write ``<name>.csv`` and ``<name>.md`` (atomically) into ``out_dir``."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    csv_path, md_path = out_dir / f"{name}.csv", out_dir / f"{name}.md"
+    with atomic_write(csv_path, "w") as f:
+        table.to_csv(f, float_format="%.4f")
+    text = (f"{note}\n\n" if note else "") + markdown_table(table) + "\n"
+    with atomic_write(md_path, "w") as f:
+        f.write(text)
+    return csv_path, md_path

@@ -1,0 +1,51 @@
+"""TDCN evaluation: the normalised MSE on cases with known answers, the scenario protocol."""
+
+import numpy as np
+import pytest
+
+from retarget_lib.data.pairs import copy_rotations, retarget_ground_truth
+from retarget_lib.evaluate import (PAPER_TABLE4, TABLE4_COLUMNS, markdown_table, normalized_mse, tdcn_cases,
+                                   tdcn_table, write_table)
+
+
+def test_normalized_mse_known_values():
+    truth = np.zeros((10, 22, 3))
+    pred = truth + np.array([0.03, 0.04, 0.0])  # every joint 5 cm off: 25 cm² per joint and frame
+    # H = 1.5 m = 150 cm: 25 cm² / 150 cm = 1/6 cm; H² variant: 0.0025 m² / 2.25 m² = 1/900
+    assert normalized_mse(pred, truth, 1.5) == pytest.approx(25 / 150)
+    assert normalized_mse(pred, truth, 1.5, squared_height=True) == pytest.approx(1 / 900)
+    half = truth.copy()
+    half[:5] += [0.1, 0.0, 0.0]  # half the frames 10 cm off: mean 50 cm²
+    assert normalized_mse(half, truth, 2.0) == pytest.approx(50 / 200)
+    with pytest.raises(ValueError, match="differ"):
+        normalized_mse(pred[:3], truth, 1.5)
+
+
+@pytest.fixture(scope="module")
+def cases():
+    return tdcn_cases()
+
+
+def test_cases_cover_the_four_scenarios(cases):
+    assert sorted({c.scenario for c in cases}) == [1, 2, 3, 4]
+    assert all(c.source_name != c.target_name for c in cases)
+    assert all(c.truth.skeleton is not None and c.truth.num_frames == c.source.num_frames for c in cases)
+
+
+def test_ground_truth_method_scores_zero_and_copy_does_not(cases, tmp_path):
+    table, per_case = tdcn_table({"copy-rest": retarget_ground_truth, "copy": copy_rotations}, cases[::4])
+    ours = [f"ours {c}" for c in TABLE4_COLUMNS]
+    assert np.allclose(table.loc["copy-rest", ours].astype(float), 0.0, atol=1e-9)
+    assert (per_case.query("method == 'copy'")["long"] > 0).all()
+    csv_path, md_path = write_table(table, tmp_path, "t4", note="test")
+    assert csv_path.exists() and md_path.read_text().startswith("test")
+    assert "| copy |" in md_path.read_text()
+
+
+def test_paper_numbers_and_markdown():
+    assert PAPER_TABLE4["ours"][4] == 2.45 and PAPER_TABLE4["ours"][9] == 2.48
+    assert all(len(v) == len(TABLE4_COLUMNS) for v in PAPER_TABLE4.values())
+    import pandas as pd
+
+    md = markdown_table(pd.DataFrame({"a": [1.234, np.nan]}, index=["x", "y"]))
+    assert md.splitlines()[2] == "| x | 1.23 |" and md.splitlines()[3] == "| y |  |"
