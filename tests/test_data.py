@@ -114,3 +114,27 @@ def test_cli_data_list_and_verify(capsys):
     assert "cmu-assimp" in out and "mannequin-x" in out and "MISSING" not in out
     assert main(["data", "verify"]) == 0
     assert "all required sources verified" in capsys.readouterr().out
+
+
+def test_checkpoint_lookup_checks_presence_and_checksum(tmp_path, monkeypatch):
+    import yaml
+
+    ckpt = tmp_path / "m.pt"
+    ckpt.write_bytes(b"weights")
+    data = dict(manifest.load_manifest())
+    data["checkpoints"] = {"toy": {"path": str(ckpt), "sha256": sha256_file(ckpt), "config": "configs/x.yaml",
+                                   "command": "retarget train --config configs/x.yaml"}}
+    path = tmp_path / "manifest.yaml"
+    path.write_text(yaml.safe_dump(data))
+    manifest.load_manifest.cache_clear()
+    monkeypatch.setattr(manifest, "MANIFEST_PATH", path)
+    try:
+        assert manifest.checkpoint("toy").path == ckpt
+        with pytest.raises(DataError, match="known: \\['toy'\\]"):
+            manifest.checkpoint("nope")
+        ckpt.write_bytes(b"tampered")
+        with pytest.raises(DataError, match="retarget train --config configs/x.yaml"):
+            manifest.checkpoint("toy")
+        assert [s.verified for s in manifest.check_checkpoints()] == [False]
+    finally:
+        manifest.load_manifest.cache_clear()

@@ -130,6 +130,57 @@ _CHECKS = {
 }
 
 
+@dataclass
+class CheckpointEntry:
+    """A trained model the notebooks load (``checkpoints:`` in the manifest).
+
+    Attributes:
+        id: manifest key, e.g. ``"tdcn-ours-fast"``.
+        path: absolute path of the ``.pt`` file.
+        sha256: expected checksum.
+        config: the experiment config it was trained with (repo-relative).
+        command: the exact command that produced it.
+    """
+
+    id: str
+    path: Path
+    sha256: str
+    config: str
+    command: str
+
+
+def checkpoint(checkpoint_id: str, verify_checksum: bool = True) -> CheckpointEntry:
+    """Look up a shipped checkpoint; check that it exists and matches its checksum.
+
+    Raises:
+        DataError: unknown id (the known ones are named), missing file or checksum mismatch (the
+            message gives the command that re-creates it).
+    """
+    entries = load_manifest().get("checkpoints") or {}
+    if checkpoint_id not in entries:
+        raise DataError(f"unknown checkpoint {checkpoint_id!r}; known: {sorted(entries)}")
+    e = entries[checkpoint_id]
+    entry = CheckpointEntry(checkpoint_id, REPO_ROOT / e["path"], e["sha256"], e["config"], e["command"])
+    if not entry.path.exists():
+        raise DataError(f"checkpoint {checkpoint_id} missing at {entry.path}; re-create it with: {entry.command}")
+    if verify_checksum and sha256_file(entry.path) != entry.sha256:
+        raise DataError(f"checkpoint {checkpoint_id} at {entry.path} does not match its sha256 in the "
+                        f"manifest; re-create it with: {entry.command}")
+    return entry
+
+
+def check_checkpoints() -> list[SourceStatus]:
+    """One status per shipped checkpoint."""
+    out = []
+    for cid in (load_manifest().get("checkpoints") or {}):
+        try:
+            e = checkpoint(cid)
+            out.append(SourceStatus(f"checkpoint:{cid}", "checkpoint", True, True, str(e.path)))
+        except DataError as err:
+            out.append(SourceStatus(f"checkpoint:{cid}", "checkpoint", False, False, str(err)))
+    return out
+
+
 def check_sources() -> list[SourceStatus]:
     """Check every source listed in the manifest (those without a checker are reported as such)."""
     out = []
@@ -143,11 +194,15 @@ def check_sources() -> list[SourceStatus]:
 
 
 def verify() -> list[SourceStatus]:
-    """Check every source; raise :class:`DataError` listing each required source that fails."""
+    """Check every source and checkpoint; raise :class:`DataError` listing each required one that
+    fails."""
     statuses = check_sources()
     manifest = load_manifest()["sources"]
     problems = [s for s in statuses
                 if not manifest[s.id].get("optional") and (not s.present or s.verified is False)]
+    checkpoints = check_checkpoints()
+    problems += [s for s in checkpoints if not s.verified]
+    statuses += checkpoints
     if problems:
         lines = "\n".join(f"  {s.id}: {s.detail}" for s in problems)
         raise DataError(f"data verification failed:\n{lines}")
