@@ -4,6 +4,8 @@
 
     retarget data build|list|verify      build the embedded dataset; list/verify data_manifest.yaml
     retarget retarget --source IN.bvh --target TARGET.bvh|CHARACTER --method copy|copy-rest --out OUT.bvh
+    retarget train --config configs/NAME.yaml [key=value ...] [--profile fast|paper] [--out DIR] [--resume]
+                                         train a TDCN/NKN Table 4 row (retarget_lib.tdcn_training)
     retarget bench [--quick]             speed table (ratios against references in the same run)
 """
 
@@ -43,6 +45,28 @@ def _cmd_retarget(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_train(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from .config import load_config
+    from .losses import NonFiniteLossError
+    from .tdcn_training import RetargetTraining
+    from .train import fit
+
+    config = load_config(args.config, args.overrides, args.profile)
+    out = Path(args.out or Path("runs") / Path(args.config).stem)
+    run = RetargetTraining(config)
+    try:
+        final = fit(run.task(), config, out, int(config["train"]["steps"]),
+                    checkpoint_every=int(config["train"]["checkpoint_every"]), resume=args.resume,
+                    progress=sys.stderr.isatty())
+    except NonFiniteLossError as e:
+        print(f"retarget train: stopped: {e}", file=sys.stderr)
+        return 1
+    print(f"checkpoint: {final}  (losses: {out / 'losses.csv'})")
+    return 0
+
+
 def _cmd_bench(args: argparse.Namespace) -> int:
     from .bench import run
     from .data.cache import atomic_write
@@ -74,6 +98,16 @@ def build_parser() -> argparse.ArgumentParser:
                         "rest-pose compensation (same global bone directions)")
     p.add_argument("--out", required=True, help="output .bvh")
     p.set_defaults(func=_cmd_retarget)
+
+    p = sub.add_parser("train", help="train a TDCN/NKN model (a Table 4 row) from a YAML config")
+    p.add_argument("--config", required=True, help="experiment YAML, e.g. configs/tdcn_paper.yaml")
+    p.add_argument("overrides", nargs="*", metavar="key=value",
+                   help="dotted config overrides, e.g. train.steps=200 model.channels=64")
+    p.add_argument("--profile", choices=["fast", "paper"],
+                   help="config profile (default $RETARGET_PROFILE or fast)")
+    p.add_argument("--out", help="run folder (default runs/<config name>)")
+    p.add_argument("--resume", action="store_true", help="continue from <out>/last.pt if it exists")
+    p.set_defaults(func=_cmd_train)
 
     p = sub.add_parser("bench", help="speed benchmarks (ratios against same-run references)")
     p.add_argument("--quick", action="store_true", help="fewer repeats (CI smoke run)")

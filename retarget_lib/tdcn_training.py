@@ -1,0 +1,549 @@
+"""Training the TDCN retargeting network and its Table 4 baselines/ablations (Kim et al. 2020,
+Secs. 4-5), on the synthetic data, with the shared loop of :mod:`retarget_lib.train`.
+
+::
+
+    from retarget_lib.config import load_config
+    from retarget_lib.train import fit
+    from retarget_lib.tdcn_training import RetargetTraining, load_generator
+
+    cfg = load_config("configs/tdcn_paper.yaml", ["train.steps=300"], profile="fast")
+    run = RetargetTraining(cfg)
+    final = fit(run.task(), cfg, "runs/ours", cfg["train"]["steps"])
+    generator, cfg = load_generator(final)          # eval mode, ready for inference
+
+(or ``retarget train --config configs/tdcn_paper.yaml``).
+
+Data (:class:`TrainingClips`, :class:`WindowSampler`). Like Mixamo, every training character
+performs every training clip: its version is the ground-truth transfer of the clip onto it
+(:func:`~retarget_lib.data.pairs.retarget_ground_truth`), computed once per process for the TDCN
+split's train characters × train clips (:func:`~retarget_lib.data.synthetic.tdcn_split`; 11
+characters × 80 clips = 25k frames each, 0.1 GB float32, built in ~3 s — cheap enough not to be
+cached on disk). A sample is
+
+* a source character ``A`` and a random ``window``-frame window (81, Sec. 5) of one of its clips,
+  uniform over all windows that lie inside a clip (clips shorter than a window are not used);
+* a target ``B``: ``A`` itself with probability ``same_fraction`` (50 %, Sec. 5), otherwise
+  another training character, uniformly;
+* a *real* window performed by ``B`` (independent clip and start) for the discriminator (Sec. 5:
+  "we sampled the motion clips performed by the character, which was taken as the target");
+* the balanced-data scaling (Sec. 5, Table 1: "we scaled p_t and r_t with random factors in
+  [0.5, 1.5]"): one factor ``s ~ U(scale_range)`` per sample multiplies the source skeleton's
+  offsets and its root trajectory, so ``p = f_FK(q, s·s̄)`` and ``H`` scale with it and the
+  motion stays physically consistent (a uniformly larger character doing the same motion). With
+  ``scale_targets`` the target gets its own factor (``B``'s offsets and ``B``'s real window scale
+  together; when ``A = B`` it is ``A``'s factor): without it the generator would only ever see the
+  11 training skeletons as ``s̄B``. ``scale_range: null`` is the unbalanced data of A2 (and of the
+  NKN baselines, which the paper trained on Villegas et al.'s data, Sec. 6.1 A2).
+* Root normalisation: the paper assumes motions "around or across the origin" (Sec. 4.2, before
+  Eq. 15), which its root term ``m_t = ||r_t|| / H`` needs. Each window is translated
+  horizontally so that its *centre* frame's root is above the origin (``x = z = 0``); the height
+  ``y`` is kept (it carries the leg length). A walk then passes across the origin; a standing
+  motion stays around it. :func:`retarget_motion_with` applies the same centring to a clip of any
+  length and adds the offset back, scaled by ``H(s̄B) / H(s̄A)`` — in one pass (the paper), or
+  per output frame on its own re-centred receptive field (``windowed=True``, our variant for
+  long travelling clips).
+
+All sampling uses the global torch RNG, which :func:`~retarget_lib.train.fit` seeds and
+checkpoints, so a resumed run draws exactly the batches of an uninterrupted one.
+
+Step (:meth:`RetargetTraining.step`, Figs. 2a and 4, Eq. 6):
+
+1. ``x̂B = G(xA, s̄B)`` (Eq. 4), FK of the unit ``q̂B`` on ``s̄B`` (Eq. 3); then the cycle
+   ``x̂A = G(x̂B, s̄A)`` (Eq. 5) on the unit ``q̂B``, ``p̂B`` and ``r̂B``.
+2. Generator loss ``Lc + λt Lt + λh Lh + λa La + λr Lr + λo Lo`` (:mod:`retarget_lib.losses`):
+   Lc (Eq. 7) on raw ``q̂A``; Lt (Eq. 8) and Lr (Eq. 22) on raw ``q̂B`` and ``q̂A``; Lh (Eq. 17)
+   between ``xA`` and ``x̂B`` — for NKN generators (which predict root *offsets*) on the offsets
+   ``r_t − r_{t−1}``, the Baseline-height definition (Sec. 6 (iv)); La (Eq. 21) per sample:
+   reconstruction when ``A = B``, else least squares (TDCN) or sigmoid cross-entropy (NKN,
+   ``loss.gan``) on the discriminator's scores of ``x̂B`` (D frozen); Lo (Eq. 23) on the roots.
+   Every term is computed and logged; a zero weight only drops it from the total.
+3. Discriminator step: real windows of ``B`` → real, the detached ``x̂B`` of the ``A ≠ B``
+   samples → fake (when ``A = B`` the output should *be* real motion; a batch without any ``A ≠ B``
+   sample trains the real half only).
+4. Adam (lr 1e-4, betas (0.5, 0.999), Sec. 5) for both.
+
+NKN rows use the same step with their own config: sigmoid-CE GAN, ``λr = λo = 0`` (TDCN's
+additions), ``λh = 0`` except Baseline-height, unbalanced data. NKN's own cycle loss compares
+positions and root velocities; here every row uses Eq. 7 so that only the listed differences
+separate the rows.
+
+Checkpoints (``last.pt`` / ``final.pt`` of :func:`~retarget_lib.train.fit`) hold the merged
+config and the ``generator``/``discriminator`` state dicts (with the
+:class:`~retarget_lib.models.features.FeatureNormalizer` buffers); :func:`load_generator`
+rebuilds the generator from them.
+
+Speed (2 cores, 2 threads, one step = G and D updates; ``windows/s`` = batch / step time):
+
+==============================  =====  =====  ===========  ==========
+row                             width  batch  s/step       windows/s
+==============================  =====  =====  ===========  ==========
+ours (A2, A3, A5 alike), fast   256    16     0.28         58
+A4 (81-frame D), fast           256    16     0.29         55
+A1 (dense), fast                256    16     0.73         22
+Baseline / -height (GRU), fast  128    16     0.76         21
+Baseline-dense, fast            128    16     0.44         36
+Baseline-dilated, fast          128    16     0.22         72
+ours, paper width               1024   16     1.6          10
+ours, paper                     1024   128    19.4         6.6
+A1, paper                       1024   128    77           1.7
+Baseline, paper                 512    128    2.9          43
+==============================  =====  =====  ===========  ==========
+
+The fast profile (600 steps at batch 16 for every row) takes ~3 min of wall time for ours and
+~8 min for the slowest rows (A1, the GRU baselines; 700 steps of Baseline measured 9 min 23 s);
+the paper schedule (100k steps at batch 128) would be ~540 h for ours on this CPU — a GPU job.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+from functools import lru_cache
+from pathlib import Path
+from typing import Any, NamedTuple
+
+import torch
+
+from .data.pairs import retarget_ground_truth
+from .data.synthetic import load_synthetic, tdcn_split
+from .losses import (MotionTensors, TDCNLossWeights, adversarial_loss, adversarial_loss_discriminator,
+                     adversarial_loss_generator, check_finite, cycle_loss, height_loss, orientation_loss,
+                     regularization_loss, sigmoid_ce_discriminator_loss, sigmoid_ce_generator_loss,
+                     total_generator_loss, twist_loss)
+from .models import TDCNGenerator, build_model, normalize_quaternions
+from .models.features import (generator_features, nkn_source_features, root_velocities, skeleton_height,
+                              source_local_positions)
+from .models.tdcn import edge_pad
+from .motion import Motion
+from .notebook import seed_everything
+from .skeleton import Skeleton
+from .train import TrainTask, load_checkpoint
+
+Tensor = torch.Tensor
+
+__all__ = [
+    "TrainingClips",
+    "training_clips",
+    "TrainingBatch",
+    "WindowSampler",
+    "centre_root",
+    "RetargetTraining",
+    "model_config",
+    "loss_weights",
+    "load_generator",
+    "retarget_motion_with",
+]
+
+#: (generator loss on scores, discriminator loss on (real, fake) scores) per ``loss.gan``
+_GANS = {"lsgan": (adversarial_loss_generator, adversarial_loss_discriminator),
+         "sigmoid_ce": (sigmoid_ce_generator_loss, sigmoid_ce_discriminator_loss)}
+
+#: how many windows the optional input normaliser is fitted on
+_NORMALIZER_WINDOWS = 256
+
+
+# ------------------------------------------------------------------------------------- data
+@dataclass(frozen=True)
+class TrainingClips:
+    """Every training character's version of every training clip, concatenated along time.
+
+    All characters perform the same clips with the same frame counts, so one frame index
+    addresses the same moment of the same clip for every character.
+
+    Attributes:
+        characters: ``C`` character names.
+        clip_names: ``K`` clip names (``"walk_003"``).
+        clip_bounds: ``(K + 1,)`` long; clip ``k`` is frames ``clip_bounds[k]:clip_bounds[k+1]``.
+        offsets: ``(C, J, 3)`` rest offsets (metres).
+        rotations: ``(C, F, J, 4)`` local unit quaternions (wxyz), float32.
+        root_positions: ``(C, F, 3)`` root positions (metres), float32, as authored.
+    """
+
+    characters: tuple[str, ...]
+    clip_names: tuple[str, ...]
+    clip_bounds: Tensor
+    offsets: Tensor
+    rotations: Tensor
+    root_positions: Tensor
+
+    def window_starts(self, window: int) -> Tensor:
+        """``(N,)`` long: first frames of every ``window``-frame window that lies inside one clip.
+
+        Raises:
+            ValueError: no clip is long enough.
+        """
+        starts = [torch.arange(int(a), int(b) - window + 1) for a, b in zip(self.clip_bounds[:-1],
+                                                                              self.clip_bounds[1:])]
+        starts = torch.cat(starts)
+        if starts.numel() == 0:
+            raise ValueError(f"no training clip has {window} frames")
+        return starts
+
+
+@lru_cache(maxsize=1)
+def training_clips() -> TrainingClips:
+    """The TDCN split's train characters × train clips (ground-truth transfers), built once.
+
+    Returns:
+        :class:`TrainingClips` (treat as read-only: it is shared within the process).
+    """
+    ds, split = load_synthetic(), tdcn_split()
+    clips = [ds.clip(f"{m.family}_{m.seed:03d}").motion for m in split.train_motions]
+    lengths = torch.tensor([0] + [c.num_frames for c in clips])
+    rotations, roots = [], []
+    for name in split.train_characters:
+        versions = [retarget_ground_truth(c, ds.characters[name].skeleton) for c in clips]
+        rotations.append(torch.cat([torch.as_tensor(m.rotations, dtype=torch.float32) for m in versions]))
+        roots.append(torch.cat([torch.as_tensor(m.root_positions, dtype=torch.float32) for m in versions]))
+    offsets = torch.stack([torch.as_tensor(ds.characters[n].skeleton.offsets, dtype=torch.float32)
+                           for n in split.train_characters])
+    return TrainingClips(tuple(split.train_characters), tuple(c.name for c in clips), lengths.cumsum(0),
+                         offsets, torch.stack(rotations), torch.stack(roots))
+
+
+def centre_root(root_positions: Tensor) -> tuple[Tensor, Tensor]:
+    """Move a clip horizontally so that its centre frame's root is above the origin.
+
+    Args:
+        root_positions: ``(..., T, 3)``.
+
+    Returns:
+        ``(centred (..., T, 3), shift (..., 3))`` with ``centred = root_positions - shift``;
+        ``shift`` has ``y = 0``.
+    """
+    shift = root_positions[..., root_positions.shape[-2] // 2, :].clone()
+    shift[..., 1] = 0.0
+    return root_positions - shift.unsqueeze(-2), shift
+
+
+class TrainingBatch(NamedTuple):
+    """One batch of (source window, target skeleton, real target window), Sec. 5.
+
+    Attributes:
+        rotations: ``(B, W, J, 4)`` source local quaternions ``q^A``.
+        root_positions: ``(B, W, 3)`` source root positions ``r^A`` (scaled, centred).
+        offsets_source: ``(B, J, 3)`` source skeleton ``s̄A`` (scaled).
+        offsets_target: ``(B, J, 3)`` target skeleton ``s̄B`` (scaled).
+        same_character: ``(B,)`` bool, ``A = B``.
+        real_rotations: ``(B, W, J, 4)`` a real window performed by ``B``.
+        real_root_positions: ``(B, W, 3)`` its root positions (scaled like ``s̄B``, centred).
+        source: ``(B,)`` long, index of ``A`` in :attr:`TrainingClips.characters`.
+        target: ``(B,)`` long, index of ``B``.
+        scale_source: ``(B,)`` balanced-data factor of ``A``.
+        scale_target: ``(B,)`` factor of ``B`` (``= scale_source`` where ``A = B``).
+    """
+
+    rotations: Tensor
+    root_positions: Tensor
+    offsets_source: Tensor
+    offsets_target: Tensor
+    same_character: Tensor
+    real_rotations: Tensor
+    real_root_positions: Tensor
+    source: Tensor
+    target: Tensor
+    scale_source: Tensor
+    scale_target: Tensor
+
+
+class WindowSampler:
+    """Random training batches (see the module docstring, "Data").
+
+    Args:
+        clips: :class:`TrainingClips` (at least two characters).
+        window: frames per window (paper: 81).
+        same_fraction: probability that the target is the source (paper: 0.5).
+        scale_range: ``(low, high)`` of the balanced-data factor (paper: ``(0.5, 1.5)``), or
+            ``None`` for unbalanced data (factor 1).
+        scale_targets: scale the target skeleton (and its real windows) by its own factor too.
+    """
+
+    def __init__(self, clips: TrainingClips, window: int = 81, same_fraction: float = 0.5,
+                 scale_range: tuple[float, float] | None = (0.5, 1.5), scale_targets: bool = True):
+        if len(clips.characters) < 2:
+            raise ValueError("need at least two training characters")
+        if not 0.0 <= same_fraction <= 1.0:
+            raise ValueError(f"same_fraction must be in [0, 1], got {same_fraction}")
+        low, high = (1.0, 1.0) if scale_range is None else map(float, scale_range)
+        if not 0.0 < low <= high:
+            raise ValueError(f"scale_range must be null or [low, high] with 0 < low <= high, got {scale_range}")
+        self.clips, self.window, self.same_fraction = clips, int(window), float(same_fraction)
+        self.scale_low, self.scale_high, self.scale_targets = low, high, bool(scale_targets)
+        self.starts = clips.window_starts(self.window)
+
+    def _scales(self, batch: int, generator: torch.Generator | None) -> Tensor:
+        return self.scale_low + (self.scale_high - self.scale_low) * torch.rand(batch, generator=generator)
+
+    def _windows(self, character: Tensor, scale: Tensor, generator: torch.Generator | None) -> tuple[Tensor, Tensor]:
+        """Random windows of ``character``'s clips: ``(q (B,W,J,4), centred scaled r (B,W,3))``."""
+        start = self.starts[torch.randint(len(self.starts), (len(character),), generator=generator)]
+        frames = start[:, None] + torch.arange(self.window)
+        rows = character[:, None]
+        root = self.clips.root_positions[rows, frames] * scale[:, None, None]
+        return self.clips.rotations[rows, frames], centre_root(root)[0]
+
+    def sample(self, batch: int, generator: torch.Generator | None = None) -> TrainingBatch:
+        """Draw ``batch`` samples (global torch RNG unless ``generator`` is given)."""
+        n = len(self.clips.characters)
+        source = torch.randint(n, (batch,), generator=generator)
+        same = torch.rand(batch, generator=generator) < self.same_fraction
+        target = torch.where(same, source, (source + torch.randint(1, n, (batch,), generator=generator)) % n)
+        scale_a = self._scales(batch, generator)
+        other = self._scales(batch, generator) if self.scale_targets else torch.ones(batch)
+        scale_b = torch.where(same, scale_a, other)
+        q_a, r_a = self._windows(source, scale_a, generator)
+        q_real, r_real = self._windows(target, scale_b, generator)
+        off = self.clips.offsets
+        return TrainingBatch(q_a, r_a, off[source] * scale_a[:, None, None], off[target] * scale_b[:, None, None],
+                             same, q_real, r_real, source, target, scale_a, scale_b)
+
+
+# ------------------------------------------------------------------------------- configs
+def model_config(config: dict) -> dict[str, Any]:
+    """The model config of an experiment config, with the run's profile made explicit.
+
+    Args:
+        config: merged experiment config (``model`` section, ``profile``).
+
+    Returns:
+        the dict given to :func:`~retarget_lib.models.build_model` (so widths never depend on
+        ``$RETARGET_PROFILE`` at load time).
+    """
+    return {**config["model"], "profile": config.get("profile", "fast")}
+
+
+def loss_weights(config: dict) -> TDCNLossWeights:
+    """:class:`~retarget_lib.losses.TDCNLossWeights` from the ``loss`` section (``lambda_*`` keys)."""
+    loss = config["loss"]
+    return TDCNLossWeights(**{f.name: float(loss[f.name]) for f in fields(TDCNLossWeights) if f.name in loss})
+
+
+def _check_row(resolved: dict, config: dict, weights: TDCNLossWeights) -> None:
+    """Refuse configs whose data/loss contradict the Table 4 row named in ``model.row``."""
+    row = resolved.get("row", resolved["kind"])
+    problems = []
+    if resolved.get("data") == "unbalanced" and config["data"]["scale_range"] is not None:
+        problems.append("data.scale_range must be null (unbalanced data)")
+    if resolved.get("loss") == "no_height" and weights.lambda_h != 0:
+        problems.append("loss.lambda_h must be 0 (no height loss)")
+    if resolved["kind"] == "nkn" and bool(resolved.get("height_loss", False)) != (weights.lambda_h != 0):
+        problems.append(f"loss.lambda_h must be {'> 0' if resolved.get('height_loss') else '0'} "
+                        "for this NKN variant")
+    if config["loss"]["gan"] not in _GANS:
+        problems.append(f"loss.gan must be one of {list(_GANS)}")
+    if problems:
+        raise ValueError(f"config {config.get('name', '?')!r} (row {row}): " + "; ".join(problems))
+
+
+# ---------------------------------------------------------------------------- training
+class RetargetTraining:
+    """Generator, discriminator, optimisers, sampler and the training step of one Table 4 row.
+
+    Construction seeds the global RNGs with ``config["seed"]`` so that the initial weights depend
+    on the config only (:func:`~retarget_lib.train.fit` then re-seeds for the data).
+
+    Args:
+        config: merged experiment config (:func:`~retarget_lib.config.load_config`) with sections
+            ``model``, ``data`` (``window``, ``same_fraction``, ``scale_range``, ``scale_targets``),
+            ``loss`` (``gan``, ``twist_alpha_deg``, ``lambda_*``) and ``train`` (``batch``, ``lr``,
+            ``betas``).
+        clips: training data (default :func:`training_clips`).
+
+    Attributes:
+        generator, discriminator: the :class:`~retarget_lib.models.ModelPair`.
+        sampler: the :class:`WindowSampler`.
+        weights: the :class:`~retarget_lib.losses.TDCNLossWeights` of Eq. 6.
+    """
+
+    def __init__(self, config: dict, clips: TrainingClips | None = None):
+        self.config = config
+        seed_everything(int(config["seed"]))
+        self.generator, self.discriminator = build_model(model_config(config))
+        self.resolved = self.generator.config
+        self.weights = loss_weights(config)
+        _check_row(self.resolved, config, self.weights)
+        loss, data, train = config["loss"], config["data"], config["train"]
+        self.gan, self.alpha_deg, self.batch = loss["gan"], float(loss["twist_alpha_deg"]), int(train["batch"])
+        self.sampler = WindowSampler(training_clips() if clips is None else clips, data["window"], data["same_fraction"],
+                                     data["scale_range"], data["scale_targets"])
+        if self.resolved["normalize_inputs"]:
+            self._fit_normalizer()
+        adam = dict(lr=float(train["lr"]), betas=tuple(float(b) for b in train["betas"]))
+        self.opt_g = torch.optim.Adam(self.generator.parameters(), **adam)
+        self.opt_d = torch.optim.Adam(self.discriminator.parameters(), **adam)
+
+    def task(self) -> TrainTask:
+        """The :class:`~retarget_lib.train.TrainTask` for :func:`~retarget_lib.train.fit`."""
+        return TrainTask({"generator": self.generator, "discriminator": self.discriminator},
+                         {"generator": self.opt_g, "discriminator": self.opt_d}, self.step)
+
+    @torch.no_grad()
+    def _fit_normalizer(self) -> None:
+        """Fit the generator's input normaliser on source windows (own RNG: global state untouched)."""
+        b = self.sampler.sample(_NORMALIZER_WINDOWS, torch.Generator().manual_seed(int(self.config["seed"])))
+        p = source_local_positions(b.rotations, b.offsets_source)
+        if self.resolved["kind"] == "tdcn":
+            x = generator_features(b.rotations, b.root_positions, b.offsets_source, b.offsets_target, p)
+        else:
+            h = skeleton_height(b.offsets_source) if self.generator.normalize_root else None
+            x = nkn_source_features(p, b.root_positions, h)
+        self.generator.normalizer.fit(x)
+
+    def _retarget(self, q: Tensor, r: Tensor, p: Tensor, off_src: Tensor, off_tgt: Tensor):
+        """``G(x, s̄_tgt)`` (Eqs. 4-5) → (raw output, unit q̂ ``(B,W,J,4)``, ``p̂ = f_FK(q̂, s̄_tgt)``)."""
+        out = self.generator.generate(q, r, off_src, off_tgt, positions=p)
+        q_unit = normalize_quaternions(out.rotations)
+        return out, q_unit, source_local_positions(q_unit, off_tgt)
+
+    def generator_terms(self, batch: TrainingBatch) -> tuple[dict[str, Tensor], MotionTensors]:
+        """The six loss terms of Eq. 6 for one batch (D is used but not updated).
+
+        Args:
+            batch: a :class:`TrainingBatch`.
+
+        Returns:
+            ``(terms, x̂B)``: scalar tensors ``Lc, Lt, Lh, La, Lr, Lo`` (unweighted), and the
+            retargeted motion (``p (B,W,J,3)``, raw ``q (B,W,J,4)``, ``r (B,W,3)``).
+        """
+        q_a, r_a, off_a, off_b = batch.rotations, batch.root_positions, batch.offsets_source, batch.offsets_target
+        p_a = source_local_positions(q_a, off_a)
+        out_b, q_b_unit, p_b = self._retarget(q_a, r_a, p_a, off_a, off_b)                    # Eq. 4
+        out_a, _, p_a_hat = self._retarget(q_b_unit, out_b.root_positions, p_b, off_b, off_a)  # Eq. 5
+        x_a = MotionTensors(p_a, q_a, r_a)
+        x_b_hat = MotionTensors(p_b, out_b.rotations, out_b.root_positions)
+        if out_b.root_velocities is None:
+            root_a, root_b = r_a, out_b.root_positions
+        else:  # NKN predicts root offsets: Lh on offsets (Baseline-height, Sec. 6 (iv))
+            root_a, root_b = root_velocities(r_a), out_b.root_velocities
+        d = self.discriminator
+        h_fake = d(d.features(p_b, out_b.root_positions, off_b))
+        terms = {
+            "Lc": cycle_loss(x_a, MotionTensors(p_a_hat, out_a.rotations, out_a.root_positions)),
+            "Lt": twist_loss(out_b.rotations, out_a.rotations, self.alpha_deg),
+            "Lh": height_loss(p_a, p_b, root_a, root_b, skeleton_height(off_a), skeleton_height(off_b),
+                              self.weights.lambda_g),
+            "La": adversarial_loss(h_fake, x_a, x_b_hat, batch.same_character, gan=self.gan),
+            "Lr": regularization_loss(out_b.rotations, out_a.rotations),
+            "Lo": orientation_loss(q_a[:, :, 0], out_b.rotations[:, :, 0]),
+        }
+        return terms, x_b_hat
+
+    def discriminator_loss(self, batch: TrainingBatch, x_b_hat: MotionTensors) -> Tensor:
+        """Eq. 21 for D (LSGAN) or NKN's sigmoid CE: real windows of ``B`` vs the ``A ≠ B`` fakes.
+
+        Args:
+            batch: the batch the fakes were made from.
+            x_b_hat: the generator's output (detached here).
+
+        Returns:
+            scalar loss; the real half only if the batch has no ``A ≠ B`` sample.
+        """
+        d, off_b = self.discriminator, batch.offsets_target
+        g_loss, d_loss = _GANS[self.gan]
+        p_real = source_local_positions(batch.real_rotations, off_b)
+        h_real = d(d.features(p_real, batch.real_root_positions, off_b))
+        fake = ~batch.same_character
+        if not fake.any():
+            return g_loss(h_real)  # = the "real → real" half of the discriminator loss
+        h_fake = d(d.features(x_b_hat.p.detach()[fake], x_b_hat.r.detach()[fake], off_b[fake]))
+        return d_loss(h_real, h_fake)
+
+    def step(self, index: int) -> dict[str, float]:
+        """One generator and one discriminator update (Eq. 6).
+
+        Args:
+            index: step number (unused: all randomness comes from the global RNGs).
+
+        Returns:
+            ``{Lc, Lt, Lh, La, Lr, Lo, total, D}`` as floats (terms unweighted).
+
+        Raises:
+            NonFiniteLossError: a weighted term, the total or the D loss is NaN/inf (named).
+        """
+        batch = self.sampler.sample(self.batch)
+        self.discriminator.requires_grad_(False)  # La's gradient reaches G only
+        try:
+            terms, x_b_hat = self.generator_terms(batch)
+            total, log = total_generator_loss(terms, self.weights)
+            self.opt_g.zero_grad(set_to_none=True)
+            total.backward()
+            self.opt_g.step()
+        finally:
+            self.discriminator.requires_grad_(True)
+        d_loss = check_finite("D", self.discriminator_loss(batch, x_b_hat))
+        self.opt_d.zero_grad(set_to_none=True)
+        d_loss.backward()
+        self.opt_d.step()
+        log["D"] = float(d_loss.detach())
+        return log
+
+
+# ---------------------------------------------------------------------------- inference
+def load_generator(checkpoint: str | Path) -> tuple[torch.nn.Module, dict]:
+    """Rebuild a trained generator from a ``last.pt``/``final.pt`` of ``retarget train``.
+
+    Args:
+        checkpoint: checkpoint path.
+
+    Returns:
+        ``(generator, config)``: the generator in eval mode with its weights and normaliser
+        statistics; the merged experiment config it was trained with.
+    """
+    state = load_checkpoint(checkpoint)
+    config = state["config"]
+    generator, _ = build_model(model_config(config))
+    generator.load_state_dict(state["modules"]["generator"])
+    return generator.eval(), config
+
+
+def _frame_windows(x: Tensor, left: int, right: int) -> Tensor:
+    """``(T, ...)`` → ``(T, left + 1 + right, ...)``: frame ``t``'s receptive field, edge-padded."""
+    windows = edge_pad(x, left, right, time_dim=0).unfold(0, left + 1 + right, 1)  # (T, ..., W)
+    return windows.movedim(-1, 1)
+
+
+def retarget_motion_with(generator: torch.nn.Module, motion: Motion, target: Skeleton,
+                         windowed: bool = False, chunk: int = 256) -> Motion:
+    """Retarget a whole clip with a trained TDCN/NKN generator (any length).
+
+    ``windowed=False`` (the paper, Sec. 3.1): the clip is centred like the training windows
+    (:func:`centre_root`) and run through the network in one pass; the removed horizontal shift
+    is added back scaled by ``H(s̄B) / H(s̄A)``. A long travelling clip then feeds root positions
+    far outside the ±(half a window's travel) seen in training.
+
+    ``windowed=True`` (TDCN only, our variant): every output frame ``t`` is computed from its own
+    receptive field (81 frames around ``t``, the past 81 for the causal A5), centred exactly like
+    a training window, and its shift added back — every frame sees training-like root positions,
+    at ``T`` network evaluations of one window each. Identical to ``windowed=False`` when the
+    root does not travel.
+
+    Args:
+        generator: e.g. from :func:`load_generator` (eval mode).
+        motion: source clip on the canonical 22 joints (``T`` frames, metres).
+        target: canonical-22 target skeleton.
+        windowed: per-frame re-centred windows (needs a :class:`~retarget_lib.models.TDCNGenerator`).
+        chunk: windows per network call when ``windowed``.
+
+    Returns:
+        the target's :class:`~retarget_lib.motion.Motion` (``T`` frames, unit quaternions).
+    """
+    q, r, off_a = motion.torch()
+    off_b = torch.as_tensor(target.offsets, dtype=torch.float32)
+    ratio = skeleton_height(off_b) / skeleton_height(off_a)
+    with torch.inference_mode():
+        if not windowed:
+            r, shift = centre_root(r)
+            q_b, r_b = (x[0] for x in generator.retarget(q[None], r[None], off_a, off_b))
+        elif isinstance(generator, TDCNGenerator):
+            left, right = generator.body.pad_amounts
+            r_win, shift = centre_root(_frame_windows(r, left, right))  # (T, W, 3), (T, 3)
+            q_win = _frame_windows(q, left, right)                       # (T, W, J, 4)
+            outs = [generator.retarget(q_win[i:i + chunk], r_win[i:i + chunk], off_a, off_b)
+                    for i in range(0, len(q_win), chunk)]
+            q_b = torch.cat([o[0][:, left] for o in outs])
+            r_b = torch.cat([o[1][:, left] for o in outs])
+        else:
+            raise ValueError(f"windowed retargeting needs a TDCNGenerator, got {type(generator).__name__}")
+    return motion.copy(skeleton=target.copy(), rotations=q_b.double().numpy(),
+                       root_positions=(r_b + shift * ratio).double().numpy(),
+                       meta=dict(motion.meta, retargeted=generator.config["kind"]))

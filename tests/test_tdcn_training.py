@@ -1,0 +1,177 @@
+"""TDCN/NKN training (retarget_lib.tdcn_training): every Table 4 config, the training step, the
+sampler (A = B fraction, balanced scaling, centring), `retarget train --resume`, NaN stop, and
+load_generator → retargeting a 200-frame clip. Tiny widths and batches: the whole file runs in
+seconds; real training lives in `retarget train`."""
+
+import csv
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+
+from retarget_lib.cli import main
+from retarget_lib.config import load_config
+from retarget_lib.data.synthetic import load_synthetic, tdcn_split
+from retarget_lib.losses import NonFiniteLossError
+from retarget_lib.models import PROFILE_WIDTHS, NKNGenerator, TDCNGenerator
+from retarget_lib.models.features import skeleton_height
+from retarget_lib.tdcn_training import (RetargetTraining, WindowSampler, load_generator, retarget_motion_with,
+                                        training_clips)
+from retarget_lib.train import fit, load_checkpoint
+
+CONFIGS = Path(__file__).resolve().parents[1] / "configs"
+ROWS = {"tdcn_baseline": "Baseline", "tdcn_baseline_dense": "Baseline-dense",
+        "tdcn_baseline_dilated": "Baseline-dilated", "tdcn_baseline_height": "Baseline-height",
+        "tdcn_paper": "ours", "tdcn_a1_dense": "A1", "tdcn_a2_unbalanced": "A2", "tdcn_a3_no_height": "A3",
+        "tdcn_a4_disc81": "A4", "tdcn_a5_causal": "A5"}
+TINY = ["model.channels=16", "model.disc_channels=16", "train.batch=4"]
+TERMS = ["Lc", "Lt", "Lh", "La", "Lr", "Lo", "total", "D"]
+
+
+def config(stem, *overrides, profile="fast"):
+    return load_config(CONFIGS / f"{stem}.yaml", [*TINY, *overrides], profile=profile)
+
+
+@pytest.fixture(autouse=True)
+def _one_thread():
+    """Tiny networks: one thread is faster and unaffected by other work on the machine."""
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(threads)
+
+
+def test_paper_settings_and_every_table4_row_config():
+    paper = load_config(CONFIGS / "tdcn_paper.yaml", profile="paper")
+    assert paper["model"]["channels"] == 1024 and paper["model"]["dropout"] == 0.1
+    assert paper["train"]["batch"] == 128 and paper["train"]["lr"] == 1e-4 and paper["train"]["betas"] == [0.5, 0.999]
+    assert paper["data"] == {"window": 81, "same_fraction": 0.5, "scale_range": [0.5, 1.5], "scale_targets": True}
+    assert {k: paper["loss"][k] for k in ("lambda_t", "lambda_h", "lambda_a", "lambda_r", "lambda_o", "lambda_g")} \
+        == {"lambda_t": 10, "lambda_h": 10, "lambda_a": 1, "lambda_r": 0.1, "lambda_o": 1, "lambda_g": 5}
+    assert sorted(p.stem for p in CONFIGS.glob("tdcn_*.yaml")) == sorted(ROWS)
+    for stem, row in ROWS.items():
+        fast = load_config(CONFIGS / f"{stem}.yaml", profile="fast")
+        assert fast["name"] == fast["model"]["row"] == row
+        kind = "nkn" if row.startswith("Baseline") else "tdcn"
+        assert fast["model"]["channels"] == PROFILE_WIDTHS["fast"][kind]
+        assert load_config(CONFIGS / f"{stem}.yaml", profile="paper")["model"]["channels"] \
+            == PROFILE_WIDTHS["paper"][kind]
+        run = RetargetTraining(config(stem))
+        assert isinstance(run.generator, NKNGenerator if kind == "nkn" else TDCNGenerator)
+        assert run.generator.config["row"] == row
+        assert run.gan == ("sigmoid_ce" if kind == "nkn" else "lsgan")
+    assert config("tdcn_a3_no_height")["loss"]["lambda_h"] == 0
+    assert config("tdcn_a2_unbalanced")["data"]["scale_range"] is None
+    assert RetargetTraining(config("tdcn_a4_disc81")).discriminator.receptive_field == 81
+
+
+def test_config_contradicting_its_row_is_refused():
+    with pytest.raises(ValueError, match="lambda_h must be 0"):
+        RetargetTraining(config("tdcn_a3_no_height", "loss.lambda_h=10"))
+    with pytest.raises(ValueError, match="scale_range must be null"):
+        RetargetTraining(config("tdcn_a2_unbalanced", "data.scale_range=[0.5, 1.5]"))
+    with pytest.raises(ValueError, match="lambda_h must be > 0"):
+        RetargetTraining(config("tdcn_baseline_height", "loss.lambda_h=0"))
+
+
+@pytest.mark.parametrize("stem", ["tdcn_paper", "tdcn_baseline_height"])
+def test_training_steps_are_finite_and_update_both_networks(stem):
+    run = RetargetTraining(config(stem))
+    before = {name: [p.detach().clone() for p in m.parameters()]
+              for name, m in (("G", run.generator), ("D", run.discriminator))}
+    for i in range(2):
+        log = run.step(i)
+        assert list(log) == TERMS
+        assert all(np.isfinite(v) for v in log.values()), log
+    for name, m in (("G", run.generator), ("D", run.discriminator)):
+        unchanged = [i for i, (a, b) in enumerate(zip(before[name], m.parameters())) if torch.equal(a, b)]
+        assert not unchanged, f"{name} parameters {unchanged} did not change"
+        assert all(p.requires_grad for p in m.parameters())
+
+
+def test_sampler_pairs_scales_and_centring():
+    clips = training_clips()
+    split = tdcn_split()
+    assert clips.characters == split.train_characters and len(clips.clip_names) == len(split.train_motions)
+    sampler = WindowSampler(clips, window=81)
+    b = sampler.sample(2000, torch.Generator().manual_seed(0))
+    assert b.rotations.shape == b.real_rotations.shape == (2000, 81, 22, 4)
+    assert abs(b.same_character.float().mean().item() - 0.5) < 0.04
+    assert torch.equal(b.same_character, b.source == b.target)
+    for s in (b.scale_source, b.scale_target):
+        assert s.min() >= 0.5 and s.max() <= 1.5 and s.std() > 0.25  # ~U[0.5, 1.5] (std 0.289)
+    assert torch.equal(b.scale_target[b.same_character], b.scale_source[b.same_character])
+    assert torch.allclose(skeleton_height(b.offsets_source),
+                          skeleton_height(clips.offsets[b.source]) * b.scale_source)  # H scales with s
+    assert torch.equal(b.offsets_target[b.same_character], b.offsets_source[b.same_character])
+    for r in (b.root_positions, b.real_root_positions):  # centre frame above the origin, height kept
+        assert torch.equal(r[:, 40, [0, 2]], torch.zeros(2000, 2)) and (r[:, 40, 1] > 0.2).all()
+    unbalanced = WindowSampler(clips, window=81, scale_range=None).sample(500)
+    assert torch.equal(unbalanced.scale_source, torch.ones(500))
+    assert torch.equal(unbalanced.scale_target, torch.ones(500))
+    assert torch.equal(unbalanced.offsets_source, clips.offsets[unbalanced.source])
+
+
+def read_log(path):
+    with open(path) as f:
+        return list(csv.reader(f))
+
+
+def test_cli_train_resume_matches_a_straight_run(tmp_path, capsys):
+    args = ["train", "--config", str(CONFIGS / "tdcn_paper.yaml"), *TINY, "train.checkpoint_every=2"]
+    assert main([*args, "train.steps=3", "--out", str(tmp_path / "a")]) == 0
+    assert load_checkpoint(tmp_path / "a" / "last.pt")["step"] == 3
+    assert main([*args, "train.steps=6", "--out", str(tmp_path / "a"), "--resume"]) == 0
+    assert main([*args, "train.steps=6", "--out", str(tmp_path / "b")]) == 0
+    assert f"checkpoint: {tmp_path / 'b' / 'final.pt'}" in capsys.readouterr().out
+    resumed, straight = (load_checkpoint(tmp_path / d / "final.pt") for d in "ab")
+    assert resumed["step"] == straight["step"] == 6
+    for net in ("generator", "discriminator"):
+        for k, v in straight["modules"][net].items():
+            assert torch.equal(resumed["modules"][net][k], v), (net, k)
+    log_a, log_b = read_log(tmp_path / "a" / "losses.csv"), read_log(tmp_path / "b" / "losses.csv")
+    assert log_a[0] == log_b[0] == ["step", "seconds", *TERMS]
+    assert [r[2:] for r in log_a[1:]] == [r[2:] for r in log_b[1:]] and len(log_a) == 7
+
+
+def test_nan_in_the_data_stops_training_naming_the_term(tmp_path):
+    clips = training_clips()
+    poisoned = dataclasses.replace(clips, root_positions=torch.full_like(clips.root_positions, float("nan")))
+    cfg = config("tdcn_paper")
+    run = RetargetTraining(cfg, clips=poisoned)
+    with pytest.raises(NonFiniteLossError, match="'Lc' is not finite"):
+        fit(run.task(), cfg, tmp_path, steps=3, progress=False)
+    assert not (tmp_path / "final.pt").exists()
+
+
+@pytest.mark.parametrize("stem", ["tdcn_paper", "tdcn_baseline_height"])
+def test_load_generator_round_trip_and_retarget_200_frames(tmp_path, stem):
+    cfg = config(stem, "model.normalize_inputs=true", "train.steps=2")
+    run = RetargetTraining(cfg)
+    assert not run.generator.normalizer.is_identity
+    final = fit(run.task(), cfg, tmp_path, steps=2, progress=False)
+    generator, loaded_cfg = load_generator(final)
+    assert loaded_cfg == cfg and not generator.training
+    trained = run.generator.state_dict()
+    assert all(torch.equal(v, trained[k]) for k, v in generator.state_dict().items())
+    ds, split = load_synthetic(), tdcn_split()
+    source = next(c.motion for c in ds.clips if c.family in split.test_families and c.motion.num_frames >= 200)
+    target = ds.characters[split.test_characters[0]].skeleton
+    clip = source.slice(0, 200)
+    out = retarget_motion_with(generator, clip, target)
+    assert out.num_frames == 200 and np.allclose(out.skeleton.offsets, target.offsets)
+    assert np.isfinite(out.root_positions).all()
+    np.testing.assert_allclose(np.linalg.norm(out.rotations, axis=-1), 1.0, atol=1e-5)
+    if not isinstance(generator, TDCNGenerator):
+        with pytest.raises(ValueError, match="TDCNGenerator"):
+            retarget_motion_with(generator, clip, target, windowed=True)
+        return
+    # per-frame windows: same as one pass when the root does not travel, and any clip works
+    still = clip.copy(root_positions=clip.root_positions * [0.0, 1.0, 0.0] + [0.3, 0.0, -0.2])
+    a, b = (retarget_motion_with(generator, still, target, windowed=w, chunk=64) for w in (False, True))
+    np.testing.assert_allclose(b.rotations, a.rotations, atol=1e-5)
+    np.testing.assert_allclose(b.root_positions, a.root_positions, atol=1e-5)
+    windowed = retarget_motion_with(generator, clip, target, windowed=True)
+    assert windowed.num_frames == 200 and np.isfinite(windowed.root_positions).all()
