@@ -50,7 +50,8 @@ def _cmd_train(args: argparse.Namespace) -> int:
 
     from .config import load_config
     from .losses import NonFiniteLossError
-    from .tdcn_training import RetargetTraining
+    from .data.cache import sha256_file
+    from .tdcn_training import RetargetTraining, export_generator
     from .train import fit
 
     config = load_config(args.config, args.overrides, args.profile)
@@ -64,6 +65,9 @@ def _cmd_train(args: argparse.Namespace) -> int:
         print(f"retarget train: stopped: {e}", file=sys.stderr)
         return 1
     print(f"checkpoint: {final}  (losses: {out / 'losses.csv'})")
+    if args.export:
+        slim = export_generator(final, args.export)
+        print(f"exported generator: {slim}  sha256 {sha256_file(slim)}")
     return 0
 
 
@@ -107,6 +111,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="config profile (default $RETARGET_PROFILE or fast)")
     p.add_argument("--out", help="run folder (default runs/<config name>)")
     p.add_argument("--resume", action="store_true", help="continue from <out>/last.pt if it exists")
+    p.add_argument("--export", help="also write a slim inference-only generator checkpoint here")
     p.set_defaults(func=_cmd_train)
 
     p = sub.add_parser("bench", help="speed benchmarks (ratios against same-run references)")

@@ -104,6 +104,7 @@ from typing import Any, NamedTuple
 
 import torch
 
+from .data.cache import atomic_write
 from .data.pairs import retarget_ground_truth
 from .data.synthetic import load_synthetic, tdcn_split
 from .losses import (MotionTensors, TDCNLossWeights, adversarial_loss, adversarial_loss_discriminator,
@@ -494,6 +495,22 @@ def load_generator(checkpoint: str | Path) -> tuple[torch.nn.Module, dict]:
     generator, _ = build_model(model_config(config))
     generator.load_state_dict(state["modules"]["generator"])
     return generator.eval(), config
+
+
+def export_generator(checkpoint: str | Path, out: str | Path) -> Path:
+    """Write a slim, inference-only copy of a training checkpoint (atomically): the generator's
+    weights (normaliser included), the step and the config — no discriminator, optimiser or RNG
+    state. :func:`load_generator` reads it like a full checkpoint.
+
+    Returns:
+        ``out``.
+    """
+    state = load_checkpoint(checkpoint)
+    slim = {"step": state["step"], "config": state["config"],
+            "modules": {"generator": state["modules"]["generator"]}}
+    with atomic_write(out) as f:
+        torch.save(slim, f)
+    return Path(out)
 
 
 def _frame_windows(x: Tensor, left: int, right: int) -> Tensor:

@@ -175,3 +175,18 @@ def test_load_generator_round_trip_and_retarget_200_frames(tmp_path, stem):
     np.testing.assert_allclose(b.root_positions, a.root_positions, atol=1e-5)
     windowed = retarget_motion_with(generator, clip, target, windowed=True)
     assert windowed.num_frames == 200 and np.isfinite(windowed.root_positions).all()
+
+
+def test_cli_export_writes_a_slim_generator_that_loads(tmp_path, capsys):
+    slim = tmp_path / "slim.pt"
+    args = ["train", "--config", str(CONFIGS / "tdcn_paper.yaml"), *TINY, "train.steps=2",
+            "train.checkpoint_every=2", "--out", str(tmp_path / "run"), "--export", str(slim)]
+    assert main(args) == 0
+    assert "exported generator" in capsys.readouterr().out
+    full = tmp_path / "run" / "final.pt"
+    assert slim.stat().st_size < full.stat().st_size
+    g_full, _ = load_generator(full)
+    g_slim, cfg = load_generator(slim)
+    assert cfg["train"]["steps"] == 2
+    for a, b in zip(g_full.state_dict().values(), g_slim.state_dict().values()):
+        assert torch.equal(a, b)

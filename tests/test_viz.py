@@ -148,3 +148,16 @@ def test_mp4_keeps_its_size(tmp_path, tpose):
     pos = np.repeat(tpose[None], 4, 0)
     path = viz.animate_motion(pos, CANONICAL22_PARENTS, tmp_path / "a.mp4", every=1, window_size=(240, 150))
     assert iio.imread(path, index=None).shape[1:3] == (150, 240)  # 150 is not a multiple of 8 or 16
+
+
+def test_animate_meshes_with_different_vertex_counts(tmp_path):
+    import imageio.v3 as iio
+    import pyvista as pv
+
+    meshes = [pv.Sphere(theta_resolution=r, phi_resolution=r).triangulate() for r in (8, 12)]
+    lift = np.linspace(0, 0.5, 4)[:, None, None] * [0, 1, 0]  # the meshes rise: every frame differs
+    verts = [np.asarray(m.points)[None] + [0, 1, 0] + lift for m in meshes]
+    faces = [np.asarray(m.faces).reshape(-1, 4)[:, 1:] for m in meshes]
+    assert verts[0].shape[1] != verts[1].shape[1]
+    path = viz.animate_mesh(verts, faces, tmp_path / "two.gif", every=1, window_size=(160, 100), titles=["a", "b"])
+    assert iio.imread(path, index=None).shape[0] == 4

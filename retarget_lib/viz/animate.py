@@ -109,7 +109,7 @@ def animate_motion(positions: np.ndarray | Sequence[np.ndarray], parents: Sequen
         every: frame step.
         titles: one label per skeleton.
     """
-    seq = [np.asarray(positions)] if np.ndim(positions) == 3 else [np.asarray(p) for p in positions]
+    seq = [np.asarray(positions)] if isinstance(positions, np.ndarray) else [np.asarray(p) for p in positions]
     frames = [[Scene(positions=p[t], parents=parents) for p in seq] for t in range(0, len(seq[0]), every)]
     return animate(frames, path, fps, titles=titles, side_by_side=len(seq) > 1, **kw)
 
@@ -124,7 +124,7 @@ def animate_mesh(vertices: np.ndarray | Sequence[np.ndarray], faces, path: str |
         path: ``.gif`` or ``.mp4``.
         fps: playback rate; every: frame step; titles: one label per mesh.
     """
-    seq = [np.asarray(vertices)] if np.ndim(vertices) == 3 else [np.asarray(v) for v in vertices]
-    fl = [faces] * len(seq) if np.ndim(faces) == 2 else list(faces)
+    seq = [np.asarray(vertices)] if isinstance(vertices, np.ndarray) else [np.asarray(v) for v in vertices]
+    fl = [faces] * len(seq) if isinstance(faces, np.ndarray) else list(faces)
     frames = [[Scene(vertices=v[t], faces=f) for v, f in zip(seq, fl)] for t in range(0, len(seq[0]), every)]
     return animate(frames, path, fps, titles=titles, side_by_side=len(seq) > 1, **kw)

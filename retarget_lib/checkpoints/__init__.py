@@ -1,0 +1,1 @@
+"""Shipped model checkpoints (listed with config, command and checksum in data_manifest.yaml)."""
