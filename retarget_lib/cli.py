@@ -3,9 +3,12 @@
 ::
 
     retarget data build|list|verify      build the embedded dataset; list/verify data_manifest.yaml
-    retarget retarget --source IN.bvh --target TARGET.bvh|CHARACTER --method copy|copy-rest --out OUT.bvh
+    retarget retarget --source IN.bvh --target TARGET.bvh|CHARACTER --method copy|copy-rest|tdcn|nkn
+                      [--checkpoint PATH|ID] --out OUT.bvh
+    retarget train    --config configs/NAME.yaml [key=value ...] [--profile fast|paper] [--resume]
     retarget train --config configs/NAME.yaml [key=value ...] [--profile fast|paper] [--out DIR] [--resume]
                                          train a TDCN/NKN Table 4 row (retarget_lib.tdcn_training)
+    retarget evaluate --table tdcn --out DIR
     retarget bench [--quick]             speed table (ratios against references in the same run)
 """
 
@@ -40,7 +43,7 @@ def _cmd_data(args: argparse.Namespace) -> int:
 def _cmd_retarget(args: argparse.Namespace) -> int:
     from .retarget import retarget_file
 
-    out = retarget_file(args.source, args.target, args.method, args.out)
+    out = retarget_file(args.source, args.target, args.method, args.out, args.checkpoint)
     print(f"wrote {out}")
     return 0
 
@@ -71,6 +74,18 @@ def _cmd_train(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_evaluate(args: argparse.Namespace) -> int:
+    from .evaluate import run_tdcn_evaluation
+
+    table, missing = run_tdcn_evaluation(args.out)
+    cols = [c for c in table.columns if c.endswith("avg")]
+    print(table[cols].round(2).to_string())
+    if missing:
+        print(f"no trained checkpoint yet for: {', '.join(missing)}")
+    print(f"wrote {args.out}/table4.csv, table4.md, table4_h2.*, table4_cases.csv")
+    return 0
+
+
 def _cmd_bench(args: argparse.Namespace) -> int:
     from .bench import run
     from .data.cache import atomic_write
@@ -97,9 +112,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--source", required=True, help="source BVH (any joint set the library can fold)")
     p.add_argument("--target", required=True,
                    help="target BVH (its skeleton, units and joint names are used) or a character name")
-    p.add_argument("--method", required=True, choices=["copy", "copy-rest"],
+    p.add_argument("--method", required=True, choices=["copy", "copy-rest", "tdcn", "nkn"],
                    help="copy: copy local rotations, root scaled by leg length; copy-rest: copy with "
-                        "rest-pose compensation (same global bone directions)")
+                        "rest-pose compensation (same global bone directions); tdcn/nkn: a trained "
+                        "network (--checkpoint, default for tdcn: the shipped fast checkpoint)")
+    p.add_argument("--checkpoint", help="checkpoint path or manifest id for --method tdcn|nkn")
     p.add_argument("--out", required=True, help="output .bvh")
     p.set_defaults(func=_cmd_retarget)
 
@@ -113,6 +130,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--resume", action="store_true", help="continue from <out>/last.pt if it exists")
     p.add_argument("--export", help="also write a slim inference-only generator checkpoint here")
     p.set_defaults(func=_cmd_train)
+
+    p = sub.add_parser("evaluate", help="regenerate a paper table (CSV + Markdown, paper numbers beside ours)")
+    p.add_argument("--table", required=True, choices=["tdcn"], help="tdcn: Kim et al. 2020, Table 4")
+    p.add_argument("--out", required=True, help="output folder")
+    p.set_defaults(func=_cmd_evaluate)
 
     p = sub.add_parser("bench", help="speed benchmarks (ratios against same-run references)")
     p.add_argument("--quick", action="store_true", help="fewer repeats (CI smoke run)")

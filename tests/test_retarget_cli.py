@@ -53,3 +53,14 @@ def test_character_target_and_errors(short_source, tmp_path, capsys):
     assert main(["retarget", "--source", str(bad), "--target", "kato", "--method", "copy",
                  "--out", str(out)]) == 2
     assert "line" in capsys.readouterr().err
+
+
+def test_tdcn_method_uses_the_shipped_checkpoint(short_source, tmp_path, capsys):
+    out = tmp_path / "tdcn.bvh"
+    assert main(["retarget", "--source", str(short_source), "--target", str(cmu_clip_path("Boxing_Toes.bvh")),
+                 "--method", "tdcn", "--out", str(out)]) == 0
+    written = load_bvh(out)
+    assert written.num_frames == 60 and np.isfinite(written.rotations).all()
+    assert main(["retarget", "--source", str(short_source), "--target", "kato", "--method", "nkn",
+                 "--out", str(out)]) == 2
+    assert "needs --checkpoint" in capsys.readouterr().err
