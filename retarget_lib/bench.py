@@ -187,7 +187,34 @@ def bench_tdcn(quick: bool = False, frames: int = 1000) -> list[BenchRow]:
     return rows
 
 
-BENCHES: dict[str, Callable[..., list[BenchRow]]] = {"fk": bench_fk, "tdcn": bench_tdcn}
+def bench_training(quick: bool = False, batch: int = 16) -> list[BenchRow]:
+    """One full TDCN training step (Eq. 6: A→B→A cycle, all losses, G and D updates) at fast and
+    paper width, beside the generator's bare forward+backward on the same batch (same run).
+    The row name carries the throughput in windows/s."""
+    from .config import load_config
+    from .data.cache import REPO_ROOT
+    from .tdcn_training import RetargetTraining
+
+    rows = []
+    for profile in ("fast", "paper"):
+        cfg = load_config(REPO_ROOT / "configs" / "tdcn_paper.yaml", [f"train.batch={batch}"], profile=profile)
+        run = RetargetTraining(cfg)
+        step = time_it(lambda: run.step(0), repeat=2 if quick else 5, warmup=1)
+        sample = run.sampler.sample(batch)
+        gen = run.generator.train()
+
+        def bare():
+            out = gen.generate(sample.rotations, sample.root_positions, sample.offsets_source, sample.offsets_target)
+            out.rotations.square().mean().backward()
+
+        ref = time_it(bare, repeat=2 if quick else 5, warmup=1)
+        rows.append(BenchRow(f"TDCN training step, {profile} width {cfg['model']['channels']}, batch {batch}: "
+                             f"{batch / step:.1f} windows/s", step,
+                             "generator forward+backward only", ref))
+    return rows
+
+
+BENCHES: dict[str, Callable[..., list[BenchRow]]] = {"fk": bench_fk, "tdcn": bench_tdcn, "training": bench_training}
 
 
 def format_table(rows: list[BenchRow]) -> str:
