@@ -242,6 +242,18 @@ def reconstruction_loss(x_a: MotionTensors, x_b_hat: MotionTensors,
 # --------------------------------------------------------------------------------------------
 
 
+def _sum_over_rotations(per_element, q_b_hat: Tensor, q_a_hat: Tensor | None, reduction: Reduction) -> Tensor:
+    """``reduce(per_element(q̂B)) + reduce(per_element(q̂A))`` (Eqs. 8 and 22 sum one term per
+    rotation set); ``q_a_hat=None`` omits the second. Both are ``(B, T, J, 4)``."""
+    total = 0.0
+    for name, q in (("q_b_hat", q_b_hat), ("q_a_hat", q_a_hat)):
+        if q is None:
+            continue
+        _check_last(name, q, 4, 4)
+        total = total + _reduce(per_element(q), reduction)
+    return total
+
+
 def twist_penalty(q: Tensor, alpha_deg: float = 100.0,
                   reading: Literal["intended", "literal"] = "intended") -> Tensor:
     """Element-wise joint-twist penalty of Eq. 8 (before reduction), for plots.
@@ -292,15 +304,10 @@ def twist_loss(q_b_hat: Tensor, q_a_hat: Tensor | None = None, alpha_deg: float 
         exclude_root: skip joint 0 (the root's orientation is the heading, not a twist).
         reduction: ``"mean"`` → scalar; ``"per_sample"`` → ``(B,)``.
     """
-    total = 0.0
-    for name, q in (("q_b_hat", q_b_hat), ("q_a_hat", q_a_hat)):
-        if q is None:
-            continue
-        _check_last(name, q, 4, 4)
-        if exclude_root:
-            q = q[:, :, 1:]
-        total = total + _reduce(twist_penalty(q, alpha_deg, reading), reduction)
-    return total
+    def penalty(q: Tensor) -> Tensor:
+        return twist_penalty(q[:, :, 1:] if exclude_root else q, alpha_deg, reading)
+
+    return _sum_over_rotations(penalty, q_b_hat, q_a_hat, reduction)
 
 
 # --------------------------------------------------------------------------------------------
@@ -524,13 +531,8 @@ def regularization_loss(q_b_hat: Tensor, q_a_hat: Tensor | None = None,
         q_a_hat: ``(B, T, J, 4)`` raw ``q̂^A``, or ``None`` to omit.
         reduction: ``"mean"`` → scalar; ``"per_sample"`` → ``(B,)``.
     """
-    total = 0.0
-    for name, q in (("q_b_hat", q_b_hat), ("q_a_hat", q_a_hat)):
-        if q is None:
-            continue
-        _check_last(name, q, 4, 4)
-        total = total + _reduce((1.0 - torch.linalg.vector_norm(q, dim=-1)) ** 2, reduction)
-    return total
+    return _sum_over_rotations(lambda q: (1.0 - torch.linalg.vector_norm(q, dim=-1)) ** 2,
+                               q_b_hat, q_a_hat, reduction)
 
 
 def orientation_loss(theta_a: Tensor, theta_b_hat: Tensor, reduction: Reduction = "mean") -> Tensor:
