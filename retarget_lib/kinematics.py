@@ -118,8 +118,10 @@ def forward_kinematics(
     order = torch.tensor(plan.order, device=device)
 
     # (component, joint, batch) layout, joints sorted by depth
-    lq = rotations.expand(lead + (nj, 4)).reshape(n, nj * 4).t().reshape(nj, 4, n)
-    lq = lq.index_select(0, order).transpose(0, 1).contiguous()  # (4, J, N)
+    # rows of the (J*4, N) transpose picked straight into component-major, depth-sorted order
+    rows = (order.unsqueeze(0) * 4 + torch.arange(4, device=device).unsqueeze(1)).reshape(-1)
+    lq = rotations.expand(lead + (nj, 4)).reshape(n, nj * 4).t().contiguous()
+    lq = lq.index_select(0, rows).view(4, nj, n)  # (4, J, N)
     if offsets.dim() == 2:
         off = offsets.index_select(0, order).t().unsqueeze(-1)  # (3, J, 1)
     else:
