@@ -195,11 +195,13 @@ TABLE4_CHECKPOINTS = {"ours": "tdcn-ours-fast", "Baseline-dilated": "nkn-baselin
 
 def tdcn_methods() -> tuple[dict[str, Method], list[str]]:
     """The methods to put in Table 4: the two copy baselines and every Table 4 row whose
-    checkpoint is shipped; and the rows still without one (reported, never faked)."""
+    checkpoint is shipped (each loaded once); and the rows still without one (reported, never
+    faked)."""
     from functools import partial
 
+    from .data.manifest import checkpoint
     from .data.pairs import copy_rotations, retarget_ground_truth
-    from .retarget import retarget_motion
+    from .tdcn_training import load_generator, retarget_motion_with
 
     methods: dict[str, Method] = {"copy": copy_rotations, "copy-rest": retarget_ground_truth}
     missing = []
@@ -208,13 +210,9 @@ def tdcn_methods() -> tuple[dict[str, Method], list[str]]:
         if cid is None:
             missing.append(row)
             continue
-        kind = "nkn" if row.startswith("Baseline") else "tdcn"
-        methods[row] = partial(_learned, retarget_motion, kind, cid)
+        generator, _ = load_generator(checkpoint(cid).path)
+        methods[row] = partial(retarget_motion_with, generator)
     return methods, missing
-
-
-def _learned(retarget_motion, kind: str, checkpoint_id: str, source: Motion, target: Skeleton) -> Motion:
-    return retarget_motion(source, target, kind, checkpoint_id)
 
 
 def run_tdcn_evaluation(out_dir: str | Path) -> tuple[pd.DataFrame, list[str]]:
