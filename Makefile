@@ -37,14 +37,17 @@ notebooks: data
 	@mkdir -p build/notebooks
 	$(BIN)/python -m retarget_lib.notebook_runner --out build/notebooks $(NOTEBOOKS)
 
+# two xdist workers on two cores: one torch/OpenMP thread each (more oversubscribes and spins)
+PYTEST := OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 $(BIN)/pytest
+
 unit: data
-	$(BIN)/pytest -q -n 2 --dist loadfile tests
+	$(PYTEST) -q -n 2 --dist loadfile tests
 
 nbval: data
-	$(BIN)/pytest -q -n 2 --dist loadfile --nbval-lax notebooks
+	$(PYTEST) -q -n 2 --dist loadfile --nbval-lax notebooks
 
 test: data
-	$(BIN)/pytest -q -n 2 --dist loadfile tests --nbval-lax notebooks
+	$(PYTEST) -q -n 2 --dist loadfile tests --nbval-lax notebooks
 
 bench: data
 	$(BIN)/retarget bench
