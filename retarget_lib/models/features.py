@@ -47,6 +47,7 @@ import torch
 from torch import nn
 
 from ..kinematics import forward_kinematics
+from ..losses.tdcn import discriminator_inputs
 from ..skeleton import CANONICAL22_PARENTS, HEIGHT_BONES
 
 Tensor = torch.Tensor
@@ -58,14 +59,11 @@ __all__ = [
     "discriminator_input_channels",
     "nkn_input_channels",
     "skeleton_height",
-    "bone_lengths",
     "source_local_positions",
     "generator_features",
     "split_generator_features",
     "root_velocities",
     "nkn_source_features",
-    "motion_magnitudes",
-    "root_speed",
     "discriminator_features",
     "FeatureNormalizer",
 ]
@@ -124,18 +122,6 @@ def skeleton_height(offsets: Tensor) -> Tensor:
         ``(...)`` heights in metres (differentiable).
     """
     return offsets[..., list(_HEIGHT_CHILDREN), :].norm(dim=-1).sum(-1)
-
-
-def bone_lengths(offsets: Tensor) -> Tensor:
-    """Rest bone lengths ``B`` of TDCN Eqs. 19-20: ``||offset_j||`` for the non-root joints.
-
-    Args:
-        offsets: ``(..., J, 3)`` rest offsets.
-
-    Returns:
-        ``(..., J-1)`` lengths of the bones ending at joints ``1..J-1`` (metres).
-    """
-    return offsets[..., 1:, :].norm(dim=-1)
 
 
 def source_local_positions(rotations: Tensor, offsets: Tensor,
@@ -229,39 +215,6 @@ def nkn_source_features(positions: Tensor, root_positions: Tensor, height: Tenso
     return torch.cat([positions.reshape(b, t, 3 * j), v], -1).transpose(1, 2)
 
 
-def motion_magnitudes(positions: Tensor, height: Tensor | None = None) -> Tensor:
-    """Local motion magnitudes ``l_t = ||p_t - p_{t-1}|| / H`` (TDCN Eqs. 9-12).
-
-    Args:
-        positions: ``(B, T, J, 3)`` root-relative joint positions.
-        height: ``(B,)`` heights ``H(s̄)``; ``None`` leaves the magnitudes in metres.
-
-    Returns:
-        ``(B, T-1, J)`` magnitudes for every joint (the root's column is zero when ``positions``
-        come from :func:`source_local_positions`).
-    """
-    mag = positions.diff(dim=1).norm(dim=-1)
-    if height is not None:
-        mag = mag / height.view(-1, 1, 1)
-    return mag
-
-
-def root_speed(root_positions: Tensor, height: Tensor | None = None) -> Tensor:
-    """Normalised root speed ``δ_t = ||r_t - r_{t-1}|| / H`` (TDCN Eq. 18).
-
-    Args:
-        root_positions: ``(B, T, 3)``.
-        height: ``(B,)`` heights; ``None`` leaves metres per frame.
-
-    Returns:
-        ``(B, T-1)``.
-    """
-    speed = root_positions.diff(dim=1).norm(dim=-1)
-    if height is not None:
-        speed = speed / height.view(-1, 1)
-    return speed
-
-
 def discriminator_features(positions: Tensor, root_positions: Tensor, offsets: Tensor,
                            normalize: bool = True) -> Tensor:
     """Discriminator input ``(l_t, δ_t, B)`` of TDCN Eqs. 19-20 for frames ``2..T``.
@@ -278,11 +231,10 @@ def discriminator_features(positions: Tensor, root_positions: Tensor, offsets: T
     """
     b, t = positions.shape[:2]
     offsets = _batched_offsets(offsets.to(positions.dtype), b)
-    height = skeleton_height(offsets) if normalize else None
-    mag = motion_magnitudes(positions, height)[..., 1:]
-    speed = root_speed(root_positions, height).unsqueeze(-1)
-    bones = bone_lengths(offsets).unsqueeze(1).expand(b, max(t - 1, 0), -1)
-    return torch.cat([mag, speed, bones], -1).transpose(1, 2)
+    # the same l, δ and bone lengths as the loss module's Eqs. 11/12, 18, 19/20; H = 1 keeps metres
+    d = discriminator_inputs(positions, root_positions, offsets, skeleton_height(offsets) if normalize else 1.0)
+    bones = d.bones[:, 1:].unsqueeze(1).expand(b, t - 1, -1)
+    return torch.cat([d.l[..., 1:], d.delta.unsqueeze(-1), bones], -1).transpose(1, 2)
 
 
 class FeatureNormalizer(nn.Module):
