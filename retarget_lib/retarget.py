@@ -9,18 +9,13 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .io.bvh import load_bvh, save_bvh
+from .io.bvh import load_bvh, load_canonical_bvh, save_bvh
 from .motion import Motion
 from .skeleton import Skeleton, from_canonical22, to_canonical22
 
 METHODS = ("copy", "copy-rest", "tdcn", "nkn")
 #: checkpoint used for a learned method when none is given (``checkpoints:`` in the manifest)
 DEFAULT_CHECKPOINTS = {"tdcn": "tdcn-ours-fast"}
-
-
-def _canonical_source(path: str | Path, fps: float = 30.0) -> Motion:
-    m = to_canonical22(load_bvh(path))
-    return m.resample(fps) if abs(m.fps - fps) > 1e-6 else m
 
 
 def resolve_target(target: str) -> tuple[Skeleton, Motion | None]:
@@ -83,7 +78,7 @@ def retarget_file(source: str | Path, target: str, method: str, out: str | Path,
         the output path.
     """
     target_skeleton, target_full = resolve_target(str(target))
-    result = retarget_motion(_canonical_source(source), target_skeleton, method, checkpoint)
+    result = retarget_motion(load_canonical_bvh(source), target_skeleton, method, checkpoint)
     if target_full is not None:
         result = from_canonical22(result, target_full.skeleton)
         result.meta.update({k: target_full.meta[k] for k in ("unit_scale", "unit", "channels",

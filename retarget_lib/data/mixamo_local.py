@@ -21,7 +21,7 @@ import torch
 
 from ..motion import Motion
 from ..rotations import quat_from_axis_angle
-from ..skeleton import CANONICAL22, Skeleton, to_canonical22
+from ..skeleton import CANONICAL22, Skeleton
 from .cache import DataError
 
 SHAPE_FILE = "shape.npz"
@@ -71,10 +71,9 @@ def scan_mixamo_folder(root: str | Path) -> list[MixamoCharacterFolder]:
 
 def load_mixamo_motion(path: str | Path, fps: float = 30.0) -> Motion:
     """Load a Mixamo BVH and fold it to the canonical 22 joints at ``fps``."""
-    from ..io.bvh import load_bvh
+    from ..io.bvh import load_canonical_bvh
 
-    motion = to_canonical22(load_bvh(path), convention="mixamo")
-    return motion.resample(fps) if abs(motion.fps - fps) > 1e-6 else motion
+    return load_canonical_bvh(path, fps, convention="mixamo")
 
 
 # ------------------------------------------------------------------------------ fixture

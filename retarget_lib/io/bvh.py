@@ -35,7 +35,7 @@ import torch
 from ..data.cache import atomic_write
 from ..motion import Motion
 from ..rotations import quat_angle, quat_from_euler, quat_to_euler
-from ..skeleton import Skeleton, strip_prefix
+from ..skeleton import Skeleton, strip_prefix, to_canonical22
 
 __all__ = ["BVHError", "UNIT_SCALES", "infer_unit_scale", "load_bvh", "save_bvh"]
 
@@ -466,6 +466,18 @@ def _file_layout(motion: Motion) -> tuple[list[str], list[list[str]]]:
         if not any(c.endswith("rotation") for c in ch) and angles[j] > 1e-9:
             channels[j] = ch + _DEFAULT_CHANNELS
     return file_names, channels
+
+
+def load_canonical_bvh(path: str | os.PathLike, fps: float = 30.0, convention: str | None = None) -> Motion:
+    """:func:`load_bvh`, folded onto the canonical 22 joints (:func:`~retarget_lib.skeleton.to_canonical22`)
+    and resampled to ``fps``.
+
+    Args:
+        path: any BVH the library can fold (Mixamo, CMU, Biovision, SMPL-X names).
+        fps: output frame rate.
+        convention: name map for the fold (``None``: detected from the joint names).
+    """
+    return to_canonical22(load_bvh(path), convention).resample(fps)
 
 
 def save_bvh(motion: Motion, path: str | os.PathLike, unit: str | float | None = None) -> None:
