@@ -30,8 +30,7 @@ def _cmd_data(args: argparse.Namespace) -> int:
     if args.action == "verify":
         statuses = manifest.verify()
         for s in statuses:
-            state = "ok" if s.verified else ("absent (optional)" if not s.present else "present")
-            print(f"{s.id}: {state} — {s.detail}")
+            print(f"{s.id}: {s.state} — {s.detail}")
         print("all required sources verified")
         return 0
     from .data.build import build_all

@@ -52,6 +52,14 @@ class SourceStatus:
     present: bool
     verified: bool | None  # None: nothing to verify / optional and absent
     detail: str
+    optional: bool = False
+
+    @property
+    def state(self) -> str:
+        """``ok``, ``present`` (nothing to verify), ``BAD``, ``absent (optional)`` or ``MISSING``."""
+        if self.present:
+            return "ok" if self.verified else "present" if self.verified is None else "BAD"
+        return "absent (optional)" if self.optional else "MISSING"
 
 
 def mixamo_local_dir() -> Path:
@@ -186,23 +194,17 @@ def check_sources() -> list[SourceStatus]:
     out = []
     for sid, src in load_manifest()["sources"].items():
         check = _CHECKS.get(sid)
-        if check is None:
-            out.append(SourceStatus(sid, src["kind"], False, None, "no checker"))
-        else:
-            out.append(check())
+        status = SourceStatus(sid, src["kind"], False, None, "no checker") if check is None else check()
+        status.optional = bool(src.get("optional"))
+        out.append(status)
     return out
 
 
 def verify() -> list[SourceStatus]:
     """Check every source and checkpoint; raise :class:`DataError` listing each required one that
     fails."""
-    statuses = check_sources()
-    manifest = load_manifest()["sources"]
-    problems = [s for s in statuses
-                if not manifest[s.id].get("optional") and (not s.present or s.verified is False)]
-    checkpoints = check_checkpoints()
-    problems += [s for s in checkpoints if not s.verified]
-    statuses += checkpoints
+    statuses = check_sources() + check_checkpoints()
+    problems = [s for s in statuses if not s.optional and s.state in ("BAD", "MISSING")]
     if problems:
         lines = "\n".join(f"  {s.id}: {s.detail}" for s in problems)
         raise DataError(f"data verification failed:\n{lines}")
@@ -214,9 +216,7 @@ def source_table() -> str:
     rows = [("id", "kind", "license", "status")]
     manifest = load_manifest()["sources"]
     for s in check_sources():
-        state = ("ok" if s.verified else "present" if s.verified is None else "BAD") if s.present \
-            else ("absent (optional)" if manifest[s.id].get("optional") else "MISSING")
-        rows.append((s.id, s.kind, str(manifest[s.id]["license"])[:38], f"{state}: {s.detail}"))
+        rows.append((s.id, s.kind, str(manifest[s.id]["license"])[:38], f"{s.state}: {s.detail}"))
     widths = [max(len(r[i]) for r in rows) for i in range(3)]
     return "\n".join(f"{r[0]:<{widths[0]}}  {r[1]:<{widths[1]}}  {r[2]:<{widths[2]}}  {r[3]}" for r in rows)
 
