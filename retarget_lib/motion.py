@@ -186,7 +186,7 @@ class Motion:
         rot = self.rotations.copy()
         root = self.root_positions.copy()
         if face_z:
-            f0 = self.facing()[0]
+            f0 = self.slice(0, 1).facing()[0]
             yaw = np.arctan2(f0[0], f0[2])  # angle from +Z towards +X
             qy = quat_from_axis_angle(_t(np.array([0.0, -yaw, 0.0])))
             rot[:, 0] = quat_canonical(quat_mul(qy, _t(rot[:, 0]))).numpy()
@@ -195,7 +195,7 @@ class Motion:
         out = self.copy(rotations=rot, root_positions=root)
         if on_ground:
             n = max(1, min(self.num_frames, int(round(self.fps))))
-            low = out.global_positions()[:n, :, 1].min()
+            low = out.slice(0, n).global_positions()[:, :, 1].min()
             out.root_positions[:, 1] -= low
         return out
 
