@@ -164,6 +164,43 @@ def tdcn_table(methods: Mapping[str, Method], cases: list[EvalCase] | None = Non
     return pd.DataFrame(rows).T, pd.concat(per_case, ignore_index=True)
 
 
+def paper_comparison(table: pd.DataFrame) -> pd.DataFrame:
+    """The short and long averages of :func:`tdcn_table`'s result, ours beside the paper's.
+
+    Returns:
+        One row per method, columns ``ours short avg``, ``paper short avg``, ``ours long avg``,
+        ``paper long avg`` (NaN where the paper has no such row).
+    """
+    cols = [f"{who} {length} avg" for length in ("short", "long") for who in ("ours", "paper")]
+    return table.reindex(columns=cols).astype(float)
+
+
+def ordering_checks(table: pd.DataFrame, reference: str = "ours") -> pd.DataFrame:
+    """Does ``reference`` beat each other Table 4 row here as it does in the paper?
+
+    For every measured row that the paper also reports, compares ``reference`` with it on the
+    short and the long average; the paper's direction comes from :data:`PAPER_TABLE4`, not from
+    a hand-written list.
+
+    Returns:
+        One row per compared method: the paper's and our ratio ``row / reference`` (> 1 means
+        ``reference`` is better) and whether the direction reproduces.
+    """
+    rows = {}
+    for name in table.index:
+        if name == reference or name not in PAPER_TABLE4 or reference not in table.index:
+            continue
+        row = {}
+        for length in ("short", "long"):
+            col = f"{length} avg"
+            paper = table.loc[name, f"paper {col}"] / table.loc[reference, f"paper {col}"]
+            ours = table.loc[name, f"ours {col}"] / table.loc[reference, f"ours {col}"]
+            row.update({f"paper {col} ratio": paper, f"ours {col} ratio": ours,
+                        f"{length} reproduces": bool((paper > 1) == (ours > 1))})
+        rows[name] = row
+    return pd.DataFrame(rows).T
+
+
 def markdown_table(table: pd.DataFrame, digits: int = 2) -> str:
     """A pipe table of ``table`` (index as the first column), numbers with ``digits`` decimals."""
     def cell(v):

@@ -1,11 +1,12 @@
 """TDCN evaluation: the normalised MSE on cases with known answers, the scenario protocol."""
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from retarget_lib.data.pairs import copy_rotations, retarget_ground_truth
-from retarget_lib.evaluate import (PAPER_TABLE4, TABLE4_COLUMNS, markdown_table, normalized_mse, tdcn_cases,
-                                   tdcn_table, write_table)
+from retarget_lib.evaluate import (PAPER_TABLE4, TABLE4_COLUMNS, markdown_table, normalized_mse, ordering_checks,
+                                   paper_comparison, tdcn_cases, tdcn_table, write_table)
 
 
 def test_normalized_mse_known_values():
@@ -64,3 +65,16 @@ def test_cli_evaluate_writes_tables_and_names_missing_rows(tmp_path, capsys):
     t = pd.read_csv(tmp_path / "table4.csv", index_col=0)
     assert {"copy", "copy-rest", "ours"} <= set(t.index)
     assert t.loc["ours", "paper short avg"] == 2.45 and t.loc["ours", "ours long avg"] > 0
+
+
+def test_ordering_checks_compare_directions_with_the_paper():
+    cols = [f"{w} {length} avg" for w in ("ours", "paper") for length in ("short", "long")]
+    table = pd.DataFrame([[2.0, 4.0, 2.45, 2.48],     # ours
+                          [4.0, 2.0, 4.94, 6.20]],    # A2: worse short, better long here
+                         index=["ours", "A2"], columns=cols)
+    checks = ordering_checks(table)
+    assert list(checks.index) == ["A2"]
+    assert checks.loc["A2", "ours short avg ratio"] == pytest.approx(2.0)
+    assert checks.loc["A2", "paper long avg ratio"] == pytest.approx(6.20 / 2.48)
+    assert bool(checks.loc["A2", "short reproduces"]) and not bool(checks.loc["A2", "long reproduces"])
+    assert list(paper_comparison(table).columns) == ["ours short avg", "paper short avg", "ours long avg", "paper long avg"]
