@@ -148,6 +148,7 @@ class CheckpointEntry:
         sha256: expected checksum.
         config: the experiment config it was trained with (repo-relative).
         command: the exact command that produced it.
+        losses: absolute path of its per-step training log (CSV), when shipped.
     """
 
     id: str
@@ -155,6 +156,7 @@ class CheckpointEntry:
     sha256: str
     config: str
     command: str
+    losses: Path | None = None
 
 
 def checkpoint(checkpoint_id: str, verify_checksum: bool = True) -> CheckpointEntry:
@@ -168,7 +170,8 @@ def checkpoint(checkpoint_id: str, verify_checksum: bool = True) -> CheckpointEn
     if checkpoint_id not in entries:
         raise DataError(f"unknown checkpoint {checkpoint_id!r}; known: {sorted(entries)}")
     e = entries[checkpoint_id]
-    entry = CheckpointEntry(checkpoint_id, REPO_ROOT / e["path"], e["sha256"], e["config"], e["command"])
+    entry = CheckpointEntry(checkpoint_id, REPO_ROOT / e["path"], e["sha256"], e["config"], e["command"],
+                            REPO_ROOT / e["losses"] if e.get("losses") else None)
     if not entry.path.exists():
         raise DataError(f"checkpoint {checkpoint_id} missing at {entry.path}; re-create it with: {entry.command}")
     if verify_checksum and sha256_file(entry.path) != entry.sha256:
