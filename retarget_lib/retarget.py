@@ -15,7 +15,7 @@ from .skeleton import Skeleton, from_canonical22, to_canonical22
 
 METHODS = ("copy", "copy-rest", "tdcn", "nkn")
 #: checkpoint used for a learned method when none is given (``checkpoints:`` in the manifest)
-DEFAULT_CHECKPOINTS = {"tdcn": "tdcn-ours-fast"}
+DEFAULT_CHECKPOINTS = {"tdcn": "tdcn-ours-fast", "nkn": "nkn-baseline-fast"}
 
 
 def resolve_target(target: str) -> tuple[Skeleton, Motion | None]:

@@ -62,5 +62,9 @@ def test_tdcn_method_uses_the_shipped_checkpoint(short_source, tmp_path, capsys)
     written = load_bvh(out)
     assert written.num_frames == 60 and np.isfinite(written.rotations).all()
     assert main(["retarget", "--source", str(short_source), "--target", "kato", "--method", "nkn",
-                 "--out", str(out)]) == 2
-    assert "needs --checkpoint" in capsys.readouterr().err
+                 "--out", str(out)]) == 0
+    assert load_bvh(out).num_frames == 60
+    # a TDCN checkpoint given to --method nkn is refused by name
+    assert main(["retarget", "--source", str(short_source), "--target", "kato", "--method", "nkn",
+                 "--checkpoint", "tdcn-ours-fast", "--out", str(out)]) == 2
+    assert "not a nkn one" in capsys.readouterr().err
