@@ -1,0 +1,843 @@
+"""Interpenetration: colliding triangles, cone distance fields and the energy ``E_int`` of Villegas
+et al. 2021 (Sec. 3.3, Eqs. 4-5), plus per-limb penetration metrics.
+
+**Detection** (no gradient). Every frame, the set ``F = {(r, i)}`` of intersecting triangle pairs is
+found with a bounding volume hierarchy (the paper's BVH [29]): :class:`TriangleBVH` orders the
+triangles once, on the rest pose, by recursive halving along the longest axis of their centroids
+into a perfectly balanced binary tree of axis-aligned boxes. Each frame only *refits* the boxes
+(the topology is fixed and skinning keeps neighbours together), then traverses the tree against
+itself level by level, all node pairs of a level at once in NumPy; the surviving leaf pairs give
+candidate triangle pairs. Pairs sharing a vertex are dropped (neighbours always touch), and an
+exact triangle-triangle test (:func:`triangles_intersect`, orientation predicates as in
+Devillers-Guigue) keeps the pairs that really cross.
+
+**Energy** (differentiable). Each triangle ``i`` carries a cone-shaped local distance field
+``psi_i`` (:func:`cone_distance_field`, after Tzionas et al. 2016): positive for points behind the
+triangle (penetrating the surface), zero in front of it and outside the cone. For each colliding
+pair, Eq. 4 penalises the vertices of one triangle inside the other's field::
+
+    E_int = sum_{(r,i) in F} w_ri ( sum_{v_j in f_r} ||-psi_i(v_j) n_j||^2 + sum_{v_k in f_i} ||-psi_r(v_k) n_k||^2 )
+
+with area-weighted unit vertex normals ``n_j`` (so each term equals ``psi^2``; the normals give the
+penalty its direction in the paper's notation). Eq. 5's geodesic weights
+``w_ri = min_{v_j in f_r, v_k in f_i} D(v_j, v_k) / eta`` (``eta`` = the largest geodesic distance
+on the mesh) make touching folds near joints (armpits, crotch) cheap and penetrations between
+distant body parts expensive.
+
+**Metrics.** :func:`interpenetration_score` is the paper's Sec. 4 score (Eq. 4 on
+height-normalised vertices); :func:`penetration_rate` is the per-limb share of vertices inside the
+rest of the body (winding number by signed ray crossings), as reported by later work (R2ET,
+MeshRet).
+
+Units: metres; ``psi`` is a length (metres), ``E_int`` is in square metres.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Mapping, Sequence
+
+import numpy as np
+import scipy.sparse
+import torch
+from scipy.sparse.csgraph import connected_components, dijkstra
+
+from .skeleton import CANONICAL22
+
+Tensor = torch.Tensor
+
+__all__ = [
+    "DEFAULT_LIMBS",
+    "InterpenetrationEnergy",
+    "TriangleBVH",
+    "brute_force_candidate_pairs",
+    "cap_holes",
+    "circumcircle",
+    "colliding_triangle_pairs",
+    "cone_distance_field",
+    "geodesic_distances",
+    "geodesic_pair_weights",
+    "interpenetration_energy",
+    "interpenetration_score",
+    "penetration_rate",
+    "ray_winding_numbers",
+    "triangles_intersect",
+    "vertex_normals",
+]
+
+#: default cone parameters (:func:`cone_distance_field`): quadratic zone and apex height in metres,
+#: base radius in circumradii
+SIGMA = 0.01
+CONE_HEIGHT = 0.1
+RADIUS_SCALE = 1.0
+
+#: limbs of :func:`penetration_rate`: name -> canonical joints whose dominant-weight vertices form it
+DEFAULT_LIMBS: dict[str, tuple[str, ...]] = {
+    "left_arm": ("LeftArm", "LeftForeArm", "LeftHand"),
+    "right_arm": ("RightArm", "RightForeArm", "RightHand"),
+    "left_leg": ("LeftUpLeg", "LeftLeg", "LeftFoot", "LeftToeBase"),
+    "right_leg": ("RightUpLeg", "RightLeg", "RightFoot", "RightToeBase"),
+}
+
+
+# ----------------------------------------------------------------------------- input checks
+def _as_numpy_vertices(vertices) -> np.ndarray:
+    if isinstance(vertices, torch.Tensor):
+        vertices = vertices.detach().cpu().numpy()
+    vertices = np.asarray(vertices, dtype=np.float64)
+    if vertices.ndim != 2 or vertices.shape[1] != 3:
+        raise ValueError(f"vertices must be (V, 3), got {vertices.shape}")
+    return vertices
+
+
+def _as_faces(faces, num_vertices: int | None = None) -> np.ndarray:
+    faces = np.asarray(faces.detach().cpu().numpy() if isinstance(faces, torch.Tensor) else faces)
+    if faces.ndim != 2 or faces.shape[1] != 3 or not np.issubdtype(faces.dtype, np.integer):
+        raise ValueError(f"faces must be (F, 3) integers, got {faces.shape} {faces.dtype}")
+    faces = faces.astype(np.int64)
+    if num_vertices is not None and len(faces) and (faces.min() < 0 or faces.max() >= num_vertices):
+        raise ValueError(f"faces index vertices outside 0..{num_vertices - 1}")
+    return faces
+
+
+def _as_pairs(pairs, num_faces: int) -> np.ndarray:
+    pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+    if len(pairs) and (pairs.min() < 0 or pairs.max() >= num_faces):
+        raise ValueError(f"pairs index faces outside 0..{num_faces - 1}")
+    return pairs
+
+
+# ----------------------------------------------------------------------------- narrow phase
+def _triple(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """``a . (b x c)`` over the last axis."""
+    return (a * np.cross(b, c)).sum(-1)
+
+
+def triangles_intersect(tri_a: np.ndarray, tri_b: np.ndarray) -> np.ndarray:
+    """Exact test of whether triangle ``tri_a[p]`` intersects ``tri_b[p]``, for every ``p``.
+
+    Two non-coplanar triangles intersect if and only if an edge of one crosses the other. An edge
+    ``PQ`` crosses triangle ``ABC`` when ``P`` and ``Q`` lie on opposite sides of (or on) its plane
+    and the three orientations ``[Q-P, A-P, B-P]``, ``[Q-P, B-P, C-P]``, ``[Q-P, C-P, A-P]`` share a
+    sign (the line passes inside every edge), the orientation-predicate form of Devillers and
+    Guigue. A plane-side pre-test first rejects pairs where one triangle lies strictly on one side
+    of the other's plane (most candidates). Coplanar pairs count as *not* intersecting: they have
+    no depth, and the cone field of Eq. 4 is zero on a triangle's own plane anyway.
+
+    Args:
+        tri_a: ``(P, 3, 3)`` triangles (vertex, xyz).
+        tri_b: ``(P, 3, 3)`` triangles.
+
+    Returns:
+        ``(P,)`` bool.
+    """
+    tri_a, tri_b = np.asarray(tri_a, dtype=np.float64), np.asarray(tri_b, dtype=np.float64)
+    if tri_a.shape != tri_b.shape or tri_a.shape[1:] != (3, 3):
+        raise ValueError(f"tri_a and tri_b must both be (P, 3, 3), got {tri_a.shape} and {tri_b.shape}")
+    side_a = _plane_sides(tri_a, tri_b)  # (P, 3): signed volumes of a's vertices w.r.t. b's plane
+    side_b = _plane_sides(tri_b, tri_a)
+    straddle = _straddles(side_a) & _straddles(side_b)
+    hit = np.zeros(len(tri_a), dtype=bool)
+    idx = np.flatnonzero(straddle)
+    if len(idx):
+        hit[idx] = (_edges_cross(tri_a[idx], side_a[idx], tri_b[idx])
+                    | _edges_cross(tri_b[idx], side_b[idx], tri_a[idx]))
+    return hit
+
+
+def _plane_sides(points: np.ndarray, tri: np.ndarray) -> np.ndarray:
+    """``(P, 3)`` signed volumes ``[B-A, C-A, X-A]`` of the 3 ``points`` against ``tri``'s plane."""
+    normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    return ((points - tri[:, :1]) * normal[:, None]).sum(-1)
+
+
+def _straddles(side: np.ndarray) -> np.ndarray:
+    """A triangle meets the other's plane: not all 3 signed volumes > 0, not all < 0, not all 0."""
+    return ~((side > 0).all(1) | (side < 0).all(1) | (side == 0).all(1))
+
+
+def _edges_cross(tri: np.ndarray, side: np.ndarray, other: np.ndarray) -> np.ndarray:
+    """``(P,)``: some edge of ``tri`` crosses triangle ``other`` (``side`` = ``tri``'s vertices'
+    signed volumes w.r.t. ``other``'s plane)."""
+    nxt = [1, 2, 0]
+    p, q = tri, tri[:, nxt]                      # (P, 3 edges, 3)
+    sp, sq = side, side[:, nxt]
+    meets_plane = (sp * sq <= 0) & ~((sp == 0) & (sq == 0))
+    d = q - p                                    # (P, 3 edges, 3)
+    rel = other[:, None, :, :] - p[:, :, None, :]  # (P, 3 edges, 3 corners, 3)
+    orient = _triple(d[:, :, None], rel, rel[:, :, nxt])  # (P, 3 edges, 3 triangle edges)
+    inside = (orient >= 0).all(-1) | (orient <= 0).all(-1)
+    inside &= ~(orient == 0).all(-1)
+    return (meets_plane & inside).any(-1)
+
+
+# ----------------------------------------------------------------------------- broad phase (BVH)
+class TriangleBVH:
+    """A bounding volume hierarchy over a mesh's triangles, built once and refit every frame.
+
+    The triangles are sorted by recursive halving: at each level every node's triangles are split
+    into two equal halves along the longest axis of their centroids' extent. The list is padded
+    with empty slots to ``2**depth`` so the tree is a complete binary tree whose leaves are single
+    triangles, stored level by level (node ``k`` of a level has children ``2k`` and ``2k + 1``).
+    Empty slots have inverted boxes (min ``+inf``, max ``-inf``) and overlap nothing.
+
+    Self-collision traversal starts from the pair (root, root); at each level every surviving node
+    pair ``(a, b)``, ``a <= b``, is replaced by its children's pairs (3 when ``a == b``, else 4)
+    whose boxes overlap — the whole level at once, in NumPy.
+
+    Args:
+        faces: ``(F, 3)`` int triangles.
+        rest_vertices: ``(V, 3)`` vertices (metres) used to order the triangles; the rest pose for
+            a skinned character. The hierarchy stays valid when the mesh deforms (only the boxes
+            are recomputed): a poor order costs speed, never correctness.
+    """
+
+    def __init__(self, faces, rest_vertices):
+        rest = _as_numpy_vertices(rest_vertices)
+        self.faces = _as_faces(faces, len(rest))
+        if not len(self.faces):
+            raise ValueError("TriangleBVH needs at least one face")
+        self.depth = math.ceil(math.log2(len(self.faces)))
+        self.order = self._median_split_order(rest[self.faces].mean(1))
+        self._empty = self.order < 0
+        self._slot_faces = self.faces[np.maximum(self.order, 0)]
+
+    def _median_split_order(self, centroids: np.ndarray) -> np.ndarray:
+        """``(2**depth,)`` face index per leaf slot (``-1`` = empty), by recursive halving."""
+        order = np.full(2 ** self.depth, -1, dtype=np.int64)
+        order[: len(centroids)] = np.arange(len(centroids))
+        for level in range(self.depth):
+            seg = order.reshape(2 ** level, -1)
+            valid = (seg >= 0)[..., None]
+            pts = centroids[np.maximum(seg, 0)]
+            extent = np.where(valid, pts, -np.inf).max(1) - np.where(valid, pts, np.inf).min(1)
+            axis = np.where(np.isfinite(extent), extent, 0.0).argmax(1)
+            key = np.take_along_axis(np.where(valid, pts, np.inf), axis[:, None, None], 2)[..., 0]
+            seg[:] = np.take_along_axis(seg, np.argsort(key, axis=1, kind="stable"), 1)  # empty last
+        return order
+
+    def refit(self, vertices: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Boxes of every level for a posed mesh.
+
+        Args:
+            vertices: ``(V, 3)`` metres.
+
+        Returns:
+            ``depth + 1`` pairs ``(lower, upper)``, root level first, leaves (triangles) last, each
+            ``(6, n)`` float32 with ``lower = [min, -max]`` and ``upper = [max, -min]`` per axis,
+            so boxes ``a`` and ``b`` overlap iff ``all(lower[:, a] <= upper[:, b])``. Float32
+            values are rounded outwards, so no overlap of the float64 boxes is lost.
+        """
+        coords = vertices.T
+        corners = [coords[:, self._slot_faces[:, k]] for k in range(3)]  # 3 x (3, 2**depth)
+        lo = np.minimum(np.minimum(corners[0], corners[1]), corners[2])
+        hi = np.maximum(np.maximum(corners[0], corners[1]), corners[2])
+        lo = np.nextafter(lo.astype(np.float32), np.float32(-np.inf))
+        hi = np.nextafter(hi.astype(np.float32), np.float32(np.inf))
+        lo[:, self._empty], hi[:, self._empty] = np.inf, -np.inf
+        levels = [(np.concatenate([lo, -hi]), np.concatenate([hi, -lo]))]
+        lower, upper = levels[0]
+        while lower.shape[1] > 1:
+            lower = np.minimum(lower[:, 0::2], lower[:, 1::2])
+            upper = np.maximum(upper[:, 0::2], upper[:, 1::2])
+            levels.append((lower, upper))
+        return levels[::-1]
+
+    def candidate_pairs(self, vertices) -> np.ndarray:
+        """Face pairs whose boxes overlap and which share no vertex.
+
+        Args:
+            vertices: ``(V, 3)`` posed vertices (metres).
+
+        Returns:
+            ``(C, 2)`` int64 face indices, ``r < i`` in each row.
+        """
+        levels = self.refit(_as_numpy_vertices(vertices))
+        a = b = np.zeros(1, dtype=np.int64)  # (root, root)
+        for depth, (lower, upper) in enumerate(levels[1:], start=1):
+            a, b = _child_pairs(a, b, leaves=depth == self.depth)
+            keep = _boxes_overlap(lower, upper, a, b)
+            a, b = a[keep], b[keep]
+        fa, fb = self.order[a], self.order[b]
+        r, i = np.minimum(fa, fb), np.maximum(fa, fb)
+        keep = ~_share_vertex(self.faces, r, i)
+        return np.stack([r[keep], i[keep]], 1)
+
+
+def _boxes_overlap(lower: np.ndarray, upper: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``(n,)`` bool: boxes ``a`` and ``b`` overlap (``lower``/``upper`` as in :meth:`TriangleBVH.refit`);
+    one 1-D gather per coordinate, several times faster than gathering rows."""
+    keep = np.take(lower[0], a) <= np.take(upper[0], b)
+    for k in range(1, 6):
+        keep &= np.take(lower[k], a) <= np.take(upper[k], b)
+    return keep
+
+
+#: children of a node pair (a, a): (2a, 2a), (2a, 2a+1), (2a+1, 2a+1); of (a, b): all four
+_SELF_A, _SELF_B = np.array([0, 0, 1]), np.array([0, 1, 1])
+_CROSS_A, _CROSS_B = np.array([0, 0, 1, 1]), np.array([0, 1, 0, 1])
+
+
+def _child_pairs(a: np.ndarray, b: np.ndarray, leaves: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Children of node pairs ``(a, b)``, ``a <= b``. At the leaf level a triangle is not paired
+    with itself, so ``(a, a)`` only yields ``(2a, 2a+1)``."""
+    same = a == b
+    sa, ca, cb = 2 * a[same, None], 2 * a[~same, None], 2 * b[~same, None]
+    self_a, self_b = (_SELF_A[1:2], _SELF_B[1:2]) if leaves else (_SELF_A, _SELF_B)
+    return (np.concatenate([(sa + self_a).ravel(), (ca + _CROSS_A).ravel()]),
+            np.concatenate([(sa + self_b).ravel(), (cb + _CROSS_B).ravel()]))
+
+
+def _share_vertex(faces: np.ndarray, r: np.ndarray, i: np.ndarray) -> np.ndarray:
+    """``(n,)`` bool: faces ``r`` and ``i`` have a vertex in common."""
+    cols = faces.T
+    fr = [np.take(cols[k], r) for k in range(3)]
+    fi = [np.take(cols[k], i) for k in range(3)]
+    shared = fr[0] == fi[0]
+    for j in range(3):
+        for k in range(3):
+            if j or k:
+                shared |= fr[j] == fi[k]
+    return shared
+
+
+def brute_force_candidate_pairs(vertices, faces, chunk: int = 512) -> np.ndarray:
+    """Reference broad phase: every face pair's boxes compared (``F^2 / 2`` tests, in chunks).
+
+    Args:
+        vertices: ``(V, 3)`` metres.
+        faces: ``(F, 3)`` int triangles.
+        chunk: rows compared at once.
+
+    Returns:
+        ``(C, 2)`` face pairs, ``r < i``, boxes overlapping, no shared vertex.
+        :meth:`TriangleBVH.candidate_pairs` finds all of these, plus possibly a few pairs whose
+        boxes just touch (its boxes are rounded outwards to float32).
+    """
+    vertices = _as_numpy_vertices(vertices)
+    faces = _as_faces(faces, len(vertices))
+    tri = vertices[faces]
+    lo, hi = tri.min(1), tri.max(1)
+    found = []
+    for start in range(0, len(faces), chunk):
+        rows = np.arange(start, min(start + chunk, len(faces)))
+        overlap = ((lo[rows, None] <= hi[None]) & (lo[None] <= hi[rows, None])).all(-1)
+        overlap &= rows[:, None] < np.arange(len(faces))[None]
+        r, i = np.nonzero(overlap)
+        found.append(np.stack([rows[r], i], 1))
+    pairs = np.concatenate(found) if found else np.zeros((0, 2), np.int64)
+    return pairs[~_share_vertex(faces, pairs[:, 0], pairs[:, 1])]
+
+
+def colliding_triangle_pairs(vertices, faces, bvh: TriangleBVH | None = None) -> np.ndarray:
+    """Intersecting triangle pairs of one mesh (self-intersections), Villegas et al. 2021 Sec. 3.3.
+
+    Broad phase :class:`TriangleBVH`, narrow phase :func:`triangles_intersect`. Pairs sharing a
+    vertex (mesh neighbours) are excluded; coplanar overlaps count as not intersecting.
+
+    Args:
+        vertices: ``(V, 3)`` metres, NumPy or tensor (detached).
+        faces: ``(F, 3)`` int triangles.
+        bvh: a hierarchy built for these ``faces`` (e.g. on the rest pose, reused every frame);
+            ``None`` builds one on ``vertices``.
+
+    Returns:
+        ``(P, 2)`` int64 face indices ``(r, i)``, ``r < i``, sorted by ``r`` then ``i``.
+    """
+    vertices = _as_numpy_vertices(vertices)
+    faces = _as_faces(faces, len(vertices))
+    if bvh is None:
+        bvh = TriangleBVH(faces, vertices)
+    elif not np.array_equal(bvh.faces, faces):
+        raise ValueError("bvh was built for different faces")
+    cand = bvh.candidate_pairs(vertices)
+    hit = triangles_intersect(vertices[faces[cand[:, 0]]], vertices[faces[cand[:, 1]]])
+    pairs = cand[hit]
+    return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
+
+
+# ----------------------------------------------------------------------------- geodesic weights (Eq. 5)
+def geodesic_distances(vertices, faces) -> np.ndarray:
+    """All-pairs geodesic distances, approximated by shortest paths along mesh edges (Dijkstra).
+
+    Args:
+        vertices: ``(V, 3)`` metres (the rest pose for a skinned character).
+        faces: ``(F, 3)`` int triangles.
+
+    Returns:
+        ``(V, V)`` float32 metres; ``inf`` between vertices of disconnected parts (separate
+        pieces of a mesh). Memory is ``4 V^2`` bytes (36 MB for 3,000 vertices): use a decimated
+        mesh (:func:`~retarget_lib.skinning.subsample_mesh`) for dense bodies.
+    """
+    vertices = _as_numpy_vertices(vertices)
+    faces = _as_faces(faces, len(vertices))
+    graph = _edge_graph(vertices, faces)
+    out = np.empty((len(vertices), len(vertices)), dtype=np.float32)
+    for start in range(0, len(vertices), 512):
+        rows = np.arange(start, min(start + 512, len(vertices)))
+        out[rows] = dijkstra(graph, directed=False, indices=rows)
+    return out
+
+
+def _edge_graph(vertices: np.ndarray, faces: np.ndarray) -> scipy.sparse.csr_matrix:
+    """Sparse ``(V, V)`` matrix of edge lengths (each undirected edge once)."""
+    edges = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    edges = np.unique(np.sort(edges, axis=1), axis=0)
+    length = np.linalg.norm(vertices[edges[:, 0]] - vertices[edges[:, 1]], axis=1)
+    n = len(vertices)
+    return scipy.sparse.csr_matrix((length, (edges[:, 0], edges[:, 1])), shape=(n, n))
+
+
+def geodesic_pair_weights(pairs, faces, geodesic, eta: float | None = None) -> np.ndarray:
+    """Eq. 5: ``w_ri = eta^-1 min_{v_j in f_r, v_k in f_i} D(v_j, v_k)``.
+
+    Args:
+        pairs: ``(P, 2)`` int face pairs.
+        faces: ``(F, 3)`` int triangles.
+        geodesic: ``(V, V)`` geodesic distances (:func:`geodesic_distances`).
+        eta: the normalisation; ``None`` = the largest finite entry of ``geodesic`` (the paper's
+            ``max_{a,b} D(v_a, v_b)``).
+
+    Returns:
+        ``(P,)`` float64 weights in ``[0, 1]``; pairs on disconnected parts (infinite distance)
+        get 1, the weight of the most distant pair.
+    """
+    faces = _as_faces(faces)
+    pairs = _as_pairs(pairs, len(faces))
+    if geodesic.ndim != 2 or geodesic.shape[0] != geodesic.shape[1] or faces.max(initial=-1) >= len(geodesic):
+        raise ValueError(f"geodesic must be (V, V) over the faces' vertices, got {geodesic.shape}")
+    if eta is None:
+        finite = geodesic[np.isfinite(geodesic)]
+        eta = float(finite.max()) if finite.size else 1.0
+    if eta <= 0:
+        raise ValueError(f"eta must be positive, got {eta}")
+    fr, fi = faces[pairs[:, 0]], faces[pairs[:, 1]]
+    dmin = geodesic[fr[:, :, None], fi[:, None, :]].reshape(len(pairs), 9).min(1).astype(np.float64)
+    return np.where(np.isfinite(dmin), np.minimum(dmin / eta, 1.0), 1.0)
+
+
+# ----------------------------------------------------------------------------- cone distance field
+def cone_distance_field(points: Tensor, triangles: Tensor, sigma: float = SIGMA, height: float = CONE_HEIGHT,
+                        radius_scale: float = RADIUS_SCALE) -> Tensor:
+    """Cone-shaped local distance field ``psi`` of triangles (after Tzionas et al. 2016, IJCV).
+
+    Geometry, for a triangle with circumcentre ``c``, circumradius ``R`` and unit normal ``n``
+    (counter-clockwise vertices, pointing out of the body): the cone's axis is the normal line
+    through ``c``, its apex lies ``height`` in *front* of the triangle, its surface passes through
+    the circle of radius ``radius_scale * R`` around ``c`` in the triangle's plane, and it opens
+    *behind* the triangle, into the body — the layout of torch-mesh-isect's
+    ``conical_distance_field`` (which uses one ``sigma`` for both lengths). For a point ``p`` at
+    depth ``d = -(p - c) . n`` behind the plane and distance ``rho`` from the axis::
+
+        r(d)   = radius_scale * R * (1 + d / height)           cone radius at depth d
+        U(d)   = 0 (d <= 0);  d^2 / (2 sigma) (0 < d < sigma);  d - sigma / 2 (d >= sigma)
+        psi(p) = U(d) * max(0, 1 - (rho / r(d))^2)
+
+    ``U`` is quadratic near the surface (no jolt when a vertex first crosses) and linear deeper,
+    so ``psi`` grows like the penetration depth; the radial factor fades it to zero on the cone's
+    surface and is smooth on the axis. Differences from torch-mesh-isect (same idea, not the same
+    formula): there the intensity is also positive in front of the triangle
+    (``penalize_outside``), the radial factor is ``1 - rho / r``, and the product is squared once
+    more before Eq. 4 squares it again; here ``psi`` is a length and ``E_int`` an area.
+
+    Args:
+        points: ``(..., 3)`` points (metres).
+        triangles: ``(..., 3, 3)`` triangles (vertex, xyz), broadcast against ``points``.
+        sigma: metres, width of the quadratic zone of ``U``.
+        height: metres, height of the cone's apex in front of the triangle (larger = a cone
+            closer to a cylinder).
+        radius_scale: the cone's radius in the triangle's plane, in circumradii.
+
+    Returns:
+        ``(...)`` ``psi >= 0`` (metres), differentiable in ``points`` and ``triangles``.
+    """
+    _check_cone(sigma, height, radius_scale)
+    if points.shape[-1] != 3 or triangles.shape[-2:] != (3, 3):
+        raise ValueError(f"points must be (..., 3) and triangles (..., 3, 3), got "
+                         f"{tuple(points.shape)} and {tuple(triangles.shape)}")
+    centre, radius, normal = circumcircle(triangles)
+    rel = points - centre
+    elevation = (rel * normal).sum(-1)
+    radial_sq = (rel - elevation.unsqueeze(-1) * normal).square().sum(-1)
+    d = (-elevation).clamp(min=0.0)
+    intensity = torch.where(d < sigma, d.square() / (2.0 * sigma), d - 0.5 * sigma)
+    cone_radius = radius_scale * radius * (1.0 + d / height)
+    falloff = (1.0 - radial_sq / cone_radius.square().clamp(min=torch.finfo(radius.dtype).tiny)).clamp(min=0.0)
+    return intensity * falloff
+
+
+def _check_cone(sigma: float, height: float, radius_scale: float) -> None:
+    if min(sigma, height, radius_scale) <= 0:
+        raise ValueError(f"sigma, height and radius_scale must be positive, got {sigma}, {height}, {radius_scale}")
+
+
+def circumcircle(triangles: Tensor) -> tuple[Tensor, Tensor, Tensor]:
+    """Circumcircle and normal of triangles (differentiable).
+
+    Args:
+        triangles: ``(..., 3, 3)`` (vertex, xyz), metres.
+
+    Returns:
+        Circumcentre ``(..., 3)``, circumradius ``(...)`` and unit normal ``(..., 3)`` (right-hand
+        rule on the vertex order).
+    """
+    a = triangles[..., 0, :]
+    e1, e2 = triangles[..., 1, :] - a, triangles[..., 2, :] - a
+    m = torch.cross(e1, e2, dim=-1)
+    m_sq = m.square().sum(-1, keepdim=True).clamp(min=torch.finfo(m.dtype).tiny)
+    offset = (e1.square().sum(-1, keepdim=True) * torch.cross(e2, m, dim=-1)
+              + e2.square().sum(-1, keepdim=True) * torch.cross(m, e1, dim=-1)) / (2.0 * m_sq)
+    return a + offset, offset.norm(dim=-1), m / m_sq.sqrt()
+
+
+# ----------------------------------------------------------------------------- the energy (Eq. 4)
+def vertex_normals(vertices: Tensor, faces) -> Tensor:
+    """Area-weighted unit vertex normals.
+
+    Args:
+        vertices: ``(..., V, 3)`` metres.
+        faces: ``(F, 3)`` int triangles (counter-clockwise seen from outside).
+
+    Returns:
+        ``(..., V, 3)`` unit normals (zero for vertices in no face).
+    """
+    faces = _as_faces(faces, vertices.shape[-2])
+    nv = vertices.shape[-2]
+    return _normals_at(vertices, faces, _vertex_face_csr(faces, nv), np.arange(nv))
+
+
+def _vertex_face_csr(faces: np.ndarray, num_vertices: int) -> tuple[np.ndarray, np.ndarray]:
+    """The faces around each vertex: ``ptr (V + 1,)`` and face ids, vertex ``v``'s being
+    ``ids[ptr[v]:ptr[v + 1]]``."""
+    corners = faces.ravel()
+    ptr = np.concatenate([[0], np.cumsum(np.bincount(corners, minlength=num_vertices))])
+    return ptr, np.argsort(corners, kind="stable") // 3
+
+
+def _normals_at(vertices: Tensor, faces: np.ndarray, csr: tuple[np.ndarray, np.ndarray],
+                needed: np.ndarray) -> Tensor:
+    """``(..., U, 3)`` area-weighted unit normals of the ``needed (U,)`` vertices, from their own
+    faces only (a colliding frame needs a few hundred vertices' normals, not all of them)."""
+    ptr, ids = csr
+    counts = ptr[needed + 1] - ptr[needed]
+    segment = np.repeat(np.arange(len(needed)), counts)
+    within = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
+    around = faces[ids[np.repeat(ptr[needed], counts) + within]]  # (K, 3)
+    tri = vertices[..., torch.as_tensor(around, device=vertices.device), :]
+    face_normal = torch.cross(tri[..., 1, :] - tri[..., 0, :], tri[..., 2, :] - tri[..., 0, :], dim=-1)
+    summed = vertices.new_zeros(*vertices.shape[:-2], len(needed), 3).index_add(
+        -2, torch.as_tensor(segment, device=vertices.device), face_normal)
+    return summed / summed.norm(dim=-1, keepdim=True).clamp(min=1e-12)
+
+
+def _pair_terms(tri_r: Tensor, tri_i: Tensor, normals_r: Tensor, normals_i: Tensor, cone: dict) -> Tensor:
+    """Eq. 4's bracket for each pair: ``sum_j ||-psi_i(v_j) n_j||^2 + sum_k ||-psi_r(v_k) n_k||^2``.
+
+    Args:
+        tri_r, tri_i: ``(..., P, 3, 3)`` the two triangles of each pair.
+        normals_r, normals_i: ``(..., P, 3, 3)`` their vertices' normals.
+        cone: keyword arguments of :func:`cone_distance_field`.
+
+    Returns:
+        ``(..., P)`` square metres.
+    """
+    psi_i = cone_distance_field(tri_r, tri_i.unsqueeze(-3), **cone)  # (..., P, 3)
+    psi_r = cone_distance_field(tri_i, tri_r.unsqueeze(-3), **cone)
+    return ((-psi_i.unsqueeze(-1) * normals_r).square().sum((-1, -2))
+            + (-psi_r.unsqueeze(-1) * normals_i).square().sum((-1, -2)))
+
+
+def interpenetration_energy(vertices: Tensor, faces, pairs, pair_weights=None, normals: Tensor | None = None,
+                            sigma: float = SIGMA, height: float = CONE_HEIGHT,
+                            radius_scale: float = RADIUS_SCALE) -> Tensor:
+    """Eq. 4, ``E_int``, for given colliding pairs (the same pairs for every leading index).
+
+    Args:
+        vertices: ``(..., V, 3)`` metres (differentiable).
+        faces: ``(F, 3)`` int triangles.
+        pairs: ``(P, 2)`` colliding face pairs ``(r, i)`` (:func:`colliding_triangle_pairs`).
+        pair_weights: ``(P,)`` ``w_ri`` (Eq. 5, :func:`geodesic_pair_weights`); ``None`` = all 1
+            (the paper's "E_int without w_ri" ablation).
+        normals: ``(..., V, 3)`` per-vertex unit normals; ``None`` = :func:`vertex_normals` of
+            ``vertices``.
+        sigma, height, radius_scale: cone parameters (:func:`cone_distance_field`).
+
+    Returns:
+        ``(...)`` energy in square metres.
+    """
+    faces_np = _as_faces(faces, vertices.shape[-2])
+    pairs = _as_pairs(pairs, len(faces_np))
+    if normals is not None and normals.shape != vertices.shape:
+        raise ValueError(f"normals must match vertices {tuple(vertices.shape)}, got {tuple(normals.shape)}")
+    if not len(pairs):
+        return vertices.sum((-1, -2)) * 0.0
+    needed, local = np.unique(faces_np[pairs], return_inverse=True)  # pair corners -> needed vertices
+    local = torch.as_tensor(local.reshape(len(pairs), 2, 3), device=vertices.device)
+    if normals is None:
+        normals = _normals_at(vertices, faces_np, _vertex_face_csr(faces_np, vertices.shape[-2]), needed)
+    else:
+        normals = normals[..., torch.as_tensor(needed, device=vertices.device), :]
+    idx_r = torch.as_tensor(faces_np[pairs[:, 0]], device=vertices.device)
+    idx_i = torch.as_tensor(faces_np[pairs[:, 1]], device=vertices.device)
+    terms = _pair_terms(vertices[..., idx_r, :], vertices[..., idx_i, :], normals[..., local[:, 0], :],
+                        normals[..., local[:, 1], :], dict(sigma=sigma, height=height, radius_scale=radius_scale))
+    if pair_weights is None:
+        return terms.sum(-1)
+    weights = torch.as_tensor(np.asarray(pair_weights), dtype=vertices.dtype, device=vertices.device)
+    if weights.shape != (len(pairs),):
+        raise ValueError(f"pair_weights must be ({len(pairs)},), got {tuple(weights.shape)}")
+    return (terms * weights).sum(-1)
+
+
+class InterpenetrationEnergy:
+    """``E_int`` (Eq. 4) of one character mesh, detection included.
+
+    Caches what every frame reuses: the faces, the :class:`TriangleBVH` (ordered on the rest pose),
+    and Eq. 5's geodesic-distance table ``geodesic`` with its largest finite entry ``eta``
+    (computed on the rest pose; about 1-2 s and ``4 V^2`` bytes, 36 MB, for 3,000 vertices).
+
+    Args:
+        faces: ``(F, 3)`` int triangles.
+        rest_vertices: ``(V, 3)`` rest pose (metres).
+        geodesic_weights: use Eq. 5's ``w_ri``; ``False`` = uniform weights (ablation).
+        sigma, height, radius_scale: cone parameters (:func:`cone_distance_field`).
+    """
+
+    def __init__(self, faces, rest_vertices, geodesic_weights: bool = True, sigma: float = SIGMA,
+                 height: float = CONE_HEIGHT, radius_scale: float = RADIUS_SCALE):
+        rest = _as_numpy_vertices(rest_vertices)
+        self.faces = _as_faces(faces, len(rest))
+        self.num_vertices = len(rest)
+        _check_cone(sigma, height, radius_scale)
+        self.cone = dict(sigma=float(sigma), height=float(height), radius_scale=float(radius_scale))
+        self.bvh = TriangleBVH(self.faces, rest)
+        self.geodesic: np.ndarray | None = None
+        self.eta: float | None = None
+        if geodesic_weights:
+            self.geodesic = geodesic_distances(rest, self.faces)
+            finite = np.isfinite(self.geodesic)
+            self.eta = float(self.geodesic[finite].max()) if finite.any() else 1.0
+        self._vertex_faces = _vertex_face_csr(self.faces, self.num_vertices)
+
+    def pairs(self, vertices) -> np.ndarray:
+        """Colliding face pairs of one frame.
+
+        Args:
+            vertices: ``(V, 3)`` metres (NumPy or tensor; no gradient).
+
+        Returns:
+            ``(P, 2)`` int64 ``(r, i)``, ``r < i``.
+        """
+        vertices = _as_numpy_vertices(vertices)
+        if len(vertices) != self.num_vertices:
+            raise ValueError(f"expected {self.num_vertices} vertices, got {len(vertices)}")
+        return colliding_triangle_pairs(vertices, self.faces, self.bvh)
+
+    def pair_weights(self, pairs: np.ndarray) -> np.ndarray:
+        """``(P,)`` Eq. 5 weights of ``pairs`` (all 1 without geodesic weights)."""
+        if self.geodesic is None:
+            return np.ones(len(pairs))
+        return geodesic_pair_weights(pairs, self.faces, self.geodesic, self.eta)
+
+    def penetrating_faces(self, vertices) -> np.ndarray:
+        """Sorted face indices involved in any collision of one frame ``(V, 3)``."""
+        return np.unique(self.pairs(vertices))
+
+    def __call__(self, vertices) -> Tensor:
+        """Detect per frame (no gradient), then Eq. 4 (differentiable), summed per frame.
+
+        Args:
+            vertices: ``(V, 3)``, ``(B, V, 3)`` or any ``(..., V, 3)`` metres; a tensor (gradients
+                flow to it) or a NumPy array (evaluated in float64).
+
+        Returns:
+            ``()``, ``(B,)`` or ``(...)`` energy in square metres, one value per frame.
+        """
+        if not isinstance(vertices, torch.Tensor):
+            vertices = torch.as_tensor(np.asarray(vertices, dtype=np.float64))
+        if vertices.dim() < 2 or vertices.shape[-2:] != (self.num_vertices, 3):
+            raise ValueError(f"vertices must be (..., {self.num_vertices}, 3), got {tuple(vertices.shape)}")
+        batch = vertices.reshape(-1, self.num_vertices, 3)
+        per_frame = [self.pairs(f) for f in batch.detach().cpu().numpy()]
+        return self.energy_of_pairs(batch, per_frame).reshape(vertices.shape[:-2])
+
+    def energy_of_pairs(self, batch: Tensor, per_frame: Sequence[np.ndarray]) -> Tensor:
+        """Eq. 4 per frame for given colliding pairs (detection skipped, e.g. pairs found once and
+        reused for a few optimisation steps).
+
+        Args:
+            batch: ``(B, V, 3)`` metres (differentiable).
+            per_frame: ``B`` arrays ``(P_b, 2)`` of colliding face pairs (:meth:`pairs`).
+
+        Returns:
+            ``(B,)`` square metres.
+        """
+        nb, nv = batch.shape[:2]
+        if len(per_frame) != nb:
+            raise ValueError(f"need one pair array per frame: {nb} frames, {len(per_frame)} arrays")
+        frame = np.repeat(np.arange(nb), [len(p) for p in per_frame])
+        pairs = np.concatenate(per_frame) if nb else np.zeros((0, 2), np.int64)
+        energy = batch.new_zeros(nb)
+        if not len(pairs):
+            return energy + batch.sum((-1, -2)) * 0.0
+        device = batch.device
+        needed, local = np.unique(self.faces[pairs], return_inverse=True)  # over all frames
+        local = torch.as_tensor(local.reshape(len(pairs), 2, 3), device=device)
+        normals = _normals_at(batch, self.faces, self._vertex_faces, needed)  # (B, U, 3)
+        fr = torch.as_tensor(frame, device=device)
+        idx_r = torch.as_tensor(self.faces[pairs[:, 0]], device=device)
+        idx_i = torch.as_tensor(self.faces[pairs[:, 1]], device=device)
+        terms = _pair_terms(batch[fr[:, None], idx_r], batch[fr[:, None], idx_i], normals[fr[:, None], local[:, 0]],
+                            normals[fr[:, None], local[:, 1]], self.cone)
+        weights = torch.as_tensor(self.pair_weights(pairs), dtype=batch.dtype, device=device)
+        return energy.index_add(0, fr, terms * weights)
+
+
+def interpenetration_score(energy: InterpenetrationEnergy, vertices, height: float) -> float:
+    """The paper's interpenetration metric (Sec. 4): Eq. 4 on height-normalised vertices, averaged
+    over frames.
+
+    The cone lengths are normalised with the body, so ``psi`` scales with length and the score is
+    exactly ``mean_t E_int(v_t) / height^2`` — comparable across characters of any size. Whether
+    ``w_ri`` is used follows ``energy``.
+
+    Args:
+        energy: the character's :class:`InterpenetrationEnergy`.
+        vertices: ``(T, V, 3)`` metres (NumPy or tensor).
+        height: character height (metres; the library's ``Character.height``).
+
+    Returns:
+        The mean normalised energy (unitless).
+    """
+    if height <= 0:
+        raise ValueError(f"height must be positive, got {height}")
+    if len(vertices.shape if isinstance(vertices, torch.Tensor) else np.shape(vertices)) != 3:
+        raise ValueError(f"vertices must be (T, V, 3), got {tuple(vertices.shape)}")
+    with torch.no_grad():
+        values = energy(vertices if isinstance(vertices, torch.Tensor) else np.asarray(vertices, dtype=np.float64))
+    return float(values.mean()) / height ** 2
+
+
+# ----------------------------------------------------------------------------- penetration rate
+#: three ray directions (unit, not axis-aligned) for :func:`ray_winding_numbers`
+_RAY_DIRECTIONS = np.array([[1.0, 0.31, 0.17], [-0.23, 1.0, 0.41], [0.37, -0.29, 1.0]])
+_RAY_DIRECTIONS /= np.linalg.norm(_RAY_DIRECTIONS, axis=1, keepdims=True)
+
+
+def cap_holes(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
+    """Close every hole of an oriented mesh with a fan of triangles to the hole's centroid.
+
+    A hole is a connected component of boundary edges (half-edges whose twin is missing); its new
+    vertex is the mean of the component's vertices, and the cap triangles follow the mesh's
+    orientation (counter-clockwise seen from outside).
+
+    Args:
+        vertices: ``(V, 3)`` metres.
+        faces: ``(F, 3)`` int triangles, consistently oriented.
+
+    Returns:
+        ``(vertices (V + H, 3), faces (F + B, 3))``: one new vertex per hole, one new triangle per
+        boundary edge (the input unchanged when there is no hole).
+    """
+    vertices = _as_numpy_vertices(vertices)
+    faces = _as_faces(faces, len(vertices))
+    nv = len(vertices)
+    half = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    boundary = half[~np.isin(half[:, 1] * nv + half[:, 0], half[:, 0] * nv + half[:, 1])]
+    if not len(boundary):
+        return vertices, faces
+    graph = scipy.sparse.coo_matrix((np.ones(len(boundary)), (boundary[:, 0], boundary[:, 1])), shape=(nv, nv))
+    _, label = connected_components(graph, directed=False)
+    on_boundary = np.unique(boundary)
+    holes, hole_of_vertex = np.unique(label[on_boundary], return_inverse=True)
+    centroids = np.zeros((len(holes), 3))
+    np.add.at(centroids, hole_of_vertex, vertices[on_boundary])
+    centroids /= np.bincount(hole_of_vertex)[:, None]
+    hole_of_edge = np.searchsorted(holes, label[boundary[:, 0]])
+    caps = np.stack([boundary[:, 1], boundary[:, 0], nv + hole_of_edge], 1)
+    return np.concatenate([vertices, centroids]), np.concatenate([faces, caps])
+
+
+def ray_winding_numbers(points, vertices, faces) -> np.ndarray:
+    """Winding number of a closed, outward-oriented mesh at points, by signed ray crossings.
+
+    From each point a ray is cast (Embree, through :mod:`trimesh`) and every surface it crosses
+    counts ``+1`` when the ray leaves through it (normal along the ray) and ``-1`` when it enters.
+    For a closed mesh that sum is the winding number whatever the ray: 1 inside, 0 outside, 2
+    inside two overlapping parts (where ray *parity* would say "outside"). Three rays in fixed
+    oblique directions are cast and the median kept, which absorbs a crossing missed or doubled at
+    an edge.
+
+    Args:
+        points: ``(N, 3)`` metres.
+        vertices: ``(V, 3)`` metres.
+        faces: ``(F, 3)`` int triangles, closed (:func:`cap_holes`) and counter-clockwise seen from
+            outside.
+
+    Returns:
+        ``(N,)`` int winding numbers.
+    """
+    import trimesh
+
+    points = _as_numpy_vertices(points)
+    vertices = _as_numpy_vertices(vertices)
+    faces = _as_faces(faces, len(vertices))
+    mesh = trimesh.Trimesh(vertices, faces, process=False)
+    tri = vertices[faces]
+    normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    counts = []
+    for direction in _RAY_DIRECTIONS:
+        dirs = np.broadcast_to(direction, points.shape)
+        index_tri, index_ray = mesh.ray.intersects_id(points, dirs, multiple_hits=True)
+        sign = np.sign(normals[index_tri] @ direction)
+        counts.append(np.bincount(index_ray, weights=sign, minlength=len(points)))
+    return np.rint(np.median(counts, axis=0)).astype(np.int64)
+
+
+def penetration_rate(vertices, faces, weights, limbs: Mapping[str, Sequence[str]] | None = None
+                     ) -> dict[str, float]:
+    """Per-limb penetration rate: the share of a limb's vertices inside the rest of the body.
+
+    Definition: a vertex belongs to the limb whose joints hold its largest skinning weight
+    (:data:`DEFAULT_LIMBS`: each arm = Arm, ForeArm, Hand; each leg = UpLeg, Leg, Foot, ToeBase).
+    The limb's *body* is the mesh without the limb's faces (every face with a limb vertex; the
+    other limbs stay part of it), with the hole this leaves closed by :func:`cap_holes`. A limb
+    vertex is *inside* when the body's winding number at it (:func:`ray_winding_numbers`) is at
+    least 1 — inside the torso, a leg, the other arm, or several of them at once. The rate is
+    (inside vertices) / (limb vertices), averaged over frames.
+
+    Args:
+        vertices: ``(V, 3)`` or ``(T, V, 3)`` metres.
+        faces: ``(F, 3)`` int triangles, closed mesh, counter-clockwise seen from outside.
+        weights: ``(V, 22)`` skinning weights on the canonical 22 joints.
+        limbs: ``{name: joint names}``; ``None`` = :data:`DEFAULT_LIMBS`.
+
+    Returns:
+        ``{limb: rate in [0, 1]}`` (``nan`` for a limb with no vertex).
+    """
+    frames = np.asarray(vertices.detach().cpu().numpy() if isinstance(vertices, torch.Tensor) else vertices,
+                        dtype=np.float64)
+    frames = frames[None] if frames.ndim == 2 else frames
+    if frames.ndim != 3 or frames.shape[2] != 3:
+        raise ValueError(f"vertices must be (V, 3) or (T, V, 3), got {frames.shape}")
+    faces = _as_faces(faces, frames.shape[1])
+    weights = np.asarray(weights, dtype=np.float64)
+    if weights.shape != (frames.shape[1], len(CANONICAL22)):
+        raise ValueError(f"weights must be ({frames.shape[1]}, 22), got {weights.shape}")
+    owner = weights.argmax(1)
+    rates = {}
+    for name, joints in (DEFAULT_LIMBS if limbs is None else limbs).items():
+        unknown = [j for j in joints if j not in CANONICAL22]
+        if unknown:
+            raise ValueError(f"limb {name!r}: unknown joints {unknown}")
+        in_limb = np.isin(owner, [CANONICAL22.index(j) for j in joints])
+        if not in_limb.any():
+            rates[name] = float("nan")
+            continue
+        body_faces = faces[~in_limb[faces].any(1)]
+        inside = []
+        for frame in frames:
+            body_vertices, body_closed = cap_holes(frame, body_faces)
+            inside.append(ray_winding_numbers(frame[in_limb], body_vertices, body_closed) >= 1)
+        rates[name] = float(np.mean(inside))
+    return rates
