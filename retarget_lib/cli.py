@@ -7,7 +7,9 @@
                       [--checkpoint PATH|ID] --out OUT.bvh
     retarget train    --config configs/NAME.yaml [key=value ...] [--profile fast|paper] [--resume]
     retarget train --config configs/NAME.yaml [key=value ...] [--profile fast|paper] [--out DIR] [--resume]
-                                         train a TDCN/NKN Table 4 row (retarget_lib.tdcn_training)
+                                         train a TDCN/NKN Table 4 row (retarget_lib.tdcn_training) or,
+                                         for configs/contact_*.yaml, a contact-aware Table 3 row
+                                         (retarget_lib.contact_training)
     retarget evaluate --table tdcn --out DIR
     retarget bench [--quick]             speed table (ratios against references in the same run)
 """
@@ -53,12 +55,16 @@ def _cmd_train(args: argparse.Namespace) -> int:
     from .config import load_config
     from .losses import NonFiniteLossError
     from .data.cache import sha256_file
-    from .tdcn_training import RetargetTraining, export_generator
     from .train import fit
 
     config = load_config(args.config, args.overrides, args.profile)
     out = Path(args.out or Path("runs") / Path(args.config).stem)
-    run = RetargetTraining(config)
+    if config.get("method") == "contact":
+        from .contact_training import ContactTraining, export_model as export
+        run = ContactTraining(config)
+    else:
+        from .tdcn_training import RetargetTraining, export_generator as export
+        run = RetargetTraining(config)
     try:
         final = fit(run.task(), config, out, int(config["train"]["steps"]),
                     checkpoint_every=int(config["train"]["checkpoint_every"]), resume=args.resume,
@@ -68,8 +74,8 @@ def _cmd_train(args: argparse.Namespace) -> int:
         return 1
     print(f"checkpoint: {final}  (losses: {out / 'losses.csv'})")
     if args.export:
-        slim = export_generator(final, args.export)
-        print(f"exported generator: {slim}  sha256 {sha256_file(slim)}")
+        slim = export(final, args.export)
+        print(f"exported model: {slim}  sha256 {sha256_file(slim)}")
     return 0
 
 

@@ -182,7 +182,7 @@ def test_cli_export_writes_a_slim_generator_that_loads(tmp_path, capsys):
     args = ["train", "--config", str(CONFIGS / "tdcn_paper.yaml"), *TINY, "train.steps=2",
             "train.checkpoint_every=2", "--out", str(tmp_path / "run"), "--export", str(slim)]
     assert main(args) == 0
-    assert "exported generator" in capsys.readouterr().out
+    assert "exported model" in capsys.readouterr().out
     full = tmp_path / "run" / "final.pt"
     assert slim.stat().st_size < full.stat().st_size
     g_full, _ = load_generator(full)

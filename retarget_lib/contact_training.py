@@ -1,0 +1,307 @@
+"""Training the geometry-conditioned RNN on the contact-aware energy (Villegas et al. 2021,
+Sec. 3.2-3.4, App. B.1), and retargeting with it.
+
+The network (:class:`~retarget_lib.models.georet.GeometryConditionedRNN`) is trained without
+ground truth: each step retargets a batch of 60-frame source windows onto random training
+characters and minimises ``Efull`` (Eq. 1) of the outputs, with the Table 3 switches of the
+config (``energy.row``):
+
+* **Eskel** (Eq. 7) on every frame: rotations and root velocity close to the source's (Eq. 8),
+  end-effector velocities scaled by height (Eq. 9);
+* **Efoot** (Eq. 6) on every frame with a source foot contact, ramped in by ``epoch / epochs``;
+* **Ej2j** (Eq. 3) and **Eint** (Eq. 4) on *one random frame per sequence* (App. B.1: "we
+  uniformly sample a single motion frame per motion sequence"): the target mesh is skinned for that
+  frame only; its self-contact pairs are the source's detected contacts (Sec. 3.4) carried over by
+  the vertex correspondence of App. F.
+
+**Data.** Sources are the synthetic clips performed by the training characters (their own mesh,
+so the detected hand contacts are real contacts of that body), with seeds below
+``data.held_out_seed``; targets are the training characters. The contact test protocol
+(:mod:`retarget_lib.evaluate_contact`) uses other characters as targets, held-out seeds and a
+source body never seen in training (``mannequin-x``, our stand-in for Mixamo's Y-bot). Source foot
+and hand contacts are detected once per clip and cached (``.cache/contact_training``).
+
+**Epochs.** The paper trains 10 epochs with a learning-rate decay of 0.95 per epoch; here an
+"epoch" is ``train.steps / train.epochs`` steps, so the decay and the Efoot ramp follow the same
+schedule at any budget.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+
+from .contacts import SelfContacts, detect_foot_contacts, detect_self_contacts, vertex_correspondence
+from .data.cache import atomic_write, cache_dir
+from .data.characters import Character
+from .losses.contact import (ContactEnergyWeights, MotionQuantities, foot_contact_energy, foot_ground_heights,
+                             leg_ratio, motion_quantities, self_contact_energy, skeleton_energy)
+from .models.georet import GeometryConditionedRNN, batch_meshes, motion_features, pose_outputs
+from .motion import Motion
+from .penetration import InterpenetrationEnergy
+from .skinning import linear_blend_skinning
+from .train import TrainTask, load_checkpoint
+
+Tensor = torch.Tensor
+
+__all__ = ["ContactClip", "ContactTraining", "LOG_TERMS", "contact_clip", "training_clips", "model_from_config",
+           "energy_weights", "export_model", "load_contact_model", "retarget_with_network"]
+
+#: the terms logged per step (always all of them, 0 when a row switches one off)
+LOG_TERMS: tuple[str, ...] = ("weak", "ee", "foot", "j2j", "int", "total")
+
+
+@dataclass
+class ContactClip:
+    """A source clip with everything training and evaluation read from it.
+
+    Attributes:
+        name: clip name.
+        character: the performer (its mesh carries the self-contacts).
+        motion: the clip on the performer (canonical 22, metres, 30 fps).
+        features: ``(T, 267)`` network input (:func:`~retarget_lib.models.georet.motion_features`).
+        quantities: source :class:`~retarget_lib.losses.contact.MotionQuantities`, ``(T, ...)``.
+        foot_contacts: ``(T, 4)`` bool detected foot contacts (Sec. 3.4).
+        self_contacts: detected hand contacts on the performer's mesh (Sec. 3.4).
+    """
+
+    name: str
+    character: Character
+    motion: Motion
+    features: Tensor
+    quantities: MotionQuantities
+    foot_contacts: np.ndarray
+    self_contacts: SelfContacts
+
+
+def _detected_contacts(motion: Motion, character: Character, cache_key: str | None) -> tuple[np.ndarray, SelfContacts]:
+    """Foot and hand contacts of a clip on its performer, cached under ``cache_key``."""
+    path = cache_dir("contact_training") / f"{cache_key}.npz" if cache_key else None
+    if path is not None and path.exists():
+        z = np.load(path)
+        return z["foot"], SelfContacts(int(z["num_frames"]), z["frames"], z["pairs"], z["groups"])
+    positions = motion.global_positions()
+    foot = detect_foot_contacts(positions, motion.skeleton)
+    vertices = character.skinned(motion.rotations, motion.root_positions)
+    hands = detect_self_contacts(vertices, character.faces, character.weights, _standing_height(character))
+    if path is not None:
+        with atomic_write(path) as f:
+            np.savez(f, foot=foot, num_frames=hands.num_frames, frames=hands.frames, pairs=hands.pairs,
+                     groups=hands.groups)
+    return foot, hands
+
+
+def _standing_height(character: Character) -> float:
+    """Top of the rest mesh above the ground (metres): the "character height" of Sec. 3.4's
+    thresholds (138 cm, 180 cm scales)."""
+    return float(character.rest_vertices[:, 1].max() - character.rest_vertices[:, 1].min())
+
+
+def contact_clip(motion: Motion, character: Character, cache_key: str | None = None) -> ContactClip:
+    """Prepare one source clip performed by ``character`` (its skeleton must be the motion's)."""
+    rot, root, off = motion.torch(torch.float32)
+    height = motion.skeleton.height()
+    quantities = motion_quantities(rot, root, off, height, motion.skeleton.parents)
+    features = motion_features(rot[None], root[None], off, motion.skeleton.parents, height)[0]
+    foot, hands = _detected_contacts(motion, character, cache_key)
+    return ContactClip(motion.name, character, motion, features, quantities, foot, hands)
+
+
+def training_clips(config: dict) -> tuple[list[ContactClip], dict[str, Character]]:
+    """The training sources and targets of ``config["data"]`` (see the module docstring).
+
+    Returns:
+        ``(clips, targets)``: clips performed by the training characters with seeds below
+        ``held_out_seed``, and the training characters by name.
+    """
+    from .data.synthetic import dataset_path, fingerprint_of, load_synthetic
+
+    data = config["data"]
+    ds = load_synthetic()
+    names = list(data["train_characters"])
+    unknown = [n for n in names if n not in ds.characters]
+    if unknown:
+        raise ValueError(f"data.train_characters: unknown characters {unknown}; known: {sorted(ds.characters)}")
+    key = fingerprint_of(dataset_path())[:12]
+    clips = [contact_clip(c.motion, ds.characters[c.performer], f"{key}_{c.name}")
+             for c in ds.clips if c.performer in names and int(c.name.rsplit("_", 1)[1]) < int(data["held_out_seed"])]
+    if not clips:
+        raise ValueError("no training clip: no clip of the training characters below data.held_out_seed")
+    return clips, {n: ds.characters[n] for n in names}
+
+
+def model_from_config(config: dict) -> GeometryConditionedRNN:
+    """The network of ``config["model"]`` (App. B.1: hidden 512, PointNet 256, dropout 0.1)."""
+    m = config["model"]
+    return GeometryConditionedRNN(hidden=int(m["hidden"]), layers=int(m["layers"]), geometry=int(m["geometry"]),
+                                  dropout=float(m["dropout"]))
+
+
+def energy_weights(config: dict) -> ContactEnergyWeights:
+    """Training weights: the Table 3 row ``energy.row`` with App. B.1's values, overridable by
+    ``energy.<field>`` keys."""
+    e = dict(config["energy"])
+    row = e.pop("row")
+    base = ContactEnergyWeights.row(row)
+    return replace(base, **{k: (float(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else v)
+                            for k, v in e.items()})
+
+
+class _Target:
+    """A training character's constant tensors, its Eint and foot ground heights."""
+
+    def __init__(self, character: Character, geodesic_weights: bool, need_int: bool):
+        self.character = character
+        self.offsets = torch.as_tensor(character.skeleton.offsets, dtype=torch.float32)
+        self.height = character.height
+        self.rest_joints = torch.as_tensor(character.rest_joint_positions(), dtype=torch.float32)
+        self.vertices = torch.as_tensor(character.rest_vertices, dtype=torch.float32)
+        self.weights = torch.as_tensor(character.weights, dtype=torch.float32)
+        self.ground = torch.as_tensor(foot_ground_heights(character.skeleton), dtype=torch.float32)
+        self.eint = (InterpenetrationEnergy(character.faces, character.rest_vertices, geodesic_weights)
+                     if need_int else None)
+
+
+class ContactTraining:
+    """One training run of a Table 3 row (``config["energy"]["row"]``).
+
+    Use :meth:`task` with :func:`retarget_lib.train.fit`, as ``retarget train`` does.
+    """
+
+    def __init__(self, config: dict, clips: list[ContactClip] | None = None,
+                 targets: dict[str, Character] | None = None):
+        self.config = config
+        if clips is None or targets is None:
+            clips, targets = training_clips(config)
+        self.window = int(config["data"]["window"])
+        self.clips = [c for c in clips if c.motion.num_frames >= self.window]
+        if not self.clips:
+            raise ValueError(f"no clip has the {self.window} frames of data.window")
+        self.weights = energy_weights(config)
+        self.targets = [_Target(c, self.weights.geodesic_weights, self.weights.use_int) for c in targets.values()]
+        self._correspondence: dict[tuple[str, str], np.ndarray] = {}
+        self.model = model_from_config(config)
+        t = config["train"]
+        self.optimizer = torch.optim.Adam(self.model.parameters(), lr=float(t["lr"]), betas=tuple(t["betas"]),
+                                          eps=1e-8)
+        self.steps, self.epochs = int(t["steps"]), int(t["epochs"])
+        self.batch, self.lr, self.decay = int(t["batch"]), float(t["lr"]), float(t["lr_decay"])
+
+    def task(self) -> TrainTask:
+        return TrainTask({"model": self.model}, {"adam": self.optimizer}, self.step)
+
+    def correspondence(self, source: Character, target: _Target) -> np.ndarray:
+        key = (source.name, target.character.name)
+        if key not in self._correspondence:
+            self._correspondence[key] = vertex_correspondence(source, target.character)
+        return self._correspondence[key]
+
+    def epoch(self, step: int) -> int:
+        """0-based epoch of ``step`` (``steps / epochs`` steps each)."""
+        return min(step * self.epochs // max(self.steps, 1), self.epochs - 1)
+
+    def _sample(self) -> list[tuple[ContactClip, int, _Target, int]]:
+        """``batch`` draws of (clip, window start, target, sampled frame) from NumPy's global RNG
+        (seeded and checkpointed by :func:`~retarget_lib.train.fit`)."""
+        draws = []
+        for _ in range(self.batch):
+            clip = self.clips[np.random.randint(len(self.clips))]
+            start = np.random.randint(clip.motion.num_frames - self.window + 1)
+            target = self.targets[np.random.randint(len(self.targets))]
+            draws.append((clip, start, target, np.random.randint(self.window)))
+        return draws
+
+    def energies(self, draws: list[tuple[ContactClip, int, _Target, int]], weights: ContactEnergyWeights,
+                 ) -> dict[str, Tensor]:
+        """Weighted ``Efull`` terms of one batch (each ``(B,)``), :data:`LOG_TERMS` keys."""
+        win = slice(0, self.window)
+        sl = [slice(s, s + self.window) for _, s, _, _ in draws]
+        features = torch.stack([c.features[s] for (c, *_), s in zip(draws, sl)])
+        src = MotionQuantities(torch.stack([c.quantities.rotations[s] for (c, *_), s in zip(draws, sl)]),
+                               torch.stack([c.quantities.root_velocity[s] for (c, *_), s in zip(draws, sl)]),
+                               torch.stack([c.quantities.positions[s] for (c, *_), s in zip(draws, sl)]),
+                               torch.tensor([c.quantities.height for c, *_ in draws]))
+        targets = [t for _, _, t, _ in draws]
+        offsets = torch.stack([t.offsets for t in targets])
+        heights = torch.tensor([t.height for t in targets])
+        ratios = torch.tensor([leg_ratio(c.motion.skeleton, t.character.skeleton) for c, _, t, _ in draws])
+        verts, skin = batch_meshes([t.vertices for t in targets], [t.weights for t in targets])
+        out = self.model(features, offsets, verts, skin, heights)
+        start = ratios[:, None] * src.positions[:, 0, 0]
+        posed = pose_outputs(out.rotations, out.root_velocity, offsets, start=start)
+        output = MotionQuantities(out.rotations, out.root_velocity, posed.positions, heights)
+        terms = skeleton_energy(output, src, ratios, weights)
+        zeros = heights.new_zeros(len(draws))
+        foot = torch.stack([foot_contact_energy(posed.positions[b, win], torch.as_tensor(c.foot_contacts[s]),
+                                                t.ground, t.height)
+                            for b, ((c, _, t, _), s) in enumerate(zip(draws, sl))])
+        terms["foot"] = weights.foot_weight * weights.in_units("foot", foot)
+        j2j, eint = [], []
+        for b, (clip, s, t, f) in enumerate(draws):
+            need_pairs = weights.use_j2j and len(clip.self_contacts)
+            if not (need_pairs or weights.use_int):
+                break
+            mesh = linear_blend_skinning(t.vertices, t.weights, t.rest_joints, posed.global_rotations[b, f],
+                                         posed.positions[b, f])
+            pairs = clip.self_contacts.at(s + f) if need_pairs else np.zeros((0, 2), np.int64)
+            if len(pairs):
+                pairs = self.correspondence(clip.character, t)[pairs]
+                pairs = pairs[pairs[:, 0] != pairs[:, 1]]
+            j2j.append(self_contact_energy(mesh, torch.as_tensor(pairs)) if len(pairs) else zeros[0])
+            eint.append(t.eint(mesh) if t.eint is not None else zeros[0])
+        terms["j2j"] = (weights.j2j_weight * weights.in_units("j2j", torch.stack(j2j))) if j2j else zeros
+        terms["int"] = (weights.int_weight * weights.in_units("int", torch.stack(eint))) if eint else zeros
+        terms["total"] = terms["weak"] + terms["ee"] + terms["foot"] + terms["j2j"] + terms["int"]
+        return {k: terms[k] for k in LOG_TERMS}
+
+    def step(self, index: int) -> dict[str, float]:
+        epoch = self.epoch(index)
+        for group in self.optimizer.param_groups:
+            group["lr"] = self.lr * self.decay ** epoch
+        weights = self.weights.with_foot_ramp(epoch, self.epochs)
+        terms = self.energies(self._sample(), weights)
+        loss = terms["total"].mean()
+        self.optimizer.zero_grad(set_to_none=True)
+        loss.backward()
+        self.optimizer.step()
+        return {k: float(v.detach().mean()) for k, v in terms.items()}
+
+
+def export_model(checkpoint: str | Path, out: str | Path) -> Path:
+    """Slim, inference-only copy of a training checkpoint (atomic): weights, step and config."""
+    state = load_checkpoint(checkpoint)
+    slim = {"step": state["step"], "config": state["config"], "modules": {"model": state["modules"]["model"]}}
+    with atomic_write(out) as f:
+        torch.save(slim, f)
+    return Path(out)
+
+
+def load_contact_model(checkpoint: str | Path) -> tuple[GeometryConditionedRNN, dict]:
+    """``(model in eval mode, config)`` from a training or exported checkpoint."""
+    state = load_checkpoint(checkpoint)
+    model = model_from_config(state["config"])
+    model.load_state_dict(state["modules"]["model"])
+    return model.eval(), state["config"]
+
+
+@torch.no_grad()
+def retarget_with_network(model: GeometryConditionedRNN, source: Motion, target: Any) -> Motion:
+    """Retarget ``source`` onto ``target`` (a ``Character``) with the network alone (no ESO):
+    Eqs. 12-19 over the whole clip, root starting at the source's first root times the leg ratio.
+
+    Returns:
+        The motion on ``target.skeleton``.
+    """
+    rot, root, off = source.torch(torch.float32)
+    feats = motion_features(rot[None], root[None], off, source.skeleton.parents, source.skeleton.height())
+    t_off = torch.as_tensor(target.skeleton.offsets, dtype=torch.float32)
+    out = model(feats, t_off[None], torch.as_tensor(target.rest_vertices, dtype=torch.float32)[None],
+                torch.as_tensor(target.weights, dtype=torch.float32)[None], target.height)
+    start = leg_ratio(source.skeleton, target.skeleton) * root[0]
+    posed = pose_outputs(out.rotations, out.root_velocity, t_off, start=start[None])
+    return Motion(target.skeleton, out.rotations[0].double().numpy(), posed.root_positions[0].double().numpy(),
+                  source.fps, name=f"{source.name}->{getattr(target, 'name', 'target')}")
