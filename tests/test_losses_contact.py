@@ -149,7 +149,7 @@ def test_foot_ground_heights_are_the_rest_heights_of_heels_and_toes():
     skel = make_skeleton()
     rest = skel.rest_positions()
     expected = [rest[J[n], 1] for n in ("LeftFoot", "RightFoot", "LeftToeBase", "RightToeBase")]
-    np.testing.assert_allclose(foot_ground_heights(skel), expected)
+    np.testing.assert_allclose(foot_ground_heights(skel), expected, atol=1e-12)
     assert foot_ground_heights(skel)[2] == pytest.approx(0.0)
 
 
@@ -316,3 +316,15 @@ def test_full_energy_is_differentiable_in_the_output_motion():
     assert torch.isfinite(rot.grad).all() and rot.grad.abs().sum() > 0
     assert root.grad.abs().sum() > 0
     assert isinstance(b, MotionQuantities)
+
+
+def test_foot_ground_heights_measure_from_the_rest_ground():
+    from retarget_lib.data.characters import make_character
+    from retarget_lib.losses.contact import foot_ground_heights
+
+    sk = make_character("ada").skeleton
+    on_floor = foot_ground_heights(sk)
+    lowered = sk.copy()
+    lowered.offsets[0] = lowered.offsets[0] - [0.0, 1.0, 0.0]  # root at the origin-ish: feet below 0
+    np.testing.assert_allclose(foot_ground_heights(lowered), on_floor - on_floor.min(), atol=1e-12)
+    assert on_floor.min() >= 0

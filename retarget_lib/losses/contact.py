@@ -229,8 +229,15 @@ def leg_ratio(source: Skeleton, target: Skeleton) -> float:
 
 
 def foot_ground_heights(skeleton: Skeleton) -> np.ndarray:
-    """``(4,)`` rest (T-pose) heights of the :data:`FOOT_CONTACT_IDS` joints (metres, Sec. 3.1.1)."""
-    return skeleton.rest_positions()[list(FOOT_CONTACT_IDS), 1].copy()
+    """``(4,)`` rest (T-pose) heights of the :data:`FOOT_CONTACT_IDS` joints above the rest
+    ground (metres, Sec. 3.1.1).
+
+    The ground is ``y = 0`` for skeletons standing on the floor (characters, shape files) and the
+    lowest rest foot joint for a BVH skeleton whose root sits at the origin (its feet are below 0),
+    as in :func:`retarget_lib.contacts.rest_ground_height`.
+    """
+    feet = skeleton.rest_positions()[list(FOOT_CONTACT_IDS), 1]
+    return feet - min(0.0, float(feet.min()))
 
 
 def forward_root_velocity(root_positions: Tensor) -> Tensor:
