@@ -3,14 +3,15 @@
 ::
 
     retarget data build|list|verify      build the embedded dataset; list/verify data_manifest.yaml
-    retarget retarget --source IN.bvh --target TARGET.bvh|CHARACTER --method copy|copy-rest|tdcn|nkn
+    retarget retarget --source IN.bvh --target TARGET.bvh|CHARACTER [--target-mesh SHAPE.npz]
+                      [--source-mesh SHAPE.npz] --method copy|copy-rest|tdcn|nkn|contact
                       [--checkpoint PATH|ID] --out OUT.bvh
     retarget train    --config configs/NAME.yaml [key=value ...] [--profile fast|paper] [--resume]
     retarget train --config configs/NAME.yaml [key=value ...] [--profile fast|paper] [--out DIR] [--resume]
                                          train a TDCN/NKN Table 4 row (retarget_lib.tdcn_training) or,
                                          for configs/contact_*.yaml, a contact-aware Table 3 row
                                          (retarget_lib.contact_training)
-    retarget evaluate --table tdcn --out DIR
+    retarget evaluate --table tdcn|contact [--profile fast|paper] --out DIR
     retarget bench [--quick]             speed table (ratios against references in the same run)
 """
 
@@ -44,7 +45,8 @@ def _cmd_data(args: argparse.Namespace) -> int:
 def _cmd_retarget(args: argparse.Namespace) -> int:
     from .retarget import retarget_file
 
-    out = retarget_file(args.source, args.target, args.method, args.out, args.checkpoint)
+    out = retarget_file(args.source, args.target, args.method, args.out, args.checkpoint, args.target_mesh,
+                        args.source_mesh)
     print(f"wrote {out}")
     return 0
 
@@ -80,6 +82,17 @@ def _cmd_train(args: argparse.Namespace) -> int:
 
 
 def _cmd_evaluate(args: argparse.Namespace) -> int:
+    if args.table == "contact":
+        from .evaluate_contact import run_contact_evaluation
+
+        tables, missing = run_contact_evaluation(args.out, args.profile or "fast")
+        for name, table in tables.items():
+            print(f"{name}:\n{table.filter(like='ours').round(3).to_string()}\n")
+        if missing:
+            print(f"no trained checkpoint yet for: {', '.join(missing)}")
+        print(f"wrote {args.out}/contact_table1.csv/.md, contact_table3.*, contact_table5.*, contact_table6.*, "
+              "contact_cases.csv")
+        return 0
     from .evaluate import run_tdcn_evaluation
 
     table, missing = run_tdcn_evaluation(args.out)
@@ -117,15 +130,21 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--source", required=True, help="source BVH (any joint set the library can fold)")
     p.add_argument("--target", required=True,
                    help="target BVH (its skeleton, units and joint names are used) or a character name")
-    p.add_argument("--method", required=True, choices=["copy", "copy-rest", "tdcn", "nkn"],
+    p.add_argument("--method", required=True, choices=["copy", "copy-rest", "tdcn", "nkn", "contact"],
                    help="copy: copy local rotations, root scaled by leg length; copy-rest: copy with "
                         "rest-pose compensation (same global bone directions); tdcn/nkn: a trained "
-                        "network (--checkpoint, default for tdcn: the shipped fast checkpoint)")
-    p.add_argument("--checkpoint", help="checkpoint path or manifest id for --method tdcn|nkn")
+                        "network (--checkpoint, default: the shipped fast checkpoints); contact: "
+                        "contact-aware RNN + encoder-space optimisation (needs the target's mesh)")
+    p.add_argument("--target-mesh", help="target character shape .npz (rest_vertices, faces, weights, "
+                                         "offsets, joint names) for --method contact")
+    p.add_argument("--source-mesh", help="source character shape .npz: its hand self-contacts are detected "
+                                         "and preserved by --method contact (without it: feet and "
+                                         "interpenetration only)")
+    p.add_argument("--checkpoint", help="checkpoint path or manifest id for --method tdcn|nkn|contact")
     p.add_argument("--out", required=True, help="output .bvh")
     p.set_defaults(func=_cmd_retarget)
 
-    p = sub.add_parser("train", help="train a TDCN/NKN model (a Table 4 row) from a YAML config")
+    p = sub.add_parser("train", help="train a TDCN/NKN (Table 4) or contact-aware (Table 3) model from a YAML config")
     p.add_argument("--config", required=True, help="experiment YAML, e.g. configs/tdcn_paper.yaml")
     p.add_argument("overrides", nargs="*", metavar="key=value",
                    help="dotted config overrides, e.g. train.steps=200 model.channels=64")
@@ -137,7 +156,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_train)
 
     p = sub.add_parser("evaluate", help="regenerate a paper table (CSV + Markdown, paper numbers beside ours)")
-    p.add_argument("--table", required=True, choices=["tdcn"], help="tdcn: Kim et al. 2020, Table 4")
+    p.add_argument("--table", required=True, choices=["tdcn", "contact"],
+                   help="tdcn: Kim et al. 2020, Table 4; contact: Villegas et al. 2021, Tables 1, 3, 5, 6")
+    p.add_argument("--profile", choices=["fast", "paper"],
+                   help="contact protocol size (fast: 6 clips x 6 targets, 60 frames; paper: 16 clips, whole)")
     p.add_argument("--out", required=True, help="output folder")
     p.set_defaults(func=_cmd_evaluate)
 

@@ -1,0 +1,356 @@
+"""Evaluation of contact-aware retargeting: Tables 1, 3, 5 and 6 of Villegas et al. 2021 (Sec. 4,
+App. A and D), with the paper's numbers beside ours.
+
+**Protocol** (our analogue of the paper's, which uses Mixamo's Y-bot as an unseen skinny source and
+three skinny + three bulky targets):
+
+* source: ``mannequin-x``, a real skinned body never used in training, performing held-out clips
+  (seed >= ``held_out_seed``) of contact-rich families (clap, hands on hips, pray, touch head) and
+  contact-free ones;
+* targets: :data:`CONTACT_TARGETS`, three skinny and three bulky synthetic characters, none of
+  them a training character of the contact model;
+* ground truth for the global position error: the same clip (family, seed) authored on the target
+  by :func:`~retarget_lib.data.motions.make_motion`, hand contacts solved on the target's own mesh
+  (as Mixamo gives each character its own version of a motion);
+* source contacts are *detected* (Sec. 3.4) and carried to the target by the App. F correspondence.
+
+**Metrics** (Sec. 4), per (clip, target), then averaged:
+
+* ``interpenetration``: Eq. 4 (with the geodesic weights of Eq. 5) on height-normalised vertices,
+  averaged over the evaluated frames (:func:`~retarget_lib.penetration.interpenetration_score`);
+  ×1000 in the tables to give readable magnitudes;
+* ``vertex contact MSE``: for every frame with a (transferred) source contact, the squared distance
+  between the two target vertices of each contact pair, in cm², divided by the target height in
+  cm (the normalisation of the position error), averaged over pairs and frames;
+* ``foot contact accuracy``: foot contacts detected on the output (Sec. 3.4 thresholds at the
+  target's scale) against those detected on the source, share of agreeing (frame, joint) labels;
+* ``global position MSE``: the NKN/TDCN normalised MSE (cm² / cm) against the ground truth;
+* ``penetration rate``: share of the arm and leg vertices inside the rest of the body (mean of
+  the four limbs, :func:`~retarget_lib.penetration.penetration_rate`), a metric of later work.
+
+Interpenetration and the penetration rate are evaluated on every ``eval_every``-th frame (profile
+``fast``: every 3rd, ``paper``: every frame).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+from typing import Callable, Mapping
+
+import numpy as np
+import pandas as pd
+
+from .contacts import SelfContacts, detect_foot_contacts, transfer_contacts
+from .data.cache import atomic_write
+from .data.characters import Character
+from .evaluate import METRES_TO_CM, normalized_mse, write_table
+from .motion import Motion
+
+__all__ = ["CONTACT_TARGETS", "CONTACT_PROFILES", "METRICS", "PAPER_TABLE1", "PAPER_TABLE3", "PAPER_TABLE5",
+           "PAPER_TABLE6", "ContactCase", "contact_cases", "contact_methods", "evaluate_contact_case", "evaluate_contact_methods",
+           "vertex_contact_mse", "foot_contact_accuracy", "contact_tables", "run_contact_evaluation"]
+
+CONTACT_SOURCE = "mannequin-x"
+CONTACT_TARGETS: dict[str, tuple[str, ...]] = {"skinny": ("cleo", "juno", "milo"), "bulky": ("bram", "gus", "otto")}
+CONTACT_RICH = ("clap", "hands_on_hips", "pray", "touch_head")
+#: clips and frames of each evaluation profile
+CONTACT_PROFILES: dict[str, dict] = {
+    "fast": dict(families=CONTACT_RICH + ("walk", "punch"), seeds=(8,), max_frames=60, eval_every=3),
+    "paper": dict(families=CONTACT_RICH + ("walk", "run", "jump", "turn", "wave", "punch", "kick", "squat"),
+                  seeds=(8, 9), max_frames=None, eval_every=1),
+}
+METRICS = ("interpenetration", "vertex contact MSE", "foot contact accuracy", "global position MSE",
+           "penetration rate")
+_PAPER_COLUMNS = METRICS[:4]
+#: Villegas et al. 2021, Tables 1, 3, 5, 6 (interpenetration, vertex contact MSE, foot accuracy, position MSE)
+PAPER_TABLE1 = {"Ours": (0.81, 3.87, 0.97, 0.48), "Efull + IK": (1.19, 4.52, 0.82, 1.58),
+                "SAN": (1.43, 5.26, 0.63, 0.82), "SAN + IK": (1.32, 5.78, 0.73, 0.74),
+                "PMnet": (2.94, 23.11, 0.70, 3.67), "NKN": (3.20, 14.86, 0.71, 8.15)}
+PAPER_TABLE3 = {"Eskel": (1.67, 4.23, 0.71, 0.56), "Eskel+Efoot": (1.59, 4.21, 0.80, 0.66),
+                "Eskel+Efoot+Eint w/o w": (0.35, 7.94, 0.82, 1.00), "Eskel+Efoot+Eint": (0.56, 6.79, 0.81, 0.97),
+                "Efull": (1.18, 4.52, 0.76, 1.54), "Efull + ESO": (0.81, 3.87, 0.97, 0.48)}
+PAPER_TABLE5 = {"Ours": (0.49, 2.24, 0.98, 0.31), "Efull + IK": (0.82, 2.81, 0.81, 1.97),
+                "SAN": (1.21, 4.50, 0.61, 1.23), "SAN + IK": (1.17, 4.22, 0.71, 1.13),
+                "PMnet": (2.94, 18.31, 0.71, 4.38), "NKN": (2.11, 13.00, 0.72, 13.95)}
+PAPER_TABLE6 = {"Ours": (1.14, 5.50, 0.96, 0.65), "Efull + IK": (1.56, 6.24, 0.84, 1.19),
+                "SAN": (1.66, 6.02, 0.64, 0.42), "SAN + IK": (1.48, 7.34, 0.74, 0.35),
+                "PMnet": (4.01, 27.92, 0.70, 2.97), "NKN": (4.29, 16.72, 0.70, 2.34)}
+#: manifest checkpoint of each trained Table 3 row
+CONTACT_CHECKPOINTS = {"Efull": "contact-efull-fast", "Eskel": "contact-eskel-fast",
+                       "Eskel+Efoot": "contact-eskel-foot-fast", "Eskel+Efoot+Eint w/o w": "contact-eint-no-w-fast",
+                       "Eskel+Efoot+Eint": "contact-eint-fast"}
+TABLE1_ROWS = ("Ours", "Efull + IK", "TDCN", "NKN", "copy")
+TABLE3_ROWS = ("Eskel", "Eskel+Efoot", "Eskel+Efoot+Eint w/o w", "Eskel+Efoot+Eint", "Efull", "Efull + ESO")
+
+
+@dataclass
+class ContactCase:
+    """One source clip retargeted to one target.
+
+    Attributes:
+        clip: clip name (``family_seed``).
+        family: motion family; ``contact_rich`` tells whether it has hand contacts by design.
+        source_character, target: the two characters.
+        source: the clip on the source (canonical 22, metres).
+        truth: the same clip authored on the target (ground truth).
+        foot_contacts: ``(T, 4)`` bool detected on the source.
+        contacts: the source's detected hand contacts, on the *target* mesh (App. F transfer).
+    """
+
+    clip: str
+    family: str
+    source_character: Character
+    target: Character
+    source: Motion
+    truth: Motion
+    foot_contacts: np.ndarray
+    contacts: SelfContacts
+
+    @property
+    def contact_rich(self) -> bool:
+        return self.family in CONTACT_RICH
+
+    @property
+    def body_type(self) -> str:
+        return next(k for k, names in CONTACT_TARGETS.items() if self.target.name in names)
+
+
+@lru_cache(maxsize=None)
+def _radii(name: str):
+    from .data.motions import body_radii_from_mesh
+
+    c = _character(name)
+    return body_radii_from_mesh(c.skeleton, c.rest_vertices, c.weights)
+
+
+@lru_cache(maxsize=None)
+def _character(name: str) -> Character:
+    from .data.characters import make_character
+    from .data.mannequin import load_mannequin
+
+    return load_mannequin() if name == CONTACT_SOURCE else make_character(name)
+
+
+def contact_cases(profile: str = "fast") -> list[ContactCase]:
+    """The test cases of ``profile`` (:data:`CONTACT_PROFILES`): every clip × every target."""
+    from .contact_training import contact_clip
+    from .data.motions import make_motion
+
+    if profile not in CONTACT_PROFILES:
+        raise ValueError(f"unknown profile {profile!r}; choose from {list(CONTACT_PROFILES)}")
+    p = CONTACT_PROFILES[profile]
+    source_char = _character(CONTACT_SOURCE)
+    cases = []
+    for family in p["families"]:
+        for seed in p["seeds"]:
+            motion = make_motion(family, source_char.skeleton, seed, body_radii=_radii(CONTACT_SOURCE))
+            motion = motion.slice(0, p["max_frames"]) if p["max_frames"] else motion
+            motion.name = f"{family}_{seed:03d}"
+            clip = contact_clip(motion, source_char, cache_key=f"eval_{CONTACT_SOURCE}_{motion.name}_{motion.num_frames}")
+            for names in CONTACT_TARGETS.values():
+                for name in names:
+                    target = _character(name)
+                    truth = make_motion(family, target.skeleton, seed, body_radii=_radii(name))
+                    truth = truth.slice(0, motion.num_frames)
+                    cases.append(ContactCase(motion.name, family, source_char, target, motion, truth,
+                                             clip.foot_contacts, transfer_contacts(clip.self_contacts, source_char, target)))
+    return cases
+
+
+# ----------------------------------------------------------------------------- metrics
+def vertex_contact_mse(vertices: np.ndarray, contacts: SelfContacts, height: float) -> float:
+    """Mean squared distance (cm²) between the vertices of every contact pair, divided by the
+    height in cm, over all constrained frames; ``nan`` without contacts.
+
+    Args:
+        vertices: ``(T, V, 3)`` output mesh (metres).
+        contacts: constraints on this mesh.
+        height: target height (metres).
+    """
+    if not len(contacts):
+        return float("nan")
+    d = vertices[contacts.frames, contacts.pairs[:, 0]] - vertices[contacts.frames, contacts.pairs[:, 1]]
+    return float((d * METRES_TO_CM).__pow__(2).sum(-1).mean() / (height * METRES_TO_CM))
+
+
+def foot_contact_accuracy(output: Motion, source_contacts: np.ndarray) -> float:
+    """Share of (frame, foot joint) labels on which the output's detected contacts (Sec. 3.4 at
+    the output's scale) agree with the source's."""
+    detected = detect_foot_contacts(output.global_positions(), output.skeleton)
+    return float((detected == np.asarray(source_contacts, dtype=bool)).mean())
+
+
+def evaluate_contact_case(output: Motion, case: ContactCase, eint, eval_every: int = 1) -> dict[str, float]:
+    """The :data:`METRICS` of one retargeted motion.
+
+    Args:
+        output: the method's motion on ``case.target.skeleton``.
+        case: the :class:`ContactCase`.
+        eint: the target's ``penetration.InterpenetrationEnergy`` (geodesic weights).
+        eval_every: evaluate interpenetration / penetration rate on every this many frames.
+    """
+    from .penetration import interpenetration_score, penetration_rate
+
+    target = case.target
+    vertices = target.skinned(output.rotations, output.root_positions)
+    sampled = vertices[::eval_every]
+    h = target.height
+    rate = penetration_rate(sampled, target.faces, target.weights)
+    return {
+        "interpenetration": 1000.0 * interpenetration_score(eint, sampled, h),
+        "vertex contact MSE": vertex_contact_mse(vertices, case.contacts, h),
+        "foot contact accuracy": foot_contact_accuracy(output, case.foot_contacts),
+        "global position MSE": normalized_mse(output.global_positions(), case.truth.global_positions(), h),
+        "penetration rate": float(np.nanmean(list(rate.values()))),
+    }
+
+
+# ----------------------------------------------------------------------------- methods
+#: a contact method: (case, the target's Eint) -> motion on the target
+ContactMethod = Callable[[ContactCase, object], Motion]
+
+
+def _network_method(model) -> ContactMethod:
+    from .contact_training import retarget_with_network
+
+    return lambda case, eint: retarget_with_network(model, case.source, case.target)
+
+
+def _ik_method(model) -> ContactMethod:
+    from .contact_training import retarget_with_network
+    from .ik import apply_foot_contact_ik
+
+    return lambda case, eint: apply_foot_contact_ik(retarget_with_network(model, case.source, case.target),
+                                                    case.foot_contacts)
+
+
+def _eso_method(model, eso_config: Mapping) -> ContactMethod:
+    from .eso import encoder_space_optimization, eso_source
+
+    def run(case: ContactCase, eint) -> Motion:
+        src = eso_source(case.source, case.target, case.foot_contacts)
+        res = encoder_space_optimization(model, src.features, case.target, src.quantities, src.foot_contacts,
+                                         src.leg_ratio, contacts=case.contacts, interpenetration=eint,
+                                         iterations=int(eso_config["iterations"]), lr=float(eso_config["lr"]),
+                                         reach=float(eso_config["reach"]), blend=float(eso_config["blend"]))
+        return Motion(case.target.skeleton, res.rotations.double().numpy(), res.root_positions.double().numpy(),
+                      case.source.fps, name=f"{case.clip}->{case.target.name}")
+    return run
+
+
+def _skeleton_method(fn) -> ContactMethod:
+    return lambda case, eint: fn(case.source, case.target.skeleton)
+
+
+def contact_methods(rows: tuple[str, ...] = TABLE1_ROWS + TABLE3_ROWS) -> tuple[dict[str, ContactMethod], list[str]]:
+    """The methods of the requested table rows whose checkpoints are shipped, and the rows missing
+    one (reported, never faked)."""
+    from .contact_training import load_contact_model
+    from .data.manifest import checkpoint, load_manifest
+    from .data.pairs import copy_rotations
+    from .tdcn_training import load_generator, retarget_motion_with
+
+    shipped = set(load_manifest().get("checkpoints") or {})
+    models = {}
+
+    def model(row: str):
+        if row not in models:
+            path = checkpoint(CONTACT_CHECKPOINTS[row]).path
+            models[row] = load_contact_model(path)
+        return models[row]
+
+    methods, missing = {}, []
+    for row in dict.fromkeys(rows):
+        base = {"Ours": "Efull", "Efull + IK": "Efull", "Efull + ESO": "Efull"}.get(row, row)
+        if base in CONTACT_CHECKPOINTS:
+            if CONTACT_CHECKPOINTS[base] not in shipped:
+                missing.append(row)
+                continue
+            net, cfg = model(base)
+            methods[row] = (_eso_method(net, cfg["eso"]) if row in ("Ours", "Efull + ESO")
+                            else _ik_method(net) if row == "Efull + IK" else _network_method(net))
+        elif row in ("TDCN", "NKN"):
+            generator, _ = load_generator(checkpoint("tdcn-ours-fast" if row == "TDCN" else "nkn-baseline-fast").path)
+            methods[row] = _skeleton_method(lambda m, s, g=generator: retarget_motion_with(g, m, s))
+        elif row == "copy":
+            methods[row] = _skeleton_method(copy_rotations)
+        else:
+            raise ValueError(f"unknown contact table row {row!r}")
+    return methods, missing
+
+
+# ----------------------------------------------------------------------------- tables
+def evaluate_contact_methods(methods: Mapping[str, ContactMethod], cases: list[ContactCase],
+                             eval_every: int = 1, same: Mapping[str, str] | None = None) -> pd.DataFrame:
+    """Per (method, case) metrics plus the seconds each method took. ``same`` maps a row to one
+    whose outputs it shares (e.g. ``"Efull + ESO" -> "Ours"``), which is then not re-run."""
+    from .penetration import InterpenetrationEnergy
+
+    same = dict(same or {})
+    eints = {}
+    rows = []
+    for case in cases:
+        name = case.target.name
+        if name not in eints:
+            eints[name] = InterpenetrationEnergy(case.target.faces, case.target.rest_vertices, geodesic_weights=True)
+        for row, method in methods.items():
+            if row in same and same[row] in methods:
+                continue
+            began = time.perf_counter()
+            output = method(case, eints[name])
+            seconds = time.perf_counter() - began
+            metrics = evaluate_contact_case(output, case, eints[name], eval_every)
+            for r in [row] + [k for k, v in same.items() if v == row and k in methods]:
+                rows.append({"method": r, "clip": case.clip, "family": case.family, "target": name,
+                             "body": case.body_type, "contact_rich": case.contact_rich, "frames": case.source.num_frames,
+                             "seconds": seconds, **metrics})
+    return pd.DataFrame(rows)
+
+
+def _table(per_case: pd.DataFrame, rows: tuple[str, ...], paper: Mapping[str, tuple], mask=None) -> pd.DataFrame:
+    data = per_case if mask is None else per_case[mask]
+    ours = data.groupby("method")[list(METRICS)].mean()
+    out = []
+    for row in dict.fromkeys(list(rows) + list(paper)):
+        r = {f"ours {m}": (ours.loc[row, m] if row in ours.index else np.nan) for m in METRICS}
+        r.update({f"paper {m}": v for m, v in zip(_PAPER_COLUMNS, paper.get(row, (np.nan,) * 4))})
+        out.append(pd.Series(r, name=row))
+    cols = [c for m in METRICS for c in (f"ours {m}", f"paper {m}") if not (c.startswith("paper") and m not in _PAPER_COLUMNS)]
+    return pd.DataFrame(out)[cols]
+
+
+def contact_tables(per_case: pd.DataFrame) -> dict[str, pd.DataFrame]:
+    """Tables 1, 3, 5 (skinny targets), 6 (bulky targets) from per-case metrics."""
+    return {"table1": _table(per_case, TABLE1_ROWS, PAPER_TABLE1),
+            "table3": _table(per_case, TABLE3_ROWS, PAPER_TABLE3),
+            "table5": _table(per_case, TABLE1_ROWS, PAPER_TABLE5, per_case["body"] == "skinny"),
+            "table6": _table(per_case, TABLE1_ROWS, PAPER_TABLE6, per_case["body"] == "bulky")}
+
+
+def run_contact_evaluation(out_dir: str | Path, profile: str = "fast") -> tuple[dict[str, pd.DataFrame], list[str]]:
+    """Evaluate every Table 1/3 row with a shipped checkpoint on :func:`contact_cases`; write
+    ``contact_table{1,3,5,6}.csv/.md`` and ``contact_cases.csv`` into ``out_dir``.
+
+    Returns:
+        ``(tables, missing_rows)``.
+    """
+    methods, missing = contact_methods()
+    cases = contact_cases(profile)
+    per_case = evaluate_contact_methods(methods, cases, CONTACT_PROFILES[profile]["eval_every"],
+                                        same={"Efull + ESO": "Ours"})
+    tables = contact_tables(per_case)
+    out = Path(out_dir)
+    note = (f"Contact-aware retargeting, profile {profile}: source {CONTACT_SOURCE} (unseen), {len(cases)} cases "
+            f"(targets {CONTACT_TARGETS}); interpenetration x1000, vertex contact MSE and global position MSE "
+            "in cm^2/cm; 'paper' columns: Villegas et al. 2021 (Mixamo). "
+            + (f"Rows without a shipped checkpoint: {', '.join(missing)}." if missing else ""))
+    titles = {"table1": "Table 1", "table3": "Table 3 (ablation)", "table5": "Table 5 (skinny targets)",
+              "table6": "Table 6 (bulky targets)"}
+    for name, table in tables.items():
+        write_table(table, out, f"contact_{name}", f"{titles[name]}. {note}")
+    with atomic_write(out / "contact_cases.csv", "w") as f:
+        per_case.to_csv(f, index=False, float_format="%.6g")
+    return tables, missing

@@ -1,0 +1,47 @@
+"""Contact-aware evaluation: metric values on cases with known answers, the protocol's cases."""
+
+import numpy as np
+import pytest
+
+from retarget_lib.contacts import SelfContacts, detect_foot_contacts
+from retarget_lib.data.characters import make_character
+from retarget_lib.evaluate_contact import (CONTACT_TARGETS, PAPER_TABLE1, contact_tables, foot_contact_accuracy,
+                                           vertex_contact_mse)
+from retarget_lib.motion import Motion
+
+
+def test_vertex_contact_mse_known_value():
+    vertices = np.zeros((3, 4, 3))
+    vertices[1, 2] = [0.03, 0.04, 0.0]  # frame 1: vertex 2 is 5 cm from vertex 0
+    contacts = SelfContacts(3, frames=[1, 2], pairs=[[0, 2], [0, 1]], groups=[[0, 0], [0, 0]])
+    # pairs: 25 cm² and 0 cm² -> mean 12.5 cm², divided by H = 150 cm
+    assert vertex_contact_mse(vertices, contacts, 1.5) == pytest.approx(12.5 / 150)
+    assert np.isnan(vertex_contact_mse(vertices, SelfContacts(3, [], np.zeros((0, 2)), np.zeros((0, 2))), 1.5))
+
+
+def test_foot_contact_accuracy_of_a_still_pose_against_labels():
+    c = make_character("ada")
+    still = Motion(c.skeleton, np.tile([1.0, 0, 0, 0], (20, 22, 1)), np.tile(c.skeleton.offsets[0], (20, 1)), 30.0)
+    detected = detect_foot_contacts(still.global_positions(), still.skeleton)
+    assert detected.all()  # standing still in the rest pose: every foot joint in contact
+    assert foot_contact_accuracy(still, np.ones((20, 4), bool)) == 1.0
+    half = np.ones((20, 4), bool)
+    half[:, :2] = False  # heels labelled as not in contact
+    assert foot_contact_accuracy(still, half) == 0.5
+
+
+def test_tables_put_paper_numbers_beside_ours_and_split_by_body_type():
+    import pandas as pd
+
+    rows = []
+    for body, names in CONTACT_TARGETS.items():
+        for name in names:
+            rows.append({"method": "Ours", "body": body, "target": name, "interpenetration": 1.0 if body == "skinny" else 3.0,
+                         "vertex contact MSE": 2.0, "foot contact accuracy": 0.9, "global position MSE": 0.5,
+                         "penetration rate": 0.1})
+    tables = contact_tables(pd.DataFrame(rows))
+    assert tables["table1"].loc["Ours", "ours interpenetration"] == pytest.approx(2.0)
+    assert tables["table5"].loc["Ours", "ours interpenetration"] == pytest.approx(1.0)
+    assert tables["table6"].loc["Ours", "ours interpenetration"] == pytest.approx(3.0)
+    assert tables["table1"].loc["NKN", "paper vertex contact MSE"] == PAPER_TABLE1["NKN"][1]
+    assert np.isnan(tables["table1"].loc["SAN", "ours interpenetration"])  # not implemented: never faked
