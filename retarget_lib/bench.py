@@ -214,7 +214,22 @@ def bench_training(quick: bool = False, batch: int = 16) -> list[BenchRow]:
     return rows
 
 
-BENCHES: dict[str, Callable[..., list[BenchRow]]] = {"fk": bench_fk, "tdcn": bench_tdcn, "training": bench_training}
+def bench_eint(quick: bool = False) -> list[BenchRow]:
+    """:func:`retarget_lib.bench_contact.bench_eint` (imported lazily: it imports this module)."""
+    from .bench_contact import bench_eint as run_eint
+
+    return run_eint(quick=quick)
+
+
+def bench_eso(quick: bool = False) -> list[BenchRow]:
+    """:func:`retarget_lib.bench_contact.bench_eso`."""
+    from .bench_contact import bench_eso as run_eso
+
+    return run_eso(quick=quick)
+
+
+BENCHES: dict[str, Callable[..., list[BenchRow]]] = {"fk": bench_fk, "tdcn": bench_tdcn, "training": bench_training,
+                                                      "eint": bench_eint, "eso": bench_eso}
 
 
 def format_table(rows: list[BenchRow]) -> str:
@@ -222,7 +237,8 @@ def format_table(rows: list[BenchRow]) -> str:
     lines = ["| benchmark | median | reference (same run) | speed-up | target |", "|---|---|---|---|---|"]
     for r in rows:
         ref = "" if r.reference_seconds is None else f"{r.reference}: {_fmt(r.reference_seconds)}"
-        sp = "" if r.speedup is None else (f"{r.speedup:,.0f}x" if r.speedup >= 10 else f"{r.speedup:.1f}x")
+        sp = ("" if r.speedup is None else f"{r.speedup:,.0f}x" if r.speedup >= 10 else f"{r.speedup:.1f}x"
+              if r.speedup >= 0.1 else f"1/{1 / r.speedup:,.0f}x")  # slower than its reference
         lines.append(f"| {r.name} | {_fmt(r.seconds)} | {ref} | {sp} | {r.target} |")
     return "\n".join(lines)
 
