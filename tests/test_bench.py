@@ -24,3 +24,11 @@ def test_bench_rows_and_table():
     assert all(r.seconds > 0 and r.reference_seconds > 0 for r in rows)
     table = format_table(rows)
     assert table.count("\n") == len(rows) + 1 and "TDCN inference 40 frames" in table
+
+
+def test_eso_bench_row_reports_per_frame_cost_against_the_network():
+    from retarget_lib.bench_contact import bench_eso
+
+    (row,) = bench_eso(quick=True)
+    assert "ESO per frame" in row.name and row.seconds > 0 and row.reference_seconds > 0
+    assert "1/" in format_table([row]) or row.speedup >= 0.1
