@@ -227,7 +227,7 @@ def write_table(table: pd.DataFrame, out_dir: str | Path, name: str, note: str =
 
 
 #: manifest checkpoint id of each Table 4 row, when one is shipped
-TABLE4_CHECKPOINTS = {"ours": "tdcn-ours-fast", "Baseline": "nkn-baseline-fast", "Baseline-dense": "nkn-baseline-dense-fast", "Baseline-height": "nkn-baseline-height-fast", "Baseline-dilated": "nkn-baseline-dilated-fast", "A4": "tdcn-a4-fast", "A2": "tdcn-a2-fast", "A5": "tdcn-a5-fast", "A3": "tdcn-a3-fast"}
+TABLE4_CHECKPOINTS = {"ours": "tdcn-ours-fast", "Baseline": "nkn-baseline-fast", "Baseline-dense": "nkn-baseline-dense-fast", "Baseline-height": "nkn-baseline-height-fast", "Baseline-dilated": "nkn-baseline-dilated-fast", "A1": "tdcn-a1-fast", "A4": "tdcn-a4-fast", "A2": "tdcn-a2-fast", "A5": "tdcn-a5-fast", "A3": "tdcn-a3-fast"}
 
 
 def tdcn_methods() -> tuple[dict[str, Method], list[str]]:
