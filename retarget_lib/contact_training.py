@@ -42,6 +42,7 @@ from .losses.contact import (ContactEnergyWeights, MotionQuantities, foot_contac
                              leg_ratio, motion_quantities, self_contact_energy, skeleton_energy)
 from .models.georet import GeometryConditionedRNN, batch_meshes, motion_features, pose_outputs
 from .motion import Motion
+from .notebook import seed_everything
 from .penetration import InterpenetrationEnergy
 from .skinning import linear_blend_skinning
 from .train import TrainTask, load_checkpoint
@@ -184,6 +185,7 @@ class ContactTraining:
         self.weights = energy_weights(config)
         self.targets = [_Target(c, self.weights.geodesic_weights, self.weights.use_int) for c in targets.values()]
         self._correspondence: dict[tuple[str, str], np.ndarray] = {}
+        seed_everything(int(config["seed"]))  # the initial weights depend on the config's seed only
         self.model = model_from_config(config)
         t = config["train"]
         self.optimizer = torch.optim.Adam(self.model.parameters(), lr=float(t["lr"]), betas=tuple(t["betas"]),

@@ -50,7 +50,7 @@ from .evaluate import METRES_TO_CM, normalized_mse, write_table
 from .motion import Motion
 
 __all__ = ["CONTACT_TARGETS", "CONTACT_PROFILES", "METRICS", "PAPER_TABLE1", "PAPER_TABLE3", "PAPER_TABLE5",
-           "PAPER_TABLE6", "ContactCase", "contact_cases", "contact_methods", "evaluate_contact_case", "evaluate_contact_methods",
+           "PAPER_TABLE6", "ContactCase", "SHIPPED_RESULTS", "shipped_contact_results", "rerun_cases", "contact_cases", "contact_methods", "evaluate_contact_case", "evaluate_contact_methods",
            "vertex_contact_mse", "foot_contact_accuracy", "contact_tables", "run_contact_evaluation"]
 
 CONTACT_SOURCE = "mannequin-x"
@@ -83,6 +83,10 @@ CONTACT_CHECKPOINTS = {"Efull": "contact-efull-fast", "Eskel": "contact-eskel-fa
                        "Eskel+Efoot": "contact-eskel-foot-fast", "Eskel+Efoot+Eint w/o w": "contact-eint-no-w-fast",
                        "Eskel+Efoot+Eint": "contact-eint-fast"}
 TABLE1_ROWS = ("Ours", "Efull + IK", "TDCN", "NKN", "copy")
+#: per-case results of ``retarget evaluate --table contact --profile fast`` on the shipped
+#: checkpoints (ESO makes the full run take ~20 min on 2 cores; the notebooks read this file and
+#: re-run a few cases live to show that it reproduces)
+SHIPPED_RESULTS = Path(__file__).resolve().parent / "checkpoints" / "contact_eval_fast_cases.csv"
 TABLE3_ROWS = ("Eskel", "Eskel+Efoot", "Eskel+Efoot+Eint w/o w", "Eskel+Efoot+Eint", "Efull", "Efull + ESO")
 
 
@@ -330,19 +334,58 @@ def contact_tables(per_case: pd.DataFrame) -> dict[str, pd.DataFrame]:
             "table6": _table(per_case, TABLE1_ROWS, PAPER_TABLE6, per_case["body"] == "bulky")}
 
 
-def run_contact_evaluation(out_dir: str | Path, profile: str = "fast") -> tuple[dict[str, pd.DataFrame], list[str]]:
+def shipped_contact_results() -> pd.DataFrame:
+    """The per-case metrics in :data:`SHIPPED_RESULTS` (one row per method and case)."""
+    if not SHIPPED_RESULTS.exists():
+        raise FileNotFoundError(f"{SHIPPED_RESULTS} is missing; re-create it with `retarget evaluate --table contact "
+                                f"--profile fast --out DIR` and copy DIR/contact_cases.csv there")
+    return pd.read_csv(SHIPPED_RESULTS)
+
+
+def rerun_cases(per_case: pd.DataFrame, clips: tuple[str, ...], targets: tuple[str, ...],
+                rows: tuple[str, ...] = TABLE1_ROWS, profile: str = "fast") -> pd.DataFrame:
+    """Re-evaluate some (clip, target) cases live and put the new metrics beside the stored ones.
+
+    Returns:
+        One row per (method, clip, target, metric) with ``stored``, ``now`` and ``abs diff``.
+    """
+    methods, _ = contact_methods(rows)
+    cases = [c for c in contact_cases(profile) if c.clip in clips and c.target.name in targets]
+    now = evaluate_contact_methods(methods, cases, CONTACT_PROFILES[profile]["eval_every"])
+    keys = ["method", "clip", "target"]
+    both = now.merge(per_case, on=keys, suffixes=(" now", " stored"))
+    out = []
+    for m in METRICS:
+        out.append(pd.DataFrame({**{k: both[k] for k in keys}, "metric": m, "stored": both[f"{m} stored"],
+                                 "now": both[f"{m} now"]}))
+    out = pd.concat(out, ignore_index=True)
+    out["abs diff"] = (out["now"] - out["stored"]).abs()
+    return out
+
+
+def run_contact_evaluation(out_dir: str | Path, profile: str = "fast", rows: tuple[str, ...] | None = None,
+                           ) -> tuple[dict[str, pd.DataFrame], list[str]]:
     """Evaluate every Table 1/3 row with a shipped checkpoint on :func:`contact_cases`; write
     ``contact_table{1,3,5,6}.csv/.md`` and ``contact_cases.csv`` into ``out_dir``.
+
+    Args:
+        out_dir: output folder.
+        profile: :data:`CONTACT_PROFILES` key.
+        rows: evaluate only these rows and merge them into an existing ``contact_cases.csv`` of
+            ``out_dir`` (replacing their old results); default every row, from scratch.
 
     Returns:
         ``(tables, missing_rows)``.
     """
-    methods, missing = contact_methods()
+    out = Path(out_dir)
+    methods, missing = contact_methods(rows or TABLE1_ROWS + TABLE3_ROWS)
     cases = contact_cases(profile)
     per_case = evaluate_contact_methods(methods, cases, CONTACT_PROFILES[profile]["eval_every"],
                                         same={"Efull + ESO": "Ours"})
+    if rows and (out / "contact_cases.csv").exists():
+        old = pd.read_csv(out / "contact_cases.csv")
+        per_case = pd.concat([old[~old["method"].isin(per_case["method"].unique())], per_case], ignore_index=True)
     tables = contact_tables(per_case)
-    out = Path(out_dir)
     note = (f"Contact-aware retargeting, profile {profile}: source {CONTACT_SOURCE} (unseen), {len(cases)} cases "
             f"(targets {CONTACT_TARGETS}); interpenetration x1000, vertex contact MSE and global position MSE "
             "in cm^2/cm; 'paper' columns: Villegas et al. 2021 (Mixamo). "
