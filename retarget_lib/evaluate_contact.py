@@ -51,7 +51,8 @@ from .motion import Motion
 
 __all__ = ["CONTACT_TARGETS", "CONTACT_PROFILES", "METRICS", "PAPER_TABLE1", "PAPER_TABLE3", "PAPER_TABLE5",
            "PAPER_TABLE6", "ContactCase", "SHIPPED_RESULTS", "shipped_contact_results", "rerun_cases", "contact_cases", "contact_methods", "evaluate_contact_case", "evaluate_contact_methods",
-           "vertex_contact_mse", "foot_contact_accuracy", "contact_tables", "run_contact_evaluation"]
+           "vertex_contact_mse", "foot_contact_accuracy", "contact_tables", "TABLE3_STEPS", "ablation_steps",
+           "run_contact_evaluation"]
 
 CONTACT_SOURCE = "mannequin-x"
 CONTACT_TARGETS: dict[str, tuple[str, ...]] = {"skinny": ("cleo", "juno", "milo"), "bulky": ("bram", "gus", "otto")}
@@ -332,6 +333,34 @@ def contact_tables(per_case: pd.DataFrame) -> dict[str, pd.DataFrame]:
             "table3": _table(per_case, TABLE3_ROWS, PAPER_TABLE3),
             "table5": _table(per_case, TABLE1_ROWS, PAPER_TABLE5, per_case["body"] == "skinny"),
             "table6": _table(per_case, TABLE1_ROWS, PAPER_TABLE6, per_case["body"] == "bulky")}
+
+
+#: Table 3's ablation steps: each adds one ingredient to the row before it
+TABLE3_STEPS = (("Eskel", "Eskel+Efoot"), ("Eskel+Efoot", "Eskel+Efoot+Eint"),
+                ("Eskel+Efoot+Eint w/o w", "Eskel+Efoot+Eint"), ("Eskel+Efoot+Eint", "Efull"),
+                ("Efull", "Efull + ESO"))
+
+
+def ablation_steps(table3: pd.DataFrame, steps: tuple[tuple[str, str], ...] = TABLE3_STEPS) -> pd.DataFrame:
+    """What each Table 3 step does to each metric, here and in the paper.
+
+    Args:
+        table3: :func:`contact_tables`'s ``"table3"`` (``ours <metric>`` and ``paper <metric>`` columns).
+        steps: ``(before, after)`` row pairs.
+
+    Returns:
+        One row per step and metric: ``before``, ``after``, ``ours change`` and ``paper change``
+        (``after − before``) and ``same direction`` (both changes have the same sign; ``False`` if
+        either is zero or missing).
+    """
+    out = []
+    for before, after in steps:
+        for metric in _PAPER_COLUMNS:
+            ours = table3.loc[after, f"ours {metric}"] - table3.loc[before, f"ours {metric}"]
+            paper = table3.loc[after, f"paper {metric}"] - table3.loc[before, f"paper {metric}"]
+            out.append({"step": f"{before} → {after}", "metric": metric, "ours change": ours,
+                        "paper change": paper, "same direction": bool(np.sign(ours) * np.sign(paper) > 0)})
+    return pd.DataFrame(out).set_index(["step", "metric"])
 
 
 def shipped_contact_results() -> pd.DataFrame:

@@ -5,7 +5,8 @@ import pytest
 
 from retarget_lib.contacts import SelfContacts, detect_foot_contacts
 from retarget_lib.data.characters import make_character
-from retarget_lib.evaluate_contact import (CONTACT_TARGETS, PAPER_TABLE1, contact_tables, foot_contact_accuracy,
+from retarget_lib.evaluate_contact import (CONTACT_TARGETS, PAPER_TABLE1, PAPER_TABLE3, ablation_steps, contact_tables,
+                                           foot_contact_accuracy,
                                            vertex_contact_mse)
 from retarget_lib.motion import Motion
 
@@ -45,3 +46,23 @@ def test_tables_put_paper_numbers_beside_ours_and_split_by_body_type():
     assert tables["table6"].loc["Ours", "ours interpenetration"] == pytest.approx(3.0)
     assert tables["table1"].loc["NKN", "paper vertex contact MSE"] == PAPER_TABLE1["NKN"][1]
     assert np.isnan(tables["table1"].loc["SAN", "ours interpenetration"])  # not implemented: never faked
+
+
+def test_ablation_steps_compare_each_change_with_the_paper():
+    import pandas as pd
+
+    # ours: Efoot raises foot accuracy (as in the paper, 0.71 -> 0.80) but also raises interpenetration
+    # (the paper lowers it, 1.67 -> 1.59)
+    rows = [{"method": "Eskel", "body": "skinny", "interpenetration": 1.0, "vertex contact MSE": 4.0,
+             "foot contact accuracy": 0.5, "global position MSE": 1.0, "penetration rate": 0.0},
+            {"method": "Eskel+Efoot", "body": "skinny", "interpenetration": 1.5, "vertex contact MSE": 4.0,
+             "foot contact accuracy": 0.75, "global position MSE": 1.0, "penetration rate": 0.0}]
+    table3 = contact_tables(pd.DataFrame(rows))["table3"]
+    steps = ablation_steps(table3, (("Eskel", "Eskel+Efoot"),))
+    foot = steps.loc[("Eskel → Eskel+Efoot", "foot contact accuracy")]
+    assert foot["ours change"] == pytest.approx(0.25)
+    assert foot["paper change"] == pytest.approx(PAPER_TABLE3["Eskel+Efoot"][2] - PAPER_TABLE3["Eskel"][2])
+    assert foot["same direction"]
+    assert not steps.loc[("Eskel → Eskel+Efoot", "interpenetration"), "same direction"]
+    assert not steps.loc[("Eskel → Eskel+Efoot", "vertex contact MSE"), "same direction"]  # ours unchanged
+    assert len(steps) == 4
