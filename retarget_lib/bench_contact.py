@@ -17,7 +17,8 @@ import numpy as np
 import torch
 
 from .bench import BenchRow, time_it
-from .penetration import (InterpenetrationEnergy, brute_force_candidate_pairs, triangles_intersect)
+from .collision import brute_force_candidate_pairs, triangles_intersect
+from .penetration import InterpenetrationEnergy
 from .rotations import quat_from_axis_angle
 from .skeleton import J
 

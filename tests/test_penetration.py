@@ -1,4 +1,4 @@
-"""Interpenetration (Villegas et al. 2021, Eqs. 4-5): detection, cone field, geodesic weights,
+"""Interpenetration (Villegas et al. 2021, Eqs. 4-5): detection (``collision``), cone field, geodesic weights,
 energy and gradients, penetration metrics — on hand-made meshes with hand-computed answers."""
 
 import math
@@ -8,11 +8,10 @@ import pytest
 import torch
 import trimesh
 
-from retarget_lib.penetration import (InterpenetrationEnergy, TriangleBVH, brute_force_candidate_pairs,
-                                      cap_holes, circumcircle, colliding_triangle_pairs, cone_distance_field,
+from retarget_lib.collision import TriangleBVH, brute_force_candidate_pairs, colliding_triangle_pairs, triangles_intersect
+from retarget_lib.penetration import (InterpenetrationEnergy, cap_holes, circumcircle, cone_distance_field,
                                       geodesic_distances, geodesic_pair_weights, interpenetration_energy,
-                                      interpenetration_score, penetration_rate, ray_winding_numbers,
-                                      triangles_intersect, vertex_normals)
+                                      interpenetration_score, penetration_rate, ray_winding_numbers, vertex_normals)
 from retarget_lib.skeleton import J
 
 FLAT = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]  # normal +z, circumcentre (.5, .5, 0)
