@@ -21,12 +21,13 @@ import math
 import numpy as np
 import torch
 
-__all__ = ["TriangleBVH", "as_face_array", "as_face_pairs", "as_vertex_array", "brute_force_candidate_pairs",
+__all__ = ["TriangleBVH", "as_face_array", "as_vertex_array", "brute_force_candidate_pairs",
            "colliding_triangle_pairs", "triangles_intersect"]
 
 
 # ----------------------------------------------------------------------------- input checks
 def as_vertex_array(vertices) -> np.ndarray:
+    """``(V, 3)`` float64 NumPy copy of NumPy or tensor (detached) vertices; raises on another shape."""
     if isinstance(vertices, torch.Tensor):
         vertices = vertices.detach().cpu().numpy()
     vertices = np.asarray(vertices, dtype=np.float64)
@@ -36,6 +37,8 @@ def as_vertex_array(vertices) -> np.ndarray:
 
 
 def as_face_array(faces, num_vertices: int | None = None) -> np.ndarray:
+    """``(F, 3)`` int64 triangles; raises on another shape, a non-integer dtype or (given
+    ``num_vertices``) an index outside ``0..num_vertices - 1``."""
     faces = np.asarray(faces.detach().cpu().numpy() if isinstance(faces, torch.Tensor) else faces)
     if faces.ndim != 2 or faces.shape[1] != 3 or not np.issubdtype(faces.dtype, np.integer):
         raise ValueError(f"faces must be (F, 3) integers, got {faces.shape} {faces.dtype}")
@@ -43,13 +46,6 @@ def as_face_array(faces, num_vertices: int | None = None) -> np.ndarray:
     if num_vertices is not None and len(faces) and (faces.min() < 0 or faces.max() >= num_vertices):
         raise ValueError(f"faces index vertices outside 0..{num_vertices - 1}")
     return faces
-
-
-def as_face_pairs(pairs, num_faces: int) -> np.ndarray:
-    pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
-    if len(pairs) and (pairs.min() < 0 or pairs.max() >= num_faces):
-        raise ValueError(f"pairs index faces outside 0..{num_faces - 1}")
-    return pairs
 
 
 # ----------------------------------------------------------------------------- narrow phase

@@ -34,8 +34,7 @@ import scipy.sparse
 import torch
 from scipy.sparse.csgraph import connected_components, dijkstra
 
-from .collision import (TriangleBVH, as_face_array, as_face_pairs, as_vertex_array,
-                        colliding_triangle_pairs)
+from .collision import TriangleBVH, as_face_array, as_vertex_array, colliding_triangle_pairs
 from .skeleton import CANONICAL22
 
 Tensor = torch.Tensor
@@ -68,6 +67,13 @@ DEFAULT_LIMBS: dict[str, tuple[str, ...]] = {
     "left_leg": ("LeftUpLeg", "LeftLeg", "LeftFoot", "LeftToeBase"),
     "right_leg": ("RightUpLeg", "RightLeg", "RightFoot", "RightToeBase"),
 }
+
+
+def _as_pairs(pairs, num_faces: int) -> np.ndarray:
+    pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+    if len(pairs) and (pairs.min() < 0 or pairs.max() >= num_faces):
+        raise ValueError(f"pairs index faces outside 0..{num_faces - 1}")
+    return pairs
 
 
 # ----------------------------------------------------------------------------- geodesic weights (Eq. 5)
@@ -117,7 +123,7 @@ def geodesic_pair_weights(pairs, faces, geodesic, eta: float | None = None) -> n
         get 1, the weight of the most distant pair.
     """
     faces = as_face_array(faces)
-    pairs = as_face_pairs(pairs, len(faces))
+    pairs = _as_pairs(pairs, len(faces))
     if geodesic.ndim != 2 or geodesic.shape[0] != geodesic.shape[1] or faces.max(initial=-1) >= len(geodesic):
         raise ValueError(f"geodesic must be (V, V) over the faces' vertices, got {geodesic.shape}")
     if eta is None:
@@ -280,7 +286,7 @@ def interpenetration_energy(vertices: Tensor, faces, pairs, pair_weights=None, n
         ``(...)`` energy in square metres.
     """
     faces_np = as_face_array(faces, vertices.shape[-2])
-    pairs = as_face_pairs(pairs, len(faces_np))
+    pairs = _as_pairs(pairs, len(faces_np))
     if normals is not None and normals.shape != vertices.shape:
         raise ValueError(f"normals must match vertices {tuple(vertices.shape)}, got {tuple(normals.shape)}")
     if not len(pairs):
