@@ -44,7 +44,7 @@ import numpy as np
 import pandas as pd
 
 from .contacts import SelfContacts, detect_foot_contacts, transfer_contacts
-from .data.cache import atomic_write
+from .data.cache import REPO_ROOT, atomic_write
 from .data.characters import Character
 from .evaluate import METRES_TO_CM, normalized_mse, write_table
 from .motion import Motion
@@ -87,7 +87,7 @@ TABLE1_ROWS = ("Ours", "Efull + IK", "TDCN", "NKN", "copy")
 #: per-case results of ``retarget evaluate --table contact --profile fast`` on the shipped
 #: checkpoints (ESO makes the full run take ~20 min on 2 cores; the notebooks read this file and
 #: re-run a few cases live to show that it reproduces)
-SHIPPED_RESULTS = Path(__file__).resolve().parent / "checkpoints" / "contact_eval_fast_cases.csv"
+SHIPPED_RESULTS = REPO_ROOT / "checkpoints" / "contact_eval_fast_cases.csv"
 TABLE3_ROWS = ("Eskel", "Eskel+Efoot", "Eskel+Efoot+Eint w/o w", "Eskel+Efoot+Eint", "Efull", "Efull + ESO")
 
 

@@ -1,1 +1,0 @@
-"""Shipped model checkpoints (listed with config, command and checksum in data_manifest.yaml)."""
