@@ -192,7 +192,7 @@ def bench_training(quick: bool = False, batch: int = 16) -> list[BenchRow]:
     paper width, beside the generator's bare forward+backward on the same batch (same run).
     The row name carries the throughput in windows/s."""
     from .config import load_config
-    from .data.cache import REPO_ROOT
+    from .files import REPO_ROOT
     from .tdcn_training import RetargetTraining
 
     rows = []

@@ -20,7 +20,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from .data.cache import DataError
+from .files import DataError
 
 
 def _cmd_data(args: argparse.Namespace) -> int:
@@ -56,7 +56,7 @@ def _cmd_train(args: argparse.Namespace) -> int:
 
     from .config import load_config
     from .losses import NonFiniteLossError
-    from .data.cache import sha256_file
+    from .files import sha256_file
     from .train import fit
 
     config = load_config(args.config, args.overrides, args.profile)
@@ -106,7 +106,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
 
 def _cmd_bench(args: argparse.Namespace) -> int:
     from .bench import run
-    from .data.cache import atomic_write
+    from .files import atomic_write
 
     table = run(quick=args.quick, only=args.only)
     print(table)

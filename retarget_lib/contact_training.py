@@ -36,8 +36,8 @@ import numpy as np
 import torch
 
 from .contacts import SelfContacts, detect_foot_contacts, detect_self_contacts, vertex_correspondence
-from .data.cache import atomic_write, cache_dir
 from .data.characters import Character
+from .files import atomic_write, cache_dir
 from .losses.contact import (ContactEnergyWeights, MotionQuantities, foot_contact_energy, foot_ground_heights,
                              leg_ratio, motion_quantities, self_contact_energy, skeleton_energy)
 from .models.georet import GeometryConditionedRNN, batch_meshes, motion_features, pose_outputs

@@ -21,7 +21,7 @@ from typing import Callable, Mapping
 import numpy as np
 import pandas as pd
 
-from .data.cache import atomic_write
+from .files import atomic_write
 from .motion import Motion
 from .skeleton import Skeleton
 

@@ -44,9 +44,9 @@ import numpy as np
 import pandas as pd
 
 from .contacts import SelfContacts, detect_foot_contacts, transfer_contacts
-from .data.cache import REPO_ROOT, atomic_write
 from .data.characters import Character
 from .evaluate import METRES_TO_CM, normalized_mse, write_table
+from .files import REPO_ROOT, atomic_write
 from .motion import Motion
 
 __all__ = ["CONTACT_TARGETS", "CONTACT_PROFILES", "METRICS", "PAPER_TABLE1", "PAPER_TABLE3", "PAPER_TABLE5",

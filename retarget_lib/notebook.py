@@ -63,7 +63,7 @@ def setup_notebook(seed: int = 0, threads: int | None = None) -> NotebookContext
     pd.set_option("display.max_rows", 60)
     np.set_printoptions(precision=4, suppress=True)
     torch.set_printoptions(precision=4, sci_mode=False)
-    from .data.cache import REPO_ROOT
+    from .files import REPO_ROOT
 
     figures = REPO_ROOT / "build" / "figures"
     figures.mkdir(parents=True, exist_ok=True)

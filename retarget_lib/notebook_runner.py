@@ -15,7 +15,7 @@ import sys
 import time
 from pathlib import Path
 
-from .data.cache import REPO_ROOT, atomic_write
+from .files import REPO_ROOT, atomic_write
 
 
 def _newest_input(notebook: Path) -> float:

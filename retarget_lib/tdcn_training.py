@@ -104,9 +104,9 @@ from typing import Any, NamedTuple
 
 import torch
 
-from .data.cache import atomic_write
 from .data.pairs import retarget_ground_truth
 from .data.synthetic import load_synthetic, tdcn_split
+from .files import atomic_write
 from .losses import (MotionTensors, TDCNLossWeights, adversarial_loss, adversarial_loss_discriminator,
                      adversarial_loss_generator, check_finite, cycle_loss, height_loss, orientation_loss,
                      regularization_loss, sigmoid_ce_discriminator_loss, sigmoid_ce_generator_loss,

@@ -24,7 +24,7 @@ import numpy as np
 import torch
 
 from .config import dump_config
-from .data.cache import atomic_write
+from .files import atomic_write
 from .losses import NonFiniteLossError
 from .notebook import seed_everything
 

@@ -222,7 +222,7 @@ def test_mannequin_identity_pose(mannequin):
 
 def test_mannequin_checksum():
     pytest.importorskip("mannequin", reason="mannequin-x is not installed")
-    from retarget_lib.data.cache import sha256_file
+    from retarget_lib.files import sha256_file
     from retarget_lib.data.mannequin import MANNEQUIN_SHA256, mannequin_path
 
     assert sha256_file(mannequin_path()) == MANNEQUIN_SHA256
@@ -231,7 +231,7 @@ def test_mannequin_checksum():
 def test_mannequin_missing_package_says_how_to_install(monkeypatch):
     import importlib.resources
 
-    from retarget_lib.data.cache import DataError
+    from retarget_lib.files import DataError
     from retarget_lib.data.mannequin import load_mannequin
 
     def missing(name):

@@ -5,7 +5,7 @@ import pytest
 
 from retarget_lib.cli import main
 from retarget_lib.data import manifest
-from retarget_lib.data.cache import DataError, atomic_write, check_sha256, sha256_file
+from retarget_lib.files import DataError, atomic_write, check_sha256, sha256_file
 from retarget_lib.data.characters import CHARACTER_NAMES
 from retarget_lib.data.motions import MOTION_FAMILIES
 from retarget_lib.data.synthetic import (dataset_path, fingerprint_of, load_synthetic, read_dataset,

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from retarget_lib.data import manifest
-from retarget_lib.data.cache import DataError
+from retarget_lib.files import DataError
 from retarget_lib.data.mixamo_local import load_mixamo_motion, scan_mixamo_folder, write_mixamo_fixture
 from retarget_lib.data.synthetic import load_synthetic
 from retarget_lib.io import load_bvh, load_shape_npz

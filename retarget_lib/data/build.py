@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import time
 
-from .cache import DataError
+from ..files import DataError
 from .manifest import source, verify
 
 

@@ -26,9 +26,10 @@ import tarfile
 import tempfile
 from pathlib import Path
 
+from ..files import DataError, cache_dir, check_sha256
+from ..io.bvh import load_bvh
 from ..motion import Motion
 from ..skeleton import to_canonical22
-from .cache import DataError, cache_dir, check_sha256
 
 __all__ = ["CMU_CLIPS", "CMU_SHA256", "SYSTEM_DIR", "cmu_clip_path", "load_cmu_clip"]
 
@@ -154,8 +155,6 @@ def load_cmu_clip(name: str, fps: float | None = 30, canonical: bool = True,
         The Motion (metres; ``rotations (T, J, 4)``, ``root_positions (T, 3)``), named after the
         file stem, with ``meta["source"] = "cmu-assimp"``.
     """
-    from ..io.bvh import load_bvh  # here, not at the top: io.bvh imports this package's cache
-
     motion = load_bvh(cmu_clip_path(name))
     if canonical:
         motion = to_canonical22(motion)

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import yaml
 
-from .cache import REPO_ROOT, DataError, cache_dir, sha256_file
+from ..files import REPO_ROOT, DataError, cache_dir, sha256_file
 
 MANIFEST_PATH = REPO_ROOT / "data_manifest.yaml"
 

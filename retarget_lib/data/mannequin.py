@@ -26,8 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..files import DataError, check_sha256
 from ..skeleton import CANONICAL22, CANONICAL22_PARENTS, SMPLX_BODY_NAMES, SMPLX_MAP, canonical22_skeleton
-from .cache import DataError, check_sha256
 from .characters import Character
 
 __all__ = ["MANNEQUIN_SHA256", "load_mannequin", "mannequin_path"]

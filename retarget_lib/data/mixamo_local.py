@@ -19,10 +19,12 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from ..files import DataError
+from ..io.bvh import load_canonical_bvh, save_bvh
+from ..io.shape import save_shape_npz
 from ..motion import Motion
 from ..rotations import quat_from_axis_angle
 from ..skeleton import CANONICAL22, Skeleton
-from .cache import DataError
 
 SHAPE_FILE = "shape.npz"
 FINGERS = ("Thumb", "Index", "Middle", "Ring", "Pinky")
@@ -71,8 +73,6 @@ def scan_mixamo_folder(root: str | Path) -> list[MixamoCharacterFolder]:
 
 def load_mixamo_motion(path: str | Path, fps: float = 30.0) -> Motion:
     """Load a Mixamo BVH and fold it to the canonical 22 joints at ``fps``."""
-    from ..io.bvh import load_canonical_bvh
-
     return load_canonical_bvh(path, fps, convention="mixamo")
 
 
@@ -155,9 +155,6 @@ def write_mixamo_fixture(root: str | Path, character, motions: list[Motion],
     Returns:
         the character's folder.
     """
-    from ..io.bvh import save_bvh
-    from ..io.shape import save_shape_npz
-
     folder = Path(root) / character.name
     folder.mkdir(parents=True, exist_ok=True)
     save_shape_npz(character, folder / SHAPE_FILE, unit=unit, prefix=prefix)

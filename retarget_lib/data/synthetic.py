@@ -17,9 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ..files import DataError, atomic_write, cache_dir
 from ..motion import Motion
 from ..skeleton import canonical22_skeleton
-from .cache import DataError, atomic_write, cache_dir
 from .characters import CHARACTER_NAMES, Character, make_character
 from .manifest import source
 from .motions import FPS, MOTION_FAMILIES, HandContact, body_radii_from_mesh, make_motion

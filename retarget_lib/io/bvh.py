@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from ..data.cache import atomic_write
+from ..files import atomic_write
 from ..motion import Motion
 from ..rotations import quat_angle, quat_from_euler, quat_to_euler
 from ..skeleton import Skeleton, strip_prefix, to_canonical22

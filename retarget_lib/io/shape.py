@@ -25,8 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..data.cache import atomic_write
 from ..data.characters import Character
+from ..files import atomic_write
 from ..skeleton import CANONICAL22, canonical22_skeleton, strip_prefix
 
 __all__ = ["SHAPE_KEYS", "load_shape_npz", "save_shape_npz"]

@@ -1,4 +1,5 @@
-"""The one cache/checksum helper for all data.
+"""Files: the repository root, the cache folder, atomic writes and SHA-256 checks (every layer
+uses them; this module imports nothing of the library).
 
 Everything the library downloads or builds lives under :func:`cache_dir` (``$RETARGET_CACHE``,
 default ``<repo>/.cache``). Files are written atomically and checked by SHA-256.
@@ -13,7 +14,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Iterator
 
-REPO_ROOT = Path(__file__).resolve().parents[2]
+REPO_ROOT = Path(__file__).resolve().parents[1]
 
 
 class DataError(RuntimeError):
