@@ -13,7 +13,7 @@ Conventions (used everywhere; notebook 01 shows each one):
   character's left is **+X**.
 * Tensor shapes are ``(batch, time, joints, channels)``; every docstring states the shape of every
   array argument.
-* Joint order is the canonical 22 (:data:`retarget_lib.skeleton.CANONICAL22`); ``parents`` is a
+* Joint order is the canonical 22 (:data:`retarget_lib.core.skeleton.CANONICAL22`); ``parents`` is a
   tuple of ints with the root's parent ``-1``.
 * Character height ``H`` is the NKN/TDCN definition: the rest bone lengths of the root->head chain
   plus the left-leg chain (:meth:`Skeleton.height`). Every normalised metric says which height it

@@ -15,8 +15,8 @@ from typing import Callable
 import numpy as np
 import torch
 
-from .kinematics import forward_kinematics
-from .skeleton import CANONICAL22_PARENTS
+from .core.kinematics import forward_kinematics
+from .core.skeleton import CANONICAL22_PARENTS
 
 
 @dataclass
@@ -81,7 +81,7 @@ def torch_fk_per_joint(rotations: torch.Tensor, offsets: torch.Tensor, parents, 
     """Reference FK as public retargeting code usually writes it: batched over frames, one joint
     at a time with quaternion products. ``rotations (..., J, 4)``, ``offsets (J, 3)``,
     ``root (..., 3)`` → ``(..., J, 3)``."""
-    from .rotations import quat_mul, quat_rotate
+    from .core.rotations import quat_mul, quat_rotate
 
     gq, gp = [rotations[..., 0, :]], [root]
     for j in range(1, len(parents)):

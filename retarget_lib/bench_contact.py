@@ -18,9 +18,9 @@ import torch
 
 from .bench import BenchRow, time_it
 from .collision import brute_force_candidate_pairs, triangles_intersect
+from .core.rotations import quat_from_axis_angle
+from .core.skeleton import J
 from .penetration import InterpenetrationEnergy
-from .rotations import quat_from_axis_angle
-from .skeleton import J
 
 
 def forearm_in_torso_pose(character, arm_down_deg: float = 80.0, forearm_deg: float = 100.0,
@@ -28,7 +28,7 @@ def forearm_in_torso_pose(character, arm_down_deg: float = 80.0, forearm_deg: fl
     """The character's mesh with the left arm lowered and the forearm bent across the belly.
 
     Args:
-        character: a :class:`~retarget_lib.data.characters.Character`.
+        character: a :class:`~retarget_lib.core.character.Character`.
         arm_down_deg: ``LeftArm`` rotation about -Z (degrees; 90 lowers a T-pose arm to the side).
         forearm_deg: ``LeftForeArm`` rotation about -Z (degrees; about 100 bends it into the torso).
         dtype: float dtype of the result.

@@ -55,8 +55,8 @@ def _cmd_train(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from .config import load_config
-    from .losses import NonFiniteLossError
     from .files import sha256_file
+    from .losses import NonFiniteLossError
     from .train import fit
 
     config = load_config(args.config, args.overrides, args.profile)

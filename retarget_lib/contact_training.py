@@ -36,15 +36,15 @@ import numpy as np
 import torch
 
 from .contacts import SelfContacts, detect_foot_contacts, detect_self_contacts, vertex_correspondence
-from .data.characters import Character
+from .core.character import Character
+from .core.motion import Motion
+from .core.skinning import linear_blend_skinning
 from .files import atomic_write, cache_dir
 from .losses.contact import (ContactEnergyWeights, MotionQuantities, foot_contact_energy, foot_ground_heights,
                              leg_ratio, motion_quantities, self_contact_energy, skeleton_energy)
 from .models.georet import GeometryConditionedRNN, batch_meshes, motion_features, pose_outputs
-from .motion import Motion
 from .notebook import seed_everything
 from .penetration import InterpenetrationEnergy
-from .skinning import linear_blend_skinning
 from .train import TrainTask, load_checkpoint
 
 Tensor = torch.Tensor

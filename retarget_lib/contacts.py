@@ -33,7 +33,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from . import ik
-from .skeleton import CANONICAL22, CANONICAL22_PARENTS, J, Skeleton
+from .core.skeleton import CANONICAL22, CANONICAL22_PARENTS, J, Skeleton
 
 __all__ = [
     "FOOT_JOINTS",
@@ -89,7 +89,7 @@ def standing_height(skeleton: Skeleton) -> float:
     ``HEAD_TOP_FACTOR * (y_Head - ground)`` with the ground of :func:`rest_ground_height`: the
     ``Head`` joint's height plus a head-top allowance of 12 % of it. This is the height the
     paper's contact thresholds are scaled with ("180 cm scale", "138 cm"); it is about 12 % more
-    than the NKN/TDCN height ``H`` of :meth:`~retarget_lib.skeleton.Skeleton.height`.
+    than the NKN/TDCN height ``H`` of :meth:`~retarget_lib.core.skeleton.Skeleton.height`.
 
     Args:
         skeleton: a skeleton with the canonical names ``Head`` and the foot joints.
@@ -488,10 +488,9 @@ def detect_self_contacts(vertices: np.ndarray, faces: np.ndarray, weights: np.nd
 # ----------------------------------------------------------------------------- correspondence
 def _canonical_rest_vertices(character) -> tuple[np.ndarray, np.ndarray]:
     """The character's mesh and joints re-posed into the canonical T-pose
-    (:func:`~retarget_lib.data.authoring.canonical_rest_skeleton`): ``(V, 3)``, ``(22, 3)``."""
-    from .data.authoring import canonical_rest_skeleton
-    from .data.pairs import transfer_rotations
-    from .kinematics import forward_kinematics
+    (:func:`~retarget_lib.core.transfer.canonical_rest_skeleton`): ``(V, 3)``, ``(22, 3)``."""
+    from .core.kinematics import forward_kinematics
+    from .core.transfer import canonical_rest_skeleton, transfer_rotations
 
     skeleton = character.skeleton
     canonical = canonical_rest_skeleton(skeleton)
@@ -515,11 +514,11 @@ def correspondence_features(character, offset_weight: float = 1.0, canonical_pos
     The paper's Mixamo characters all share the T-pose. Ours do not (A-pose arms, bent knees,
     curved spines), and a world-space offset turns with the bone, so with ``canonical_pose``
     (default) both are measured with the mesh re-posed into the canonical T-pose
-    (:func:`~retarget_lib.data.authoring.canonical_rest_skeleton`: bones up, down or sideways,
+    (:func:`~retarget_lib.core.transfer.canonical_rest_skeleton`: bones up, down or sideways,
     same lengths) by linear blend skinning.
 
     Args:
-        character: a :class:`~retarget_lib.data.characters.Character` (``rest_vertices (V, 3)``,
+        character: a :class:`~retarget_lib.core.character.Character` (``rest_vertices (V, 3)``,
             ``weights (V, 22)``, ``skeleton``, ``height``).
         offset_weight: factor on the offset part (0 = skinning weights alone, Fig. 7 left).
         canonical_pose: measure offsets in the canonical T-pose instead of the character's rest pose.
@@ -542,7 +541,7 @@ def vertex_correspondence(source, target, offset_weight: float = 1.0,
     :func:`correspondence_features`, KD-tree nearest neighbour, Euclidean).
 
     Args:
-        source, target: :class:`~retarget_lib.data.characters.Character` objects.
+        source, target: :class:`~retarget_lib.core.character.Character` objects.
         offset_weight, canonical_pose: see :func:`correspondence_features`.
 
     Returns:

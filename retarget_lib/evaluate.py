@@ -21,9 +21,9 @@ from typing import Callable, Mapping
 import numpy as np
 import pandas as pd
 
+from .core.motion import Motion
+from .core.skeleton import Skeleton
 from .files import atomic_write
-from .motion import Motion
-from .skeleton import Skeleton
 
 #: a retargeting method: (source motion, target skeleton) -> motion on the target
 Method = Callable[[Motion, Skeleton], Motion]
@@ -84,10 +84,11 @@ class EvalCase:
 
 def tdcn_cases() -> list[EvalCase]:
     """The four TDCN scenarios on the synthetic split (``data_manifest.yaml``), with ground truth
-    from :func:`~retarget_lib.data.pairs.retarget_ground_truth` (the source clip performed by the
+    from :func:`~retarget_lib.core.transfer.retarget_ground_truth` (the source clip performed by the
     source character, and by the target character)."""
-    from .data.pairs import retarget_ground_truth
-    from .data.synthetic import load_synthetic, tdcn_split
+    from .core.transfer import retarget_ground_truth
+    from .data.splits import tdcn_split
+    from .data.synthetic import load_synthetic
 
     ds, split = load_synthetic(), tdcn_split()
     cases = []
@@ -236,8 +237,8 @@ def tdcn_methods() -> tuple[dict[str, Method], list[str]]:
     faked)."""
     from functools import partial
 
+    from .core.transfer import copy_rotations, retarget_ground_truth
     from .data.manifest import checkpoint
-    from .data.pairs import copy_rotations, retarget_ground_truth
     from .tdcn_training import load_generator, retarget_motion_with
 
     methods: dict[str, Method] = {"copy": copy_rotations, "copy-rest": retarget_ground_truth}

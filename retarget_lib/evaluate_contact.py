@@ -44,10 +44,10 @@ import numpy as np
 import pandas as pd
 
 from .contacts import SelfContacts, detect_foot_contacts, transfer_contacts
-from .data.characters import Character
+from .core.character import Character
+from .core.motion import Motion
 from .evaluate import METRES_TO_CM, normalized_mse, write_table
 from .files import REPO_ROOT, atomic_write
-from .motion import Motion
 
 __all__ = ["CONTACT_TARGETS", "CONTACT_PROFILES", "METRICS", "PAPER_TABLE1", "PAPER_TABLE3", "PAPER_TABLE5",
            "PAPER_TABLE6", "ContactCase", "SHIPPED_RESULTS", "shipped_contact_results", "rerun_cases", "contact_cases", "contact_methods", "evaluate_contact_case", "evaluate_contact_methods",
@@ -254,8 +254,8 @@ def contact_methods(rows: tuple[str, ...] = TABLE1_ROWS + TABLE3_ROWS) -> tuple[
     """The methods of the requested table rows whose checkpoints are shipped, and the rows missing
     one (reported, never faked)."""
     from .contact_training import load_contact_model
+    from .core.transfer import copy_rotations
     from .data.manifest import checkpoint, load_manifest
-    from .data.pairs import copy_rotations
     from .tdcn_training import load_generator, retarget_motion_with
 
     shipped = set(load_manifest().get("checkpoints") or {})

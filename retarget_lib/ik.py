@@ -15,7 +15,7 @@ Three tools, all batched over frames and working on NumPy (float64 in, float64 o
   with smooth blending into the free frames, and the legs are re-solved with :func:`two_bone_ik`.
 
 Rotations are local, unit wxyz; ``quat_mul(a, b)`` applies ``b`` first (see
-:mod:`retarget_lib.rotations`).
+:mod:`retarget_lib.core.rotations`).
 """
 
 from __future__ import annotations
@@ -25,10 +25,10 @@ from typing import Mapping, Sequence
 import numpy as np
 import torch
 
-from .kinematics import forward_kinematics
-from .motion import Motion
-from .rotations import (
-    matrix_to_quat,
+from .core.kinematics import forward_kinematics
+from .core.motion import Motion
+from .core.rotations import (
+    frame_rotation,
     quat_between,
     quat_canonical,
     quat_conjugate,
@@ -37,16 +37,14 @@ from .rotations import (
     quat_rotate,
     quat_to_axis_angle,
 )
-from .skeleton import Skeleton
+from .core.skeleton import FOOT_CONTACT_JOINTS, Skeleton
 
 Tensor = torch.Tensor
 Array = Tensor | np.ndarray
 
 __all__ = [
     "LIMBS",
-    "FOOT_CONTACT_JOINTS",
     "limb_chain",
-    "frame_rotation",
     "two_bone_positions",
     "two_bone_ik",
     "solve_ik",
@@ -62,8 +60,6 @@ LIMBS: dict[str, tuple[str, str, str]] = {
     "right_arm": ("RightArm", "RightForeArm", "RightHand"),
 }
 
-#: column order of a ``(T, 4)`` per-joint contact array for :func:`apply_foot_contact_ik`
-FOOT_CONTACT_JOINTS: tuple[str, ...] = ("LeftFoot", "RightFoot", "LeftToeBase", "RightToeBase")
 
 _EPS = 1e-9
 
@@ -113,29 +109,6 @@ def _normal(u: Tensor, v: Tensor) -> tuple[Tensor, Tensor]:
     n = torch.linalg.cross(u, v, dim=-1)
     ok = n.norm(dim=-1, keepdim=True) > 1e-7 * v.norm(dim=-1, keepdim=True).clamp_min(_EPS)
     return _unit(n), ok
-
-
-def frame_rotation(u0: Array, v0: Array, u1: Array, v1: Array) -> Array:
-    """The rotation taking direction ``u0`` exactly onto ``u1`` and the half-plane of ``v0``
-    (seen from ``u0``) onto that of ``v1``; ``v`` need not be orthogonal to ``u`` (Gram-Schmidt).
-
-    Args:
-        u0, v0: ``(..., 3)`` source frame vectors (not parallel).
-        u1, v1: ``(..., 3)`` target frame vectors (not parallel).
-
-    Returns:
-        ``(..., 4)`` wxyz, same type as ``u0``.
-    """
-    as_numpy = isinstance(u0, np.ndarray)
-
-    def frame(u, v):
-        e1 = _unit(u)
-        e2 = _unit(v - _dot(v, e1) * e1)
-        return torch.stack((e1, e2, torch.linalg.cross(e1, e2, dim=-1)), dim=-1)
-
-    u0, v0, u1, v1 = (_to_torch(x) for x in (u0, v0, u1, v1))
-    q = matrix_to_quat(frame(u1, v1) @ frame(u0, v0).transpose(-1, -2))
-    return q.numpy() if as_numpy else q
 
 
 # ----------------------------------------------------------------------------- two-bone IK

@@ -35,7 +35,7 @@ import torch
 from scipy.sparse.csgraph import connected_components, dijkstra
 
 from .collision import TriangleBVH, as_face_array, as_vertex_array, colliding_triangle_pairs
-from .skeleton import CANONICAL22
+from .core.skeleton import CANONICAL22
 
 Tensor = torch.Tensor
 
@@ -87,7 +87,7 @@ def geodesic_distances(vertices, faces) -> np.ndarray:
     Returns:
         ``(V, V)`` float32 metres; ``inf`` between vertices of disconnected parts (separate
         pieces of a mesh). Memory is ``4 V^2`` bytes (36 MB for 3,000 vertices): use a decimated
-        mesh (:func:`~retarget_lib.skinning.subsample_mesh`) for dense bodies.
+        mesh (:func:`~retarget_lib.core.skinning.subsample_mesh`) for dense bodies.
     """
     vertices = as_vertex_array(vertices)
     faces = as_face_array(faces, len(vertices))

@@ -2,16 +2,17 @@
 
 A target BVH contributes its rest offsets (the character), its joint names, channel layout and
 length unit: the result is written on the target's *full* joint set
-(:func:`~retarget_lib.skeleton.from_canonical22`), so it loads next to the target's own clips.
+(:func:`~retarget_lib.core.skeleton.from_canonical22`), so it loads next to the target's own clips.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
 
+from .core.canonical import from_canonical22, to_canonical22
+from .core.motion import Motion
+from .core.skeleton import Skeleton
 from .io.bvh import load_bvh, load_canonical_bvh, save_bvh
-from .motion import Motion
-from .skeleton import Skeleton, from_canonical22, to_canonical22
 
 METHODS = ("copy", "copy-rest", "tdcn", "nkn", "contact")
 #: checkpoint used for a learned method when none is given (``checkpoints:`` in the manifest)
@@ -45,7 +46,7 @@ def retarget_motion(source: Motion, target: Skeleton, method: str, checkpoint: s
         checkpoint: for ``tdcn``/``nkn``: a checkpoint path (``retarget train`` output) or a
             manifest checkpoint id; default :data:`DEFAULT_CHECKPOINTS`.
     """
-    from .data.pairs import copy_rotations, copy_rotations_rest_compensated
+    from .core.transfer import copy_rotations, copy_rotations_rest_compensated
 
     if method == "copy":
         return copy_rotations(source, target)
@@ -65,7 +66,7 @@ def retarget_motion(source: Motion, target: Skeleton, method: str, checkpoint: s
 
 
 def resolve_character(target: str, target_mesh: str | Path | None):
-    """The target :class:`~retarget_lib.data.characters.Character` of ``--method contact``: the
+    """The target :class:`~retarget_lib.core.character.Character` of ``--method contact``: the
     shape file ``target_mesh`` if given, else the character named ``target`` (a synthetic
     character or ``mannequin-x``)."""
     from .data.characters import CHARACTER_NAMES, make_character
@@ -103,9 +104,9 @@ def retarget_contact(source: Motion, target, checkpoint: str | Path | None = Non
     """
     from .contact_training import contact_clip, load_contact_model, retarget_with_network
     from .contacts import transfer_contacts
+    from .core.skinning import subsample_mesh
     from .eso import encoder_space_optimization, eso_source
     from .penetration import InterpenetrationEnergy
-    from .skinning import subsample_mesh
 
     model, config = load_contact_model(resolve_checkpoint("contact", checkpoint))
     if not eso:

@@ -16,8 +16,8 @@ Secs. 4-5), on the synthetic data, with the shared loop of :mod:`retarget_lib.tr
 
 Data (:class:`TrainingClips`, :class:`WindowSampler`). Like Mixamo, every training character
 performs every training clip: its version is the ground-truth transfer of the clip onto it
-(:func:`~retarget_lib.data.pairs.retarget_ground_truth`), computed once per process for the TDCN
-split's train characters × train clips (:func:`~retarget_lib.data.synthetic.tdcn_split`; 11
+(:func:`~retarget_lib.core.transfer.retarget_ground_truth`), computed once per process for the TDCN
+split's train characters × train clips (:func:`~retarget_lib.data.splits.tdcn_split`; 11
 characters × 80 clips = 25k frames each, 0.1 GB float32, built in ~3 s — cheap enough not to be
 cached on disk). A sample is
 
@@ -104,8 +104,11 @@ from typing import Any, NamedTuple
 
 import torch
 
-from .data.pairs import retarget_ground_truth
-from .data.synthetic import load_synthetic, tdcn_split
+from .core.motion import Motion
+from .core.skeleton import Skeleton
+from .core.transfer import retarget_ground_truth
+from .data.splits import tdcn_split
+from .data.synthetic import load_synthetic
 from .files import atomic_write
 from .losses import (MotionTensors, TDCNLossWeights, adversarial_loss, adversarial_loss_discriminator,
                      adversarial_loss_generator, check_finite, cycle_loss, height_loss, orientation_loss,
@@ -115,9 +118,7 @@ from .models import TDCNGenerator, build_model, normalize_quaternions
 from .models.features import (generator_features, nkn_source_features, root_velocities, skeleton_height,
                               source_local_positions)
 from .models.tdcn import edge_pad
-from .motion import Motion
 from .notebook import seed_everything
-from .skeleton import Skeleton
 from .train import TrainTask, load_checkpoint
 
 Tensor = torch.Tensor
@@ -542,7 +543,7 @@ def retarget_motion_with(generator: torch.nn.Module, motion: Motion, target: Ske
         chunk: windows per network call when ``windowed``.
 
     Returns:
-        the target's :class:`~retarget_lib.motion.Motion` (``T`` frames, unit quaternions).
+        the target's :class:`~retarget_lib.core.motion.Motion` (``T`` frames, unit quaternions).
     """
     q, r, off_a = motion.torch()
     off_b = torch.as_tensor(target.offsets, dtype=torch.float32)

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from retarget_lib.skeleton import J, canonical22_skeleton
+from retarget_lib.core.skeleton import J, canonical22_skeleton
 
 
 def make_skeleton(height=1.8, leg_frac=0.5, arm_deg=0.0, spine_curve_deg=0.0):

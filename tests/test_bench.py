@@ -4,8 +4,8 @@ import numpy as np
 import torch
 
 from retarget_lib.bench import bench_fk, bench_tdcn, format_table, numpy_fk_loop, torch_fk_per_joint
-from retarget_lib.kinematics import forward_kinematics
-from retarget_lib.skeleton import CANONICAL22_PARENTS
+from retarget_lib.core.kinematics import forward_kinematics
+from retarget_lib.core.skeleton import CANONICAL22_PARENTS
 
 
 def test_references_compute_the_same_fk():

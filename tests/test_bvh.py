@@ -12,9 +12,9 @@ from retarget_lib.data import cmu
 from retarget_lib.files import DataError, cache_dir, sha256_file
 from retarget_lib.io import BVHError, load_bvh, save_bvh
 from retarget_lib.io.bvh import UNIT_SCALES
-from retarget_lib.motion import Motion
-from retarget_lib.rotations import quat_from_axis_angle, quat_to_matrix
-from retarget_lib.skeleton import Skeleton
+from retarget_lib.core.motion import Motion
+from retarget_lib.core.rotations import quat_from_axis_angle, quat_to_matrix
+from retarget_lib.core.skeleton import Skeleton
 
 # A two-joint file; line numbers are used by the malformed-input tests below.
 GOOD = """HIERARCHY
@@ -422,7 +422,7 @@ def test_cmu_corrupt_file_fails_the_checksum(tmp_path, monkeypatch):
 def test_canonical_order_is_not_depth_first_yet_round_trips(tmp_path):
     """Canonical-22 order (legs before arms, Spine2's children last) differs from BVH's depth-first
     order; columns must follow the hierarchy."""
-    from retarget_lib.skeleton import CANONICAL22, canonical22_skeleton
+    from retarget_lib.core.skeleton import CANONICAL22, canonical22_skeleton
 
     rng = np.random.default_rng(5)
     rot = rng.normal(size=(4, 22, 4))

@@ -7,11 +7,11 @@ import torch
 
 from retarget_lib.data.cmu import CMU_CLIPS, cmu_clip_path, load_cmu_clip
 from retarget_lib.io import load_bvh
-from retarget_lib.motion import Motion
-from retarget_lib.rotations import (quat_conjugate, quat_from_axis_angle, quat_mul, quat_rotate,
-                                    quat_to_matrix)
-from retarget_lib.skeleton import (CANONICAL22, CANONICAL22_PARENTS, JointSetError, Skeleton,
-                                   canonical_name_map, strip_prefix, to_canonical22)
+from retarget_lib.core.motion import Motion
+from retarget_lib.core.rotations import (quat_conjugate, quat_from_axis_angle, quat_mul, quat_rotate,
+                                         quat_to_matrix)
+from retarget_lib.core.skeleton import CANONICAL22, CANONICAL22_PARENTS, JointSetError, Skeleton
+from retarget_lib.core.canonical import canonical_name_map, strip_prefix, to_canonical22
 
 
 def mixamo_motion(seed=0, frames=40, twists=None, rename=None) -> Motion:
@@ -199,7 +199,8 @@ def test_from_canonical22_restores_the_full_joint_set(name):
     """fold -> unfold on the real clips: the 22 kept joints land where the canonical motion puts them."""
     from retarget_lib.data.cmu import cmu_clip_path
     from retarget_lib.io import load_bvh
-    from retarget_lib.skeleton import CANONICAL22, from_canonical22, to_canonical22
+    from retarget_lib.core.skeleton import CANONICAL22
+    from retarget_lib.core.canonical import from_canonical22, to_canonical22
 
     raw = load_bvh(cmu_clip_path(name)).slice(0, 200)
     folded = to_canonical22(raw)

@@ -11,14 +11,14 @@ from retarget_lib.data.characters import (
     CHARACTER_NAMES,
     CHARACTER_SPECS,
     REFERENCE_OFFSETS,
-    Character,
     CharacterSpec,
     all_characters,
     build_character,
     make_character,
     random_character,
 )
-from retarget_lib.skeleton import CANONICAL22, CANONICAL22_PARENTS, J
+from retarget_lib.core.character import Character
+from retarget_lib.core.skeleton import CANONICAL22, CANONICAL22_PARENTS, J
 
 
 @pytest.fixture(scope="module")

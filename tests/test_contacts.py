@@ -22,8 +22,9 @@ from retarget_lib.contacts import (
     vertex_correspondence,
     vertex_groups,
 )
-from retarget_lib.data.characters import Character, make_character
-from retarget_lib.skeleton import J, canonical22_skeleton
+from retarget_lib.core.character import Character
+from retarget_lib.data.characters import make_character
+from retarget_lib.core.skeleton import J, canonical22_skeleton
 from skeletons import make_skeleton
 
 

@@ -9,7 +9,8 @@ from retarget_lib.files import DataError, atomic_write, check_sha256, sha256_fil
 from retarget_lib.data.characters import CHARACTER_NAMES
 from retarget_lib.data.motions import MOTION_FAMILIES
 from retarget_lib.data.synthetic import (dataset_path, fingerprint_of, load_synthetic, read_dataset,
-                                         save_dataset, tdcn_split)
+                                         save_dataset)
+from retarget_lib.data.splits import tdcn_split
 
 
 @pytest.fixture(scope="module")
@@ -73,7 +74,7 @@ def test_dataset_content(ds):
 
 
 def test_dataset_feet_planted_and_hands_touch(ds):
-    from retarget_lib.skeleton import J
+    from retarget_lib.core.skeleton import J
 
     for clip in ds.family("walk")[:3] + ds.family("clap")[:2]:
         pos = clip.motion.global_positions()

@@ -4,16 +4,17 @@ import numpy as np
 import pytest
 import torch
 
-from retarget_lib.data.characters import Character, make_character
+from retarget_lib.core.character import Character
+from retarget_lib.data.characters import make_character
 from retarget_lib.data.motions import make_motion
 from retarget_lib.eso import (TERMS, encoder_space_optimization, eso_source, eso_throughput, reachable_pairs,
                               reached_joints)
 from retarget_lib.losses.contact import ContactEnergyWeights, MotionQuantities, motion_quantities
 from retarget_lib.models.georet import GeometryConditionedRNN, motion_features, pose_outputs
 from retarget_lib.penetration import InterpenetrationEnergy
-from retarget_lib.rotations import quat_identity
-from retarget_lib.skeleton import J
-from retarget_lib.skinning import linear_blend_skinning
+from retarget_lib.core.rotations import quat_identity
+from retarget_lib.core.skeleton import J
+from retarget_lib.core.skinning import linear_blend_skinning
 
 from skeletons import make_skeleton
 
@@ -116,7 +117,7 @@ def test_eso_closes_a_reachable_5cm_contact():
 
 
 def _global_rotations(result, character):
-    from retarget_lib.kinematics import forward_kinematics
+    from retarget_lib.core.kinematics import forward_kinematics
 
     return forward_kinematics(result.rotations, torch.as_tensor(character.skeleton.offsets, dtype=torch.float32),
                               character.skeleton.parents, result.root_positions).rotations

@@ -8,7 +8,7 @@ from retarget_lib.data.characters import make_character
 from retarget_lib.evaluate_contact import (CONTACT_TARGETS, PAPER_TABLE1, PAPER_TABLE3, ablation_steps, contact_tables,
                                            foot_contact_accuracy,
                                            vertex_contact_mse)
-from retarget_lib.motion import Motion
+from retarget_lib.core.motion import Motion
 
 
 def test_vertex_contact_mse_known_value():

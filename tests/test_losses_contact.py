@@ -31,8 +31,8 @@ from retarget_lib.losses.contact import (
     weak_energy,
 )
 from retarget_lib.penetration import InterpenetrationEnergy, interpenetration_energy
-from retarget_lib.rotations import quat_from_axis_angle, quat_identity
-from retarget_lib.skeleton import J
+from retarget_lib.core.rotations import quat_from_axis_angle, quat_identity
+from retarget_lib.core.skeleton import J
 
 from skeletons import make_skeleton
 

@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 import torch
 
-from retarget_lib.motion import Motion
-from retarget_lib.rotations import quat_from_axis_angle
-from retarget_lib.skeleton import CANONICAL22, MIRROR22, canonical22_skeleton
+from retarget_lib.core.motion import Motion
+from retarget_lib.core.rotations import quat_from_axis_angle
+from retarget_lib.core.skeleton import CANONICAL22, MIRROR22, canonical22_skeleton
 
 
 def random_motion(T=50, fps=30.0, seed=0):

@@ -13,9 +13,9 @@ from retarget_lib.data.motions import (
     make_motion,
     motion_library,
 )
-from retarget_lib.ik import FOOT_CONTACT_JOINTS
-from retarget_lib.rotations import quat_rotate
-from retarget_lib.skeleton import CANONICAL22_PARENTS, J
+from retarget_lib.core.skeleton import FOOT_CONTACT_JOINTS
+from retarget_lib.core.rotations import quat_rotate
+from retarget_lib.core.skeleton import CANONICAL22_PARENTS, J
 from skeletons import contact_runs, make_skeleton
 
 SKELETONS = {

@@ -5,18 +5,18 @@ import pytest
 import torch
 
 from retarget_lib.data.motions import MOTION_FAMILIES, make_motion
-from retarget_lib.data.pairs import (
+from retarget_lib.core.transfer import (
     PRIMARY_CHILD,
-    MotionId,
     copy_rotations,
     copy_rotations_rest_compensated,
     rest_alignment,
     retarget_ground_truth,
-    tdcn_splits,
 )
-from retarget_lib.ik import FOOT_CONTACT_JOINTS, apply_foot_contact_ik
-from retarget_lib.rotations import quat_conjugate, quat_mul
-from retarget_lib.skeleton import CANONICAL22, J, JointSetError, Skeleton
+from retarget_lib.data.splits import MotionId, tdcn_splits
+from retarget_lib.core.skeleton import FOOT_CONTACT_JOINTS
+from retarget_lib.ik import apply_foot_contact_ik
+from retarget_lib.core.rotations import quat_conjugate, quat_mul
+from retarget_lib.core.skeleton import CANONICAL22, J, JointSetError, Skeleton
 from skeletons import contact_runs, make_skeleton
 
 A_POSE = make_skeleton(height=1.5, leg_frac=0.45, arm_deg=45.0, spine_curve_deg=6.0)

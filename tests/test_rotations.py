@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import torch
 
-from retarget_lib import rotations as R
+from retarget_lib.core import rotations as R
 
 ORDERS = ["XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX"]
 

@@ -5,7 +5,7 @@ import pytest
 
 from retarget_lib.data.characters import make_character
 from retarget_lib.io.shape import SHAPE_KEYS, load_shape_npz, save_shape_npz
-from retarget_lib.skeleton import CANONICAL22
+from retarget_lib.core.skeleton import CANONICAL22
 
 
 @pytest.fixture(scope="module")

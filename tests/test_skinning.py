@@ -1,4 +1,4 @@
-"""Linear blend skinning and mesh sub-sampling (retarget_lib.skinning)."""
+"""Linear blend skinning and mesh sub-sampling (retarget_lib.core.skinning)."""
 
 import math
 
@@ -7,9 +7,9 @@ import pytest
 import torch
 import trimesh
 
-from retarget_lib.kinematics import forward_kinematics
-from retarget_lib.rotations import quat_from_axis_angle, quat_identity, quat_normalize, quat_rotate
-from retarget_lib.skinning import linear_blend_skinning, subsample_mesh
+from retarget_lib.core.kinematics import forward_kinematics
+from retarget_lib.core.rotations import quat_from_axis_angle, quat_identity, quat_normalize, quat_rotate
+from retarget_lib.core.skinning import linear_blend_skinning, subsample_mesh
 
 
 def _random_mesh(nv=50, nj=5, seed=0, dtype=torch.float64):

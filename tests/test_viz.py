@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from retarget_lib import viz
-from retarget_lib.skeleton import CANONICAL22_PARENTS, canonical22_skeleton
+from retarget_lib.core.skeleton import CANONICAL22_PARENTS, canonical22_skeleton
 
 
 @pytest.fixture(scope="module")
@@ -83,7 +83,7 @@ def test_plots():
 
 
 def test_player_static_and_widget_modes(tpose):
-    from retarget_lib.motion import Motion
+    from retarget_lib.core.motion import Motion
 
     sk = canonical22_skeleton(np.zeros((22, 3)) + 0.1)
     rot = np.zeros((12, 22, 4))

@@ -2,7 +2,7 @@
 
 The motion families (:mod:`retarget_lib.data.motions`) describe *what* is performed; this module
 provides the tools they are written with (timing and easing curves, the canonical pose, footstep
-plans, hand goals) and turns a finished :class:`Plan` into a :class:`~retarget_lib.motion.Motion`.
+plans, hand goals) and turns a finished :class:`Plan` into a :class:`~retarget_lib.core.motion.Motion`.
 
 How a clip is made (so that it is physically consistent *for the given character*):
 
@@ -10,7 +10,7 @@ How a clip is made (so that it is physically consistent *for the given character
    character whose bones point in canonical directions (:func:`canonical_rest_skeleton`: spine up,
    legs down, arms sideways in a T-pose, own feet), so "arm lowered 80 degrees" means the same
    world pose for an A-pose and a T-pose character. The angles are moved onto the real character
-   with the ground-truth rest compensation (:func:`~retarget_lib.data.pairs.transfer_rotations`).
+   with the ground-truth rest compensation (:func:`~retarget_lib.core.transfer.transfer_rotations`).
    Conventions for the angles (degrees): ``fwd`` swings a limb to the front, ``down`` lowers an
    arm from the T-pose, ``bend`` flexes the spine/head forward, ``twist``/``yaw`` turn towards
    the character's left (+X).
@@ -38,10 +38,10 @@ import numpy as np
 import torch
 from scipy.ndimage import gaussian_filter1d, maximum_filter1d
 
-from ..ik import frame_rotation, limb_chain, two_bone_ik
-from ..kinematics import forward_kinematics
-from ..motion import Motion
-from ..rotations import (
+from ..core.kinematics import forward_kinematics
+from ..core.motion import Motion
+from ..core.rotations import (
+    frame_rotation,
     quat_conjugate,
     quat_from_axis_angle,
     quat_from_euler,
@@ -51,8 +51,9 @@ from ..rotations import (
     quat_slerp,
     quat_to_matrix,
 )
-from ..skeleton import CANONICAL22, CANONICAL22_PARENTS, J, Skeleton, canonical22_skeleton
-from .pairs import ACROSS_PAIR, PRIMARY_CHILD, transfer_rotations
+from ..core.skeleton import J, Skeleton
+from ..core.transfer import canonical_rest_skeleton, transfer_rotations
+from ..ik import limb_chain, two_bone_ik
 
 __all__ = [
     "FPS",
@@ -60,7 +61,6 @@ __all__ = [
     "HandContact",
     "default_body_radii",
     "body_radii_from_mesh",
-    "canonical_rest_skeleton",
     "Rig",
     "minjerk",
     "ramp",
@@ -166,49 +166,6 @@ def body_radii_from_mesh(skeleton: Skeleton, rest_vertices: np.ndarray,
     if len(hand) > 3:
         out["hand"] = float(0.5 * np.ptp(hand @ thin))
     return out
-
-
-def _canonical_direction(j: int) -> np.ndarray | None:
-    """Canonical rest direction of joint ``j``'s offset (``None``: keep the character's own)."""
-    name = CANONICAL22[j]
-    if name in ("Spine1", "Spine2", "Head"):
-        return np.array([0.0, 1.0, 0.0])
-    if name.endswith(("Leg", "Foot")) and not name.endswith("UpLeg"):
-        return np.array([0.0, -1.0, 0.0])
-    if name.endswith(("Arm", "Hand")):
-        return np.array([1.0 if name.startswith("Left") else -1.0, 0.0, 0.0])
-    return None
-
-
-def canonical_rest_skeleton(skeleton: Skeleton) -> Skeleton:
-    """The same character with its bones in canonical rest directions (the authoring frame).
-
-    Bone lengths are kept. Spine, neck and head bones point up (+Y), thighs and shins down, the
-    clavicle-arm-forearm-hand chains sideways (T-pose); the pelvis and chest are turned rigidly so
-    that their spine bone points up and their left-right axis along +X (the hip and shoulder
-    offsets keep their shape); feet keep the character's own rest direction.
-
-    Args:
-        skeleton: canonical-22 skeleton.
-
-    Returns:
-        the reference :class:`Skeleton`.
-    """
-    off = skeleton.offsets.copy()
-    for j in range(22):
-        direction = _canonical_direction(j)
-        if direction is not None:
-            off[j] = np.linalg.norm(skeleton.offsets[j]) * direction
-    for j, (left, right) in ACROSS_PAIR.items():
-        up = skeleton.offsets[PRIMARY_CHILD[j]]
-        across = skeleton.offsets[left] - skeleton.offsets[right]
-        e1 = up / np.linalg.norm(up)
-        e2 = across - (across @ e1) * e1
-        e2 /= np.linalg.norm(e2)
-        frame = np.stack((e2, e1, np.cross(e2, e1)), axis=0)  # rows: where x, y, z come from
-        for child in (c for c, p in enumerate(CANONICAL22_PARENTS) if p == j):
-            off[child] = frame @ skeleton.offsets[child]
-    return canonical22_skeleton(off)
 
 
 @dataclass

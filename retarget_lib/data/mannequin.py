@@ -15,7 +15,7 @@ finger joints) with up to 8 influences per vertex. What its arrays mean, as chec
   the vertices listed in ``skin_rigid_joint_indices`` rigidly to one joint; the same is done here.
 
 The first 22 joints follow the SMPL-X body order and map one-to-one onto the canonical 22
-(:data:`~retarget_lib.skeleton.SMPLX_MAP`); hand roots and fingers are folded into the wrists.
+(:data:`~retarget_lib.core.canonical.SMPLX_MAP`); hand roots and fingers are folded into the wrists.
 The body is lifted so that its soles rest on ``y = 0``.
 """
 
@@ -26,9 +26,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.canonical import SMPLX_BODY_NAMES, SMPLX_MAP
+from ..core.character import Character
+from ..core.skeleton import CANONICAL22, CANONICAL22_PARENTS, canonical22_skeleton
 from ..files import DataError, check_sha256
-from ..skeleton import CANONICAL22, CANONICAL22_PARENTS, SMPLX_BODY_NAMES, SMPLX_MAP, canonical22_skeleton
-from .characters import Character
 
 __all__ = ["MANNEQUIN_SHA256", "load_mannequin", "mannequin_path"]
 
@@ -56,7 +57,7 @@ def mannequin_path() -> Path:
 
 
 def load_mannequin(verify: bool = True) -> Character:
-    """The mannequin-x wooden body as a canonical-22 :class:`~retarget_lib.data.characters.Character`.
+    """The mannequin-x wooden body as a canonical-22 :class:`~retarget_lib.core.character.Character`.
 
     Args:
         verify: check the asset's SHA-256 against :data:`MANNEQUIN_SHA256`.

@@ -19,12 +19,12 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from ..core.motion import Motion
+from ..core.rotations import quat_from_axis_angle
+from ..core.skeleton import CANONICAL22, Skeleton
 from ..files import DataError
 from ..io.bvh import load_canonical_bvh, save_bvh
 from ..io.shape import save_shape_npz
-from ..motion import Motion
-from ..rotations import quat_from_axis_angle
-from ..skeleton import CANONICAL22, Skeleton
 
 SHAPE_FILE = "shape.npz"
 FINGERS = ("Thumb", "Index", "Middle", "Ring", "Pinky")
@@ -147,7 +147,7 @@ def write_mixamo_fixture(root: str | Path, character, motions: list[Motion],
 
     Args:
         root: the ``mixamo-local`` folder.
-        character: a :class:`~retarget_lib.data.characters.Character` (canonical 22 joints).
+        character: a :class:`~retarget_lib.core.character.Character` (canonical 22 joints).
         motions: canonical-22 motions on ``character.skeleton`` (names become file names).
         prefix: joint-name prefix.
         unit: length unit of the files (Mixamo via Blender: centimetres).

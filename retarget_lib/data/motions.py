@@ -11,7 +11,7 @@ feet, real hand contacts; see there for how a clip is made).
 
 ``Motion.meta`` records what was used: ``family``, ``seed``, ``style``, ``body_radii``,
 ``foot_contacts`` ``(T, 2)`` bool (left, right foot flat on the ground and still),
-``joint_contacts`` ``(T, 4)`` bool in :data:`~retarget_lib.ik.FOOT_CONTACT_JOINTS` order (a toe
+``joint_contacts`` ``(T, 4)`` bool in :data:`~retarget_lib.core.skeleton.FOOT_CONTACT_JOINTS` order (a toe
 stays planted while its heel lifts), and ``hand_contacts``: a list of :class:`HandContact`.
 """
 
@@ -21,8 +21,9 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from ..motion import Motion
-from ..skeleton import J, Skeleton
+from ..core.motion import Motion
+from ..core.skeleton import J, Skeleton
+from ..core.transfer import canonical_rest_skeleton, transfer_rotations
 from .authoring import (
     FPS,
     SIDES,
@@ -35,7 +36,6 @@ from .authoring import (
     Rig,
     assemble,
     body_radii_from_mesh,
-    canonical_rest_skeleton,
     contact_runs,
     default_body_radii,
     event_times,
@@ -52,7 +52,6 @@ from .authoring import (
     window,
     yaw_xz,
 )
-from .pairs import transfer_rotations
 
 __all__ = [
     "FPS",

@@ -3,7 +3,7 @@ the cache (``<cache>/synthetic/dataset.npz``) and loaded from there.
 
 Each clip is authored (keyframes + IK, :mod:`retarget_lib.data.motions`) on one *performer*
 character, so its contacts are exact on that body; performers rotate over all characters. Any
-other character's version of a clip is its ground truth (:func:`retarget_lib.data.pairs.
+other character's version of a clip is its ground truth (:func:`retarget_lib.core.transfer.
 retarget_ground_truth`) — like Mixamo, where every motion exists on every character.
 """
 
@@ -17,10 +17,11 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.character import Character
+from ..core.motion import Motion
+from ..core.skeleton import canonical22_skeleton
 from ..files import DataError, atomic_write, cache_dir
-from ..motion import Motion
-from ..skeleton import canonical22_skeleton
-from .characters import CHARACTER_NAMES, Character, make_character
+from .characters import CHARACTER_NAMES, make_character
 from .manifest import source
 from .motions import FPS, MOTION_FAMILIES, HandContact, body_radii_from_mesh, make_motion
 
@@ -42,7 +43,7 @@ class SyntheticClip:
         seed: style seed within the family.
         performer: name of the character the clip was authored on.
         foot_contacts: ``(T, 2)`` bool, left/right foot flat and still (as authored).
-        joint_contacts: ``(T, 4)`` bool per :data:`~retarget_lib.ik.FOOT_CONTACT_JOINTS` (a toe
+        joint_contacts: ``(T, 4)`` bool per :data:`~retarget_lib.core.skeleton.FOOT_CONTACT_JOINTS` (a toe
             can stay planted while its heel lifts).
         hand_contacts: hand-contact intervals (as authored).
     """
@@ -209,14 +210,3 @@ def load_synthetic() -> SyntheticDataset:
     return read_dataset(path)
 
 
-def tdcn_split():
-    """The TDCN four-scenario split of the synthetic data, with the manifest's parameters.
-
-    Returns:
-        :class:`~retarget_lib.data.pairs.TDCNSplits`; ``MotionId(family, k)`` is clip
-        ``f"{family}_{k:03d}"``.
-    """
-    from .pairs import tdcn_splits
-
-    params = dict(source("synthetic")["splits"]["tdcn"]["params"])
-    return tdcn_splits(CHARACTER_NAMES, MOTION_FAMILIES, **params)

@@ -8,11 +8,11 @@ Semantics used here (the common ones, e.g. Blender's and Holden's readers):
 
 * rotation channels are Euler angles in degrees, composed in the order listed:
   ``Zrotation Xrotation Yrotation`` means ``R = Rz(a) @ Rx(b) @ Ry(c)``
-  (:func:`~retarget_lib.rotations.quat_from_euler`); any permutation of the three axes is accepted;
+  (:func:`~retarget_lib.core.rotations.quat_from_euler`); any permutation of the three axes is accepted;
 * position channels *replace* the joint's ``OFFSET``: the root's become ``Motion.root_positions``
   (the root ``OFFSET`` is kept as the skeleton's rest root position); a non-root joint's constant
   position channels become its offset; varying ones cannot be represented by a
-  :class:`~retarget_lib.skeleton.Skeleton` and are replaced by their mean (recorded in
+  :class:`~retarget_lib.core.skeleton.Skeleton` and are replaced by their mean (recorded in
   ``meta["position_channels_dropped"]``);
 * lengths are converted to metres on load and back to the file's unit on save (see
   :func:`infer_unit_scale`).
@@ -32,10 +32,11 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from ..core.canonical import strip_prefix, to_canonical22
+from ..core.motion import Motion
+from ..core.rotations import quat_angle, quat_from_euler, quat_to_euler
+from ..core.skeleton import Skeleton
 from ..files import atomic_write
-from ..motion import Motion
-from ..rotations import quat_angle, quat_from_euler, quat_to_euler
-from ..skeleton import Skeleton, strip_prefix, to_canonical22
 
 __all__ = ["BVHError", "UNIT_SCALES", "infer_unit_scale", "load_bvh", "save_bvh"]
 
@@ -354,7 +355,7 @@ def _euler_groups(channels: list[list[str]]) -> dict[str, list[int]]:
 
 
 def load_bvh(path: str | os.PathLike, unit: str | float | None = None) -> Motion:
-    """Read a BVH file into a :class:`~retarget_lib.motion.Motion` (lengths in metres).
+    """Read a BVH file into a :class:`~retarget_lib.core.motion.Motion` (lengths in metres).
 
     Args:
         path: the ``.bvh`` file (any channel order per joint, any joint count, tabs/CRLF fine).
@@ -469,7 +470,7 @@ def _file_layout(motion: Motion) -> tuple[list[str], list[list[str]]]:
 
 
 def load_canonical_bvh(path: str | os.PathLike, fps: float = 30.0, convention: str | None = None) -> Motion:
-    """:func:`load_bvh`, folded onto the canonical 22 joints (:func:`~retarget_lib.skeleton.to_canonical22`)
+    """:func:`load_bvh`, folded onto the canonical 22 joints (:func:`~retarget_lib.core.skeleton.to_canonical22`)
     and resampled to ``fps``.
 
     Args:

@@ -13,7 +13,7 @@ key                       shape        meaning
 ``joint_names``           ``(22,)``    joint names, ``mixamorig:`` prefixes allowed
 ========================  ===========  ==========================================================
 
-:func:`load_shape_npz` returns a :class:`~retarget_lib.data.characters.Character` in the library's
+:func:`load_shape_npz` returns a :class:`~retarget_lib.core.character.Character` in the library's
 conventions (canonical joint order, metres, vertices in the world rest pose = file vertices + the
 root's rest position); :func:`save_shape_npz` writes one back.
 """
@@ -25,9 +25,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..data.characters import Character
+from ..core.canonical import strip_prefix
+from ..core.character import Character
+from ..core.skeleton import CANONICAL22, canonical22_skeleton
 from ..files import atomic_write
-from ..skeleton import CANONICAL22, canonical22_skeleton, strip_prefix
 
 __all__ = ["SHAPE_KEYS", "load_shape_npz", "save_shape_npz"]
 
@@ -61,7 +62,7 @@ def load_shape_npz(path: str | os.PathLike, unit: str | float | None = None) -> 
             infers cm vs m from the skeleton's size.
 
     Returns:
-        The :class:`~retarget_lib.data.characters.Character` (named after the file stem), joints
+        The :class:`~retarget_lib.core.character.Character` (named after the file stem), joints
         in canonical order, metres, vertices in the world rest pose.
 
     Raises:
@@ -131,7 +132,7 @@ def save_shape_npz(character: Character, path: str | os.PathLike, unit: str | fl
     """Write a character in the shape ``.npz`` layout (atomically).
 
     Args:
-        character: any :class:`~retarget_lib.data.characters.Character`.
+        character: any :class:`~retarget_lib.core.character.Character`.
         path: destination file (written as given; use a ``.npz`` suffix).
         unit: the file's length unit (``"cm"`` like Mixamo BVH, ``"m"``, ``"mm"`` or metres per unit).
         prefix: put before each joint name (``""`` for none).

@@ -16,7 +16,7 @@ them::
 Conventions and readings (the paper leaves them open; decided here):
 
 * **Units.** Metres; velocities are per *frame* (``g_t − g_(t−1)``), not per second. Heights
-  ``h`` are the NKN/TDCN character height :meth:`~retarget_lib.skeleton.Skeleton.height`.
+  ``h`` are the NKN/TDCN character height :meth:`~retarget_lib.core.skeleton.Skeleton.height`.
 * **Eq. 3** averages the Euclidean *norm* ``‖v_i − v_j‖₂`` (not its square), as printed: two
   vertices 3 cm apart give ``Ej2j = 0.03``.
 * **Velocities in Eqs. 6 and 9** are backward differences; the first frame of a clip has zero
@@ -68,10 +68,9 @@ from typing import Callable, NamedTuple, Sequence
 import numpy as np
 import torch
 
-from ..ik import FOOT_CONTACT_JOINTS
-from ..kinematics import forward_kinematics
-from ..rotations import quat_to_matrix
-from ..skeleton import CANONICAL22_PARENTS, J, Skeleton
+from ..core.kinematics import forward_kinematics
+from ..core.rotations import quat_to_matrix
+from ..core.skeleton import FOOT_CONTACT_JOINTS, CANONICAL22_PARENTS, J, Skeleton
 
 Tensor = torch.Tensor
 Scalar = float | Tensor
@@ -106,7 +105,7 @@ __all__ = [
 #: the end effectors of Eq. 9 ("hands and feet")
 END_EFFECTORS: tuple[str, ...] = ("LeftHand", "RightHand", "LeftFoot", "RightFoot")
 END_EFFECTOR_IDS: tuple[int, ...] = tuple(J[n] for n in END_EFFECTORS)
-#: canonical ids of the Efoot joints, in :data:`retarget_lib.ik.FOOT_CONTACT_JOINTS` order
+#: canonical ids of the Efoot joints, in :data:`retarget_lib.core.skeleton.FOOT_CONTACT_JOINTS` order
 FOOT_CONTACT_IDS: tuple[int, ...] = tuple(J[n] for n in FOOT_CONTACT_JOINTS)
 
 
@@ -218,7 +217,7 @@ def leg_height(skeleton: Skeleton) -> float:
     """``h_legs``: rest height of the hips above the lowest foot joint (metres).
 
     The same leg length the synthetic ground truth scales root trajectories by
-    (:meth:`~retarget_lib.skeleton.Skeleton.leg_length`).
+    (:meth:`~retarget_lib.core.skeleton.Skeleton.leg_length`).
     """
     return skeleton.leg_length()
 
@@ -400,7 +399,7 @@ def foot_contact_energy_per_frame(positions: Tensor, contacts: Tensor | np.ndarr
 
     Args:
         positions: ``(..., T, 22, 3)`` global joint positions (metres).
-        contacts: ``(..., T, 4)`` bool, per :data:`retarget_lib.ik.FOOT_CONTACT_JOINTS`.
+        contacts: ``(..., T, 4)`` bool, per :data:`retarget_lib.core.skeleton.FOOT_CONTACT_JOINTS`.
         ground_heights: ``(4,)`` the joints' rest heights (:func:`foot_ground_heights`).
         height: ``h_B`` (metres), float or ``(...)``.
 
@@ -521,7 +520,7 @@ def geometry_energy(vertices: Tensor, contact_pairs: Tensor | np.ndarray | None,
         vertices: ``(..., V, 3)`` posed output mesh (metres).
         contact_pairs: ``(K, 2)`` or ``(..., K, 2)`` target-mesh vertex pairs, or ``None``.
         positions: ``(..., T, 22, 3)`` output global joint positions.
-        foot_contacts: ``(..., T, 4)`` bool (:data:`retarget_lib.ik.FOOT_CONTACT_JOINTS`).
+        foot_contacts: ``(..., T, 4)`` bool (:data:`retarget_lib.core.skeleton.FOOT_CONTACT_JOINTS`).
         ground_heights: ``(4,)`` rest heights of those joints.
         height: ``h_B``.
         weights: :class:`ContactEnergyWeights`.

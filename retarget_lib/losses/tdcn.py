@@ -59,7 +59,7 @@ from typing import Literal, Mapping, NamedTuple
 import torch
 import torch.nn.functional as F
 
-from ..rotations import quat_angle
+from ..core.rotations import quat_angle
 
 Tensor = torch.Tensor
 Reduction = Literal["mean", "per_sample"]

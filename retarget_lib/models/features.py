@@ -36,7 +36,7 @@ Discriminator input (TDCN Sec. 4.2, Eqs. 9-12 and 18-20). Per frame pair ``(t-1,
   repeated over time).
 
 → ``(B, 2(J-1) + 1, T - 1)`` = ``(B, 43, T - 1)``. ``H`` is the NKN/TDCN height
-(:meth:`retarget_lib.skeleton.Skeleton.height`, :func:`skeleton_height` here).
+(:meth:`retarget_lib.core.skeleton.Skeleton.height`, :func:`skeleton_height` here).
 """
 
 from __future__ import annotations
@@ -46,9 +46,9 @@ from typing import Iterable, Sequence
 import torch
 from torch import nn
 
-from ..kinematics import forward_kinematics
+from ..core.kinematics import forward_kinematics
+from ..core.skeleton import CANONICAL22_PARENTS, HEIGHT_BONES
 from ..losses.tdcn import discriminator_inputs
-from ..skeleton import CANONICAL22_PARENTS, HEIGHT_BONES
 
 Tensor = torch.Tensor
 
@@ -113,7 +113,7 @@ def skeleton_height(offsets: Tensor) -> Tensor:
     """NKN/TDCN character height ``H(s̄)`` (Eqs. 11-12, 15-16, 18) from rest offsets.
 
     The sum of the root→head and left-leg bone lengths, exactly as
-    :meth:`retarget_lib.skeleton.Skeleton.height` (canonical 22 joint order).
+    :meth:`retarget_lib.core.skeleton.Skeleton.height` (canonical 22 joint order).
 
     Args:
         offsets: ``(..., 22, 3)`` rest offsets (metres).

@@ -37,7 +37,7 @@ Choices the paper leaves open (decided here):
 * **Dropout** (0.1, App. B.1) acts between the stacked GRU layers of both RNNs.
 
 FK and skinning are not part of the module: callers use :func:`pose_outputs` (FK + root
-integration) and :func:`retarget_lib.skinning.linear_blend_skinning` with its global rotations.
+integration) and :func:`retarget_lib.core.skinning.linear_blend_skinning` with its global rotations.
 """
 
 from __future__ import annotations
@@ -48,10 +48,10 @@ import numpy as np
 import torch
 from torch import nn
 
-from ..kinematics import forward_kinematics
+from ..core.kinematics import forward_kinematics
+from ..core.rotations import matrix_from_6d, matrix_to_quat, quat_identity, quat_to_matrix
+from ..core.skeleton import CANONICAL22_PARENTS
 from ..losses.contact import forward_root_velocity
-from ..rotations import matrix_from_6d, matrix_to_quat, quat_identity, quat_to_matrix
-from ..skeleton import CANONICAL22_PARENTS
 from .features import _batched_offsets, skeleton_height
 
 Tensor = torch.Tensor

@@ -46,8 +46,8 @@ from typing import Sequence
 import torch
 from torch import nn
 
-from ..kinematics import forward_kinematics
-from ..skeleton import CANONICAL22_PARENTS
+from ..core.kinematics import forward_kinematics
+from ..core.skeleton import CANONICAL22_PARENTS
 from .features import (NUM_JOINTS, FeatureNormalizer, _batched_offsets, nkn_input_channels,
                        nkn_source_features, root_velocities, skeleton_height, source_local_positions)
 from .tdcn import (DEFAULT_SLOPE, DilatedStack, GeneratorOutput, edge_pad, init_identity_head,

@@ -68,8 +68,8 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from ..rotations import quat_normalize
-from ..skeleton import CANONICAL22_PARENTS
+from ..core.rotations import quat_normalize
+from ..core.skeleton import CANONICAL22_PARENTS
 from .features import NUM_JOINTS, FeatureNormalizer, generator_features, generator_input_channels
 
 Tensor = torch.Tensor

@@ -21,14 +21,14 @@ class Player:
     """Step through motions on characters.
 
     Args:
-        motions: name -> :class:`~retarget_lib.motion.Motion` (canonical 22 joints for the
+        motions: name -> :class:`~retarget_lib.core.motion.Motion` (canonical 22 joints for the
             character picker).
-        characters: name -> :class:`~retarget_lib.data.characters.Character` (skinned meshes).
+        characters: name -> :class:`~retarget_lib.core.character.Character` (skinned meshes).
             The character picker offers "performer" (the motion's own skeleton, drawn on
             ``characters[motion.meta["performer"]]`` when present, else as a skeleton) and every
             character, on which the motion is shown through ``transfer``.
         transfer: ``(motion, skeleton) -> motion`` used for another character (default: the
-            ground-truth retargeting of :func:`retarget_lib.data.pairs.retarget_ground_truth`).
+            ground-truth retargeting of :func:`retarget_lib.core.transfer.retarget_ground_truth`).
         mode: ``"auto"`` (widget plus still-image fallback), ``"widget"`` or ``"static"``.
         window_size: ``(width, height)`` of the picture.
         view: camera preset.
@@ -63,7 +63,7 @@ class Player:
         if key not in self._shown:
             transfer = self.transfer
             if transfer is None:
-                from ..data.pairs import retarget_ground_truth as transfer
+                from ..core.transfer import retarget_ground_truth as transfer
             self._shown[key] = transfer(self.motions[name], self.characters[character].skeleton)
         return self._shown[key]
 

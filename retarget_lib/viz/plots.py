@@ -81,7 +81,7 @@ def plot_skeleton_mpl(positions: np.ndarray, parents: Sequence[int], ax=None, vi
     """
     import matplotlib.pyplot as plt
 
-    from ..skeleton import CANONICAL22
+    from ..core.skeleton import CANONICAL22
 
     if ax is None:
         _, ax = plt.subplots(figsize=(3, 4))

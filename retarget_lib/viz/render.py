@@ -160,7 +160,7 @@ def _joint_colors(scene: Scene) -> np.ndarray:
     n = len(scene.positions)
     names = scene.joint_names
     if names is None and n == 22:
-        from ..skeleton import CANONICAL22 as names
+        from ..core.skeleton import CANONICAL22 as names
     side = np.zeros(n, dtype=int)  # 0 centre, 1 left, 2 right
     if names is not None:
         for j, nm in enumerate(names):

@@ -1,166 +1,22 @@
-"""Skeletons: joint names, parents, rest offsets; the canonical 22 joints and name maps.
+"""Folding any joint set onto the canonical 22 joints and back: name maps, :func:`to_canonical22`,
+:func:`from_canonical22`.
 
-A :class:`Skeleton` is a tree of joints. ``offsets[j]`` is joint ``j``'s rest position relative to
-its parent, expressed in the parent's frame (metres); ``offsets[root]`` is the root's rest position.
-
-The canonical 22 joints are Mixamo's (``mixamorig:`` prefix stripped), as used by NKN (Villegas et
-al. 2018) and TDCN (Kim et al. 2020, Sec. 5 "Data preprocessing"). :func:`to_canonical22` maps a
-motion on another joint set (Mixamo with fingers, CMU 31 joints, the 21-joint Biovision/
-MotionBuilder layout of ``Boxing_Toes.bvh``, SMPL-X body joints) onto them.
+Supported joint sets: Mixamo with fingers, CMU 31 joints, the 21-joint Biovision/MotionBuilder
+layout of ``Boxing_Toes.bvh``, SMPL-X body joints (:data:`NAME_MAPS`).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Sequence
+from typing import Sequence
 
 import numpy as np
 import torch
 
-from .rotations import (matrix_to_quat, quat_between, quat_canonical, quat_conjugate, quat_mul,
-                        quat_rotate)
-
-if TYPE_CHECKING:  # pragma: no cover
-    from .motion import Motion
-
-CANONICAL22: tuple[str, ...] = (
-    "Hips", "Spine", "Spine1", "Spine2", "Neck", "Head",
-    "LeftUpLeg", "LeftLeg", "LeftFoot", "LeftToeBase",
-    "RightUpLeg", "RightLeg", "RightFoot", "RightToeBase",
-    "LeftShoulder", "LeftArm", "LeftForeArm", "LeftHand",
-    "RightShoulder", "RightArm", "RightForeArm", "RightHand",
-)
-CANONICAL22_PARENTS: tuple[int, ...] = (
-    -1, 0, 1, 2, 3, 4,
-    0, 6, 7, 8,
-    0, 10, 11, 12,
-    3, 14, 15, 16,
-    3, 18, 19, 20,
-)
-#: joint index of each canonical name
-J = {name: i for i, name in enumerate(CANONICAL22)}
-#: canonical index of each joint's mirror image (left <-> right)
-MIRROR22: tuple[int, ...] = tuple(
-    J[n.replace("Left", "#").replace("Right", "Left").replace("#", "Right")] for n in CANONICAL22
-)
-#: the bones summed by :meth:`Skeleton.height` (NKN/TDCN ``H``): root->head chain + left leg chain
-HEIGHT_BONES: tuple[tuple[int, int], ...] = (
-    (J["Spine"], J["Hips"]), (J["Spine1"], J["Spine"]), (J["Spine2"], J["Spine1"]),
-    (J["Neck"], J["Spine2"]), (J["Head"], J["Neck"]),
-    (J["LeftLeg"], J["LeftUpLeg"]), (J["LeftFoot"], J["LeftLeg"]), (J["LeftToeBase"], J["LeftFoot"]),
-)
+from .motion import Motion
+from .rotations import matrix_to_quat, quat_between, quat_canonical, quat_conjugate, quat_mul, quat_rotate
+from .skeleton import CANONICAL22, CANONICAL22_PARENTS, J, JointSetError, Skeleton, canonical22_skeleton
 
 
-class JointSetError(ValueError):
-    """A motion's joints cannot be mapped onto the canonical 22 (the message names the missing ones)."""
-
-
-@dataclass
-class Skeleton:
-    """A joint tree with rest offsets.
-
-    Attributes:
-        joint_names: ``J`` names.
-        parents: ``J`` parent indices; the root's parent is ``-1``; parents precede children.
-        offsets: ``(J, 3)`` float64 rest offsets in metres (parent frame); row of the root = rest
-            root position.
-        end_sites: ``{joint index: (3,) offset}`` of BVH ``End Site`` leaves (kept for writing).
-    """
-
-    joint_names: tuple[str, ...]
-    parents: tuple[int, ...]
-    offsets: np.ndarray
-    end_sites: dict[int, np.ndarray] = field(default_factory=dict)
-
-    def __post_init__(self) -> None:
-        self.joint_names = tuple(str(n) for n in self.joint_names)
-        self.parents = tuple(int(p) for p in self.parents)
-        self.offsets = np.asarray(self.offsets, dtype=np.float64).reshape(-1, 3)
-        n = len(self.joint_names)
-        if len(self.parents) != n or self.offsets.shape[0] != n:
-            raise ValueError(
-                f"Skeleton: {n} names, {len(self.parents)} parents, {self.offsets.shape[0]} offsets"
-            )
-        if len(set(self.joint_names)) != n:
-            dup = sorted({x for x in self.joint_names if self.joint_names.count(x) > 1})
-            raise ValueError(f"Skeleton: duplicate joint names {dup}")
-        for j, p in enumerate(self.parents):
-            if (j == 0) != (p == -1) or p >= j:
-                raise ValueError(f"Skeleton: joint {j} ({self.joint_names[j]}) has parent {p}; "
-                                 "the root must be joint 0 and parents must precede children")
-
-    # ------------------------------------------------------------------ basics
-    @property
-    def num_joints(self) -> int:
-        return len(self.joint_names)
-
-    def index(self, name: str) -> int:
-        """Index of joint ``name`` (raises ``KeyError`` naming the joint)."""
-        try:
-            return self.joint_names.index(name)
-        except ValueError:
-            raise KeyError(f"no joint named {name!r} in skeleton") from None
-
-    def children(self, j: int) -> list[int]:
-        return [c for c, p in enumerate(self.parents) if p == j]
-
-    def copy(self) -> "Skeleton":
-        return Skeleton(self.joint_names, self.parents, self.offsets.copy(),
-                        {k: v.copy() for k, v in self.end_sites.items()})
-
-    def scaled(self, factor: float) -> "Skeleton":
-        """The same skeleton with every length multiplied by ``factor``."""
-        return Skeleton(self.joint_names, self.parents, self.offsets * factor,
-                        {k: v * factor for k, v in self.end_sites.items()})
-
-    def bone_lengths(self) -> np.ndarray:
-        """``(J,)`` length of each joint's offset (the root's entry is its rest-position norm)."""
-        return np.linalg.norm(self.offsets, axis=-1)
-
-    def rest_positions(self) -> np.ndarray:
-        """``(J, 3)`` global joint positions in the rest pose (all local rotations identity)."""
-        pos = np.zeros_like(self.offsets)
-        for j, p in enumerate(self.parents):
-            pos[j] = self.offsets[j] if p < 0 else pos[p] + self.offsets[j]
-        return pos
-
-    def is_canonical22(self) -> bool:
-        return self.joint_names == CANONICAL22 and self.parents == CANONICAL22_PARENTS
-
-    def height(self) -> float:
-        """Character height ``H`` as defined by NKN/TDCN (TDCN Eqs. 11-12, 15-16).
-
-        Sum of the rest bone lengths on the root->head chain (Hips-Spine-Spine1-Spine2-Neck-Head,
-        5 bones) plus the left leg chain (LeftUpLeg-LeftLeg-LeftFoot-LeftToeBase, 3 bones). Needs
-        the canonical joint names (any order).
-
-        Returns:
-            ``H`` in metres.
-        """
-        idx = {n: i for i, n in enumerate(self.joint_names)}
-        missing = [n for n in CANONICAL22[:10] if n not in idx]
-        if missing:
-            raise JointSetError(f"height() needs canonical joints; missing {missing}")
-        pos = self.rest_positions()
-        return float(sum(np.linalg.norm(pos[idx[CANONICAL22[a]]] - pos[idx[CANONICAL22[b]]])
-                         for a, b in HEIGHT_BONES))
-
-    def leg_length(self) -> float:
-        """Rest height of the hips above the lowest foot joint (metres), used to scale root motion."""
-        pos = self.rest_positions()
-        feet = [i for i, n in enumerate(self.joint_names) if n in ("LeftToeBase", "RightToeBase",
-                                                                   "LeftFoot", "RightFoot")]
-        if not feet:
-            raise JointSetError("leg_length() needs foot joints")
-        return float(pos[0, 1] - pos[feet, 1].min())
-
-
-def canonical22_skeleton(offsets: np.ndarray) -> Skeleton:
-    """A :class:`Skeleton` on the canonical 22 joints with the given ``(22, 3)`` offsets."""
-    return Skeleton(CANONICAL22, CANONICAL22_PARENTS, offsets)
-
-
-# ---------------------------------------------------------------------- name maps
 #: Mixamo: names are canonical once the ``mixamorig:`` (or ``mixamorig1:`` ...) prefix is removed.
 MIXAMO_MAP: dict[str, str] = {n: n for n in CANONICAL22}
 
@@ -269,7 +125,7 @@ def canonical_name_map(joint_names: Sequence[str], convention: str | None = None
     return out
 
 
-def to_canonical22(motion: "Motion", convention: str | None = None) -> "Motion":
+def to_canonical22(motion: Motion, convention: str | None = None) -> Motion:
     """Fold a motion on any supported joint set onto the canonical 22 joints.
 
     Kept joints keep their world positions. Removed joints are folded into their kept ancestors:
@@ -288,7 +144,7 @@ def to_canonical22(motion: "Motion", convention: str | None = None) -> "Motion":
     * the 21-joint Biovision layout gets ``Spine2`` inserted halfway along Chest->Neck.
 
     Args:
-        motion: any :class:`~retarget_lib.motion.Motion`.
+        motion: any :class:`~retarget_lib.core.motion.Motion`.
         convention: a key of :data:`NAME_MAPS`, or ``None`` to detect it from the names.
 
     Returns:
@@ -297,8 +153,6 @@ def to_canonical22(motion: "Motion", convention: str | None = None) -> "Motion":
     Raises:
         JointSetError: if required joints are missing (named in the message).
     """
-    from .motion import Motion
-
     sk = motion.skeleton
     if sk.is_canonical22():
         return motion.copy()
@@ -389,7 +243,7 @@ def fit_global_rotations(rotations: np.ndarray, positions: np.ndarray, offsets: 
     return quat_canonical(out).numpy()
 
 
-def from_canonical22(motion: "Motion", skeleton: Skeleton, convention: str | None = None) -> "Motion":
+def from_canonical22(motion: Motion, skeleton: Skeleton, convention: str | None = None) -> Motion:
     """Put a canonical-22 motion back on a full joint set (the inverse of :func:`to_canonical22`).
 
     Used to write a retargeted motion with the target file's own joints, names and rest offsets.
@@ -408,8 +262,6 @@ def from_canonical22(motion: "Motion", skeleton: Skeleton, convention: str | Non
     Returns:
         A Motion on ``skeleton`` with ``motion``'s frames, fps and root positions.
     """
-    from .motion import Motion
-
     if not motion.skeleton.is_canonical22():
         raise JointSetError("from_canonical22 needs a canonical-22 motion")
     convention = convention or detect_convention(skeleton.joint_names)

@@ -15,9 +15,11 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import torch
 
 Tensor = torch.Tensor
+Array = Tensor | np.ndarray
 
 __all__ = [
     "quat_identity",
@@ -41,6 +43,7 @@ __all__ = [
     "quat_between",
     "quat_canonical",
     "quat_swing_twist",
+    "frame_rotation",
 ]
 
 
@@ -433,3 +436,30 @@ def quat_swing_twist(q: Tensor, axis: Tensor) -> tuple[Tensor, Tensor]:
     twist = torch.where(n < 1e-9, quat_identity(q.shape[:-1], q.dtype, q.device), twist / n.clamp_min(1e-12))
     swing = quat_mul(q, quat_conjugate(twist))
     return swing, twist
+
+
+def frame_rotation(u0: Array, v0: Array, u1: Array, v1: Array) -> Array:
+    """The rotation taking direction ``u0`` exactly onto ``u1`` and the half-plane of ``v0``
+    (seen from ``u0``) onto that of ``v1``; ``v`` need not be orthogonal to ``u`` (Gram-Schmidt).
+
+    Args:
+        u0, v0: ``(..., 3)`` source frame vectors (not parallel).
+        u1, v1: ``(..., 3)`` target frame vectors (not parallel).
+
+    Returns:
+        ``(..., 4)`` wxyz, same type as ``u0``.
+    """
+    as_numpy = isinstance(u0, np.ndarray)
+
+    def unit(v):
+        return v / v.norm(dim=-1, keepdim=True).clamp_min(1e-9)
+
+    def frame(u, v):
+        e1 = unit(u)
+        e2 = unit(v - (v * e1).sum(-1, keepdim=True) * e1)
+        return torch.stack((e1, e2, torch.linalg.cross(e1, e2, dim=-1)), dim=-1)
+
+    u0, v0, u1, v1 = (torch.from_numpy(np.asarray(x, dtype=np.float64)) if isinstance(x, np.ndarray) else x
+                      for x in (u0, v0, u1, v1))
+    q = matrix_to_quat(frame(u1, v1) @ frame(u0, v0).transpose(-1, -2))
+    return q.numpy() if as_numpy else q

@@ -25,7 +25,7 @@ class Motion:
     """A clip of skeletal animation.
 
     Attributes:
-        skeleton: the :class:`~retarget_lib.skeleton.Skeleton` (rest offsets in metres).
+        skeleton: the :class:`~retarget_lib.core.skeleton.Skeleton` (rest offsets in metres).
         rotations: ``(T, J, 4)`` local joint rotations, unit wxyz, float64.
         root_positions: ``(T, 3)`` root (Hips) world positions in metres.
         fps: frames per second.
