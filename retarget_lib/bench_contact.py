@@ -17,10 +17,10 @@ import numpy as np
 import torch
 
 from .bench import BenchRow, time_it
-from .collision import brute_force_candidate_pairs, triangles_intersect
 from .core.rotations import quat_from_axis_angle
 from .core.skeleton import J
-from .penetration import InterpenetrationEnergy
+from .geometry.collision import brute_force_candidate_pairs, triangles_intersect
+from .geometry.penetration import InterpenetrationEnergy
 
 
 def forearm_in_torso_pose(character, arm_down_deg: float = 80.0, forearm_deg: float = 100.0,
@@ -109,12 +109,12 @@ def bench_eso(quick: bool = False) -> list[BenchRow]:
     same size (the cost per frame is the same).
     """
     from .contact_training import contact_clip, load_contact_model, retarget_with_network
-    from .contacts import transfer_contacts
     from .data.characters import make_character
     from .data.manifest import checkpoint, load_manifest
     from .data.mannequin import load_mannequin
     from .data.motions import body_radii_from_mesh, make_motion
     from .eso import eso_throughput
+    from .geometry.contacts import transfer_contacts
     from .models.georet import GeometryConditionedRNN
 
     frames = 8 if quick else 30

@@ -35,16 +35,16 @@ from typing import Any
 import numpy as np
 import torch
 
-from .contacts import SelfContacts, detect_foot_contacts, detect_self_contacts, vertex_correspondence
 from .core.character import Character
 from .core.motion import Motion
 from .core.skinning import linear_blend_skinning
 from .files import atomic_write, cache_dir
+from .geometry.contacts import SelfContacts, detect_foot_contacts, detect_self_contacts, vertex_correspondence
+from .geometry.penetration import InterpenetrationEnergy
 from .losses.contact import (ContactEnergyWeights, MotionQuantities, foot_contact_energy, foot_ground_heights,
                              leg_ratio, motion_quantities, self_contact_energy, skeleton_energy)
 from .models.georet import GeometryConditionedRNN, batch_meshes, motion_features, pose_outputs
 from .notebook import seed_everything
-from .penetration import InterpenetrationEnergy
 from .train import TrainTask, load_checkpoint
 
 Tensor = torch.Tensor

@@ -60,12 +60,12 @@ import torch
 from .core.motion import Motion
 from .core.skeleton import J
 from .core.skinning import linear_blend_skinning
+from .geometry.penetration import InterpenetrationEnergy
 from .losses.contact import (ContactEnergyWeights, MotionQuantities, eso_self_contact_energy,
                              end_effector_energy_per_frame, foot_contact_energy_per_frame, foot_ground_heights,
                              leg_ratio as skeleton_leg_ratio, motion_quantities, reach_hold_energy,
                              self_contact_energy, weak_energy)
 from .models.georet import DecoderState, GeometryConditionedRNN, TargetContext, motion_features
-from .penetration import InterpenetrationEnergy
 
 Tensor = torch.Tensor
 
@@ -127,10 +127,10 @@ def eso_source(motion: Motion, target: Any, foot_contacts: np.ndarray | None = N
     Args:
         motion: source motion (metres).
         target: a ``Character``-like object (``.skeleton``).
-        foot_contacts: ``(T, 4)`` bool; default :func:`retarget_lib.contacts.detect_foot_contacts`
+        foot_contacts: ``(T, 4)`` bool; default :func:`retarget_lib.geometry.contacts.detect_foot_contacts`
             on the source.
     """
-    from .contacts import detect_foot_contacts
+    from .geometry.contacts import detect_foot_contacts
 
     rot, root, off = motion.torch(torch.float32)
     height = motion.skeleton.height()

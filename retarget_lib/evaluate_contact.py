@@ -17,7 +17,7 @@ three skinny + three bulky targets):
 **Metrics** (Sec. 4), per (clip, target), then averaged:
 
 * ``interpenetration``: Eq. 4 (with the geodesic weights of Eq. 5) on height-normalised vertices,
-  averaged over the evaluated frames (:func:`~retarget_lib.penetration.interpenetration_score`);
+  averaged over the evaluated frames (:func:`~retarget_lib.geometry.penetration.interpenetration_score`);
   ×1000 in the tables to give readable magnitudes;
 * ``vertex contact MSE``: for every frame with a (transferred) source contact, the squared distance
   between the two target vertices of each contact pair, in cm², divided by the target height in
@@ -26,7 +26,7 @@ three skinny + three bulky targets):
   target's scale) against those detected on the source, share of agreeing (frame, joint) labels;
 * ``global position MSE``: the NKN/TDCN normalised MSE (cm² / cm) against the ground truth;
 * ``penetration rate``: share of the arm and leg vertices inside the rest of the body (mean of
-  the four limbs, :func:`~retarget_lib.penetration.penetration_rate`), a metric of later work.
+  the four limbs, :func:`~retarget_lib.geometry.penetration.penetration_rate`), a metric of later work.
 
 Interpenetration and the penetration rate are evaluated on every ``eval_every``-th frame (profile
 ``fast``: every 3rd, ``paper``: every frame).
@@ -43,11 +43,11 @@ from typing import Callable, Mapping
 import numpy as np
 import pandas as pd
 
-from .contacts import SelfContacts, detect_foot_contacts, transfer_contacts
 from .core.character import Character
 from .core.motion import Motion
 from .evaluate import METRES_TO_CM, normalized_mse, write_table
 from .files import REPO_ROOT, atomic_write
+from .geometry.contacts import SelfContacts, detect_foot_contacts, transfer_contacts
 
 __all__ = ["CONTACT_TARGETS", "CONTACT_PROFILES", "METRICS", "PAPER_TABLE1", "PAPER_TABLE3", "PAPER_TABLE5",
            "PAPER_TABLE6", "ContactCase", "SHIPPED_RESULTS", "shipped_contact_results", "rerun_cases", "contact_cases", "contact_methods", "evaluate_contact_case", "evaluate_contact_methods",
@@ -197,7 +197,7 @@ def evaluate_contact_case(output: Motion, case: ContactCase, eint, eval_every: i
         eint: the target's ``penetration.InterpenetrationEnergy`` (geodesic weights).
         eval_every: evaluate interpenetration / penetration rate on every this many frames.
     """
-    from .penetration import interpenetration_score, penetration_rate
+    from .geometry.penetration import interpenetration_score, penetration_rate
 
     target = case.target
     vertices = target.skinned(output.rotations, output.root_positions)
@@ -226,7 +226,7 @@ def _network_method(model) -> ContactMethod:
 
 def _ik_method(model) -> ContactMethod:
     from .contact_training import retarget_with_network
-    from .ik import apply_foot_contact_ik
+    from .geometry.ik import apply_foot_contact_ik
 
     return lambda case, eint: apply_foot_contact_ik(retarget_with_network(model, case.source, case.target),
                                                     case.foot_contacts)
@@ -292,7 +292,7 @@ def evaluate_contact_methods(methods: Mapping[str, ContactMethod], cases: list[C
                              eval_every: int = 1, same: Mapping[str, str] | None = None) -> pd.DataFrame:
     """Per (method, case) metrics plus the seconds each method took. ``same`` maps a row to one
     whose outputs it shares (e.g. ``"Efull + ESO" -> "Ours"``), which is then not re-run."""
-    from .penetration import InterpenetrationEnergy
+    from .geometry.penetration import InterpenetrationEnergy
 
     same = dict(same or {})
     eints = {}

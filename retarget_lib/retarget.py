@@ -103,10 +103,10 @@ def retarget_contact(source: Motion, target, checkpoint: str | Path | None = Non
         The motion on ``target.skeleton``.
     """
     from .contact_training import contact_clip, load_contact_model, retarget_with_network
-    from .contacts import transfer_contacts
     from .core.skinning import subsample_mesh
     from .eso import encoder_space_optimization, eso_source
-    from .penetration import InterpenetrationEnergy
+    from .geometry.contacts import transfer_contacts
+    from .geometry.penetration import InterpenetrationEnergy
 
     model, config = load_contact_model(resolve_checkpoint("contact", checkpoint))
     if not eso:

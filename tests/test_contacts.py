@@ -1,4 +1,4 @@
-"""Contact detection and vertex correspondence (retarget_lib.contacts; Villegas et al. 2021, Sec. 3.4,
+"""Contact detection and vertex correspondence (retarget_lib.geometry.contacts; Villegas et al. 2021, Sec. 3.4,
 App. F)."""
 
 import itertools
@@ -6,7 +6,7 @@ import itertools
 import numpy as np
 import pytest
 
-from retarget_lib.contacts import (
+from retarget_lib.geometry.contacts import (
     FOOT_JOINTS,
     SelfContacts,
     authored_contact_frames,

@@ -11,7 +11,7 @@ from retarget_lib.eso import (TERMS, encoder_space_optimization, eso_source, eso
                               reached_joints)
 from retarget_lib.losses.contact import ContactEnergyWeights, MotionQuantities, motion_quantities
 from retarget_lib.models.georet import GeometryConditionedRNN, motion_features, pose_outputs
-from retarget_lib.penetration import InterpenetrationEnergy
+from retarget_lib.geometry.penetration import InterpenetrationEnergy
 from retarget_lib.core.rotations import quat_identity
 from retarget_lib.core.skeleton import J
 from retarget_lib.core.skinning import linear_blend_skinning

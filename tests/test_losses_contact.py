@@ -30,7 +30,7 @@ from retarget_lib.losses.contact import (
     skeleton_energy,
     weak_energy,
 )
-from retarget_lib.penetration import InterpenetrationEnergy, interpenetration_energy
+from retarget_lib.geometry.penetration import InterpenetrationEnergy, interpenetration_energy
 from retarget_lib.core.rotations import quat_from_axis_angle, quat_identity
 from retarget_lib.core.skeleton import J
 

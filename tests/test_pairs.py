@@ -14,7 +14,7 @@ from retarget_lib.core.transfer import (
 )
 from retarget_lib.data.splits import MotionId, tdcn_splits
 from retarget_lib.core.skeleton import FOOT_CONTACT_JOINTS
-from retarget_lib.ik import apply_foot_contact_ik
+from retarget_lib.geometry.ik import apply_foot_contact_ik
 from retarget_lib.core.rotations import quat_conjugate, quat_mul
 from retarget_lib.core.skeleton import CANONICAL22, J, JointSetError, Skeleton
 from skeletons import contact_runs, make_skeleton

@@ -8,10 +8,12 @@ import pytest
 import torch
 import trimesh
 
-from retarget_lib.collision import TriangleBVH, brute_force_candidate_pairs, colliding_triangle_pairs, triangles_intersect
-from retarget_lib.penetration import (InterpenetrationEnergy, cap_holes, circumcircle, cone_distance_field,
-                                      geodesic_distances, geodesic_pair_weights, interpenetration_energy,
-                                      interpenetration_score, penetration_rate, ray_winding_numbers, vertex_normals)
+from retarget_lib.geometry.collision import (TriangleBVH, brute_force_candidate_pairs,
+                                             colliding_triangle_pairs, triangles_intersect)
+from retarget_lib.geometry.penetration import (InterpenetrationEnergy, cap_holes, circumcircle,
+                                               cone_distance_field, geodesic_distances, geodesic_pair_weights,
+                                               interpenetration_energy, interpenetration_score,
+                                               penetration_rate, ray_winding_numbers, vertex_normals)
 from retarget_lib.core.skeleton import J
 
 FLAT = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]  # normal +z, circumcentre (.5, .5, 0)

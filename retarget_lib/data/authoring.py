@@ -18,7 +18,7 @@ How a clip is made (so that it is physically consistent *for the given character
    the rest pose, :meth:`Skeleton.leg_length`): a planted foot is flat, still, and keeps its rest
    height; between plants the ankle follows a minimum-jerk path with a lift, toe-off and
    heel-strike pitch, never letting the toe under the floor. The root is lowered wherever a leg
-   could not reach, and both legs are solved with :func:`~retarget_lib.ik.two_bone_ik` (knees
+   could not reach, and both legs are solved with :func:`~retarget_lib.geometry.ik.two_bone_ik` (knees
    towards the toes).
 3. **Make the hand contacts real.** Targets are computed from *this* character's joints plus a
    body-size hint (:func:`default_body_radii`): palms meeting in front of the chest (clap, pray),
@@ -53,7 +53,7 @@ from ..core.rotations import (
 )
 from ..core.skeleton import J, Skeleton
 from ..core.transfer import canonical_rest_skeleton, transfer_rotations
-from ..ik import limb_chain, two_bone_ik
+from ..geometry.ik import limb_chain, two_bone_ik
 
 __all__ = [
     "FPS",

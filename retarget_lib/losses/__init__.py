@@ -1,6 +1,6 @@
 """Loss functions on plain tensors. :mod:`.tdcn` — TDCN's six training losses (Kim et al. 2020,
 Eqs. 6-23) and the NKN baseline's vanilla-GAN losses; :mod:`.contact` — the contact-aware
-energies of Villegas et al. 2021 (Eqs. 1-3, 6-9; Eint is :mod:`retarget_lib.penetration`)."""
+energies of Villegas et al. 2021 (Eqs. 1-3, 6-9; Eint is :mod:`retarget_lib.geometry.penetration`)."""
 
 from .contact import (ContactEnergyWeights, MotionQuantities, TABLE3_ROWS, end_effector_energy,
                       eso_self_contact_energy, foot_contact_energy, full_energy, geometry_energy,

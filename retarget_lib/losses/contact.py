@@ -7,7 +7,7 @@ them::
     Efull  = Egeo + Eskel                                   (Eq. 1)
     Egeo   = λ Ej2j + β Eint + γ Efoot                      (Eq. 2)
     Ej2j   = 1/|V| Σ_(i,j) ‖v_i − v_j‖₂                     (Eq. 3)  self_contact_energy
-    Eint   = Tzionas et al.'s cone penalty                  (Eq. 4)  retarget_lib.penetration
+    Eint   = Tzionas et al.'s cone penalty                  (Eq. 4)  retarget_lib.geometry.penetration
     Efoot  = Σ_(j∈C) (‖ġ_j‖² + (g_j^y − ḡ_j^y)²) / h_B      (Eq. 6)  foot_contact_energy
     Eskel  = Eweak + ω Eee                                  (Eq. 7)
     Eweak  = ρ Σ_j ‖θ^B_j − θ^A_j‖² + ‖o^B − o^(A→B)‖²      (Eq. 8)  weak_energy
@@ -233,7 +233,7 @@ def foot_ground_heights(skeleton: Skeleton) -> np.ndarray:
 
     The ground is ``y = 0`` for skeletons standing on the floor (characters, shape files) and the
     lowest rest foot joint for a BVH skeleton whose root sits at the origin (its feet are below 0),
-    as in :func:`retarget_lib.contacts.rest_ground_height`.
+    as in :func:`retarget_lib.geometry.contacts.rest_ground_height`.
     """
     feet = skeleton.rest_positions()[list(FOOT_CONTACT_IDS), 1]
     return feet - min(0.0, float(feet.min()))

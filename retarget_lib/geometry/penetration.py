@@ -2,7 +2,7 @@
 et al. 2021 (Sec. 3.3, Eqs. 4-5), plus per-limb penetration metrics.
 
 **Detection** (no gradient): the intersecting triangle pairs ``F = {(r, i)}`` of each frame come
-from :mod:`retarget_lib.collision` (the paper's BVH [29] and an exact triangle-triangle test).
+from :mod:`retarget_lib.geometry.collision` (the paper's BVH [29] and an exact triangle-triangle test).
 
 **Energy** (differentiable). Each triangle ``i`` carries a cone-shaped local distance field
 ``psi_i`` (:func:`cone_distance_field`, after Tzionas et al. 2016): positive for points behind the
@@ -34,8 +34,8 @@ import scipy.sparse
 import torch
 from scipy.sparse.csgraph import connected_components, dijkstra
 
+from ..core.skeleton import CANONICAL22
 from .collision import TriangleBVH, as_face_array, as_vertex_array, colliding_triangle_pairs
-from .core.skeleton import CANONICAL22
 
 Tensor = torch.Tensor
 

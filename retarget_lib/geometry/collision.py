@@ -9,7 +9,7 @@ level, all node pairs of a level at once in NumPy; the surviving leaf pairs give
 pairs. Pairs sharing a vertex are dropped (neighbours always touch), and an exact triangle-triangle
 test (:func:`triangles_intersect`, orientation predicates as in Devillers-Guigue) keeps the pairs
 that really cross. :func:`brute_force_candidate_pairs` is the all-pairs reference of the tests and
-``retarget bench``. The energy on these pairs is :mod:`retarget_lib.penetration`.
+``retarget bench``. The energy on these pairs is :mod:`retarget_lib.geometry.penetration`.
 
 Units: metres (any consistent unit works; the tests are exact predicates).
 """

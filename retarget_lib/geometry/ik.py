@@ -25,9 +25,9 @@ from typing import Mapping, Sequence
 import numpy as np
 import torch
 
-from .core.kinematics import forward_kinematics
-from .core.motion import Motion
-from .core.rotations import (
+from ..core.kinematics import forward_kinematics
+from ..core.motion import Motion
+from ..core.rotations import (
     frame_rotation,
     quat_between,
     quat_canonical,
@@ -37,7 +37,7 @@ from .core.rotations import (
     quat_rotate,
     quat_to_axis_angle,
 )
-from .core.skeleton import FOOT_CONTACT_JOINTS, Skeleton
+from ..core.skeleton import FOOT_CONTACT_JOINTS, Skeleton
 
 Tensor = torch.Tensor
 Array = Tensor | np.ndarray

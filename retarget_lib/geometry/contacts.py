@@ -32,8 +32,9 @@ from typing import Iterable, Sequence
 import numpy as np
 from scipy.spatial import cKDTree
 
-from . import ik
-from .core.skeleton import CANONICAL22, CANONICAL22_PARENTS, J, Skeleton
+from ..core.kinematics import forward_kinematics
+from ..core.skeleton import CANONICAL22, CANONICAL22_PARENTS, FOOT_CONTACT_JOINTS, J, Skeleton
+from ..core.transfer import canonical_rest_skeleton, transfer_rotations
 
 __all__ = [
     "FOOT_JOINTS",
@@ -55,7 +56,7 @@ __all__ = [
 ]
 
 #: column order of foot contacts: heels (``*Foot``, the ankle joints) then toes (``*ToeBase``)
-FOOT_JOINTS: tuple[str, ...] = ik.FOOT_CONTACT_JOINTS
+FOOT_JOINTS: tuple[str, ...] = FOOT_CONTACT_JOINTS
 #: the standing height (metres) at which the paper states its foot thresholds (Sec. 3.4)
 FOOT_REFERENCE_HEIGHT = 1.80
 #: standing height / height of the ``Head`` joint above the ground. The ``Head`` joint sits at the
@@ -489,9 +490,6 @@ def detect_self_contacts(vertices: np.ndarray, faces: np.ndarray, weights: np.nd
 def _canonical_rest_vertices(character) -> tuple[np.ndarray, np.ndarray]:
     """The character's mesh and joints re-posed into the canonical T-pose
     (:func:`~retarget_lib.core.transfer.canonical_rest_skeleton`): ``(V, 3)``, ``(22, 3)``."""
-    from .core.kinematics import forward_kinematics
-    from .core.transfer import canonical_rest_skeleton, transfer_rotations
-
     skeleton = character.skeleton
     canonical = canonical_rest_skeleton(skeleton)
     identity = np.zeros((22, 4))
