@@ -37,12 +37,12 @@ import torch
 
 from .core.character import Character
 from .core.motion import Motion
+from .core.quantities import MotionQuantities, foot_ground_heights, leg_ratio, motion_quantities
 from .core.skinning import linear_blend_skinning
 from .files import atomic_write, cache_dir
 from .geometry.contacts import SelfContacts, detect_foot_contacts, detect_self_contacts, vertex_correspondence
 from .geometry.penetration import InterpenetrationEnergy
-from .losses.contact import (ContactEnergyWeights, MotionQuantities, foot_contact_energy, foot_ground_heights,
-                             leg_ratio, motion_quantities, self_contact_energy, skeleton_energy)
+from .losses.contact import ContactEnergyWeights, foot_contact_energy, self_contact_energy, skeleton_energy
 from .models.georet import GeometryConditionedRNN, batch_meshes, motion_features, pose_outputs
 from .notebook import seed_everything
 from .train import TrainTask, load_checkpoint

@@ -58,13 +58,14 @@ import numpy as np
 import torch
 
 from .core.motion import Motion
+from .core.quantities import (MotionQuantities, foot_ground_heights, leg_ratio as skeleton_leg_ratio,
+                              motion_quantities)
 from .core.skeleton import J
 from .core.skinning import linear_blend_skinning
 from .geometry.penetration import InterpenetrationEnergy
-from .losses.contact import (ContactEnergyWeights, MotionQuantities, eso_self_contact_energy,
-                             end_effector_energy_per_frame, foot_contact_energy_per_frame, foot_ground_heights,
-                             leg_ratio as skeleton_leg_ratio, motion_quantities, reach_hold_energy,
-                             self_contact_energy, weak_energy)
+from .losses.contact import (ContactEnergyWeights, eso_self_contact_energy, end_effector_energy_per_frame,
+                             foot_contact_energy_per_frame, reach_hold_energy, self_contact_energy,
+                             weak_energy)
 from .models.georet import DecoderState, GeometryConditionedRNN, TargetContext, motion_features
 
 Tensor = torch.Tensor

@@ -9,7 +9,8 @@ from retarget_lib.data.characters import make_character
 from retarget_lib.data.motions import make_motion
 from retarget_lib.eso import (TERMS, encoder_space_optimization, eso_source, eso_throughput, reachable_pairs,
                               reached_joints)
-from retarget_lib.losses.contact import ContactEnergyWeights, MotionQuantities, motion_quantities
+from retarget_lib.losses.contact import ContactEnergyWeights
+from retarget_lib.core.quantities import MotionQuantities, motion_quantities
 from retarget_lib.models.georet import GeometryConditionedRNN, motion_features, pose_outputs
 from retarget_lib.geometry.penetration import InterpenetrationEnergy
 from retarget_lib.core.rotations import quat_identity

@@ -8,27 +8,29 @@ import torch
 
 from retarget_lib.losses.contact import (
     END_EFFECTORS,
-    FOOT_CONTACT_IDS,
     TABLE3_ROWS,
     ContactEnergyWeights,
-    MotionQuantities,
     end_effector_energy,
     end_effector_energy_per_frame,
     eso_self_contact_energy,
     foot_contact_energy,
     foot_contact_energy_per_frame,
-    foot_ground_heights,
-    forward_root_velocity,
-    frame_velocities,
     full_energy,
     geometry_energy,
-    leg_height,
-    leg_ratio,
-    motion_quantities,
     reach_hold_energy,
     self_contact_energy,
     skeleton_energy,
     weak_energy,
+)
+from retarget_lib.core.quantities import (
+    FOOT_CONTACT_IDS,
+    MotionQuantities,
+    foot_ground_heights,
+    forward_root_velocity,
+    frame_velocities,
+    leg_height,
+    leg_ratio,
+    motion_quantities,
 )
 from retarget_lib.geometry.penetration import InterpenetrationEnergy, interpenetration_energy
 from retarget_lib.core.rotations import quat_from_axis_angle, quat_identity
@@ -320,7 +322,7 @@ def test_full_energy_is_differentiable_in_the_output_motion():
 
 def test_foot_ground_heights_measure_from_the_rest_ground():
     from retarget_lib.data.characters import make_character
-    from retarget_lib.losses.contact import foot_ground_heights
+    from retarget_lib.core.quantities import foot_ground_heights
 
     sk = make_character("ada").skeleton
     on_floor = foot_ground_heights(sk)

@@ -20,6 +20,7 @@ import numpy as np
 import torch
 
 from .motion import Motion
+from .quantities import leg_ratio
 from .rotations import frame_rotation, quat_between, quat_canonical, quat_conjugate, quat_identity, quat_mul
 from .skeleton import CANONICAL22, CANONICAL22_PARENTS, J, JointSetError, Skeleton, canonical22_skeleton
 
@@ -107,10 +108,6 @@ def transfer_rotations(rotations: np.ndarray, source: Skeleton, target: Skeleton
     return quat_canonical(quat_mul(quat_conjugate(c_parent), quat_mul(q, c))).numpy()
 
 
-def _root_scale(source: Skeleton, target: Skeleton) -> float:
-    return target.leg_length() / source.leg_length()
-
-
 def retarget_ground_truth(motion: Motion, target_skeleton: Skeleton) -> Motion:
     """The ground-truth retargeting of a synthetic motion onto another character (DESIGN.md).
 
@@ -129,7 +126,7 @@ def retarget_ground_truth(motion: Motion, target_skeleton: Skeleton) -> Motion:
         the target's :class:`Motion` (same frames and fps).
     """
     rot = transfer_rotations(motion.rotations, motion.skeleton, target_skeleton)
-    root = motion.root_positions * _root_scale(motion.skeleton, target_skeleton)
+    root = motion.root_positions * leg_ratio(motion.skeleton, target_skeleton)
     return motion.copy(skeleton=target_skeleton.copy(), rotations=rot, root_positions=root,
                        meta=dict(motion.meta, retargeted="ground_truth"))
 
@@ -144,7 +141,7 @@ def copy_rotations(motion: Motion, target_skeleton: Skeleton) -> Motion:
         motion: source motion on the canonical 22 joints.
         target_skeleton: canonical-22 target character.
     """
-    root = motion.root_positions * _root_scale(motion.skeleton, target_skeleton)
+    root = motion.root_positions * leg_ratio(motion.skeleton, target_skeleton)
     return motion.copy(skeleton=target_skeleton.copy(), root_positions=root,
                        meta=dict(motion.meta, retargeted="copy"))
 

@@ -20,17 +20,17 @@ Conventions and readings (the paper leaves them open; decided here):
 * **Eq. 3** averages the Euclidean *norm* ``‖v_i − v_j‖₂`` (not its square), as printed: two
   vertices 3 cm apart give ``Ej2j = 0.03``.
 * **Velocities in Eqs. 6 and 9** are backward differences; the first frame of a clip has zero
-  velocity (:func:`frame_velocities`), so there only Efoot's height term acts. Clip-level
+  velocity (:func:`~retarget_lib.core.quantities.frame_velocities`), so there only Efoot's height term acts. Clip-level
   energies are the mean of the per-frame energies ``E(t)`` over frames (Eq. 1 is per frame);
   ``*_per_frame`` variants return ``(..., T)``.
-* **Efoot's ground.** ``ḡ_j^y`` is the joint's rest (T-pose) height (:func:`foot_ground_heights`):
+* **Efoot's ground.** ``ḡ_j^y`` is the joint's rest (T-pose) height (:func:`~retarget_lib.core.quantities.foot_ground_heights`):
   "we get the heel height from reference pose ... so that ground height of zero corresponds to
   contact" (Sec. 3.1.1).
 * **Eq. 8.** ``θ`` are 3×3 rotation matrices (the paper's ``R^(9J)`` representation), so
   ``‖θ^B_j − θ^A_j‖²`` is the squared Frobenius norm: a 90° difference gives ``4``. Only the
   rotation sum is weighted by ``ρ``, as printed. ``o`` is the root velocity
-  (:func:`forward_root_velocity`: the displacement from frame ``t`` to ``t + 1``, matching the
-  network's Eq. 18), ``o^(A→B) = (h_legs_B / h_legs_A) o^A`` with :func:`leg_height`.
+  (:func:`~retarget_lib.core.quantities.forward_root_velocity`: the displacement from frame ``t`` to ``t + 1``, matching the
+  network's Eq. 18), ``o^(A→B) = (h_legs_B / h_legs_A) o^A`` with :func:`~retarget_lib.core.quantities.leg_height`.
 * **End effectors** (Eq. 9, "hands and feet"): ``LeftHand, RightHand, LeftFoot, RightFoot``
   (:data:`END_EFFECTORS`).
 * **ESO's relaxed self-contact term** (App. B.1, "aggregating 0.7 of the distance from the
@@ -63,14 +63,14 @@ the metre values as they are.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Callable, NamedTuple, Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 import torch
 
-from ..core.kinematics import forward_kinematics
+from ..core.quantities import FOOT_CONTACT_IDS, MotionQuantities, frame_velocities
 from ..core.rotations import quat_to_matrix
-from ..core.skeleton import FOOT_CONTACT_JOINTS, CANONICAL22_PARENTS, J, Skeleton
+from ..core.skeleton import J
 
 Tensor = torch.Tensor
 Scalar = float | Tensor
@@ -78,17 +78,9 @@ Scalar = float | Tensor
 __all__ = [
     "END_EFFECTORS",
     "END_EFFECTOR_IDS",
-    "FOOT_CONTACT_IDS",
     "LENGTH_POWER",
     "TABLE3_ROWS",
     "ContactEnergyWeights",
-    "MotionQuantities",
-    "motion_quantities",
-    "leg_height",
-    "leg_ratio",
-    "foot_ground_heights",
-    "forward_root_velocity",
-    "frame_velocities",
     "self_contact_energy",
     "eso_self_contact_energy",
     "reach_hold_energy",
@@ -105,8 +97,6 @@ __all__ = [
 #: the end effectors of Eq. 9 ("hands and feet")
 END_EFFECTORS: tuple[str, ...] = ("LeftHand", "RightHand", "LeftFoot", "RightFoot")
 END_EFFECTOR_IDS: tuple[int, ...] = tuple(J[n] for n in END_EFFECTORS)
-#: canonical ids of the Efoot joints, in :data:`retarget_lib.core.skeleton.FOOT_CONTACT_JOINTS` order
-FOOT_CONTACT_IDS: tuple[int, ...] = tuple(J[n] for n in FOOT_CONTACT_JOINTS)
 
 
 # ----------------------------------------------------------------------------- weights
@@ -213,96 +203,12 @@ class ContactEnergyWeights:
 
 
 # ----------------------------------------------------------------------------- helpers
-def leg_height(skeleton: Skeleton) -> float:
-    """``h_legs``: rest height of the hips above the lowest foot joint (metres).
-
-    The same leg length the synthetic ground truth scales root trajectories by
-    (:meth:`~retarget_lib.core.skeleton.Skeleton.leg_length`).
-    """
-    return skeleton.leg_length()
-
-
-def leg_ratio(source: Skeleton, target: Skeleton) -> float:
-    """``h_legs_B / h_legs_A``, the factor turning ``o^A`` into ``o^(A→B)`` (Eq. 8)."""
-    return leg_height(target) / leg_height(source)
-
-
-def foot_ground_heights(skeleton: Skeleton) -> np.ndarray:
-    """``(4,)`` rest (T-pose) heights of the :data:`FOOT_CONTACT_IDS` joints above the rest
-    ground (metres, Sec. 3.1.1).
-
-    The ground is ``y = 0`` for skeletons standing on the floor (characters, shape files) and the
-    lowest rest foot joint for a BVH skeleton whose root sits at the origin (its feet are below 0),
-    as in :func:`retarget_lib.geometry.contacts.rest_ground_height`.
-    """
-    feet = skeleton.rest_positions()[list(FOOT_CONTACT_IDS), 1]
-    return feet - min(0.0, float(feet.min()))
-
-
-def forward_root_velocity(root_positions: Tensor) -> Tensor:
-    """Root velocity ``o_t = r_(t+1) − r_t`` (Eqs. 8, 17-18: ``o_(t−1)`` moves frame ``t−1`` to ``t``).
-
-    The last frame repeats the previous velocity (a one-frame clip gets zero).
-
-    Args:
-        root_positions: ``(..., T, 3)`` metres.
-
-    Returns:
-        ``(..., T, 3)`` metres per frame; ``r_t = r_0 + Σ_(k<t) o_k``.
-    """
-    if root_positions.shape[-2] < 2:
-        return torch.zeros_like(root_positions)
-    step = root_positions.diff(dim=-2)
-    return torch.cat((step, step[..., -1:, :]), dim=-2)
-
-
-def frame_velocities(positions: Tensor) -> Tensor:
-    """Backward-difference velocities ``ġ_t = g_t − g_(t−1)``, zero at the first frame (Eqs. 6, 9).
-
-    Args:
-        positions: ``(..., T, J, 3)`` metres.
-
-    Returns:
-        ``(..., T, J, 3)`` metres per frame.
-    """
-    return torch.cat((torch.zeros_like(positions[..., :1, :, :]), positions.diff(dim=-3)), dim=-3)
 
 
 def _batch_scalar(value: Scalar, like: Tensor, trailing: int) -> Tensor:
     """A float or ``(...)`` tensor as a tensor broadcasting against ``(..., *trailing ones)``."""
     t = torch.as_tensor(value, dtype=like.dtype, device=like.device)
     return t.reshape(t.shape + (1,) * trailing)
-
-
-class MotionQuantities(NamedTuple):
-    """What Eskel and Efoot read from one motion (source ``A`` or output ``B``).
-
-    Attributes:
-        rotations: ``(..., T, 22, 4)`` local rotations, unit wxyz.
-        root_velocity: ``(..., T, 3)`` ``o_t`` (:func:`forward_root_velocity`), metres per frame.
-        positions: ``(..., T, 22, 3)`` global joint positions ``g`` (metres).
-        height: character height ``h`` (metres), a float or ``(...)`` tensor.
-    """
-
-    rotations: Tensor
-    root_velocity: Tensor
-    positions: Tensor
-    height: Scalar
-
-
-def motion_quantities(rotations: Tensor, root_positions: Tensor, offsets: Tensor | np.ndarray,
-                      height: Scalar, parents: Sequence[int] = CANONICAL22_PARENTS) -> MotionQuantities:
-    """:class:`MotionQuantities` of a motion: FK for ``g`` and :func:`forward_root_velocity`.
-
-    Args:
-        rotations: ``(..., T, 22, 4)`` local unit wxyz.
-        root_positions: ``(..., T, 3)`` metres.
-        offsets: ``(22, 3)`` or ``(..., 1, 22, 3)`` rest offsets (metres).
-        height: the character's height ``h`` (metres), float or ``(...)``.
-        parents: joint parents.
-    """
-    positions = forward_kinematics(rotations, offsets, parents, root_positions).positions
-    return MotionQuantities(rotations, forward_root_velocity(root_positions), positions, height)
 
 
 # ----------------------------------------------------------------------------- geometry terms
@@ -400,7 +306,7 @@ def foot_contact_energy_per_frame(positions: Tensor, contacts: Tensor | np.ndarr
     Args:
         positions: ``(..., T, 22, 3)`` global joint positions (metres).
         contacts: ``(..., T, 4)`` bool, per :data:`retarget_lib.core.skeleton.FOOT_CONTACT_JOINTS`.
-        ground_heights: ``(4,)`` the joints' rest heights (:func:`foot_ground_heights`).
+        ground_heights: ``(4,)`` the joints' rest heights (:func:`~retarget_lib.core.quantities.foot_ground_heights`).
         height: ``h_B`` (metres), float or ``(...)``.
 
     Returns:
@@ -438,7 +344,7 @@ def weak_energy(rot_b: Tensor, rot_a: Tensor, root_vel_b: Tensor, root_vel_a: Te
         rot_a: ``(..., 22, 4)`` source local rotations.
         root_vel_b: ``(..., 3)`` output root velocity ``o^B`` (metres per frame).
         root_vel_a: ``(..., 3)`` source root velocity ``o^A``.
-        leg_ratio: ``h_legs_B / h_legs_A`` (:func:`leg_ratio`), float or ``(...)``.
+        leg_ratio: ``h_legs_B / h_legs_A`` (:func:`~retarget_lib.core.quantities.leg_ratio`), float or ``(...)``.
         rho: ``ρ``.
 
     Returns:
@@ -488,8 +394,8 @@ def skeleton_energy(output: MotionQuantities, source: MotionQuantities, leg_rati
     """``Eskel = Eweak + ω Eee`` (Eq. 7) of a clip, each term averaged over frames.
 
     Args:
-        output: :class:`MotionQuantities` of the retargeted motion (``B``), ``(..., T, ...)``.
-        source: :class:`MotionQuantities` of the source motion (``A``), same frames.
+        output: :class:`~retarget_lib.core.quantities.MotionQuantities` of the retargeted motion (``B``), ``(..., T, ...)``.
+        source: :class:`~retarget_lib.core.quantities.MotionQuantities` of the source motion (``A``), same frames.
         leg_ratio: ``h_legs_B / h_legs_A``, float or ``(...)``.
         weights: :class:`ContactEnergyWeights` (``ρ``, ``ω``).
 

@@ -59,6 +59,7 @@ from typing import Literal, Mapping, NamedTuple
 import torch
 import torch.nn.functional as F
 
+from ..core.quantities import normalized_joint_displacements, normalized_root_distances
 from ..core.rotations import quat_angle
 
 Tensor = torch.Tensor
@@ -66,7 +67,6 @@ Reduction = Literal["mean", "per_sample"]
 
 __all__ = [
     "MotionTensors",
-    "DiscriminatorInputs",
     "NonFiniteLossError",
     "TDCNLossWeights",
     "TERM_WEIGHTS",
@@ -76,11 +76,7 @@ __all__ = [
     "reconstruction_loss",
     "twist_penalty",
     "twist_loss",
-    "normalized_joint_displacements",
-    "normalized_root_distances",
-    "normalized_root_displacements",
     "height_loss",
-    "discriminator_inputs",
     "adversarial_loss_generator",
     "adversarial_loss_discriminator",
     "adversarial_loss",
@@ -109,20 +105,6 @@ class MotionTensors(NamedTuple):
     p: Tensor
     q: Tensor
     r: Tensor
-
-
-class DiscriminatorInputs(NamedTuple):
-    """What the discriminator sees of one motion (Eqs. 19/20).
-
-    Attributes:
-        l: ``(B, T-1, J)`` per-joint frame-to-frame displacement magnitudes over ``H`` (Eq. 11/12).
-        delta: ``(B, T-1)`` root displacement magnitudes over ``H`` (Eq. 18).
-        bones: ``(B, J)`` bone lengths in metres (``B^A``/``B^B`` of Eqs. 19/20), not normalised.
-    """
-
-    l: Tensor
-    delta: Tensor
-    bones: Tensor
 
 
 class NonFiniteLossError(FloatingPointError):
@@ -161,16 +143,6 @@ def _reduce(x: Tensor, reduction: Reduction) -> Tensor:
     if reduction == "per_sample":
         return x.reshape(x.shape[0], -1).mean(dim=1)
     raise ValueError(f"reduction must be 'mean' or 'per_sample', got {reduction!r}")
-
-
-def _heights(h, batch: int, like: Tensor) -> Tensor:
-    """``h`` (float, 0-d or ``(B,)``) as a ``(B,)`` tensor of ``like``'s dtype/device."""
-    h = torch.as_tensor(h, dtype=like.dtype, device=like.device)
-    if h.dim() == 0:
-        h = h.expand(batch)
-    if h.shape != (batch,):
-        raise ValueError(f"height must be a float or shape ({batch},), got {tuple(h.shape)}")
-    return h
 
 
 def _check_last(name: str, x: Tensor, channels: int, ndim: int) -> None:
@@ -315,60 +287,13 @@ def twist_loss(q_b_hat: Tensor, q_a_hat: Tensor | None = None, alpha_deg: float 
 # --------------------------------------------------------------------------------------------
 
 
-def normalized_joint_displacements(p: Tensor, h) -> Tensor:
-    """``l_t = ‖p_t − p_{t−1}‖ / H`` for ``t = 2..T`` (Eqs. 9-12).
-
-    Args:
-        p: ``(B, T, J, 3)`` root-relative joint positions, metres.
-        h: character heights ``H``, float or ``(B,)``, metres.
-
-    Returns:
-        ``(B, T-1, J)`` dimensionless.
-    """
-    _check_last("p", p, 3, 4)
-    if p.shape[1] < 2:
-        raise ValueError(f"need T >= 2 frames for displacements, got T={p.shape[1]}")
-    d = p[:, 1:] - p[:, :-1]
-    return torch.linalg.vector_norm(d, dim=-1) / _heights(h, p.shape[0], p)[:, None, None]
-
-
-def normalized_root_distances(r: Tensor, h) -> Tensor:
-    """``m_t = ‖r_t‖ / H`` for ``t = 1..T`` (Eqs. 15-16; motion assumed around the origin).
-
-    Args:
-        r: ``(B, T, 3)`` root positions, metres.
-        h: float or ``(B,)`` heights, metres.
-
-    Returns:
-        ``(B, T)``.
-    """
-    _check_last("r", r, 3, 3)
-    return torch.linalg.vector_norm(r, dim=-1) / _heights(h, r.shape[0], r)[:, None]
-
-
-def normalized_root_displacements(r: Tensor, h) -> Tensor:
-    """``δ_t = ‖r_t − r_{t−1}‖ / H`` for ``t = 2..T`` (Eq. 18).
-
-    Args:
-        r: ``(B, T, 3)`` root positions, metres.
-        h: float or ``(B,)`` heights, metres.
-
-    Returns:
-        ``(B, T-1)``.
-    """
-    _check_last("r", r, 3, 3)
-    if r.shape[1] < 2:
-        raise ValueError(f"need T >= 2 frames for displacements, got T={r.shape[1]}")
-    return normalized_root_distances(r[:, 1:] - r[:, :-1], h)
-
-
 def height_loss(p_a: Tensor, p_b_hat: Tensor, r_a: Tensor, r_b_hat: Tensor, h_a, h_b,
                 lambda_g: float = 5.0, reduction: Reduction = "mean") -> Tensor:
     """Height loss ``Lh`` (Eqs. 9-17): B's motion should be A's, scaled by the height ratio.
 
     ``Lh = smoothL1(l^A_{2:T} − l̂^B_{2:T}) + λg · smoothL1(m^A_{2:T} − m̂^B_{2:T})`` with
     ``l`` the per-joint frame-to-frame displacement magnitudes over ``H`` (Eqs. 9-12, see
-    :func:`normalized_joint_displacements`), ``m`` the root's distance from the origin over ``H``
+    :func:`~retarget_lib.core.quantities.normalized_joint_displacements`), ``m`` the root's distance from the origin over ``H``
     (Eqs. 15-16) and ``smoothL1`` Eq. 14. Frame 1 of ``m`` is not used (Eq. 17 says ``2:T``; the
     authors' code uses ``1:T−1`` — immaterial for long clips).
 
@@ -403,35 +328,6 @@ def height_loss(p_a: Tensor, p_b_hat: Tensor, r_a: Tensor, r_b_hat: Tensor, h_a,
     m_a = normalized_root_distances(r_a, h_a)[:, 1:]
     m_b = normalized_root_distances(r_b_hat, h_b)[:, 1:]
     return smooth_l1(l_a - l_b, reduction) + lambda_g * smooth_l1(m_a - m_b, reduction)
-
-
-def discriminator_inputs(p: Tensor, r: Tensor, offsets: Tensor, h) -> DiscriminatorInputs:
-    """The discriminator's inputs ``(l, δ, B)`` for one motion (Eqs. 11/12, 18, 19/20).
-
-    Args:
-        p: ``(B, T, J, 3)`` root-relative joint positions (real ``p^A`` or generated ``p̂^B``).
-        r: ``(B, T, 3)`` root positions.
-        offsets: ``(J, 3)`` or ``(B, J, 3)`` rest offsets of the character performing ``p``.
-        h: that character's ``H``, float or ``(B,)``.
-
-    Returns:
-        :class:`DiscriminatorInputs`: ``l (B, T-1, J)``, ``delta (B, T-1)``, ``bones (B, J)``.
-        ``bones[:, j] = ‖offsets[j]‖`` in metres, un-normalised (the paper normalises only ``l``
-        and ``δ``; Sec. 4.2 (ii)); entry 0 is the root's rest-position norm, as in
-        :meth:`Skeleton.bone_lengths` and the authors' code.
-    """
-    batch = p.shape[0]
-    offsets = torch.as_tensor(offsets, dtype=p.dtype, device=p.device)
-    if offsets.dim() == 2:
-        offsets = offsets.expand(batch, *offsets.shape)
-    if offsets.shape != (batch, p.shape[2], 3):
-        raise ValueError(f"offsets must be (J,3) or (B,J,3) with J={p.shape[2]}, got "
-                         f"{tuple(offsets.shape)}")
-    return DiscriminatorInputs(
-        normalized_joint_displacements(p, h),
-        normalized_root_displacements(r, h),
-        torch.linalg.vector_norm(offsets, dim=-1),
-    )
 
 
 # --------------------------------------------------------------------------------------------

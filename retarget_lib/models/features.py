@@ -47,8 +47,8 @@ import torch
 from torch import nn
 
 from ..core.kinematics import forward_kinematics
+from ..core.quantities import discriminator_inputs
 from ..core.skeleton import CANONICAL22_PARENTS, HEIGHT_BONES
-from ..losses.tdcn import discriminator_inputs
 
 Tensor = torch.Tensor
 
@@ -59,6 +59,7 @@ __all__ = [
     "discriminator_input_channels",
     "nkn_input_channels",
     "skeleton_height",
+    "batched_offsets",
     "source_local_positions",
     "generator_features",
     "split_generator_features",
@@ -100,7 +101,7 @@ def _layout(num_joints: int) -> dict[str, slice]:
 GENERATOR_LAYOUT: dict[str, slice] = _layout(NUM_JOINTS)
 
 
-def _batched_offsets(offsets: Tensor, batch: int) -> Tensor:
+def batched_offsets(offsets: Tensor, batch: int) -> Tensor:
     """``(J,3)`` or ``(B,J,3)`` → ``(B,J,3)``."""
     if offsets.dim() == 2:
         offsets = offsets.unsqueeze(0)
@@ -161,7 +162,7 @@ def generator_features(rotations: Tensor, root_positions: Tensor, offsets_src: T
     b, t, j, _ = rotations.shape
     if positions is None:
         positions = source_local_positions(rotations, offsets_src, parents)
-    skel = _batched_offsets(offsets_tgt.to(rotations.dtype), b).reshape(b, 1, 3 * j).expand(b, t, 3 * j)
+    skel = batched_offsets(offsets_tgt.to(rotations.dtype), b).reshape(b, 1, 3 * j).expand(b, t, 3 * j)
     x = torch.cat([positions.reshape(b, t, 3 * j), rotations.reshape(b, t, 4 * j), root_positions, skel], -1)
     return x.transpose(1, 2)
 
@@ -230,7 +231,7 @@ def discriminator_features(positions: Tensor, root_positions: Tensor, offsets: T
         ``(B, 2(J-1) + 1, T-1)``: ``l`` for joints ``1..J-1``, then ``δ``, then bone lengths.
     """
     b, t = positions.shape[:2]
-    offsets = _batched_offsets(offsets.to(positions.dtype), b)
+    offsets = batched_offsets(offsets.to(positions.dtype), b)
     # the same l, δ and bone lengths as the loss module's Eqs. 11/12, 18, 19/20; H = 1 keeps metres
     d = discriminator_inputs(positions, root_positions, offsets, skeleton_height(offsets) if normalize else 1.0)
     bones = d.bones[:, 1:].unsqueeze(1).expand(b, t - 1, -1)

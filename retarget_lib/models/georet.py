@@ -49,10 +49,10 @@ import torch
 from torch import nn
 
 from ..core.kinematics import forward_kinematics
+from ..core.quantities import forward_root_velocity
 from ..core.rotations import matrix_from_6d, matrix_to_quat, quat_identity, quat_to_matrix
 from ..core.skeleton import CANONICAL22_PARENTS
-from ..losses.contact import forward_root_velocity
-from .features import _batched_offsets, skeleton_height
+from .features import batched_offsets, skeleton_height
 
 Tensor = torch.Tensor
 
@@ -109,7 +109,7 @@ def motion_features(rotations: Tensor, root_positions: Tensor, offsets: Tensor |
     if rotations.dim() != 4 or rotations.shape[-2:] != (NUM_JOINTS, 4):
         raise ValueError(f"rotations must be (B, T, 22, 4), got {tuple(rotations.shape)}")
     b, t = rotations.shape[:2]
-    off = _batched_offsets(torch.as_tensor(offsets, dtype=rotations.dtype, device=rotations.device), b)
+    off = batched_offsets(torch.as_tensor(offsets, dtype=rotations.dtype, device=rotations.device), b)
     h = _heights(height, off).view(b, 1, 1)
     local = forward_kinematics(rotations, off.unsqueeze(1), parents, None).positions
     mats = quat_to_matrix(rotations).reshape(b, t, 9 * NUM_JOINTS)
@@ -277,7 +277,7 @@ def pose_outputs(rotations: Tensor, root_velocity: Tensor, offsets: Tensor | np.
         :class:`PosedOutput`.
     """
     b = rotations.shape[0]
-    off = _batched_offsets(torch.as_tensor(offsets, dtype=rotations.dtype, device=rotations.device), b)
+    off = batched_offsets(torch.as_tensor(offsets, dtype=rotations.dtype, device=rotations.device), b)
     steps = torch.cumsum(root_velocity, dim=1) - root_velocity  # exclusive: Σ_(k<t) o_k
     if start is not None:
         steps = steps + torch.as_tensor(start, dtype=rotations.dtype, device=rotations.device).reshape(-1, 1, 3)
@@ -349,7 +349,7 @@ class GeometryConditionedRNN(nn.Module):
         """
         b = vertices.shape[0]
         dtype = self.rotation_head.weight.dtype
-        off = _batched_offsets(torch.as_tensor(offsets, dtype=dtype, device=vertices.device), b)
+        off = batched_offsets(torch.as_tensor(offsets, dtype=dtype, device=vertices.device), b)
         h = _heights(height, off)
         skel = (off / h.view(b, 1, 1)).reshape(b, 3 * self.joints)
         return TargetContext(off, h, skel, self.geometry(vertices.to(dtype), weights.to(dtype)))

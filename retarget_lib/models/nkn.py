@@ -48,7 +48,7 @@ from torch import nn
 
 from ..core.kinematics import forward_kinematics
 from ..core.skeleton import CANONICAL22_PARENTS
-from .features import (NUM_JOINTS, FeatureNormalizer, _batched_offsets, nkn_input_channels,
+from .features import (NUM_JOINTS, FeatureNormalizer, batched_offsets, nkn_input_channels,
                        nkn_source_features, root_velocities, skeleton_height, source_local_positions)
 from .tdcn import (DEFAULT_SLOPE, DilatedStack, GeneratorOutput, edge_pad, init_identity_head,
                    normalize_quaternions)
@@ -133,8 +133,8 @@ class NKNGenerator(nn.Module):
             metres per frame.
         """
         b, t, j, _ = rotations.shape
-        off_src = _batched_offsets(offsets_src.to(rotations.dtype), b)
-        off_tgt = _batched_offsets(offsets_tgt.to(rotations.dtype), b)
+        off_src = batched_offsets(offsets_src.to(rotations.dtype), b)
+        off_tgt = batched_offsets(offsets_tgt.to(rotations.dtype), b)
         if positions is None:
             positions = source_local_positions(rotations, off_src, self.parents)
         h_src, h_tgt = skeleton_height(off_src), skeleton_height(off_tgt)
@@ -203,7 +203,7 @@ def nkn_discriminator_features(positions: Tensor, root_positions: Tensor, offset
         ``(B, 3J + 3 + 3(J-1), T-1)``.
     """
     b, t, j, _ = positions.shape
-    off = _batched_offsets(offsets.to(positions.dtype), b)
+    off = batched_offsets(offsets.to(positions.dtype), b)
     d = positions.diff(dim=1).reshape(b, t - 1, 3 * j)
     v = root_velocities(root_positions)[:, 1:]
     skel = off[:, 1:].reshape(b, 1, -1).expand(b, t - 1, 3 * (j - 1))
