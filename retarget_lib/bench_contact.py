@@ -52,7 +52,7 @@ def _brute_force_pairs(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
 def bench_eint(quick: bool = False) -> list[BenchRow]:
     """``E_int`` + backward per frame on a self-penetrating ~3k-vertex character, with its
     breakdown, beside all-pairs box detection (same run). Medians over repeats."""
-    from .data.characters import make_character
+    from .data.synthetic.characters import make_character
 
     character = make_character("ada")
     energy = InterpenetrationEnergy(character.faces, character.rest_vertices)
@@ -109,10 +109,10 @@ def bench_eso(quick: bool = False) -> list[BenchRow]:
     same size (the cost per frame is the same).
     """
     from .contact_training import contact_clip, load_contact_model, retarget_with_network
-    from .data.characters import make_character
     from .data.manifest import checkpoint, load_manifest
-    from .data.mannequin import load_mannequin
-    from .data.motions import body_radii_from_mesh, make_motion
+    from .data.sources.mannequin import load_mannequin
+    from .data.synthetic.characters import make_character
+    from .data.synthetic.motions import body_radii_from_mesh, make_motion
     from .eso import eso_throughput
     from .geometry.contacts import transfer_contacts
     from .models.georet import GeometryConditionedRNN

@@ -24,14 +24,14 @@ from .files import DataError
 
 
 def _cmd_data(args: argparse.Namespace) -> int:
-    from .data import manifest
+    from .data import status
 
     if args.action == "list":
-        print(manifest.cache_summary())
-        print(manifest.source_table())
+        print(status.cache_summary())
+        print(status.source_table())
         return 0
     if args.action == "verify":
-        statuses = manifest.verify()
+        statuses = status.verify()
         for s in statuses:
             print(f"{s.id}: {s.state} — {s.detail}")
         print("all required sources verified")

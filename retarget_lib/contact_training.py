@@ -119,7 +119,7 @@ def training_clips(config: dict) -> tuple[list[ContactClip], dict[str, Character
         ``(clips, targets)``: clips performed by the training characters with seeds below
         ``held_out_seed``, and the training characters by name.
     """
-    from .data.synthetic import dataset_path, fingerprint_of, load_synthetic
+    from .data.synthetic.dataset import dataset_path, fingerprint_of, load_synthetic
 
     data = config["data"]
     ds = load_synthetic()

@@ -88,7 +88,7 @@ def tdcn_cases() -> list[EvalCase]:
     source character, and by the target character)."""
     from .core.transfer import retarget_ground_truth
     from .data.splits import tdcn_split
-    from .data.synthetic import load_synthetic
+    from .data.synthetic.dataset import load_synthetic
 
     ds, split = load_synthetic(), tdcn_split()
     cases = []

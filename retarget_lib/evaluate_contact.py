@@ -10,7 +10,7 @@ three skinny + three bulky targets):
 * targets: :data:`CONTACT_TARGETS`, three skinny and three bulky synthetic characters, none of
   them a training character of the contact model;
 * ground truth for the global position error: the same clip (family, seed) authored on the target
-  by :func:`~retarget_lib.data.motions.make_motion`, hand contacts solved on the target's own mesh
+  by :func:`~retarget_lib.data.synthetic.motions.make_motion`, hand contacts solved on the target's own mesh
   (as Mixamo gives each character its own version of a motion);
 * source contacts are *detected* (Sec. 3.4) and carried to the target by the App. F correspondence.
 
@@ -125,7 +125,7 @@ class ContactCase:
 
 @lru_cache(maxsize=None)
 def _radii(name: str):
-    from .data.motions import body_radii_from_mesh
+    from .data.synthetic.motions import body_radii_from_mesh
 
     c = _character(name)
     return body_radii_from_mesh(c.skeleton, c.rest_vertices, c.weights)
@@ -133,8 +133,8 @@ def _radii(name: str):
 
 @lru_cache(maxsize=None)
 def _character(name: str) -> Character:
-    from .data.characters import make_character
-    from .data.mannequin import load_mannequin
+    from .data.sources.mannequin import load_mannequin
+    from .data.synthetic.characters import make_character
 
     return load_mannequin() if name == CONTACT_SOURCE else make_character(name)
 
@@ -142,7 +142,7 @@ def _character(name: str) -> Character:
 def contact_cases(profile: str = "fast") -> list[ContactCase]:
     """The test cases of ``profile`` (:data:`CONTACT_PROFILES`): every clip × every target."""
     from .contact_training import contact_clip
-    from .data.motions import make_motion
+    from .data.synthetic.motions import make_motion
 
     if profile not in CONTACT_PROFILES:
         raise ValueError(f"unknown profile {profile!r}; choose from {list(CONTACT_PROFILES)}")

@@ -28,7 +28,7 @@ def resolve_target(target: str) -> tuple[Skeleton, Motion | None]:
     if target.lower().endswith(".bvh"):
         full = load_bvh(target)
         return to_canonical22(full.slice(0, 1)).skeleton, full
-    from .data.characters import CHARACTER_NAMES, make_character
+    from .data.synthetic.characters import CHARACTER_NAMES, make_character
 
     if target not in CHARACTER_NAMES:
         raise ValueError(f"target {target!r} is neither a .bvh file nor a character; characters: "
@@ -69,14 +69,14 @@ def resolve_character(target: str, target_mesh: str | Path | None):
     """The target :class:`~retarget_lib.core.character.Character` of ``--method contact``: the
     shape file ``target_mesh`` if given, else the character named ``target`` (a synthetic
     character or ``mannequin-x``)."""
-    from .data.characters import CHARACTER_NAMES, make_character
+    from .data.synthetic.characters import CHARACTER_NAMES, make_character
 
     if target_mesh is not None:
         from .io.shape import load_shape_npz
 
         return load_shape_npz(target_mesh)
     if target == "mannequin-x":
-        from .data.mannequin import load_mannequin
+        from .data.sources.mannequin import load_mannequin
 
         return load_mannequin()
     if target in CHARACTER_NAMES:

@@ -108,7 +108,7 @@ from .core.motion import Motion
 from .core.skeleton import Skeleton
 from .core.transfer import retarget_ground_truth
 from .data.splits import tdcn_split
-from .data.synthetic import load_synthetic
+from .data.synthetic.dataset import load_synthetic
 from .files import atomic_write
 from .losses import (MotionTensors, TDCNLossWeights, adversarial_loss, adversarial_loss_discriminator,
                      adversarial_loss_generator, check_finite, cycle_loss, height_loss, orientation_loss,

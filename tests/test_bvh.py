@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import torch
 
-from retarget_lib.data import cmu
+from retarget_lib.data.sources import cmu
 from retarget_lib.files import DataError, cache_dir, sha256_file
 from retarget_lib.io import BVHError, load_bvh, save_bvh
 from retarget_lib.io.bvh import UNIT_SCALES

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 import torch
 
-from retarget_lib.data.cmu import CMU_CLIPS, cmu_clip_path, load_cmu_clip
+from retarget_lib.data.sources.cmu import CMU_CLIPS, cmu_clip_path, load_cmu_clip
 from retarget_lib.io import load_bvh
 from retarget_lib.core.motion import Motion
 from retarget_lib.core.rotations import (quat_conjugate, quat_from_axis_angle, quat_mul, quat_rotate,
@@ -197,7 +197,7 @@ def test_normalize_root_faces_z_at_the_origin(name):
 @pytest.mark.parametrize("name", ["01_01.bvh", "Boxing_Toes.bvh"])
 def test_from_canonical22_restores_the_full_joint_set(name):
     """fold -> unfold on the real clips: the 22 kept joints land where the canonical motion puts them."""
-    from retarget_lib.data.cmu import cmu_clip_path
+    from retarget_lib.data.sources.cmu import cmu_clip_path
     from retarget_lib.io import load_bvh
     from retarget_lib.core.skeleton import CANONICAL22
     from retarget_lib.core.canonical import from_canonical22, to_canonical22

@@ -1,4 +1,4 @@
-"""The synthetic character family (retarget_lib.data.characters)."""
+"""The synthetic character family (retarget_lib.data.synthetic.characters)."""
 
 import math
 
@@ -7,7 +7,7 @@ import pytest
 import torch
 import trimesh
 
-from retarget_lib.data.characters import (
+from retarget_lib.data.synthetic.characters import (
     CHARACTER_NAMES,
     CHARACTER_SPECS,
     REFERENCE_OFFSETS,
@@ -183,7 +183,7 @@ def test_bad_names_and_factors():
 @pytest.fixture(scope="module")
 def mannequin():
     pytest.importorskip("mannequin", reason="mannequin-x is not installed")
-    from retarget_lib.data.mannequin import load_mannequin
+    from retarget_lib.data.sources.mannequin import load_mannequin
 
     return load_mannequin()
 
@@ -223,7 +223,7 @@ def test_mannequin_identity_pose(mannequin):
 def test_mannequin_checksum():
     pytest.importorskip("mannequin", reason="mannequin-x is not installed")
     from retarget_lib.files import sha256_file
-    from retarget_lib.data.mannequin import MANNEQUIN_SHA256, mannequin_path
+    from retarget_lib.data.sources.mannequin import MANNEQUIN_SHA256, mannequin_path
 
     assert sha256_file(mannequin_path()) == MANNEQUIN_SHA256
 
@@ -232,7 +232,7 @@ def test_mannequin_missing_package_says_how_to_install(monkeypatch):
     import importlib.resources
 
     from retarget_lib.files import DataError
-    from retarget_lib.data.mannequin import load_mannequin
+    from retarget_lib.data.sources.mannequin import load_mannequin
 
     def missing(name):
         raise ModuleNotFoundError(name)

@@ -9,8 +9,8 @@ from retarget_lib.cli import main
 from retarget_lib.config import load_config
 from retarget_lib.contact_training import (LOG_TERMS, ContactTraining, contact_clip, export_model, load_contact_model,
                                            retarget_with_network)
-from retarget_lib.data.characters import make_character
-from retarget_lib.data.motions import body_radii_from_mesh, make_motion
+from retarget_lib.data.synthetic.characters import make_character
+from retarget_lib.data.synthetic.motions import body_radii_from_mesh, make_motion
 from retarget_lib.train import fit
 
 
@@ -56,7 +56,7 @@ def test_training_logs_every_term_and_resumes_exactly(small, tmp_path):
 
 
 def test_contact_method_on_the_command_line(tmp_path, capsys):
-    from retarget_lib.data.cmu import cmu_clip_path
+    from retarget_lib.data.sources.cmu import cmu_clip_path
     from retarget_lib.io import load_bvh, save_bvh
 
     short = tmp_path / "short.bvh"

@@ -23,7 +23,7 @@ from retarget_lib.geometry.contacts import (
     vertex_groups,
 )
 from retarget_lib.core.character import Character
-from retarget_lib.data.characters import make_character
+from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.core.skeleton import J, canonical22_skeleton
 from skeletons import make_skeleton
 
@@ -276,7 +276,7 @@ def test_transfer_contacts_goes_through_the_correspondence(ada):
 # ----------------------------------------------------------------------------- synthetic clips
 @pytest.fixture(scope="module")
 def synthetic():
-    from retarget_lib.data.synthetic import load_synthetic
+    from retarget_lib.data.synthetic.dataset import load_synthetic
 
     return load_synthetic()
 

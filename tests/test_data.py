@@ -4,12 +4,12 @@ import numpy as np
 import pytest
 
 from retarget_lib.cli import main
-from retarget_lib.data import manifest
+from retarget_lib.data import manifest, status
 from retarget_lib.files import DataError, atomic_write, check_sha256, sha256_file
-from retarget_lib.data.characters import CHARACTER_NAMES
-from retarget_lib.data.motions import MOTION_FAMILIES
-from retarget_lib.data.synthetic import (dataset_path, fingerprint_of, load_synthetic, read_dataset,
-                                         save_dataset)
+from retarget_lib.data.synthetic.characters import CHARACTER_NAMES
+from retarget_lib.data.synthetic.motions import MOTION_FAMILIES
+from retarget_lib.data.synthetic.dataset import (dataset_path, fingerprint_of, load_synthetic, read_dataset,
+                                                 save_dataset)
 from retarget_lib.data.splits import tdcn_split
 
 
@@ -23,7 +23,7 @@ def test_every_source_has_id_license_origin_and_check():
     assert set(m["sources"]) == {"synthetic", "cmu-assimp", "mannequin-x", "mixamo-local"}
     for sid, src in m["sources"].items():
         assert src["license"] and src["origin"], sid
-    statuses = {s.id: s for s in manifest.verify()}
+    statuses = {s.id: s for s in status.verify()}
     assert statuses["synthetic"].verified and statuses["cmu-assimp"].verified
     assert statuses["mannequin-x"].verified
 
@@ -32,10 +32,10 @@ def test_missing_source_says_how_to_get_it(monkeypatch, tmp_path):
     monkeypatch.setenv("RETARGET_CACHE", str(tmp_path))
     with pytest.raises(DataError, match="retarget data build"):
         read_or_fail()
-    statuses = {s.id: s for s in manifest.check_sources()}
+    statuses = {s.id: s for s in status.check_sources()}
     assert not statuses["synthetic"].present and "retarget data build" in statuses["synthetic"].detail
     with pytest.raises(DataError, match="synthetic"):
-        manifest.verify()
+        status.verify()
 
 
 def read_or_fail():
@@ -136,6 +136,6 @@ def test_checkpoint_lookup_checks_presence_and_checksum(tmp_path, monkeypatch):
         ckpt.write_bytes(b"tampered")
         with pytest.raises(DataError, match="retarget train --config configs/x.yaml"):
             manifest.checkpoint("toy")
-        assert [s.verified for s in manifest.check_checkpoints()] == [False]
+        assert [s.verified for s in status.check_checkpoints()] == [False]
     finally:
         manifest.load_manifest.cache_clear()

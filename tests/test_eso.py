@@ -5,8 +5,8 @@ import pytest
 import torch
 
 from retarget_lib.core.character import Character
-from retarget_lib.data.characters import make_character
-from retarget_lib.data.motions import make_motion
+from retarget_lib.data.synthetic.characters import make_character
+from retarget_lib.data.synthetic.motions import make_motion
 from retarget_lib.eso import (TERMS, encoder_space_optimization, eso_source, eso_throughput, reachable_pairs,
                               reached_joints)
 from retarget_lib.losses.contact import ContactEnergyWeights

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from retarget_lib.geometry.contacts import SelfContacts, detect_foot_contacts
-from retarget_lib.data.characters import make_character
+from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.evaluate_contact import (CONTACT_TARGETS, PAPER_TABLE1, PAPER_TABLE3, ablation_steps, contact_tables,
                                            foot_contact_accuracy,
                                            vertex_contact_mse)

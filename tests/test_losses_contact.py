@@ -321,7 +321,7 @@ def test_full_energy_is_differentiable_in_the_output_motion():
 
 
 def test_foot_ground_heights_measure_from_the_rest_ground():
-    from retarget_lib.data.characters import make_character
+    from retarget_lib.data.synthetic.characters import make_character
     from retarget_lib.core.quantities import foot_ground_heights
 
     sk = make_character("ada").skeleton

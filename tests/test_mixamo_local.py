@@ -4,9 +4,11 @@ import numpy as np
 import pytest
 
 from retarget_lib.data import manifest
+from retarget_lib.data.status import check_sources
 from retarget_lib.files import DataError
-from retarget_lib.data.mixamo_local import load_mixamo_motion, scan_mixamo_folder, write_mixamo_fixture
-from retarget_lib.data.synthetic import load_synthetic
+from retarget_lib.data.sources.mixamo_local import (load_mixamo_motion, scan_mixamo_folder,
+                                                    write_mixamo_fixture)
+from retarget_lib.data.synthetic.dataset import load_synthetic
 from retarget_lib.io import load_bvh, load_shape_npz
 
 
@@ -57,10 +59,10 @@ def test_shape_npz_loads_as_the_character(fixture_dir):
 def test_manifest_sees_the_folder(fixture_dir, monkeypatch, tmp_path):
     root, _, _ = fixture_dir
     monkeypatch.setenv("RETARGET_MIXAMO", str(root))
-    status = {s.id: s for s in manifest.check_sources()}["mixamo-local"]
+    status = {s.id: s for s in check_sources()}["mixamo-local"]
     assert status.present and status.verified and "2 characters" in status.detail
     monkeypatch.setenv("RETARGET_MIXAMO", str(tmp_path / "nowhere"))
-    status = {s.id: s for s in manifest.check_sources()}["mixamo-local"]
+    status = {s.id: s for s in check_sources()}["mixamo-local"]
     assert not status.present and "optional" in status.detail
     with pytest.raises(DataError, match="RETARGET_MIXAMO"):
         scan_mixamo_folder(tmp_path / "nowhere")

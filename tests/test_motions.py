@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import torch
 
-from retarget_lib.data.motions import (
+from retarget_lib.data.synthetic.motions import (
     DURATION_RANGES,
     FPS,
     MOTION_FAMILIES,

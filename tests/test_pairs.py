@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import torch
 
-from retarget_lib.data.motions import MOTION_FAMILIES, make_motion
+from retarget_lib.data.synthetic.motions import MOTION_FAMILIES, make_motion
 from retarget_lib.core.transfer import (
     PRIMARY_CHILD,
     copy_rotations,

@@ -272,7 +272,7 @@ def test_penetration_rate_of_a_box_half_inside():
 # ----------------------------------------------------------------------------- a synthetic character
 def test_character_rest_pose_is_clean_and_forearm_in_torso_is_not():
     from retarget_lib.bench_contact import forearm_in_torso_pose
-    from retarget_lib.data.characters import make_character
+    from retarget_lib.data.synthetic.characters import make_character
 
     character = make_character("ada")
     energy = InterpenetrationEnergy(character.faces, character.rest_vertices)

@@ -13,7 +13,7 @@ import torch
 
 from retarget_lib.cli import main
 from retarget_lib.config import load_config
-from retarget_lib.data.synthetic import load_synthetic
+from retarget_lib.data.synthetic.dataset import load_synthetic
 from retarget_lib.data.splits import tdcn_split
 from retarget_lib.losses import NonFiniteLossError
 from retarget_lib.models import PROFILE_WIDTHS, NKNGenerator, TDCNGenerator

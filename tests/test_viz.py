@@ -104,7 +104,7 @@ def test_player_static_and_widget_modes(tpose):
 
 
 def test_player_character_picker_shows_the_motion_on_that_character():
-    from retarget_lib.data.synthetic import load_synthetic
+    from retarget_lib.data.synthetic.dataset import load_synthetic
 
     ds = load_synthetic()
     clip = ds.family("wave")[0]

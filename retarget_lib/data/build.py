@@ -5,7 +5,11 @@ from __future__ import annotations
 import time
 
 from ..files import DataError
-from .manifest import source, verify
+from .manifest import source
+from .sources.cmu import CMU_CLIPS, cmu_clip_path
+from .sources.mannequin import mannequin_path
+from .status import verify
+from .synthetic.dataset import build_synthetic, dataset_path, fingerprint_of
 
 
 def build_all(force: bool = False) -> None:
@@ -18,10 +22,6 @@ def build_all(force: bool = False) -> None:
         DataError: if a source cannot be fetched or fails its checksum (the message says how to
             get it).
     """
-    from .cmu import CMU_CLIPS, cmu_clip_path
-    from .mannequin import mannequin_path
-    from .synthetic import build_synthetic, dataset_path, fingerprint_of
-
     t0 = time.perf_counter()
     paths = [cmu_clip_path(name, fetch=True) for name in CMU_CLIPS]
     print(f"cmu-assimp: {len(paths)} clips in {paths[0].parent}", flush=True)

@@ -8,9 +8,9 @@ from typing import NamedTuple, Sequence
 
 import numpy as np
 
-from .characters import CHARACTER_NAMES
 from .manifest import source
-from .motions import MOTION_FAMILIES
+from .synthetic.characters import CHARACTER_NAMES
+from .synthetic.motions import MOTION_FAMILIES
 
 
 class MotionId(NamedTuple):

@@ -559,7 +559,7 @@ def transfer_contacts(contacts: SelfContacts, source, target, offset_weight: flo
 # ----------------------------------------------------------------------------- evaluation
 def authored_contact_frames(hand_contacts: Iterable, num_frames: int, hand: str | None = None) -> np.ndarray:
     """``(T,)`` bool: frames inside any authored hand-contact interval ``[start, stop)`` (the
-    synthetic clips' :class:`~retarget_lib.data.authoring.HandContact` list), optionally only
+    synthetic clips' :class:`~retarget_lib.data.synthetic.authoring.HandContact` list), optionally only
     those of one ``hand`` (``"LeftHand"`` / ``"RightHand"``)."""
     mask = np.zeros(num_frames, dtype=bool)
     for c in hand_contacts:

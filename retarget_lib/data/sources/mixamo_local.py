@@ -19,12 +19,12 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from ..core.motion import Motion
-from ..core.rotations import quat_from_axis_angle
-from ..core.skeleton import CANONICAL22, Skeleton
-from ..files import DataError
-from ..io.bvh import load_canonical_bvh, save_bvh
-from ..io.shape import save_shape_npz
+from ...core.motion import Motion
+from ...core.rotations import quat_from_axis_angle
+from ...core.skeleton import CANONICAL22, Skeleton
+from ...files import DataError
+from ...io.bvh import load_canonical_bvh, save_bvh
+from ...io.shape import save_shape_npz
 
 SHAPE_FILE = "shape.npz"
 FINGERS = ("Thumb", "Index", "Middle", "Ring", "Pinky")

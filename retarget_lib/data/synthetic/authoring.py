@@ -1,6 +1,6 @@
 """Motion authoring engine: keyframed, IK-solved poses made physically consistent for one character.
 
-The motion families (:mod:`retarget_lib.data.motions`) describe *what* is performed; this module
+The motion families (:mod:`retarget_lib.data.synthetic.motions`) describe *what* is performed; this module
 provides the tools they are written with (timing and easing curves, the canonical pose, footstep
 plans, hand goals) and turns a finished :class:`Plan` into a :class:`~retarget_lib.core.motion.Motion`.
 
@@ -26,7 +26,7 @@ How a clip is made (so that it is physically consistent *for the given character
    at arm's reach (punch). The arms are solved with two-bone IK, eased in and out.
 
 :func:`assemble` fills ``Motion.meta`` with the style, body radii and contact labels described in
-:mod:`retarget_lib.data.motions`.
+:mod:`retarget_lib.data.synthetic.motions`.
 """
 
 from __future__ import annotations
@@ -38,9 +38,9 @@ import numpy as np
 import torch
 from scipy.ndimage import gaussian_filter1d, maximum_filter1d
 
-from ..core.kinematics import forward_kinematics
-from ..core.motion import Motion
-from ..core.rotations import (
+from ...core.kinematics import forward_kinematics
+from ...core.motion import Motion
+from ...core.rotations import (
     frame_rotation,
     quat_conjugate,
     quat_from_axis_angle,
@@ -51,9 +51,9 @@ from ..core.rotations import (
     quat_slerp,
     quat_to_matrix,
 )
-from ..core.skeleton import J, Skeleton
-from ..core.transfer import canonical_rest_skeleton, transfer_rotations
-from ..geometry.ik import limb_chain, two_bone_ik
+from ...core.skeleton import J, Skeleton
+from ...core.transfer import canonical_rest_skeleton, transfer_rotations
+from ...geometry.ik import limb_chain, two_bone_ik
 
 __all__ = [
     "FPS",

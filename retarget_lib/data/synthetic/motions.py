@@ -6,7 +6,7 @@ is deterministic in ``(family, skeleton, seed)``; the seed draws the style (spee
 amplitude, arm swing, stance width, timing, turning direction, small asymmetries and noise) and
 the duration (2-40 s depending on the family), at 30 fps.
 
-The clips are authored with :mod:`retarget_lib.data.authoring` (canonical rest pose, planted
+The clips are authored with :mod:`retarget_lib.data.synthetic.authoring` (canonical rest pose, planted
 feet, real hand contacts; see there for how a clip is made).
 
 ``Motion.meta`` records what was used: ``family``, ``seed``, ``style``, ``body_radii``,
@@ -21,9 +21,9 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from ..core.motion import Motion
-from ..core.skeleton import J, Skeleton
-from ..core.transfer import canonical_rest_skeleton, transfer_rotations
+from ...core.motion import Motion
+from ...core.skeleton import J, Skeleton
+from ...core.transfer import canonical_rest_skeleton, transfer_rotations
 from .authoring import (
     FPS,
     SIDES,

@@ -26,10 +26,10 @@ import tarfile
 import tempfile
 from pathlib import Path
 
-from ..core.canonical import to_canonical22
-from ..core.motion import Motion
-from ..files import DataError, cache_dir, check_sha256
-from ..io.bvh import load_bvh
+from ...core.canonical import to_canonical22
+from ...core.motion import Motion
+from ...files import DataError, cache_dir, check_sha256
+from ...io.bvh import load_bvh
 
 __all__ = ["CMU_CLIPS", "CMU_SHA256", "SYSTEM_DIR", "cmu_clip_path", "load_cmu_clip"]
 

@@ -26,10 +26,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.canonical import SMPLX_BODY_NAMES, SMPLX_MAP
-from ..core.character import Character
-from ..core.skeleton import CANONICAL22, CANONICAL22_PARENTS, canonical22_skeleton
-from ..files import DataError, check_sha256
+from ...core.canonical import SMPLX_BODY_NAMES, SMPLX_MAP
+from ...core.character import Character
+from ...core.skeleton import CANONICAL22, CANONICAL22_PARENTS, canonical22_skeleton
+from ...files import DataError, check_sha256
 
 __all__ = ["MANNEQUIN_SHA256", "load_mannequin", "mannequin_path"]
 

@@ -38,9 +38,9 @@ import numpy as np
 import trimesh
 from skimage.measure import marching_cubes
 
-from ..core.character import Character
-from ..core.skeleton import J, canonical22_skeleton
-from ..core.skinning import subsample_mesh
+from ...core.character import Character
+from ...core.skeleton import J, canonical22_skeleton
+from ...core.skinning import subsample_mesh
 
 __all__ = [
     "CHARACTER_NAMES",

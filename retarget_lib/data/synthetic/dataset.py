@@ -1,7 +1,7 @@
 """The embedded ``synthetic`` dataset: every named character and a motion library, built once into
 the cache (``<cache>/synthetic/dataset.npz``) and loaded from there.
 
-Each clip is authored (keyframes + IK, :mod:`retarget_lib.data.motions`) on one *performer*
+Each clip is authored (keyframes + IK, :mod:`retarget_lib.data.synthetic.motions`) on one *performer*
 character, so its contacts are exact on that body; performers rotate over all characters. Any
 other character's version of a clip is its ground truth (:func:`retarget_lib.core.transfer.
 retarget_ground_truth`) — like Mixamo, where every motion exists on every character.
@@ -17,12 +17,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.character import Character
-from ..core.motion import Motion
-from ..core.skeleton import canonical22_skeleton
-from ..files import DataError, atomic_write, cache_dir
+from ...core.character import Character
+from ...core.motion import Motion
+from ...core.skeleton import canonical22_skeleton
+from ...files import DataError, atomic_write, cache_dir
+from ..manifest import source
 from .characters import CHARACTER_NAMES, make_character
-from .manifest import source
 from .motions import FPS, MOTION_FAMILIES, HandContact, body_radii_from_mesh, make_motion
 
 FORMAT_VERSION = 1
@@ -39,7 +39,7 @@ class SyntheticClip:
 
     Attributes:
         motion: the clip on its performer (canonical 22 joints, 30 fps, metres).
-        family: motion family (one of :data:`~retarget_lib.data.motions.MOTION_FAMILIES`).
+        family: motion family (one of :data:`~retarget_lib.data.synthetic.motions.MOTION_FAMILIES`).
         seed: style seed within the family.
         performer: name of the character the clip was authored on.
         foot_contacts: ``(T, 2)`` bool, left/right foot flat and still (as authored).
