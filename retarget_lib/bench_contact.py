@@ -108,13 +108,13 @@ def bench_eso(quick: bool = False) -> list[BenchRow]:
     Uses the shipped ``Efull`` checkpoint when present, else a randomly initialised network of the
     same size (the cost per frame is the same).
     """
-    from .contact_training import contact_clip, load_contact_model, retarget_with_network
     from .data.manifest import checkpoint, load_manifest
     from .data.sources.mannequin import load_mannequin
     from .data.synthetic.characters import make_character
     from .data.synthetic.motions import body_radii_from_mesh, make_motion
-    from .eso import eso_throughput
     from .geometry.contacts import transfer_contacts
+    from .methods.contact import contact_clip, load_contact_model, retarget_with_network
+    from .methods.eso import eso_throughput
     from .models.georet import GeometryConditionedRNN
 
     frames = 8 if quick else 30

@@ -4,8 +4,8 @@
 
     retarget data build|list|verify      build the embedded dataset; list/verify data_manifest.yaml
     retarget retarget --source IN.bvh --target TARGET.bvh|CHARACTER [--target-mesh SHAPE.npz]
-                      [--source-mesh SHAPE.npz] --method copy|copy-rest|tdcn|nkn|contact
-                      [--checkpoint PATH|ID] --out OUT.bvh
+                      [--source-mesh SHAPE.npz] --method NAME (from retarget_lib.methods.registry)
+                      [--checkpoint ID|PATH] --out OUT.bvh
     retarget train    --config configs/NAME.yaml [key=value ...] [--profile fast|paper] [--resume]
     retarget train --config configs/NAME.yaml [key=value ...] [--profile fast|paper] [--out DIR] [--resume]
                                          train a TDCN/NKN Table 4 row (retarget_lib.tdcn_training) or,
@@ -43,7 +43,7 @@ def _cmd_data(args: argparse.Namespace) -> int:
 
 
 def _cmd_retarget(args: argparse.Namespace) -> int:
-    from .retarget import retarget_file
+    from .methods.retarget import retarget_file
 
     out = retarget_file(args.source, args.target, args.method, args.out, args.checkpoint, args.target_mesh,
                         args.source_mesh)
@@ -116,6 +116,36 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     return 0
 
 
+def _registry():
+    """The method registry, imported on first use: it loads torch and the models (about 3 s here),
+    which ``retarget --help`` and ``retarget data ...`` do without."""
+    from .methods import registry
+
+    return registry
+
+
+class _RegisteredMethods:
+    """The registry's method names as ``--method`` choices, read only when ``retarget retarget``
+    parses or prints its options."""
+
+    def __iter__(self):
+        return iter(_registry().REGISTRY)
+
+    def __contains__(self, name: object) -> bool:
+        return name in _registry().REGISTRY
+
+
+class _RetargetHelp(argparse.HelpFormatter):
+    """``retarget retarget --help`` describes each registered method (summaries from the registry)."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        if action.dest != "method":
+            return super()._get_help_string(action)
+        return "; ".join(f"{m.name}: {m.summary}" + (" (needs the target's mesh)" if m.needs_mesh else "")
+                         + (" (--checkpoint, default in the manifest)" if m.needs_checkpoint else "")
+                         for m in _registry().REGISTRY.values())
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``retarget`` argument parser."""
     parser = argparse.ArgumentParser(prog="retarget", description="retarget-notebooks command line")
@@ -126,21 +156,20 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--force", action="store_true", help="rebuild even if the cache is up to date")
     p.set_defaults(func=_cmd_data)
 
-    p = sub.add_parser("retarget", help="retarget a BVH clip to a target skeleton or character")
+    p = sub.add_parser("retarget", help="retarget a BVH clip to a target skeleton or character",
+                       formatter_class=_RetargetHelp)
     p.add_argument("--source", required=True, help="source BVH (any joint set the library can fold)")
     p.add_argument("--target", required=True,
                    help="target BVH (its skeleton, units and joint names are used) or a character name")
-    p.add_argument("--method", required=True, choices=["copy", "copy-rest", "tdcn", "nkn", "contact"],
-                   help="copy: copy local rotations, root scaled by leg length; copy-rest: copy with "
-                        "rest-pose compensation (same global bone directions); tdcn/nkn: a trained "
-                        "network (--checkpoint, default: the shipped fast checkpoints); contact: "
-                        "contact-aware RNN + encoder-space optimisation (needs the target's mesh)")
+    p.add_argument("--method", required=True, choices=_RegisteredMethods(), metavar="NAME",
+                   help="a method of the registry (retarget_lib/methods/registry.py)")
     p.add_argument("--target-mesh", help="target character shape .npz (rest_vertices, faces, weights, "
                                          "offsets, joint names) for --method contact")
     p.add_argument("--source-mesh", help="source character shape .npz: its hand self-contacts are detected "
                                          "and preserved by --method contact (without it: feet and "
                                          "interpenetration only)")
-    p.add_argument("--checkpoint", help="checkpoint path or manifest id for --method tdcn|nkn|contact")
+    p.add_argument("--checkpoint", help="manifest id or path of a checkpoint for a learned method (default: "
+                                        "the method's default in data_manifest.yaml)")
     p.add_argument("--out", required=True, help="output .bvh")
     p.set_defaults(func=_cmd_retarget)
 

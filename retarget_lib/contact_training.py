@@ -28,88 +28,32 @@ schedule at any budget.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import torch
 
 from .core.character import Character
-from .core.motion import Motion
-from .core.quantities import MotionQuantities, foot_ground_heights, leg_ratio, motion_quantities
+from .core.quantities import MotionQuantities, foot_ground_heights, leg_ratio
 from .core.skinning import linear_blend_skinning
-from .files import atomic_write, cache_dir
-from .geometry.contacts import SelfContacts, detect_foot_contacts, detect_self_contacts, vertex_correspondence
+from .data.synthetic.dataset import dataset_path, fingerprint_of, load_synthetic
+from .files import atomic_write
+from .geometry.contacts import vertex_correspondence
 from .geometry.penetration import InterpenetrationEnergy
 from .losses.contact import ContactEnergyWeights, foot_contact_energy, self_contact_energy, skeleton_energy
-from .models.georet import GeometryConditionedRNN, batch_meshes, motion_features, pose_outputs
+from .methods.contact import ContactClip, contact_clip, model_from_config
+from .models.georet import batch_meshes, pose_outputs
 from .notebook import seed_everything
 from .train import TrainTask, load_checkpoint
 
 Tensor = torch.Tensor
 
-__all__ = ["ContactClip", "ContactTraining", "LOG_TERMS", "contact_clip", "training_clips", "model_from_config",
-           "energy_weights", "export_model", "load_contact_model", "retarget_with_network"]
+__all__ = ["ContactTraining", "LOG_TERMS", "training_clips",
+           "energy_weights", "export_model"]
 
 #: the terms logged per step (always all of them, 0 when a row switches one off)
 LOG_TERMS: tuple[str, ...] = ("weak", "ee", "foot", "j2j", "int", "total")
-
-
-@dataclass
-class ContactClip:
-    """A source clip with everything training and evaluation read from it.
-
-    Attributes:
-        name: clip name.
-        character: the performer (its mesh carries the self-contacts).
-        motion: the clip on the performer (canonical 22, metres, 30 fps).
-        features: ``(T, 267)`` network input (:func:`~retarget_lib.models.georet.motion_features`).
-        quantities: source :class:`~retarget_lib.losses.contact.MotionQuantities`, ``(T, ...)``.
-        foot_contacts: ``(T, 4)`` bool detected foot contacts (Sec. 3.4).
-        self_contacts: detected hand contacts on the performer's mesh (Sec. 3.4).
-    """
-
-    name: str
-    character: Character
-    motion: Motion
-    features: Tensor
-    quantities: MotionQuantities
-    foot_contacts: np.ndarray
-    self_contacts: SelfContacts
-
-
-def _detected_contacts(motion: Motion, character: Character, cache_key: str | None) -> tuple[np.ndarray, SelfContacts]:
-    """Foot and hand contacts of a clip on its performer, cached under ``cache_key``."""
-    path = cache_dir("contact_training") / f"{cache_key}.npz" if cache_key else None
-    if path is not None and path.exists():
-        z = np.load(path)
-        return z["foot"], SelfContacts(int(z["num_frames"]), z["frames"], z["pairs"], z["groups"])
-    positions = motion.global_positions()
-    foot = detect_foot_contacts(positions, motion.skeleton)
-    vertices = character.skinned(motion.rotations, motion.root_positions)
-    hands = detect_self_contacts(vertices, character.faces, character.weights, _standing_height(character))
-    if path is not None:
-        with atomic_write(path) as f:
-            np.savez(f, foot=foot, num_frames=hands.num_frames, frames=hands.frames, pairs=hands.pairs,
-                     groups=hands.groups)
-    return foot, hands
-
-
-def _standing_height(character: Character) -> float:
-    """Top of the rest mesh above the ground (metres): the "character height" of Sec. 3.4's
-    thresholds (138 cm, 180 cm scales)."""
-    return float(character.rest_vertices[:, 1].max() - character.rest_vertices[:, 1].min())
-
-
-def contact_clip(motion: Motion, character: Character, cache_key: str | None = None) -> ContactClip:
-    """Prepare one source clip performed by ``character`` (its skeleton must be the motion's)."""
-    rot, root, off = motion.torch(torch.float32)
-    height = motion.skeleton.height()
-    quantities = motion_quantities(rot, root, off, height, motion.skeleton.parents)
-    features = motion_features(rot[None], root[None], off, motion.skeleton.parents, height)[0]
-    foot, hands = _detected_contacts(motion, character, cache_key)
-    return ContactClip(motion.name, character, motion, features, quantities, foot, hands)
 
 
 def training_clips(config: dict) -> tuple[list[ContactClip], dict[str, Character]]:
@@ -119,8 +63,6 @@ def training_clips(config: dict) -> tuple[list[ContactClip], dict[str, Character
         ``(clips, targets)``: clips performed by the training characters with seeds below
         ``held_out_seed``, and the training characters by name.
     """
-    from .data.synthetic.dataset import dataset_path, fingerprint_of, load_synthetic
-
     data = config["data"]
     ds = load_synthetic()
     names = list(data["train_characters"])
@@ -133,13 +75,6 @@ def training_clips(config: dict) -> tuple[list[ContactClip], dict[str, Character
     if not clips:
         raise ValueError("no training clip: no clip of the training characters below data.held_out_seed")
     return clips, {n: ds.characters[n] for n in names}
-
-
-def model_from_config(config: dict) -> GeometryConditionedRNN:
-    """The network of ``config["model"]`` (App. B.1: hidden 512, PointNet 256, dropout 0.1)."""
-    m = config["model"]
-    return GeometryConditionedRNN(hidden=int(m["hidden"]), layers=int(m["layers"]), geometry=int(m["geometry"]),
-                                  dropout=float(m["dropout"]))
 
 
 def energy_weights(config: dict) -> ContactEnergyWeights:
@@ -282,28 +217,3 @@ def export_model(checkpoint: str | Path, out: str | Path) -> Path:
     return Path(out)
 
 
-def load_contact_model(checkpoint: str | Path) -> tuple[GeometryConditionedRNN, dict]:
-    """``(model in eval mode, config)`` from a training or exported checkpoint."""
-    state = load_checkpoint(checkpoint)
-    model = model_from_config(state["config"])
-    model.load_state_dict(state["modules"]["model"])
-    return model.eval(), state["config"]
-
-
-@torch.no_grad()
-def retarget_with_network(model: GeometryConditionedRNN, source: Motion, target: Any) -> Motion:
-    """Retarget ``source`` onto ``target`` (a ``Character``) with the network alone (no ESO):
-    Eqs. 12-19 over the whole clip, root starting at the source's first root times the leg ratio.
-
-    Returns:
-        The motion on ``target.skeleton``.
-    """
-    rot, root, off = source.torch(torch.float32)
-    feats = motion_features(rot[None], root[None], off, source.skeleton.parents, source.skeleton.height())
-    t_off = torch.as_tensor(target.skeleton.offsets, dtype=torch.float32)
-    out = model(feats, t_off[None], torch.as_tensor(target.rest_vertices, dtype=torch.float32)[None],
-                torch.as_tensor(target.weights, dtype=torch.float32)[None], target.height)
-    start = leg_ratio(source.skeleton, target.skeleton) * root[0]
-    posed = pose_outputs(out.rotations, out.root_velocity, t_off, start=start[None])
-    return Motion(target.skeleton, out.rotations[0].double().numpy(), posed.root_positions[0].double().numpy(),
-                  source.fps, name=f"{source.name}->{getattr(target, 'name', 'target')}")

@@ -237,9 +237,10 @@ def tdcn_methods() -> tuple[dict[str, Method], list[str]]:
     faked)."""
     from functools import partial
 
-    from .core.transfer import copy_rotations, retarget_ground_truth
+    from .core.transfer import retarget_ground_truth
     from .data.manifest import checkpoint
-    from .tdcn_training import load_generator, retarget_motion_with
+    from .methods.copy import copy_rotations
+    from .methods.tdcn import load_generator, retarget_motion_with
 
     methods: dict[str, Method] = {"copy": copy_rotations, "copy-rest": retarget_ground_truth}
     missing = []

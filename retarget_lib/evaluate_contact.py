@@ -141,8 +141,8 @@ def _character(name: str) -> Character:
 
 def contact_cases(profile: str = "fast") -> list[ContactCase]:
     """The test cases of ``profile`` (:data:`CONTACT_PROFILES`): every clip × every target."""
-    from .contact_training import contact_clip
     from .data.synthetic.motions import make_motion
+    from .methods.contact import contact_clip
 
     if profile not in CONTACT_PROFILES:
         raise ValueError(f"unknown profile {profile!r}; choose from {list(CONTACT_PROFILES)}")
@@ -219,21 +219,21 @@ ContactMethod = Callable[[ContactCase, object], Motion]
 
 
 def _network_method(model) -> ContactMethod:
-    from .contact_training import retarget_with_network
+    from .methods.contact import retarget_with_network
 
     return lambda case, eint: retarget_with_network(model, case.source, case.target)
 
 
 def _ik_method(model) -> ContactMethod:
-    from .contact_training import retarget_with_network
     from .geometry.ik import apply_foot_contact_ik
+    from .methods.contact import retarget_with_network
 
     return lambda case, eint: apply_foot_contact_ik(retarget_with_network(model, case.source, case.target),
                                                     case.foot_contacts)
 
 
 def _eso_method(model, eso_config: Mapping) -> ContactMethod:
-    from .eso import encoder_space_optimization, eso_source
+    from .methods.eso import encoder_space_optimization, eso_source
 
     def run(case: ContactCase, eint) -> Motion:
         src = eso_source(case.source, case.target, case.foot_contacts)
@@ -253,10 +253,10 @@ def _skeleton_method(fn) -> ContactMethod:
 def contact_methods(rows: tuple[str, ...] = TABLE1_ROWS + TABLE3_ROWS) -> tuple[dict[str, ContactMethod], list[str]]:
     """The methods of the requested table rows whose checkpoints are shipped, and the rows missing
     one (reported, never faked)."""
-    from .contact_training import load_contact_model
-    from .core.transfer import copy_rotations
     from .data.manifest import checkpoint, load_manifest
-    from .tdcn_training import load_generator, retarget_motion_with
+    from .methods.contact import load_contact_model
+    from .methods.copy import copy_rotations
+    from .methods.tdcn import load_generator, retarget_motion_with
 
     shipped = set(load_manifest().get("checkpoints") or {})
     models = {}

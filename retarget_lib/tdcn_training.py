@@ -100,12 +100,10 @@ from __future__ import annotations
 from dataclasses import dataclass, fields
 from functools import lru_cache
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
 import torch
 
-from .core.motion import Motion
-from .core.skeleton import Skeleton
 from .core.transfer import retarget_ground_truth
 from .data.splits import tdcn_split
 from .data.synthetic.dataset import load_synthetic
@@ -114,10 +112,10 @@ from .losses import (MotionTensors, TDCNLossWeights, adversarial_loss, adversari
                      adversarial_loss_generator, check_finite, cycle_loss, height_loss, orientation_loss,
                      regularization_loss, sigmoid_ce_discriminator_loss, sigmoid_ce_generator_loss,
                      total_generator_loss, twist_loss)
-from .models import TDCNGenerator, build_model, normalize_quaternions
+from .methods.tdcn import centre_root, model_config
+from .models import build_model, normalize_quaternions
 from .models.features import (generator_features, nkn_source_features, root_velocities, skeleton_height,
                               source_local_positions)
-from .models.tdcn import edge_pad
 from .notebook import seed_everything
 from .train import TrainTask, load_checkpoint
 
@@ -128,12 +126,8 @@ __all__ = [
     "training_clips",
     "TrainingBatch",
     "WindowSampler",
-    "centre_root",
     "RetargetTraining",
-    "model_config",
     "loss_weights",
-    "load_generator",
-    "retarget_motion_with",
 ]
 
 #: (generator loss on scores, discriminator loss on (real, fake) scores) per ``loss.gan``
@@ -201,21 +195,6 @@ def training_clips() -> TrainingClips:
                            for n in split.train_characters])
     return TrainingClips(tuple(split.train_characters), tuple(c.name for c in clips), lengths.cumsum(0),
                          offsets, torch.stack(rotations), torch.stack(roots))
-
-
-def centre_root(root_positions: Tensor) -> tuple[Tensor, Tensor]:
-    """Move a clip horizontally so that its centre frame's root is above the origin.
-
-    Args:
-        root_positions: ``(..., T, 3)``.
-
-    Returns:
-        ``(centred (..., T, 3), shift (..., 3))`` with ``centred = root_positions - shift``;
-        ``shift`` has ``y = 0``.
-    """
-    shift = root_positions[..., root_positions.shape[-2] // 2, :].clone()
-    shift[..., 1] = 0.0
-    return root_positions - shift.unsqueeze(-2), shift
 
 
 class TrainingBatch(NamedTuple):
@@ -301,17 +280,6 @@ class WindowSampler:
 
 
 # ------------------------------------------------------------------------------- configs
-def model_config(config: dict) -> dict[str, Any]:
-    """The model config of an experiment config, with the run's profile made explicit.
-
-    Args:
-        config: merged experiment config (``model`` section, ``profile``).
-
-    Returns:
-        the dict given to :func:`~retarget_lib.models.build_model` (so widths never depend on
-        ``$RETARGET_PROFILE`` at load time).
-    """
-    return {**config["model"], "profile": config.get("profile", "fast")}
 
 
 def loss_weights(config: dict) -> TDCNLossWeights:
@@ -481,21 +449,6 @@ class RetargetTraining:
 
 
 # ---------------------------------------------------------------------------- inference
-def load_generator(checkpoint: str | Path) -> tuple[torch.nn.Module, dict]:
-    """Rebuild a trained generator from a ``last.pt``/``final.pt`` of ``retarget train``.
-
-    Args:
-        checkpoint: checkpoint path.
-
-    Returns:
-        ``(generator, config)``: the generator in eval mode with its weights and normaliser
-        statistics; the merged experiment config it was trained with.
-    """
-    state = load_checkpoint(checkpoint)
-    config = state["config"]
-    generator, _ = build_model(model_config(config))
-    generator.load_state_dict(state["modules"]["generator"])
-    return generator.eval(), config
 
 
 def export_generator(checkpoint: str | Path, out: str | Path) -> Path:
@@ -514,54 +467,3 @@ def export_generator(checkpoint: str | Path, out: str | Path) -> Path:
     return Path(out)
 
 
-def _frame_windows(x: Tensor, left: int, right: int) -> Tensor:
-    """``(T, ...)`` → ``(T, left + 1 + right, ...)``: frame ``t``'s receptive field, edge-padded."""
-    windows = edge_pad(x, left, right, time_dim=0).unfold(0, left + 1 + right, 1)  # (T, ..., W)
-    return windows.movedim(-1, 1)
-
-
-def retarget_motion_with(generator: torch.nn.Module, motion: Motion, target: Skeleton,
-                         windowed: bool = False, chunk: int = 256) -> Motion:
-    """Retarget a whole clip with a trained TDCN/NKN generator (any length).
-
-    ``windowed=False`` (the paper, Sec. 3.1): the clip is centred like the training windows
-    (:func:`centre_root`) and run through the network in one pass; the removed horizontal shift
-    is added back scaled by ``H(s̄B) / H(s̄A)``. A long travelling clip then feeds root positions
-    far outside the ±(half a window's travel) seen in training.
-
-    ``windowed=True`` (TDCN only, our variant): every output frame ``t`` is computed from its own
-    receptive field (81 frames around ``t``, the past 81 for the causal A5), centred exactly like
-    a training window, and its shift added back — every frame sees training-like root positions,
-    at ``T`` network evaluations of one window each. Identical to ``windowed=False`` when the
-    root does not travel.
-
-    Args:
-        generator: e.g. from :func:`load_generator` (eval mode).
-        motion: source clip on the canonical 22 joints (``T`` frames, metres).
-        target: canonical-22 target skeleton.
-        windowed: per-frame re-centred windows (needs a :class:`~retarget_lib.models.TDCNGenerator`).
-        chunk: windows per network call when ``windowed``.
-
-    Returns:
-        the target's :class:`~retarget_lib.core.motion.Motion` (``T`` frames, unit quaternions).
-    """
-    q, r, off_a = motion.torch()
-    off_b = torch.as_tensor(target.offsets, dtype=torch.float32)
-    ratio = skeleton_height(off_b) / skeleton_height(off_a)
-    with torch.inference_mode():
-        if not windowed:
-            r, shift = centre_root(r)
-            q_b, r_b = (x[0] for x in generator.retarget(q[None], r[None], off_a, off_b))
-        elif isinstance(generator, TDCNGenerator):
-            left, right = generator.body.pad_amounts
-            r_win, shift = centre_root(_frame_windows(r, left, right))  # (T, W, 3), (T, 3)
-            q_win = _frame_windows(q, left, right)                       # (T, W, J, 4)
-            outs = [generator.retarget(q_win[i:i + chunk], r_win[i:i + chunk], off_a, off_b)
-                    for i in range(0, len(q_win), chunk)]
-            q_b = torch.cat([o[0][:, left] for o in outs])
-            r_b = torch.cat([o[1][:, left] for o in outs])
-        else:
-            raise ValueError(f"windowed retargeting needs a TDCNGenerator, got {type(generator).__name__}")
-    return motion.copy(skeleton=target.copy(), rotations=q_b.double().numpy(),
-                       root_positions=(r_b + shift * ratio).double().numpy(),
-                       meta=dict(motion.meta, retargeted=generator.config["kind"]))

@@ -1,4 +1,4 @@
-"""Encoder-space optimisation (retarget_lib.eso) on tiny hand-made problems."""
+"""Encoder-space optimisation (retarget_lib.methods.eso) on tiny hand-made problems."""
 
 import numpy as np
 import pytest
@@ -7,8 +7,8 @@ import torch
 from retarget_lib.core.character import Character
 from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.data.synthetic.motions import make_motion
-from retarget_lib.eso import (TERMS, encoder_space_optimization, eso_source, eso_throughput, reachable_pairs,
-                              reached_joints)
+from retarget_lib.methods.eso import (TERMS, encoder_space_optimization, eso_source, eso_throughput,
+                                      reachable_pairs, reached_joints)
 from retarget_lib.losses.contact import ContactEnergyWeights
 from retarget_lib.core.quantities import MotionQuantities, motion_quantities
 from retarget_lib.models.georet import GeometryConditionedRNN, motion_features, pose_outputs

@@ -4,7 +4,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from retarget_lib.core.transfer import copy_rotations, retarget_ground_truth
+from retarget_lib.methods.copy import copy_rotations
+from retarget_lib.core.transfer import retarget_ground_truth
 from retarget_lib.evaluate import (PAPER_TABLE4, TABLE4_COLUMNS, markdown_table, normalized_mse, ordering_checks,
                                    paper_comparison, tdcn_cases, tdcn_table, write_table)
 

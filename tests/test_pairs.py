@@ -5,13 +5,9 @@ import pytest
 import torch
 
 from retarget_lib.data.synthetic.motions import MOTION_FAMILIES, make_motion
-from retarget_lib.core.transfer import (
-    PRIMARY_CHILD,
-    copy_rotations,
-    copy_rotations_rest_compensated,
-    rest_alignment,
-    retarget_ground_truth,
-)
+from retarget_lib.core.transfer import PRIMARY_CHILD, rest_alignment, retarget_ground_truth
+from retarget_lib.methods.copy import copy_rotations
+from retarget_lib.methods.copy_rest import copy_rotations_rest_compensated
 from retarget_lib.data.splits import MotionId, tdcn_splits
 from retarget_lib.core.skeleton import FOOT_CONTACT_JOINTS
 from retarget_lib.geometry.ik import apply_foot_contact_ik

@@ -18,8 +18,8 @@ from retarget_lib.data.splits import tdcn_split
 from retarget_lib.losses import NonFiniteLossError
 from retarget_lib.models import PROFILE_WIDTHS, NKNGenerator, TDCNGenerator
 from retarget_lib.models.features import skeleton_height
-from retarget_lib.tdcn_training import (RetargetTraining, WindowSampler, load_generator, retarget_motion_with,
-                                        training_clips)
+from retarget_lib.tdcn_training import RetargetTraining, WindowSampler, training_clips
+from retarget_lib.methods.tdcn import load_generator, retarget_motion_with
 from retarget_lib.train import fit, load_checkpoint
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"

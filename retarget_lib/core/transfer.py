@@ -1,4 +1,5 @@
-"""Rest-pose transfer: the ground-truth retargeting of synthetic motion and the copy baselines.
+"""Rest-pose transfer: the ground-truth retargeting of synthetic motion (the copy baselines built on it
+are methods: :mod:`retarget_lib.methods.copy`, :mod:`retarget_lib.methods.copy_rest`).
 
 Ground truth (DESIGN.md, "Data"): the target performs the source's motion with the same *global*
 bone directions and twists, rest-pose differences compensated, and the root trajectory scaled by
@@ -30,8 +31,6 @@ __all__ = [
     "rest_alignment",
     "transfer_rotations",
     "retarget_ground_truth",
-    "copy_rotations",
-    "copy_rotations_rest_compensated",
     "canonical_rest_skeleton",
 ]
 
@@ -129,34 +128,6 @@ def retarget_ground_truth(motion: Motion, target_skeleton: Skeleton) -> Motion:
     root = motion.root_positions * leg_ratio(motion.skeleton, target_skeleton)
     return motion.copy(skeleton=target_skeleton.copy(), rotations=rot, root_positions=root,
                        meta=dict(motion.meta, retargeted="ground_truth"))
-
-
-def copy_rotations(motion: Motion, target_skeleton: Skeleton) -> Motion:
-    """Baseline: copy the local rotations unchanged, scale the root by the leg-length ratio.
-
-    Correct only when both characters share the same rest pose (bone *directions*); otherwise
-    every rest-pose difference shows up as a pose error (NKN/TDCN "Copy" baseline).
-
-    Args:
-        motion: source motion on the canonical 22 joints.
-        target_skeleton: canonical-22 target character.
-    """
-    root = motion.root_positions * leg_ratio(motion.skeleton, target_skeleton)
-    return motion.copy(skeleton=target_skeleton.copy(), root_positions=root,
-                       meta=dict(motion.meta, retargeted="copy"))
-
-
-def copy_rotations_rest_compensated(motion: Motion, target_skeleton: Skeleton) -> Motion:
-    """Baseline "copy with rest-pose compensation".
-
-    This is the same mathematics as :func:`retarget_ground_truth` (which is implemented as a
-    rest-compensated copy), so on synthetic pairs it scores zero error by construction; it is
-    listed separately so that evaluation tables can name it. On real Mixamo data the ground
-    truth comes from Mixamo's own retargeter and the two differ.
-    """
-    out = retarget_ground_truth(motion, target_skeleton)
-    out.meta["retargeted"] = "copy_rest_compensated"
-    return out
 
 
 def _canonical_direction(j: int) -> np.ndarray | None:

@@ -58,6 +58,12 @@ class CheckpointEntry:
         config: the experiment config it was trained with (repo-relative).
         command: the exact command that produced it.
         losses: absolute path of its per-step training log (CSV), when shipped.
+        method: the registry method that loads it (``retarget_lib.methods``), e.g. ``"tdcn"``.
+        default: it is that method's default checkpoint (``retarget retarget --method NAME``
+            without ``--checkpoint``).
+        table: the paper table it fills a row of: ``"tdcn"`` (Kim et al. 2020, Table 4) or
+            ``"contact"`` (Villegas et al. 2021, Table 3).
+        row: that row's name, e.g. ``"ours"``, ``"A3"``, ``"Efull"``.
     """
 
     id: str
@@ -66,6 +72,21 @@ class CheckpointEntry:
     config: str
     command: str
     losses: Path | None = None
+    method: str | None = None
+    default: bool = False
+    table: str | None = None
+    row: str | None = None
+
+
+def _entry(checkpoint_id: str, e: dict) -> CheckpointEntry:
+    return CheckpointEntry(checkpoint_id, REPO_ROOT / e["path"], e["sha256"], e["config"], e["command"],
+                           REPO_ROOT / e["losses"] if e.get("losses") else None, e.get("method"),
+                           bool(e.get("default", False)), e.get("table"), e.get("row"))
+
+
+def checkpoint_entries() -> dict[str, CheckpointEntry]:
+    """Every shipped checkpoint's entry, in manifest order (files not checked)."""
+    return {cid: _entry(cid, e) for cid, e in (load_manifest().get("checkpoints") or {}).items()}
 
 
 def checkpoint(checkpoint_id: str, verify_checksum: bool = True) -> CheckpointEntry:
@@ -75,12 +96,10 @@ def checkpoint(checkpoint_id: str, verify_checksum: bool = True) -> CheckpointEn
         DataError: unknown id (the known ones are named), missing file or checksum mismatch (the
             message gives the command that re-creates it).
     """
-    entries = load_manifest().get("checkpoints") or {}
+    entries = checkpoint_entries()
     if checkpoint_id not in entries:
         raise DataError(f"unknown checkpoint {checkpoint_id!r}; known: {sorted(entries)}")
-    e = entries[checkpoint_id]
-    entry = CheckpointEntry(checkpoint_id, REPO_ROOT / e["path"], e["sha256"], e["config"], e["command"],
-                            REPO_ROOT / e["losses"] if e.get("losses") else None)
+    entry = entries[checkpoint_id]
     if not entry.path.exists():
         raise DataError(f"checkpoint {checkpoint_id} missing at {entry.path}; re-create it with: {entry.command}")
     if verify_checksum and sha256_file(entry.path) != entry.sha256:
@@ -89,3 +108,41 @@ def checkpoint(checkpoint_id: str, verify_checksum: bool = True) -> CheckpointEn
     return entry
 
 
+def default_checkpoint(method: str) -> str | None:
+    """Id of ``method``'s default checkpoint (the entry with ``method: <method>`` and
+    ``default: true``), or ``None`` if none is shipped.
+
+    Raises:
+        DataError: the manifest marks several defaults for ``method``.
+    """
+    ids = [e.id for e in checkpoint_entries().values() if e.method == method and e.default]
+    if len(ids) > 1:
+        raise DataError(f"data_manifest.yaml marks several default checkpoints for method {method!r}: {ids}")
+    return ids[0] if ids else None
+
+
+def table_checkpoints(table: str) -> dict[str, CheckpointEntry]:
+    """The shipped checkpoints of one paper table, by row name (``table:`` and ``row:`` in the
+    manifest), in manifest order."""
+    return {e.row: e for e in checkpoint_entries().values() if e.table == table and e.row is not None}
+
+
+def stored_result(result_id: str) -> Path:
+    """Path of a stored evaluation result (``results:`` in the manifest), checked against its
+    sha256.
+
+    Raises:
+        DataError: unknown id, missing file or checksum mismatch (the message gives the command
+            that re-creates it).
+    """
+    results = load_manifest().get("results") or {}
+    if result_id not in results:
+        raise DataError(f"unknown stored result {result_id!r}; known: {sorted(results)}")
+    r = results[result_id]
+    path = REPO_ROOT / r["path"]
+    if not path.exists():
+        raise DataError(f"stored result {result_id} missing at {path}; re-create it with: {r['command']}")
+    if sha256_file(path) != r["sha256"]:
+        raise DataError(f"stored result {result_id} at {path} does not match its sha256 in the manifest; "
+                        f"re-create it with: {r['command']}")
+    return path

@@ -1,7 +1,7 @@
 """Contact-aware energies (Villegas, Ceylan, Hertzmann, Yang, Saito, ICCV 2021, Sec. 3.1, App. B.1).
 
 Every term is a small differentiable function on plain tensors, batched over leading dims, so
-the training code, encoder-space optimisation (:mod:`retarget_lib.eso`) and notebook 07 share
+the training code, encoder-space optimisation (:mod:`retarget_lib.methods.eso`) and notebook 07 share
 them::
 
     Efull  = Egeo + Eskel                                   (Eq. 1)

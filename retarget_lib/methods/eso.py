@@ -57,16 +57,17 @@ from typing import Any, NamedTuple, Sequence
 import numpy as np
 import torch
 
-from .core.motion import Motion
-from .core.quantities import (MotionQuantities, foot_ground_heights, leg_ratio as skeleton_leg_ratio,
-                              motion_quantities)
-from .core.skeleton import J
-from .core.skinning import linear_blend_skinning
-from .geometry.penetration import InterpenetrationEnergy
-from .losses.contact import (ContactEnergyWeights, eso_self_contact_energy, end_effector_energy_per_frame,
-                             foot_contact_energy_per_frame, reach_hold_energy, self_contact_energy,
-                             weak_energy)
-from .models.georet import DecoderState, GeometryConditionedRNN, TargetContext, motion_features
+from ..core.motion import Motion
+from ..core.quantities import (MotionQuantities, foot_ground_heights, leg_ratio as skeleton_leg_ratio,
+                               motion_quantities)
+from ..core.skeleton import J
+from ..core.skinning import linear_blend_skinning
+from ..geometry.contacts import detect_foot_contacts
+from ..geometry.penetration import InterpenetrationEnergy
+from ..losses.contact import (ContactEnergyWeights, eso_self_contact_energy, end_effector_energy_per_frame,
+                              foot_contact_energy_per_frame, reach_hold_energy, self_contact_energy,
+                              weak_energy)
+from ..models.georet import DecoderState, GeometryConditionedRNN, TargetContext, motion_features
 
 Tensor = torch.Tensor
 
@@ -131,8 +132,6 @@ def eso_source(motion: Motion, target: Any, foot_contacts: np.ndarray | None = N
         foot_contacts: ``(T, 4)`` bool; default :func:`retarget_lib.geometry.contacts.detect_foot_contacts`
             on the source.
     """
-    from .geometry.contacts import detect_foot_contacts
-
     rot, root, off = motion.torch(torch.float32)
     height = motion.skeleton.height()
     quantities = motion_quantities(rot, root, off, height, motion.skeleton.parents)

@@ -1,0 +1,176 @@
+"""Method ``contact`` — contact-aware retargeting of skinned motion (Villegas et al. 2021): the
+geometry-conditioned RNN (:class:`~retarget_lib.models.georet.GeometryConditionedRNN`, Eqs. 12-19)
+and, at test time, encoder-space optimisation (:mod:`.eso`, Sec. 3.3) with the source's detected
+foot and hand contacts (Sec. 3.4) carried to the target's mesh (App. F).
+
+:func:`contact_clip` prepares a source clip (network input, the quantities Eskel reads, detected
+contacts); training (:mod:`retarget_lib.training.contact`) and evaluation read the same clips.
+Source contacts are detected once per clip and cached (``.cache/contact_training``).
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from functools import partial
+from typing import Any, Callable
+
+import numpy as np
+import torch
+
+from ..core.character import Character
+from ..core.motion import Motion
+from ..core.quantities import MotionQuantities, leg_ratio, motion_quantities
+from ..core.skinning import subsample_mesh
+from ..data.checkpoints import load_state
+from ..files import atomic_write, cache_dir
+from ..geometry.contacts import SelfContacts, detect_foot_contacts, detect_self_contacts, transfer_contacts
+from ..geometry.penetration import InterpenetrationEnergy
+from ..models.georet import GeometryConditionedRNN, motion_features, pose_outputs
+from .eso import encoder_space_optimization, eso_source
+
+Tensor = torch.Tensor
+
+__all__ = ["ContactClip", "contact_clip", "model_from_config", "load_contact_model", "retarget_with_network",
+           "ESO_MAX_VERTICES", "retarget_contact_with", "load"]
+
+#: above this many vertices, ESO works on a decimated copy of the target mesh (its Eint needs an
+#: all-pairs geodesic table: 36 MB at 3k vertices, 2.3 GB at 24k); the output is skeletal, so the
+#: full mesh follows it exactly
+ESO_MAX_VERTICES = 5000
+
+
+@dataclass
+class ContactClip:
+    """A source clip with everything training and evaluation read from it.
+
+    Attributes:
+        name: clip name.
+        character: the performer (its mesh carries the self-contacts).
+        motion: the clip on the performer (canonical 22, metres, 30 fps).
+        features: ``(T, 267)`` network input (:func:`~retarget_lib.models.georet.motion_features`).
+        quantities: source :class:`~retarget_lib.core.quantities.MotionQuantities`, ``(T, ...)``.
+        foot_contacts: ``(T, 4)`` bool detected foot contacts (Sec. 3.4).
+        self_contacts: detected hand contacts on the performer's mesh (Sec. 3.4).
+    """
+
+    name: str
+    character: Character
+    motion: Motion
+    features: Tensor
+    quantities: MotionQuantities
+    foot_contacts: np.ndarray
+    self_contacts: SelfContacts
+
+
+def _detected_contacts(motion: Motion, character: Character, cache_key: str | None) -> tuple[np.ndarray, SelfContacts]:
+    """Foot and hand contacts of a clip on its performer, cached under ``cache_key``."""
+    path = cache_dir("contact_training") / f"{cache_key}.npz" if cache_key else None
+    if path is not None and path.exists():
+        z = np.load(path)
+        return z["foot"], SelfContacts(int(z["num_frames"]), z["frames"], z["pairs"], z["groups"])
+    positions = motion.global_positions()
+    foot = detect_foot_contacts(positions, motion.skeleton)
+    vertices = character.skinned(motion.rotations, motion.root_positions)
+    hands = detect_self_contacts(vertices, character.faces, character.weights, _standing_height(character))
+    if path is not None:
+        with atomic_write(path) as f:
+            np.savez(f, foot=foot, num_frames=hands.num_frames, frames=hands.frames, pairs=hands.pairs,
+                     groups=hands.groups)
+    return foot, hands
+
+
+def _standing_height(character: Character) -> float:
+    """Top of the rest mesh above the ground (metres): the "character height" of Sec. 3.4's
+    thresholds (138 cm, 180 cm scales)."""
+    return float(character.rest_vertices[:, 1].max() - character.rest_vertices[:, 1].min())
+
+
+def contact_clip(motion: Motion, character: Character, cache_key: str | None = None) -> ContactClip:
+    """Prepare one source clip performed by ``character`` (its skeleton must be the motion's)."""
+    rot, root, off = motion.torch(torch.float32)
+    height = motion.skeleton.height()
+    quantities = motion_quantities(rot, root, off, height, motion.skeleton.parents)
+    features = motion_features(rot[None], root[None], off, motion.skeleton.parents, height)[0]
+    foot, hands = _detected_contacts(motion, character, cache_key)
+    return ContactClip(motion.name, character, motion, features, quantities, foot, hands)
+
+
+def model_from_config(config: dict) -> GeometryConditionedRNN:
+    """The network of ``config["model"]`` (App. B.1: hidden 512, PointNet 256, dropout 0.1)."""
+    m = config["model"]
+    return GeometryConditionedRNN(hidden=int(m["hidden"]), layers=int(m["layers"]), geometry=int(m["geometry"]),
+                                  dropout=float(m["dropout"]))
+
+
+def load_contact_model(checkpoint: str | os.PathLike) -> tuple[GeometryConditionedRNN, dict]:
+    """``(model in eval mode, config)`` from a training or exported checkpoint: a manifest id (the
+    shipped file, sha256 verified) or a path (:func:`~retarget_lib.data.checkpoints.resolve_checkpoint`)."""
+    state = load_state(checkpoint)
+    model = model_from_config(state["config"])
+    model.load_state_dict(state["modules"]["model"])
+    return model.eval(), state["config"]
+
+
+@torch.no_grad()
+def retarget_with_network(model: GeometryConditionedRNN, source: Motion, target: Any) -> Motion:
+    """Retarget ``source`` onto ``target`` (a ``Character``) with the network alone (no ESO):
+    Eqs. 12-19 over the whole clip, root starting at the source's first root times the leg ratio.
+
+    Returns:
+        The motion on ``target.skeleton``.
+    """
+    rot, root, off = source.torch(torch.float32)
+    feats = motion_features(rot[None], root[None], off, source.skeleton.parents, source.skeleton.height())
+    t_off = torch.as_tensor(target.skeleton.offsets, dtype=torch.float32)
+    out = model(feats, t_off[None], torch.as_tensor(target.rest_vertices, dtype=torch.float32)[None],
+                torch.as_tensor(target.weights, dtype=torch.float32)[None], target.height)
+    start = leg_ratio(source.skeleton, target.skeleton) * root[0]
+    posed = pose_outputs(out.rotations, out.root_velocity, t_off, start=start[None])
+    return Motion(target.skeleton, out.rotations[0].double().numpy(), posed.root_positions[0].double().numpy(),
+                  source.fps, name=f"{source.name}->{getattr(target, 'name', 'target')}")
+
+
+def retarget_contact_with(model: GeometryConditionedRNN, config: dict, source: Motion, target: Character,
+                          source_character: Character | None = None, eso: bool = True) -> Motion:
+    """Contact-aware retargeting (Villegas et al. 2021): the geometry-conditioned RNN, then
+    encoder-space optimisation with the source's detected contacts.
+
+    Args:
+        model, config: from :func:`load_contact_model`.
+        source: canonical-22 source motion.
+        target: target ``Character`` (skeleton, mesh and skinning weights).
+        source_character: the source's skinned body (e.g. a shape file of the same character);
+            without it no hand self-contacts can be detected, and only foot contacts,
+            interpenetration and the skeleton terms guide ESO.
+        eso: run ESO (App. B.1 settings from the checkpoint's config); ``False`` = network only.
+
+    Returns:
+        The motion on ``target.skeleton``.
+    """
+    if not eso:
+        return retarget_with_network(model, source, target)
+    if target.num_vertices > ESO_MAX_VERTICES:
+        v, f, w = subsample_mesh(target.rest_vertices, target.faces, target.weights, 3000)
+        target = target.copy()
+        target.rest_vertices, target.faces, target.weights = v, f, w
+    contacts = None
+    if source_character is not None:
+        clip = contact_clip(source, source_character)
+        contacts = transfer_contacts(clip.self_contacts, source_character, target)
+    src = eso_source(source, target)
+    e = config["eso"]
+    res = encoder_space_optimization(model, src.features, target, src.quantities, src.foot_contacts, src.leg_ratio,
+                                     contacts=contacts,
+                                     interpenetration=InterpenetrationEnergy(target.faces, target.rest_vertices),
+                                     iterations=int(e["iterations"]), lr=float(e["lr"]), reach=float(e["reach"]),
+                                     blend=float(e["blend"]))
+    return Motion(target.skeleton, res.rotations.double().numpy(), res.root_positions.double().numpy(), source.fps,
+                  name=source.name)
+
+
+def load(checkpoint: str | os.PathLike) -> Callable[..., Motion]:
+    """The registry's loader: ``retarget(source, target_character, source_character=None,
+    eso=True)`` with the contact model of ``checkpoint`` (:func:`retarget_contact_with`)."""
+    model, config = load_contact_model(checkpoint)
+    return partial(retarget_contact_with, model, config)
