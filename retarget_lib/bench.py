@@ -193,7 +193,7 @@ def bench_training(quick: bool = False, batch: int = 16) -> list[BenchRow]:
     The row name carries the throughput in windows/s."""
     from .config import load_config
     from .files import REPO_ROOT
-    from .tdcn_training import RetargetTraining
+    from .training.tdcn import RetargetTraining
 
     rows = []
     for profile in ("fast", "paper"):

@@ -8,9 +8,9 @@
                       [--checkpoint ID|PATH] --out OUT.bvh
     retarget train    --config configs/NAME.yaml [key=value ...] [--profile fast|paper] [--resume]
     retarget train --config configs/NAME.yaml [key=value ...] [--profile fast|paper] [--out DIR] [--resume]
-                                         train a TDCN/NKN Table 4 row (retarget_lib.tdcn_training) or,
+                                         train a TDCN/NKN Table 4 row (retarget_lib.training.tdcn) or,
                                          for configs/contact_*.yaml, a contact-aware Table 3 row
-                                         (retarget_lib.contact_training)
+                                         (retarget_lib.training.contact)
     retarget evaluate --table tdcn|contact [--profile fast|paper] --out DIR
     retarget bench [--quick]             speed table (ratios against references in the same run)
 """
@@ -57,15 +57,15 @@ def _cmd_train(args: argparse.Namespace) -> int:
     from .config import load_config
     from .files import sha256_file
     from .losses import NonFiniteLossError
-    from .train import fit
+    from .training.loop import fit
 
     config = load_config(args.config, args.overrides, args.profile)
     out = Path(args.out or Path("runs") / Path(args.config).stem)
     if config.get("method") == "contact":
-        from .contact_training import ContactTraining, export_model as export
+        from .training.contact import ContactTraining, export_model as export
         run = ContactTraining(config)
     else:
-        from .tdcn_training import RetargetTraining, export_generator as export
+        from .training.tdcn import RetargetTraining, export_generator as export
         run = RetargetTraining(config)
     try:
         final = fit(run.task(), config, out, int(config["train"]["steps"]),
@@ -181,7 +181,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="config profile (default $RETARGET_PROFILE or fast)")
     p.add_argument("--out", help="run folder (default runs/<config name>)")
     p.add_argument("--resume", action="store_true", help="continue from <out>/last.pt if it exists")
-    p.add_argument("--export", help="also write a slim inference-only generator checkpoint here")
+    p.add_argument("--export", help="also write a slim inference-only model checkpoint here (weights as float16)")
     p.set_defaults(func=_cmd_train)
 
     p = sub.add_parser("evaluate", help="regenerate a paper table (CSV + Markdown, paper numbers beside ours)")

@@ -3,13 +3,13 @@
 from __future__ import annotations
 
 import os
-import random
 from dataclasses import dataclass
-
 from pathlib import Path
 
 import numpy as np
 import torch
+
+from .training.loop import seed_everything
 
 
 @dataclass(frozen=True)
@@ -27,13 +27,6 @@ class NotebookContext:
     profile: str
     rng: np.random.Generator
     figures: Path
-
-
-def seed_everything(seed: int) -> None:
-    """Seed Python's ``random``, NumPy's global RNG and torch (CPU) with ``seed``."""
-    random.seed(seed)
-    np.random.seed(seed)
-    torch.manual_seed(seed)
 
 
 def setup_notebook(seed: int = 0, threads: int | None = None) -> NotebookContext:

@@ -7,11 +7,11 @@ import torch
 
 from retarget_lib.cli import main
 from retarget_lib.config import load_config
-from retarget_lib.contact_training import LOG_TERMS, ContactTraining, export_model
+from retarget_lib.training.contact import LOG_TERMS, ContactTraining, export_model
 from retarget_lib.methods.contact import contact_clip, load_contact_model, retarget_with_network
 from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.data.synthetic.motions import body_radii_from_mesh, make_motion
-from retarget_lib.train import fit
+from retarget_lib.training.loop import fit
 
 
 @pytest.fixture(scope="module")

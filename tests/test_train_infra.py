@@ -8,7 +8,7 @@ import pytest
 import torch
 
 from retarget_lib.config import ConfigError, load_config
-from retarget_lib.train import NonFiniteLossError, TrainTask, fit, load_checkpoint
+from retarget_lib.training.loop import NonFiniteLossError, TrainTask, fit, load_checkpoint
 
 
 def write(path, text):

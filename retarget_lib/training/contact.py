@@ -34,18 +34,17 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from .core.character import Character
-from .core.quantities import MotionQuantities, foot_ground_heights, leg_ratio
-from .core.skinning import linear_blend_skinning
-from .data.synthetic.dataset import dataset_path, fingerprint_of, load_synthetic
-from .files import atomic_write
-from .geometry.contacts import vertex_correspondence
-from .geometry.penetration import InterpenetrationEnergy
-from .losses.contact import ContactEnergyWeights, foot_contact_energy, self_contact_energy, skeleton_energy
-from .methods.contact import ContactClip, contact_clip, model_from_config
-from .models.georet import batch_meshes, pose_outputs
-from .notebook import seed_everything
-from .train import TrainTask, load_checkpoint
+from ..core.character import Character
+from ..core.quantities import MotionQuantities, foot_ground_heights, leg_ratio
+from ..core.skinning import linear_blend_skinning
+from ..data.checkpoints import save_state
+from ..data.synthetic.dataset import dataset_path, fingerprint_of, load_synthetic
+from ..geometry.contacts import vertex_correspondence
+from ..geometry.penetration import InterpenetrationEnergy
+from ..losses.contact import ContactEnergyWeights, foot_contact_energy, self_contact_energy, skeleton_energy
+from ..methods.contact import ContactClip, contact_clip, model_from_config
+from ..models.georet import batch_meshes, pose_outputs
+from .loop import TrainTask, load_checkpoint, seed_everything
 
 Tensor = torch.Tensor
 
@@ -105,7 +104,7 @@ class _Target:
 class ContactTraining:
     """One training run of a Table 3 row (``config["energy"]["row"]``).
 
-    Use :meth:`task` with :func:`retarget_lib.train.fit`, as ``retarget train`` does.
+    Use :meth:`task` with :func:`retarget_lib.training.loop.fit`, as ``retarget train`` does.
     """
 
     def __init__(self, config: dict, clips: list[ContactClip] | None = None,
@@ -143,7 +142,7 @@ class ContactTraining:
 
     def _sample(self) -> list[tuple[ContactClip, int, _Target, int]]:
         """``batch`` draws of (clip, window start, target, sampled frame) from NumPy's global RNG
-        (seeded and checkpointed by :func:`~retarget_lib.train.fit`)."""
+        (seeded and checkpointed by :func:`~retarget_lib.training.loop.fit`)."""
         draws = []
         for _ in range(self.batch):
             clip = self.clips[np.random.randint(len(self.clips))]
@@ -209,11 +208,10 @@ class ContactTraining:
 
 
 def export_model(checkpoint: str | Path, out: str | Path) -> Path:
-    """Slim, inference-only copy of a training checkpoint (atomic): weights, step and config."""
+    """Slim, inference-only copy of a training checkpoint (atomic): weights (as float16), step and
+    config; :func:`~retarget_lib.methods.contact.load_contact_model` reads it as float32."""
     state = load_checkpoint(checkpoint)
     slim = {"step": state["step"], "config": state["config"], "modules": {"model": state["modules"]["model"]}}
-    with atomic_write(out) as f:
-        torch.save(slim, f)
-    return Path(out)
+    return save_state(slim, out, half=True)
 
 

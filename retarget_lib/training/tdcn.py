@@ -1,11 +1,12 @@
 """Training the TDCN retargeting network and its Table 4 baselines/ablations (Kim et al. 2020,
-Secs. 4-5), on the synthetic data, with the shared loop of :mod:`retarget_lib.train`.
+Secs. 4-5), on the synthetic data, with the shared loop of :mod:`retarget_lib.training.loop`.
 
 ::
 
     from retarget_lib.config import load_config
-    from retarget_lib.train import fit
-    from retarget_lib.tdcn_training import RetargetTraining, load_generator
+    from retarget_lib.methods.tdcn import load_generator
+    from retarget_lib.training.loop import fit
+    from retarget_lib.training.tdcn import RetargetTraining
 
     cfg = load_config("configs/tdcn_paper.yaml", ["train.steps=300"], profile="fast")
     run = RetargetTraining(cfg)
@@ -39,12 +40,12 @@ cached on disk). A sample is
   Eq. 15), which its root term ``m_t = ||r_t|| / H`` needs. Each window is translated
   horizontally so that its *centre* frame's root is above the origin (``x = z = 0``); the height
   ``y`` is kept (it carries the leg length). A walk then passes across the origin; a standing
-  motion stays around it. :func:`retarget_motion_with` applies the same centring to a clip of any
-  length and adds the offset back, scaled by ``H(s̄B) / H(s̄A)`` — in one pass (the paper), or
-  per output frame on its own re-centred receptive field (``windowed=True``, our variant for
-  long travelling clips).
+  motion stays around it. :func:`~retarget_lib.methods.tdcn.retarget_motion_with` applies the
+  same centring to a clip of any length and adds the offset back, scaled by ``H(s̄B) / H(s̄A)`` —
+  in one pass (the paper), or per output frame on its own re-centred receptive field
+  (``windowed=True``, our variant for long travelling clips).
 
-All sampling uses the global torch RNG, which :func:`~retarget_lib.train.fit` seeds and
+All sampling uses the global torch RNG, which :func:`~retarget_lib.training.loop.fit` seeds and
 checkpoints, so a resumed run draws exactly the batches of an uninterrupted one.
 
 Step (:meth:`RetargetTraining.step`, Figs. 2a and 4, Eq. 6):
@@ -68,10 +69,11 @@ additions), ``λh = 0`` except Baseline-height, unbalanced data. NKN's own cycle
 positions and root velocities; here every row uses Eq. 7 so that only the listed differences
 separate the rows.
 
-Checkpoints (``last.pt`` / ``final.pt`` of :func:`~retarget_lib.train.fit`) hold the merged
+Checkpoints (``last.pt`` / ``final.pt`` of :func:`~retarget_lib.training.loop.fit`) hold the merged
 config and the ``generator``/``discriminator`` state dicts (with the
-:class:`~retarget_lib.models.features.FeatureNormalizer` buffers); :func:`load_generator`
-rebuilds the generator from them.
+:class:`~retarget_lib.models.features.FeatureNormalizer` buffers);
+:func:`~retarget_lib.methods.tdcn.load_generator` rebuilds the generator from them, and
+:func:`export_generator` writes its slim, float16 inference copy.
 
 Speed (2 cores, 2 threads, one step = G and D updates; ``windows/s`` = batch / step time):
 
@@ -104,20 +106,19 @@ from typing import NamedTuple
 
 import torch
 
-from .core.transfer import retarget_ground_truth
-from .data.splits import tdcn_split
-from .data.synthetic.dataset import load_synthetic
-from .files import atomic_write
-from .losses import (MotionTensors, TDCNLossWeights, adversarial_loss, adversarial_loss_discriminator,
-                     adversarial_loss_generator, check_finite, cycle_loss, height_loss, orientation_loss,
-                     regularization_loss, sigmoid_ce_discriminator_loss, sigmoid_ce_generator_loss,
-                     total_generator_loss, twist_loss)
-from .methods.tdcn import centre_root, model_config
-from .models import build_model, normalize_quaternions
-from .models.features import (generator_features, nkn_source_features, root_velocities, skeleton_height,
-                              source_local_positions)
-from .notebook import seed_everything
-from .train import TrainTask, load_checkpoint
+from ..core.transfer import retarget_ground_truth
+from ..data.checkpoints import save_state
+from ..data.splits import tdcn_split
+from ..data.synthetic.dataset import load_synthetic
+from ..losses import (MotionTensors, TDCNLossWeights, adversarial_loss, adversarial_loss_discriminator,
+                      adversarial_loss_generator, check_finite, cycle_loss, height_loss, orientation_loss,
+                      regularization_loss, sigmoid_ce_discriminator_loss, sigmoid_ce_generator_loss,
+                      total_generator_loss, twist_loss)
+from ..methods.tdcn import centre_root, model_config
+from ..models import build_model, normalize_quaternions
+from ..models.features import (generator_features, nkn_source_features, root_velocities, skeleton_height,
+                               source_local_positions)
+from .loop import TrainTask, load_checkpoint, seed_everything
 
 Tensor = torch.Tensor
 
@@ -310,7 +311,7 @@ class RetargetTraining:
     """Generator, discriminator, optimisers, sampler and the training step of one Table 4 row.
 
     Construction seeds the global RNGs with ``config["seed"]`` so that the initial weights depend
-    on the config only (:func:`~retarget_lib.train.fit` then re-seeds for the data).
+    on the config only (:func:`~retarget_lib.training.loop.fit` then re-seeds for the data).
 
     Args:
         config: merged experiment config (:func:`~retarget_lib.config.load_config`) with sections
@@ -343,7 +344,7 @@ class RetargetTraining:
         self.opt_d = torch.optim.Adam(self.discriminator.parameters(), **adam)
 
     def task(self) -> TrainTask:
-        """The :class:`~retarget_lib.train.TrainTask` for :func:`~retarget_lib.train.fit`."""
+        """The :class:`~retarget_lib.training.loop.TrainTask` for :func:`~retarget_lib.training.loop.fit`."""
         return TrainTask({"generator": self.generator, "discriminator": self.discriminator},
                          {"generator": self.opt_g, "discriminator": self.opt_d}, self.step)
 
@@ -453,8 +454,9 @@ class RetargetTraining:
 
 def export_generator(checkpoint: str | Path, out: str | Path) -> Path:
     """Write a slim, inference-only copy of a training checkpoint (atomically): the generator's
-    weights (normaliser included), the step and the config — no discriminator, optimiser or RNG
-    state. :func:`load_generator` reads it like a full checkpoint.
+    weights (normaliser included) stored as float16, the step and the config — no discriminator,
+    optimiser or RNG state. :func:`~retarget_lib.methods.tdcn.load_generator` reads it like a full
+    checkpoint (as float32).
 
     Returns:
         ``out``.
@@ -462,8 +464,6 @@ def export_generator(checkpoint: str | Path, out: str | Path) -> Path:
     state = load_checkpoint(checkpoint)
     slim = {"step": state["step"], "config": state["config"],
             "modules": {"generator": state["modules"]["generator"]}}
-    with atomic_write(out) as f:
-        torch.save(slim, f)
-    return Path(out)
+    return save_state(slim, out, half=True)
 
 

@@ -22,11 +22,19 @@ from typing import Callable
 
 import numpy as np
 import torch
+from tqdm.auto import tqdm
 
-from .config import dump_config
-from .files import atomic_write
-from .losses import NonFiniteLossError
-from .notebook import seed_everything
+from ..config import dump_config
+from ..data.checkpoints import load_state, save_state
+from ..files import atomic_write
+from ..losses import NonFiniteLossError
+
+
+def seed_everything(seed: int) -> None:
+    """Seed Python's ``random``, NumPy's global RNG and torch (CPU) with ``seed``."""
+    random.seed(seed)
+    np.random.seed(seed)
+    torch.manual_seed(seed)
 
 
 @dataclass
@@ -47,12 +55,17 @@ class TrainTask:
 
 
 def _rng_state() -> dict:
-    return {"torch": torch.get_rng_state(), "numpy": np.random.get_state(), "python": random.getstate()}
+    """The three global RNG states as tensors and plain values (they load with ``weights_only``)."""
+    name, keys, pos, has_gauss, cached = np.random.get_state()
+    return {"torch": torch.get_rng_state(),
+            "numpy": (name, torch.from_numpy(keys.astype(np.int64)), int(pos), int(has_gauss), float(cached)),
+            "python": random.getstate()}
 
 
 def _set_rng_state(state: dict) -> None:
     torch.set_rng_state(state["torch"])
-    np.random.set_state(state["numpy"])
+    name, keys, pos, has_gauss, cached = state["numpy"]
+    np.random.set_state((name, np.asarray(keys, dtype=np.int64).astype(np.uint32), pos, has_gauss, cached))
     random.setstate(state["python"])
 
 
@@ -66,14 +79,13 @@ def save_checkpoint(path: str | Path, task: TrainTask, step: int, config: dict) 
         "extra": {k: e.state_dict() for k, e in task.extra_state.items()},
         "rng": _rng_state(),
     }
-    with atomic_write(path) as f:
-        torch.save(state, f)
-    return Path(path)
+    return save_state(state, path)
 
 
 def load_checkpoint(path: str | Path, task: TrainTask | None = None) -> dict:
-    """Read a checkpoint; with ``task``, restore its modules, optimisers, extra state and RNGs."""
-    state = torch.load(path, map_location="cpu", weights_only=False)
+    """Read a checkpoint (``weights_only``); with ``task``, restore its modules, optimisers, extra
+    state and RNGs."""
+    state = load_state(path)
     if task is not None:
         for k, m in task.modules.items():
             m.load_state_dict(state["modules"][k])
@@ -121,8 +133,6 @@ def fit(task: TrainTask, config: dict, run_dir: str | Path, steps: int, checkpoi
     Raises:
         NonFiniteLossError: as soon as a loss is NaN/inf (nothing after it is saved).
     """
-    from tqdm.auto import tqdm
-
     run_dir = Path(run_dir)
     run_dir.mkdir(parents=True, exist_ok=True)
     with atomic_write(run_dir / "config.yaml", "w") as f:
