@@ -83,7 +83,7 @@ def _cmd_train(args: argparse.Namespace) -> int:
 
 def _cmd_evaluate(args: argparse.Namespace) -> int:
     if args.table == "contact":
-        from .evaluate_contact import run_contact_evaluation
+        from .evaluation.contact import run_contact_evaluation
 
         tables, missing = run_contact_evaluation(args.out, args.profile or "fast")
         for name, table in tables.items():
@@ -93,7 +93,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         print(f"wrote {args.out}/contact_table1.csv/.md, contact_table3.*, contact_table5.*, contact_table6.*, "
               "contact_cases.csv")
         return 0
-    from .evaluate import run_tdcn_evaluation
+    from .evaluation.tdcn import run_tdcn_evaluation
 
     table, missing = run_tdcn_evaluation(args.out)
     cols = [c for c in table.columns if c.endswith("avg")]
@@ -105,7 +105,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:
-    from .bench import run
+    from .evaluation.bench import run
     from .files import atomic_write
 
     table = run(quick=args.quick, only=args.only)

@@ -3,7 +3,8 @@
 import numpy as np
 import torch
 
-from retarget_lib.bench import bench_fk, bench_tdcn, format_table, numpy_fk_loop, torch_fk_per_joint
+from retarget_lib.evaluation.bench import bench_fk, bench_tdcn, numpy_fk_loop, torch_fk_per_joint
+from retarget_lib.evaluation.timing import format_table
 from retarget_lib.core.kinematics import forward_kinematics
 from retarget_lib.core.skeleton import CANONICAL22_PARENTS
 
@@ -27,7 +28,7 @@ def test_bench_rows_and_table():
 
 
 def test_eso_bench_row_reports_per_frame_cost_against_the_network():
-    from retarget_lib.bench_contact import bench_eso
+    from retarget_lib.evaluation.bench_contact import bench_eso
 
     (row,) = bench_eso(quick=True)
     assert "ESO per frame" in row.name and row.seconds > 0 and row.reference_seconds > 0

@@ -6,8 +6,9 @@ import pytest
 
 from retarget_lib.methods.copy import copy_rotations
 from retarget_lib.core.transfer import retarget_ground_truth
-from retarget_lib.evaluate import (PAPER_TABLE4, TABLE4_COLUMNS, markdown_table, normalized_mse, ordering_checks,
-                                   paper_comparison, tdcn_cases, tdcn_table, write_table)
+from retarget_lib.evaluation.paper import PAPER_TABLE4, TABLE4_COLUMNS
+from retarget_lib.evaluation.tdcn import (markdown_table, normalized_mse, ordering_checks, paper_comparison,
+                                          tdcn_cases, tdcn_table, write_table)
 
 
 def test_normalized_mse_known_values():

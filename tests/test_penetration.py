@@ -271,7 +271,7 @@ def test_penetration_rate_of_a_box_half_inside():
 
 # ----------------------------------------------------------------------------- a synthetic character
 def test_character_rest_pose_is_clean_and_forearm_in_torso_is_not():
-    from retarget_lib.bench_contact import forearm_in_torso_pose
+    from retarget_lib.evaluation.bench_contact import forearm_in_torso_pose
     from retarget_lib.data.synthetic.characters import make_character
 
     character = make_character("ada")
@@ -285,7 +285,7 @@ def test_character_rest_pose_is_clean_and_forearm_in_torso_is_not():
 
 
 def test_bench_eint_rows():
-    from retarget_lib.bench_contact import bench_eint
+    from retarget_lib.evaluation.bench_contact import bench_eint
 
     rows = bench_eint(quick=True)
     assert [r.reference_seconds is not None for r in rows[:4]] == [True, True, False, False]

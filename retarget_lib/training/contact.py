@@ -17,7 +17,7 @@ config (``energy.row``):
 **Data.** Sources are the synthetic clips performed by the training characters (their own mesh,
 so the detected hand contacts are real contacts of that body), with seeds below
 ``data.held_out_seed``; targets are the training characters. The contact test protocol
-(:mod:`retarget_lib.evaluate_contact`) uses other characters as targets, held-out seeds and a
+(:mod:`retarget_lib.evaluation.contact`) uses other characters as targets, held-out seeds and a
 source body never seen in training (``mannequin-x``, our stand-in for Mixamo's Y-bot). Source foot
 and hand contacts are detected once per clip and cached (``.cache/contact_training``).
 

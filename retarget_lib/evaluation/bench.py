@@ -7,44 +7,23 @@ per-joint NumPy loop (how FK is often written first).
 
 from __future__ import annotations
 
-import statistics
-import time
-from dataclasses import dataclass
+import os
+import platform
 from typing import Callable
 
 import numpy as np
 import torch
 
-from .core.kinematics import forward_kinematics
-from .core.skeleton import CANONICAL22_PARENTS
-
-
-@dataclass
-class BenchRow:
-    """One benchmark line: what was timed, its median seconds, and the reference it is compared to."""
-
-    name: str
-    seconds: float
-    reference: str = ""
-    reference_seconds: float | None = None
-    target: str = ""
-
-    @property
-    def speedup(self) -> float | None:
-        return None if self.reference_seconds is None else self.reference_seconds / self.seconds
-
-
-def time_it(fn: Callable[[], object], repeat: int = 7, warmup: int = 2, min_time: float = 0.0) -> float:
-    """Median wall time of ``fn()`` in seconds over ``repeat`` runs after ``warmup`` runs."""
-    for _ in range(warmup):
-        fn()
-    times = []
-    t_start = time.perf_counter()
-    while len(times) < repeat or time.perf_counter() - t_start < min_time:
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times)
+from ..config import load_config
+from ..core.kinematics import forward_kinematics
+from ..core.rotations import quat_mul, quat_rotate
+from ..core.skeleton import CANONICAL22_PARENTS
+from ..files import REPO_ROOT
+from ..models import PROFILE_WIDTHS
+from ..models.tdcn import TDCNGenerator
+from ..training.tdcn import RetargetTraining
+from .bench_contact import bench_eint, bench_eso
+from .timing import BenchRow, format_table, time_it
 
 
 def numpy_fk_loop(rotations: np.ndarray, offsets: np.ndarray, parents, root: np.ndarray) -> np.ndarray:
@@ -81,8 +60,6 @@ def torch_fk_per_joint(rotations: torch.Tensor, offsets: torch.Tensor, parents, 
     """Reference FK as public retargeting code usually writes it: batched over frames, one joint
     at a time with quaternion products. ``rotations (..., J, 4)``, ``offsets (J, 3)``,
     ``root (..., 3)`` → ``(..., J, 3)``."""
-    from .core.rotations import quat_mul, quat_rotate
-
     gq, gp = [rotations[..., 0, :]], [root]
     for j in range(1, len(parents)):
         p = parents[j]
@@ -159,9 +136,6 @@ def plain_dilated_body(in_channels: int, channels: int, dilations=(3, 9, 27)) ->
 def bench_tdcn(quick: bool = False, frames: int = 1000) -> list[BenchRow]:
     """TDCN inference on one clip (features, network, output heads, FK), fast and paper width,
     beside the plain dilated-convolution body of the same width (same run)."""
-    from .models import PROFILE_WIDTHS
-    from .models.tdcn import TDCNGenerator
-
     gen = torch.Generator().manual_seed(0)
     q = torch.randn(1, frames, 22, 4, generator=gen)
     q = q / q.norm(dim=-1, keepdim=True)
@@ -191,10 +165,6 @@ def bench_training(quick: bool = False, batch: int = 16) -> list[BenchRow]:
     """One full TDCN training step (Eq. 6: A→B→A cycle, all losses, G and D updates) at fast and
     paper width, beside the generator's bare forward+backward on the same batch (same run).
     The row name carries the throughput in windows/s."""
-    from .config import load_config
-    from .files import REPO_ROOT
-    from .training.tdcn import RetargetTraining
-
     rows = []
     for profile in ("fast", "paper"):
         cfg = load_config(REPO_ROOT / "configs" / "tdcn_paper.yaml", [f"train.batch={batch}"], profile=profile)
@@ -214,44 +184,13 @@ def bench_training(quick: bool = False, batch: int = 16) -> list[BenchRow]:
     return rows
 
 
-def bench_eint(quick: bool = False) -> list[BenchRow]:
-    """:func:`retarget_lib.bench_contact.bench_eint` (imported lazily: it imports this module)."""
-    from .bench_contact import bench_eint as run_eint
-
-    return run_eint(quick=quick)
-
-
-def bench_eso(quick: bool = False) -> list[BenchRow]:
-    """:func:`retarget_lib.bench_contact.bench_eso`."""
-    from .bench_contact import bench_eso as run_eso
-
-    return run_eso(quick=quick)
-
-
+#: every benchmark of ``retarget bench``, by name (``--only``)
 BENCHES: dict[str, Callable[..., list[BenchRow]]] = {"fk": bench_fk, "tdcn": bench_tdcn, "training": bench_training,
                                                       "eint": bench_eint, "eso": bench_eso}
 
 
-def format_table(rows: list[BenchRow]) -> str:
-    """Markdown table of benchmark rows."""
-    lines = ["| benchmark | median | reference (same run) | speed-up | target |", "|---|---|---|---|---|"]
-    for r in rows:
-        ref = "" if r.reference_seconds is None else f"{r.reference}: {_fmt(r.reference_seconds)}"
-        sp = ("" if r.speedup is None else f"{r.speedup:,.0f}x" if r.speedup >= 10 else f"{r.speedup:.1f}x"
-              if r.speedup >= 0.1 else f"1/{1 / r.speedup:,.0f}x")  # slower than its reference
-        lines.append(f"| {r.name} | {_fmt(r.seconds)} | {ref} | {sp} | {r.target} |")
-    return "\n".join(lines)
-
-
-def _fmt(s: float) -> str:
-    return f"{s * 1e3:.2f} ms" if s < 1 else f"{s:.2f} s"
-
-
 def run(quick: bool = False, only: list[str] | None = None) -> str:
     """Run the benchmarks and return the Markdown table (also the header line with the machine)."""
-    import os
-    import platform
-
     rows: list[BenchRow] = []
     for name, fn in BENCHES.items():
         if only and name not in only:

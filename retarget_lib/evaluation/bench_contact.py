@@ -1,5 +1,5 @@
-"""Speed benchmarks of the contact-aware energies (wired into ``retarget bench`` by
-:mod:`retarget_lib.bench`): each timing beside a reference measured in the same run.
+"""Speed benchmarks of the contact-aware energies (listed in ``retarget bench`` by
+:mod:`retarget_lib.evaluation.bench`): each timing beside a reference measured in the same run.
 
 ``E_int`` (Villegas et al. 2021, Eq. 4) + backward, per frame, on a ~3,000-vertex synthetic
 character whose left forearm is bent into the torso, broken down into detection (BVH broad phase +
@@ -16,11 +16,20 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from .bench import BenchRow, time_it
-from .core.rotations import quat_from_axis_angle
-from .core.skeleton import J
-from .geometry.collision import brute_force_candidate_pairs, triangles_intersect
-from .geometry.penetration import InterpenetrationEnergy
+from ..core.rotations import quat_from_axis_angle
+from ..core.skeleton import J
+from ..data.manifest import checkpoint_entries
+from ..data.sources.mannequin import load_mannequin
+from ..data.synthetic.characters import make_character
+from ..data.synthetic.motions import body_radii_from_mesh, make_motion
+from ..geometry.collision import brute_force_candidate_pairs, triangles_intersect
+from ..geometry.contacts import transfer_contacts
+from ..geometry.penetration import InterpenetrationEnergy
+from ..methods.contact import contact_clip, load_contact_model, retarget_with_network
+from ..methods.eso import eso_throughput
+from ..methods.registry import get_method
+from ..models.georet import GeometryConditionedRNN
+from .timing import BenchRow, time_it
 
 
 def forearm_in_torso_pose(character, arm_down_deg: float = 80.0, forearm_deg: float = 100.0,
@@ -52,8 +61,6 @@ def _brute_force_pairs(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
 def bench_eint(quick: bool = False) -> list[BenchRow]:
     """``E_int`` + backward per frame on a self-penetrating ~3k-vertex character, with its
     breakdown, beside all-pairs box detection (same run). Medians over repeats."""
-    from .data.synthetic.characters import make_character
-
     character = make_character("ada")
     energy = InterpenetrationEnergy(character.faces, character.rest_vertices)
     posed = forearm_in_torso_pose(character).detach()
@@ -105,27 +112,19 @@ def bench_eso(quick: bool = False) -> list[BenchRow]:
     clip retargeted from ``mannequin-x`` to the bulky ~3k-vertex ``otto``, with its detected hand
     contacts and Eint; the reference is the network alone on the same frames (same run).
 
-    Uses the shipped ``Efull`` checkpoint when present, else a randomly initialised network of the
-    same size (the cost per frame is the same).
+    Uses the ``contact`` method's default checkpoint (the shipped ``Efull``) when present, else a
+    randomly initialised network of the same size (the cost per frame is the same).
     """
-    from .data.manifest import checkpoint, load_manifest
-    from .data.sources.mannequin import load_mannequin
-    from .data.synthetic.characters import make_character
-    from .data.synthetic.motions import body_radii_from_mesh, make_motion
-    from .geometry.contacts import transfer_contacts
-    from .methods.contact import contact_clip, load_contact_model, retarget_with_network
-    from .methods.eso import eso_throughput
-    from .models.georet import GeometryConditionedRNN
-
     frames = 8 if quick else 30
     source, target = load_mannequin(), make_character("otto")
     motion = make_motion("pray", source.skeleton, 8,
                          body_radii=body_radii_from_mesh(source.skeleton, source.rest_vertices, source.weights))
     motion = motion.slice(30, 30 + frames)
     contacts = transfer_contacts(contact_clip(motion, source).self_contacts, source, target)
-    if "contact-efull-fast" in (load_manifest().get("checkpoints") or {}):
-        model, _ = load_contact_model(checkpoint("contact-efull-fast").path)
-        which = "shipped Efull"
+    shipped = get_method("contact").default_checkpoint()
+    if shipped is not None:
+        model, _ = load_contact_model(shipped)
+        which = f"shipped {checkpoint_entries()[shipped].row}"
     else:
         model, which = GeometryConditionedRNN().eval(), "untrained"
     eint = InterpenetrationEnergy(target.faces, target.rest_vertices)

@@ -43,14 +43,25 @@ from typing import Callable, Mapping
 import numpy as np
 import pandas as pd
 
-from .core.character import Character
-from .core.motion import Motion
-from .evaluate import METRES_TO_CM, normalized_mse, write_table
-from .files import REPO_ROOT, atomic_write
-from .geometry.contacts import SelfContacts, detect_foot_contacts, transfer_contacts
+from ..core.character import Character
+from ..core.motion import Motion
+from ..data.manifest import stored_result, table_checkpoints
+from ..data.sources.mannequin import load_mannequin
+from ..data.synthetic.characters import make_character
+from ..data.synthetic.motions import body_radii_from_mesh, make_motion
+from ..files import atomic_write
+from ..geometry.contacts import SelfContacts, detect_foot_contacts, transfer_contacts
+from ..geometry.ik import apply_foot_contact_ik
+from ..geometry.penetration import InterpenetrationEnergy, interpenetration_score, penetration_rate
+from ..losses.contact import TABLE3_ROWS as ENERGY_ROWS
+from ..methods.contact import contact_clip, load_contact_model, retarget_with_network
+from ..methods.eso import encoder_space_optimization, eso_source
+from ..methods.registry import get_method
+from .paper import CONTACT_PAPER_METRICS, PAPER_TABLE1, PAPER_TABLE3, PAPER_TABLE5, PAPER_TABLE6
+from .tdcn import METRES_TO_CM, normalized_mse, write_table
 
-__all__ = ["CONTACT_TARGETS", "CONTACT_PROFILES", "METRICS", "PAPER_TABLE1", "PAPER_TABLE3", "PAPER_TABLE5",
-           "PAPER_TABLE6", "ContactCase", "SHIPPED_RESULTS", "shipped_contact_results", "rerun_cases", "contact_cases", "contact_methods", "evaluate_contact_case", "evaluate_contact_methods",
+__all__ = ["CONTACT_TARGETS", "CONTACT_PROFILES", "METRICS",
+           "ContactCase", "shipped_contact_results", "rerun_cases", "contact_cases", "contact_methods", "evaluate_contact_case", "evaluate_contact_methods",
            "vertex_contact_mse", "foot_contact_accuracy", "contact_tables", "TABLE3_STEPS", "ablation_steps",
            "run_contact_evaluation"]
 
@@ -63,31 +74,13 @@ CONTACT_PROFILES: dict[str, dict] = {
     "paper": dict(families=CONTACT_RICH + ("walk", "run", "jump", "turn", "wave", "punch", "kick", "squat"),
                   seeds=(8, 9), max_frames=None, eval_every=1),
 }
-METRICS = ("interpenetration", "vertex contact MSE", "foot contact accuracy", "global position MSE",
-           "penetration rate")
-_PAPER_COLUMNS = METRICS[:4]
-#: Villegas et al. 2021, Tables 1, 3, 5, 6 (interpenetration, vertex contact MSE, foot accuracy, position MSE)
-PAPER_TABLE1 = {"Ours": (0.81, 3.87, 0.97, 0.48), "Efull + IK": (1.19, 4.52, 0.82, 1.58),
-                "SAN": (1.43, 5.26, 0.63, 0.82), "SAN + IK": (1.32, 5.78, 0.73, 0.74),
-                "PMnet": (2.94, 23.11, 0.70, 3.67), "NKN": (3.20, 14.86, 0.71, 8.15)}
-PAPER_TABLE3 = {"Eskel": (1.67, 4.23, 0.71, 0.56), "Eskel+Efoot": (1.59, 4.21, 0.80, 0.66),
-                "Eskel+Efoot+Eint w/o w": (0.35, 7.94, 0.82, 1.00), "Eskel+Efoot+Eint": (0.56, 6.79, 0.81, 0.97),
-                "Efull": (1.18, 4.52, 0.76, 1.54), "Efull + ESO": (0.81, 3.87, 0.97, 0.48)}
-PAPER_TABLE5 = {"Ours": (0.49, 2.24, 0.98, 0.31), "Efull + IK": (0.82, 2.81, 0.81, 1.97),
-                "SAN": (1.21, 4.50, 0.61, 1.23), "SAN + IK": (1.17, 4.22, 0.71, 1.13),
-                "PMnet": (2.94, 18.31, 0.71, 4.38), "NKN": (2.11, 13.00, 0.72, 13.95)}
-PAPER_TABLE6 = {"Ours": (1.14, 5.50, 0.96, 0.65), "Efull + IK": (1.56, 6.24, 0.84, 1.19),
-                "SAN": (1.66, 6.02, 0.64, 0.42), "SAN + IK": (1.48, 7.34, 0.74, 0.35),
-                "PMnet": (4.01, 27.92, 0.70, 2.97), "NKN": (4.29, 16.72, 0.70, 2.34)}
-#: manifest checkpoint of each trained Table 3 row
-CONTACT_CHECKPOINTS = {"Efull": "contact-efull-fast", "Eskel": "contact-eskel-fast",
-                       "Eskel+Efoot": "contact-eskel-foot-fast", "Eskel+Efoot+Eint w/o w": "contact-eint-no-w-fast",
-                       "Eskel+Efoot+Eint": "contact-eint-fast"}
+#: the papers' four metrics, then the penetration rate (ours)
+METRICS = CONTACT_PAPER_METRICS + ("penetration rate",)
 TABLE1_ROWS = ("Ours", "Efull + IK", "TDCN", "NKN", "copy")
-#: per-case results of ``retarget evaluate --table contact --profile fast`` on the shipped
-#: checkpoints (ESO makes the full run take ~20 min on 2 cores; the notebooks read this file and
-#: re-run a few cases live to show that it reproduces)
-SHIPPED_RESULTS = REPO_ROOT / "checkpoints" / "contact_eval_fast_cases.csv"
+#: Table 1 rows that are a method of the registry, run with its default checkpoint
+REGISTRY_ROWS = {"TDCN": "tdcn", "NKN": "nkn", "copy": "copy"}
+#: Table 1/3 rows that are the Efull network followed by a test-time step
+EFULL_ROWS = {"Ours": "Efull", "Efull + IK": "Efull", "Efull + ESO": "Efull"}
 TABLE3_ROWS = ("Eskel", "Eskel+Efoot", "Eskel+Efoot+Eint w/o w", "Eskel+Efoot+Eint", "Efull", "Efull + ESO")
 
 
@@ -125,25 +118,17 @@ class ContactCase:
 
 @lru_cache(maxsize=None)
 def _radii(name: str):
-    from .data.synthetic.motions import body_radii_from_mesh
-
     c = _character(name)
     return body_radii_from_mesh(c.skeleton, c.rest_vertices, c.weights)
 
 
 @lru_cache(maxsize=None)
 def _character(name: str) -> Character:
-    from .data.sources.mannequin import load_mannequin
-    from .data.synthetic.characters import make_character
-
     return load_mannequin() if name == CONTACT_SOURCE else make_character(name)
 
 
 def contact_cases(profile: str = "fast") -> list[ContactCase]:
     """The test cases of ``profile`` (:data:`CONTACT_PROFILES`): every clip × every target."""
-    from .data.synthetic.motions import make_motion
-    from .methods.contact import contact_clip
-
     if profile not in CONTACT_PROFILES:
         raise ValueError(f"unknown profile {profile!r}; choose from {list(CONTACT_PROFILES)}")
     p = CONTACT_PROFILES[profile]
@@ -197,8 +182,6 @@ def evaluate_contact_case(output: Motion, case: ContactCase, eint, eval_every: i
         eint: the target's ``penetration.InterpenetrationEnergy`` (geodesic weights).
         eval_every: evaluate interpenetration / penetration rate on every this many frames.
     """
-    from .geometry.penetration import interpenetration_score, penetration_rate
-
     target = case.target
     vertices = target.skinned(output.rotations, output.root_positions)
     sampled = vertices[::eval_every]
@@ -219,22 +202,15 @@ ContactMethod = Callable[[ContactCase, object], Motion]
 
 
 def _network_method(model) -> ContactMethod:
-    from .methods.contact import retarget_with_network
-
     return lambda case, eint: retarget_with_network(model, case.source, case.target)
 
 
 def _ik_method(model) -> ContactMethod:
-    from .geometry.ik import apply_foot_contact_ik
-    from .methods.contact import retarget_with_network
-
     return lambda case, eint: apply_foot_contact_ik(retarget_with_network(model, case.source, case.target),
                                                     case.foot_contacts)
 
 
 def _eso_method(model, eso_config: Mapping) -> ContactMethod:
-    from .methods.eso import encoder_space_optimization, eso_source
-
     def run(case: ContactCase, eint) -> Motion:
         src = eso_source(case.source, case.target, case.foot_contacts)
         res = encoder_space_optimization(model, src.features, case.target, src.quantities, src.foot_contacts,
@@ -252,36 +228,33 @@ def _skeleton_method(fn) -> ContactMethod:
 
 def contact_methods(rows: tuple[str, ...] = TABLE1_ROWS + TABLE3_ROWS) -> tuple[dict[str, ContactMethod], list[str]]:
     """The methods of the requested table rows whose checkpoints are shipped, and the rows missing
-    one (reported, never faked)."""
-    from .data.manifest import checkpoint, load_manifest
-    from .methods.contact import load_contact_model
-    from .methods.copy import copy_rotations
-    from .methods.tdcn import load_generator, retarget_motion_with
+    one (reported, never faked).
 
-    shipped = set(load_manifest().get("checkpoints") or {})
+    Table 3's network rows (the energies of :data:`~retarget_lib.losses.contact.TABLE3_ROWS`) load
+    the checkpoint the manifest lists for that row (``table: contact``); :data:`EFULL_ROWS` add IK
+    or ESO to the Efull network; :data:`REGISTRY_ROWS` are registry methods with their default
+    checkpoints.
+    """
+    shipped = table_checkpoints("contact")
     models = {}
 
     def model(row: str):
         if row not in models:
-            path = checkpoint(CONTACT_CHECKPOINTS[row]).path
-            models[row] = load_contact_model(path)
+            models[row] = load_contact_model(shipped[row].id)
         return models[row]
 
     methods, missing = {}, []
     for row in dict.fromkeys(rows):
-        base = {"Ours": "Efull", "Efull + IK": "Efull", "Efull + ESO": "Efull"}.get(row, row)
-        if base in CONTACT_CHECKPOINTS:
-            if CONTACT_CHECKPOINTS[base] not in shipped:
+        base = EFULL_ROWS.get(row, row)
+        if base in ENERGY_ROWS:
+            if base not in shipped:
                 missing.append(row)
                 continue
             net, cfg = model(base)
             methods[row] = (_eso_method(net, cfg["eso"]) if row in ("Ours", "Efull + ESO")
                             else _ik_method(net) if row == "Efull + IK" else _network_method(net))
-        elif row in ("TDCN", "NKN"):
-            generator, _ = load_generator(checkpoint("tdcn-ours-fast" if row == "TDCN" else "nkn-baseline-fast").path)
-            methods[row] = _skeleton_method(lambda m, s, g=generator: retarget_motion_with(g, m, s))
-        elif row == "copy":
-            methods[row] = _skeleton_method(copy_rotations)
+        elif row in REGISTRY_ROWS:
+            methods[row] = _skeleton_method(get_method(REGISTRY_ROWS[row]).retargeter())
         else:
             raise ValueError(f"unknown contact table row {row!r}")
     return methods, missing
@@ -292,8 +265,6 @@ def evaluate_contact_methods(methods: Mapping[str, ContactMethod], cases: list[C
                              eval_every: int = 1, same: Mapping[str, str] | None = None) -> pd.DataFrame:
     """Per (method, case) metrics plus the seconds each method took. ``same`` maps a row to one
     whose outputs it shares (e.g. ``"Efull + ESO" -> "Ours"``), which is then not re-run."""
-    from .geometry.penetration import InterpenetrationEnergy
-
     same = dict(same or {})
     eints = {}
     rows = []
@@ -321,9 +292,9 @@ def _table(per_case: pd.DataFrame, rows: tuple[str, ...], paper: Mapping[str, tu
     out = []
     for row in dict.fromkeys(list(rows) + list(paper)):
         r = {f"ours {m}": (ours.loc[row, m] if row in ours.index else np.nan) for m in METRICS}
-        r.update({f"paper {m}": v for m, v in zip(_PAPER_COLUMNS, paper.get(row, (np.nan,) * 4))})
+        r.update({f"paper {m}": v for m, v in zip(CONTACT_PAPER_METRICS, paper.get(row, (np.nan,) * 4))})
         out.append(pd.Series(r, name=row))
-    cols = [c for m in METRICS for c in (f"ours {m}", f"paper {m}") if not (c.startswith("paper") and m not in _PAPER_COLUMNS)]
+    cols = [c for m in METRICS for c in (f"ours {m}", f"paper {m}") if not (c.startswith("paper") and m not in CONTACT_PAPER_METRICS)]
     return pd.DataFrame(out)[cols]
 
 
@@ -355,7 +326,7 @@ def ablation_steps(table3: pd.DataFrame, steps: tuple[tuple[str, str], ...] = TA
     """
     out = []
     for before, after in steps:
-        for metric in _PAPER_COLUMNS:
+        for metric in CONTACT_PAPER_METRICS:
             ours = table3.loc[after, f"ours {metric}"] - table3.loc[before, f"ours {metric}"]
             paper = table3.loc[after, f"paper {metric}"] - table3.loc[before, f"paper {metric}"]
             out.append({"step": f"{before} → {after}", "metric": metric, "ours change": ours,
@@ -364,11 +335,13 @@ def ablation_steps(table3: pd.DataFrame, steps: tuple[tuple[str, str], ...] = TA
 
 
 def shipped_contact_results() -> pd.DataFrame:
-    """The per-case metrics in :data:`SHIPPED_RESULTS` (one row per method and case)."""
-    if not SHIPPED_RESULTS.exists():
-        raise FileNotFoundError(f"{SHIPPED_RESULTS} is missing; re-create it with `retarget evaluate --table contact "
-                                f"--profile fast --out DIR` and copy DIR/contact_cases.csv there")
-    return pd.read_csv(SHIPPED_RESULTS)
+    """The stored per-case metrics of ``retarget evaluate --table contact --profile fast`` on the
+    shipped checkpoints (``results:`` in the manifest, sha256 checked; one row per method and case).
+
+    ESO makes the full run take ~20 min on 2 cores, so the notebooks read these and re-run a few
+    cases live (:func:`rerun_cases`) to show that they reproduce.
+    """
+    return pd.read_csv(stored_result("contact"))
 
 
 def rerun_cases(per_case: pd.DataFrame, clips: tuple[str, ...], targets: tuple[str, ...],

@@ -21,31 +21,21 @@ from typing import Callable, Mapping
 import numpy as np
 import pandas as pd
 
-from .core.motion import Motion
-from .core.skeleton import Skeleton
-from .files import atomic_write
+from ..core.motion import Motion
+from ..core.skeleton import Skeleton
+from ..core.transfer import retarget_ground_truth
+from ..data.manifest import table_checkpoints
+from ..data.splits import tdcn_split
+from ..data.synthetic.dataset import load_synthetic
+from ..files import atomic_write
+from ..methods.registry import get_method
+from .paper import PAPER_TABLE4, TABLE4_COLUMNS
 
 #: a retargeting method: (source motion, target skeleton) -> motion on the target
 Method = Callable[[Motion, Skeleton], Motion]
 
 SHORT_FRAMES = 120
 METRES_TO_CM = 100.0
-
-#: Table 4 of Kim et al. 2020 (normalised MSE): short (1)-(4), avg, long (1)-(4), avg
-PAPER_TABLE4: dict[str, tuple[float, ...]] = {
-    "Baseline": (4.79, 1.22, 3.99, 18.31, 7.08, 26.14, 4.64, 8.38, 45.34, 21.12),
-    "Baseline-dense": (4.45, 1.73, 3.85, 19.71, 7.44, 23.66, 4.75, 9.14, 35.37, 18.23),
-    "Baseline-dilated": (7.92, 4.53, 7.63, 26.26, 11.59, 30.14, 9.41, 11.24, 49.43, 25.06),
-    "Baseline-height": (2.72, 0.88, 3.29, 6.63, 3.38, 14.86, 2.65, 9.13, 14.89, 10.38),
-    "ours": (2.21, 0.82, 2.70, 4.06, 2.45, 1.65, 0.78, 3.00, 4.49, 2.48),
-    "A1": (1.58, 0.99, 3.00, 4.21, 2.45, 1.63, 0.80, 3.49, 6.33, 3.06),
-    "A2": (3.74, 2.71, 3.71, 9.60, 4.94, 3.99, 2.80, 4.89, 13.14, 6.20),
-    "A3": (6.90, 1.70, 5.26, 25.23, 9.77, 12.27, 2.25, 6.23, 51.66, 18.10),
-    "A4": (2.31, 1.28, 3.70, 4.30, 2.90, 1.97, 1.24, 4.23, 5.31, 3.19),
-    "A5": (1.65, 1.15, 2.86, 5.54, 2.80, 2.03, 0.83, 3.58, 8.39, 3.71),
-}
-TABLE4_COLUMNS = tuple(f"{length} ({k})" if k != "avg" else f"{length} avg"
-                       for length in ("short", "long") for k in ("1", "2", "3", "4", "avg"))
 
 
 def normalized_mse(pred: np.ndarray, truth: np.ndarray, height: float, squared_height: bool = False) -> float:
@@ -86,10 +76,6 @@ def tdcn_cases() -> list[EvalCase]:
     """The four TDCN scenarios on the synthetic split (``data_manifest.yaml``), with ground truth
     from :func:`~retarget_lib.core.transfer.retarget_ground_truth` (the source clip performed by the
     source character, and by the target character)."""
-    from .core.transfer import retarget_ground_truth
-    from .data.splits import tdcn_split
-    from .data.synthetic.dataset import load_synthetic
-
     ds, split = load_synthetic(), tdcn_split()
     cases = []
     for scenario, pairs in split.scenarios.items():
@@ -227,30 +213,19 @@ def write_table(table: pd.DataFrame, out_dir: str | Path, name: str, note: str =
     return csv_path, md_path
 
 
-#: manifest checkpoint id of each Table 4 row, when one is shipped
-TABLE4_CHECKPOINTS = {"ours": "tdcn-ours-fast", "Baseline": "nkn-baseline-fast", "Baseline-dense": "nkn-baseline-dense-fast", "Baseline-height": "nkn-baseline-height-fast", "Baseline-dilated": "nkn-baseline-dilated-fast", "A1": "tdcn-a1-fast", "A4": "tdcn-a4-fast", "A2": "tdcn-a2-fast", "A5": "tdcn-a5-fast", "A3": "tdcn-a3-fast"}
-
-
 def tdcn_methods() -> tuple[dict[str, Method], list[str]]:
-    """The methods to put in Table 4: the two copy baselines and every Table 4 row whose
-    checkpoint is shipped (each loaded once); and the rows still without one (reported, never
-    faked)."""
-    from functools import partial
-
-    from .core.transfer import retarget_ground_truth
-    from .data.manifest import checkpoint
-    from .methods.copy import copy_rotations
-    from .methods.tdcn import load_generator, retarget_motion_with
-
-    methods: dict[str, Method] = {"copy": copy_rotations, "copy-rest": retarget_ground_truth}
+    """The methods to put in Table 4: the registry's two copy baselines and every Table 4 row whose
+    checkpoint is shipped (``table: tdcn`` in the manifest; loaded once, by the registry method its
+    entry names); and the rows still without one (reported, never faked)."""
+    methods: dict[str, Method] = {name: get_method(name).retargeter() for name in ("copy", "copy-rest")}
+    shipped = table_checkpoints("tdcn")
     missing = []
     for row in PAPER_TABLE4:
-        cid = TABLE4_CHECKPOINTS.get(row)
-        if cid is None:
+        entry = shipped.get(row)
+        if entry is None:
             missing.append(row)
             continue
-        generator, _ = load_generator(checkpoint(cid).path)
-        methods[row] = partial(retarget_motion_with, generator)
+        methods[row] = get_method(entry.method).retargeter(entry.id)
     return methods, missing
 
 
