@@ -35,7 +35,7 @@ data: $(STAMP)
 
 notebooks: data
 	@mkdir -p build/notebooks
-	$(BIN)/python -m retarget_lib.notebook_runner --out build/notebooks $(NOTEBOOKS)
+	$(BIN)/python -m retarget_lib.notebook.runner --out build/notebooks $(NOTEBOOKS)
 
 # two xdist workers on two cores: one torch/OpenMP thread each (more oversubscribes and spins)
 PYTEST := OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 $(BIN)/pytest

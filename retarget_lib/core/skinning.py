@@ -24,6 +24,7 @@ meshes (Appendix B.1), by quadric edge-collapse decimation with the weights carr
 
 from __future__ import annotations
 
+import fast_simplification
 import numpy as np
 import torch
 
@@ -109,8 +110,6 @@ def subsample_mesh(vertices: np.ndarray, faces: np.ndarray, weights: np.ndarray,
         ``(vertices (n', 3), faces (F', 3) int64, weights (n', J))``; the input unchanged (copied)
         when it already has at most ``n`` vertices.
     """
-    import fast_simplification
-
     vertices = np.asarray(vertices, dtype=np.float64)
     faces = np.asarray(faces, dtype=np.int64)
     weights = np.asarray(weights, dtype=np.float64)

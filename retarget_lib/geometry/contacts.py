@@ -29,6 +29,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Iterable, Sequence
 
+import fcl
 import numpy as np
 from scipy.spatial import cKDTree
 
@@ -329,8 +330,6 @@ def _group_boxes(vertices: np.ndarray, groups: Sequence[np.ndarray]) -> tuple[np
 def _bvh(vertices: np.ndarray, faces: np.ndarray):
     """A python-fcl collision object: a bounding volume hierarchy (``BVHModel``, OBBRSS) of the
     triangles ``faces (n, 3)`` over ``vertices (N, 3)``."""
-    import fcl
-
     used, local = np.unique(faces, return_inverse=True)  # only the vertices the triangles use
     model = fcl.BVHModel()
     model.beginModel(len(used), len(faces))
@@ -361,8 +360,6 @@ def _meshes_within(verts_a: np.ndarray, faces_a: np.ndarray, verts_b: np.ndarray
         margin: proximity margin (metres).
         nearest_b_of_a: ``(Na,)`` distance of each vertex of ``a`` to its nearest vertex of ``b``.
     """
-    import fcl
-
     if nearest_b_of_a.min() <= margin:
         return True  # two vertices, points of both surfaces, are already that close
     reach = margin + _longest_edge(verts_a, faces_a) + _longest_edge(verts_b, faces_b)

@@ -32,6 +32,7 @@ from typing import Mapping, Sequence
 import numpy as np
 import scipy.sparse
 import torch
+import trimesh
 from scipy.sparse.csgraph import connected_components, dijkstra
 
 from ..core.skeleton import CANONICAL22
@@ -497,8 +498,6 @@ def ray_winding_numbers(points, vertices, faces) -> np.ndarray:
     Returns:
         ``(N,)`` int winding numbers.
     """
-    import trimesh
-
     points = as_vertex_array(points)
     vertices = as_vertex_array(vertices)
     faces = as_face_array(faces, len(vertices))

@@ -7,9 +7,11 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Sequence
 
+import imageio.v3 as iio
 import numpy as np
+from PIL import Image
 
-from .render import Scene, SceneRenderer, _bounds, _layout_row
+from .render import Scene, SceneRenderer, layout_row, scene_bounds
 
 
 def render_frames(frames: Sequence[Sequence[Scene]], view="front_side", window_size=(480, 300),
@@ -38,7 +40,7 @@ def render_frames(frames: Sequence[Sequence[Scene]], view="front_side", window_s
         # widened for long labels so neighbouring titles do not run into each other
         longest = max((len(str(t)) for t in titles or ()), default=0)
         gap = float(np.median([s.size() for s in frames[0]])) * (0.35 + 0.06 * longest)
-        placed = _layout_row(boxes, gap)
+        placed = layout_row(boxes, gap)
         shifts = [p.positions[0] - b.positions[0] for p, b in zip(placed, boxes)]
         frames = [[s.translated(d) for s, d in zip(f, shifts)] for f in frames]
     allpts = np.concatenate([s.points() for f in frames for s in f])
@@ -54,7 +56,7 @@ def render_frames(frames: Sequence[Sequence[Scene]], view="front_side", window_s
             if not images:
                 r.frame(lo, hi, size)
             if titles is not None:
-                lo_f, hi_f = _bounds(f)
+                lo_f, hi_f = scene_bounds(f)
                 r.set_titles(titles, [[0.5 * (s.points()[:, 0].min() + s.points()[:, 0].max()),
                                        hi[1] - 0.1 * size, s.points()[:, 2].max()] for s in f])
             images.append(r.screenshot())
@@ -74,13 +76,9 @@ def write_animation(images: Sequence[np.ndarray], path: str | Path, fps: float =
     Returns:
         the path.
     """
-    import imageio.v3 as iio
-
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     if path.suffix.lower() == ".gif":
-        from PIL import Image
-
         strip = Image.fromarray(np.concatenate(list(images[:: max(1, len(images) // 8)]), axis=0))
         palette = strip.quantize(colors=128, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE)
         frames = [Image.fromarray(im).quantize(palette=palette, dither=Image.Dither.NONE) for im in images]

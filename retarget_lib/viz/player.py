@@ -11,8 +11,10 @@ from __future__ import annotations
 
 from typing import Mapping
 
+import ipywidgets as widgets
 import numpy as np
 
+from ..core.transfer import retarget_ground_truth
 from .display import png_bytes
 from .render import Scene, SceneRenderer
 
@@ -61,9 +63,7 @@ class Player:
             return self.motions[name]
         key = (name, character)
         if key not in self._shown:
-            transfer = self.transfer
-            if transfer is None:
-                from ..core.transfer import retarget_ground_truth as transfer
+            transfer = retarget_ground_truth if self.transfer is None else self.transfer
             self._shown[key] = transfer(self.motions[name], self.characters[character].skeleton)
         return self._shown[key]
 
@@ -104,21 +104,19 @@ class Player:
 
     # ------------------------------------------------------------------ widget
     def _build_widget(self):
-        import ipywidgets as w
-
         m = self.motions[self.name]
-        self.image = w.Image(format="png", value=png_bytes(self.render()))
-        self.slider = w.IntSlider(value=self.frame, min=0, max=m.num_frames - 1, description="frame",
+        self.image = widgets.Image(format="png", value=png_bytes(self.render()))
+        self.slider = widgets.IntSlider(value=self.frame, min=0, max=m.num_frames - 1, description="frame",
                                   continuous_update=True)
-        self.play = w.Play(value=self.frame, min=0, max=m.num_frames - 1, interval=int(1000 / m.fps))
-        w.jslink((self.play, "value"), (self.slider, "value"))
-        self.picker = w.Dropdown(options=list(self.motions), value=self.name, description="motion")
-        self.character_picker = w.Dropdown(options=[self.PERFORMER] + list(self.characters),
+        self.play = widgets.Play(value=self.frame, min=0, max=m.num_frames - 1, interval=int(1000 / m.fps))
+        widgets.jslink((self.play, "value"), (self.slider, "value"))
+        self.picker = widgets.Dropdown(options=list(self.motions), value=self.name, description="motion")
+        self.character_picker = widgets.Dropdown(options=[self.PERFORMER] + list(self.characters),
                                            value=self.PERFORMER, description="character")
         self.slider.observe(self._on_frame, names="value")
         self.picker.observe(self._on_pick, names="value")
         self.character_picker.observe(self._on_character, names="value")
-        return w.VBox([w.HBox([self.picker, self.character_picker]), w.HBox([self.play, self.slider]),
+        return widgets.VBox([widgets.HBox([self.picker, self.character_picker]), widgets.HBox([self.play, self.slider]),
                        self.image])
 
     def _on_frame(self, change) -> None:

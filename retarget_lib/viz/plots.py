@@ -5,8 +5,10 @@ from __future__ import annotations
 
 from typing import Mapping, Sequence
 
+import matplotlib.pyplot as plt
 import numpy as np
 
+from ..core.skeleton import CANONICAL22
 from .render import CENTER_COLOR, LEFT_COLOR, RIGHT_COLOR
 
 
@@ -21,8 +23,6 @@ def plot_root_trajectories(trajectories: Mapping[str, np.ndarray], ax=None, mark
     Returns:
         the Axes (one line per trajectory).
     """
-    import matplotlib.pyplot as plt
-
     if ax is None:
         _, ax = plt.subplots(figsize=(5, 4))
     for name, traj in trajectories.items():
@@ -49,8 +49,6 @@ def plot_timeline(tracks: Mapping[str, np.ndarray], fps: float = 30.0, ax=None):
     Returns:
         the Axes.
     """
-    import matplotlib.pyplot as plt
-
     if ax is None:
         _, ax = plt.subplots(figsize=(8, 0.5 + 0.45 * len(tracks)))
     names = list(tracks)
@@ -79,9 +77,6 @@ def plot_skeleton_mpl(positions: np.ndarray, parents: Sequence[int], ax=None, vi
     Returns:
         the Axes.
     """
-    import matplotlib.pyplot as plt
-
-    from ..core.skeleton import CANONICAL22
 
     if ax is None:
         _, ax = plt.subplots(figsize=(3, 4))

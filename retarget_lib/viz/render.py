@@ -18,6 +18,11 @@ from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
+from matplotlib import colormaps
+from matplotlib.colors import to_rgb
+from PIL import Image
+
+from ..core.skeleton import CANONICAL22
 
 #: camera presets: name -> (azimuth from +Z towards +X, elevation), degrees
 VIEWS: dict[str, tuple[float, float]] = {
@@ -48,6 +53,8 @@ def configure_offscreen(window_size: tuple[int, int] = (640, 400), anti_aliasing
         the ``pyvista`` module.
     """
     os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+    # pyvista (VTK) is imported where a picture is made, not at the top: it costs ~1.3 s, which
+    # the plots and the rest of the library do without
     import pyvista as pv
 
     pv.OFF_SCREEN = True
@@ -65,8 +72,6 @@ def configure_offscreen(window_size: tuple[int, int] = (640, 400), anti_aliasing
 
 def _rgb(color) -> np.ndarray:
     """Any matplotlib colour -> ``(3,)`` float RGB in [0, 1]."""
-    from matplotlib.colors import to_rgb
-
     return np.asarray(to_rgb(color), dtype=np.float64)
 
 
@@ -160,7 +165,7 @@ def _joint_colors(scene: Scene) -> np.ndarray:
     n = len(scene.positions)
     names = scene.joint_names
     if names is None and n == 22:
-        from ..core.skeleton import CANONICAL22 as names
+        names = CANONICAL22
     side = np.zeros(n, dtype=int)  # 0 centre, 1 left, 2 right
     if names is not None:
         for j, nm in enumerate(names):
@@ -442,8 +447,6 @@ class SceneRenderer:
         n = len(ends) // 2
         parents = [(-1 if j % 2 == 0 else j - 1) for j in range(2 * n)]
         g = _Geometry(Scene(positions=ends, parents=parents, joint_names=[""] * (2 * n)), 0.012 * size)
-        from matplotlib import colormaps
-
         cols = colormaps["tab10"](np.arange(n) % 10)[:, :3]
         rgb = np.concatenate([np.repeat(np.repeat(cols, 2, 0), g.ns, 0), np.repeat(cols, 2 * g.sides, 0)])
         pts, nrm = g.skeleton(ends)
@@ -578,7 +581,7 @@ class SceneRenderer:
         return np.ascontiguousarray(self.pl.screenshot(return_img=True)[..., :3])
 
 
-def _bounds(scenes: Sequence[Scene], size: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+def scene_bounds(scenes: Sequence[Scene], size: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``(lo (3,), hi (3,))`` box of the scenes' points; with ``size``, padded for the joint
     spheres and (on skeletons with a ``Head`` joint) the skull drawn above the head joint."""
     pts = np.concatenate([s.points() for s in scenes])
@@ -598,11 +601,11 @@ def _has_head(s: Scene) -> bool:
 
 def _title_anchor(s: Scene, size: float) -> list[float]:
     """World point just above the scene's padded box (where its label is centred)."""
-    lo, hi = _bounds([s], size)
+    lo, hi = scene_bounds([s], size)
     return [0.5 * (lo[0] + hi[0]), hi[1] + 0.02 * size, hi[2]]
 
 
-def _layout_row(scenes: Sequence[Scene], gap: float | None = None, extents=None) -> list[Scene]:
+def layout_row(scenes: Sequence[Scene], gap: float | None = None, extents=None) -> list[Scene]:
     """Translate scenes along x so they stand next to each other (x-extents + ``gap`` apart).
 
     ``extents`` (one ``(lo, hi)`` per scene) may come from a whole clip so the offsets stay fixed.
@@ -637,7 +640,7 @@ def render_scenes(scenes: Sequence[Scene], titles: Sequence[str] | None = None, 
     try:
         size = float(np.median([s.size() for s in scenes]))
         r.update(scenes, size)
-        lo, hi = _bounds(scenes, size)
+        lo, hi = scene_bounds(scenes, size)
         titles = [s.title for s in scenes] if titles is None else titles
         if any(titles):
             hi = hi + [0, 0.14 * size, 0]
@@ -736,16 +739,16 @@ def render_side_by_side(scenes: Sequence, titles: Sequence[str] | None = None, p
         window_size = (int(min(max(640, 210 * ncols), 1600)), 400 if ncols <= 6 else 360)
     rows = [list(range(i, min(i + ncols, n))) for i in range(0, n, ncols)]
     # all rows share one box size (the widest row), so sizes stay comparable across rows
-    placed = [_layout_row([sc[i] for i in row], gap) for row in rows]
+    placed = [layout_row([sc[i] for i in row], gap) for row in rows]
     widths = [np.ptp(np.concatenate([s.points() for s in p])[:, 0]) for p in placed]
     span = placed[int(np.argmax(widths))]
     size = float(np.median([s.size() for s in sc]))
-    lo_all, hi_all = _bounds(span, size)
+    lo_all, hi_all = scene_bounds(span, size)
     if any(titles):  # room for labels wider than the outer characters
         lo_all, hi_all = lo_all - [0.3 * size, 0, 0], hi_all + [0.3 * size, 0, 0]
     images = []
     for row, p in zip(rows, placed):
-        lo, hi = _bounds(p, size)
+        lo, hi = scene_bounds(p, size)
         lo = np.array([lo_all[0], min(lo[1], lo_all[1]), lo[2]])
         hi = np.array([hi_all[0], max(hi[1], hi_all[1]) + (0.14 * size if any(titles) else 0), hi[2]])
         r = SceneRenderer(window_size, view, parallel, True, True, font_size)
@@ -790,8 +793,6 @@ def save_png(image: np.ndarray, path, max_kb: float | None = 150) -> Path:
     Returns:
         the path.
     """
-    from PIL import Image
-
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     im = Image.fromarray(np.asarray(image, dtype=np.uint8))

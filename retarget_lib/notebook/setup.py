@@ -6,10 +6,14 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
+import matplotlib
 import numpy as np
+import pandas as pd
 import torch
 
-from .training.loop import seed_everything
+from .. import viz
+from ..files import REPO_ROOT
+from ..training.loop import seed_everything
 
 
 @dataclass(frozen=True)
@@ -43,21 +47,13 @@ def setup_notebook(seed: int = 0, threads: int | None = None) -> NotebookContext
     if threads:
         torch.set_num_threads(threads)
     os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
-    from . import viz
-
     viz.configure_offscreen()
-    import matplotlib
-
     matplotlib.rcParams.update({"figure.dpi": 80, "savefig.dpi": 80, "figure.figsize": (7.0, 3.5),
                                 "axes.grid": True, "grid.alpha": 0.3})
-    import pandas as pd
-
     pd.set_option("display.precision", 3)
     pd.set_option("display.max_rows", 60)
     np.set_printoptions(precision=4, suppress=True)
     torch.set_printoptions(precision=4, sci_mode=False)
-    from .files import REPO_ROOT
-
     figures = REPO_ROOT / "build" / "figures"
     figures.mkdir(parents=True, exist_ok=True)
     return NotebookContext(seed, os.environ.get("RETARGET_PROFILE", "fast"), np.random.default_rng(seed),

@@ -5,7 +5,7 @@ last successful run, so ``make`` is cheap the second time.
 
 Usage::
 
-    python -m retarget_lib.notebook_runner --out build/notebooks notebooks/00_overview.ipynb ...
+    python -m retarget_lib.notebook.runner --out build/notebooks notebooks/00_overview.ipynb ...
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ import sys
 import time
 from pathlib import Path
 
-from .files import REPO_ROOT, atomic_write
+from ..files import REPO_ROOT, atomic_write
 
 
 def _newest_input(notebook: Path) -> float:
@@ -37,6 +37,8 @@ def run_notebook(notebook: Path, out_dir: Path, timeout: int = 900, force: bool 
     Returns:
         ``True`` if it was executed, ``False`` if the outputs were already up to date.
     """
+    # here, not at the top: these three take ~3 s to import, which the up-to-date check and
+    # --help should not pay
     import nbformat
     from nbclient import NotebookClient
     from nbconvert import HTMLExporter
