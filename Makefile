@@ -1,6 +1,7 @@
 # retarget-notebooks — two commands do everything (see README):
 #   make        set up .venv, build the embedded dataset, execute every notebook into build/
 #   make test   unit tests + every notebook executed by nbval
+#   make unit-fast   the library tests that need neither the built data nor minutes (a bare checkout)
 # Both are idempotent: stamps and the data cache make a second run reuse what is built.
 
 PYTHON ?= python3
@@ -11,7 +12,7 @@ NOTEBOOKS := $(sort $(wildcard notebooks/[0-9][0-9]_*.ipynb))
 export VTK_DEFAULT_OPENGL_WINDOW := vtkEGLRenderWindow
 export RETARGET_PROFILE ?= fast
 
-.PHONY: all setup system-deps data notebooks test unit nbval bench clean-build
+.PHONY: all setup system-deps data notebooks test unit unit-fast nbval bench clean-build
 
 all: notebooks
 
@@ -42,6 +43,10 @@ PYTEST := OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 $(BIN)/pytest
 
 unit: data
 	$(PYTEST) -q -n 2 --dist loadfile tests
+
+# no data build: tests marked `data` or `slow` (pyproject.toml) are left out
+unit-fast: $(STAMP)
+	$(PYTEST) -q -n 2 --dist loadfile -m "not data and not slow" tests
 
 nbval: data
 	$(PYTEST) -q -n 2 --dist loadfile --nbval-lax notebooks

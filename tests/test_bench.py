@@ -1,12 +1,13 @@
 """The benchmark code runs and reports ratios (no timing is asserted: speed lives in `retarget bench`)."""
 
 import numpy as np
+import pytest
 import torch
 
-from retarget_lib.evaluation.bench import bench_fk, bench_tdcn, numpy_fk_loop, torch_fk_per_joint
-from retarget_lib.evaluation.timing import format_table
 from retarget_lib.core.kinematics import forward_kinematics
 from retarget_lib.core.skeleton import CANONICAL22_PARENTS
+from retarget_lib.evaluation.bench import bench_fk, bench_tdcn, numpy_fk_loop, torch_fk_per_joint
+from retarget_lib.evaluation.timing import format_table
 
 
 def test_references_compute_the_same_fk():
@@ -27,6 +28,7 @@ def test_bench_rows_and_table():
     assert table.count("\n") == len(rows) + 1 and "TDCN inference 40 frames" in table
 
 
+@pytest.mark.slow
 def test_eso_bench_row_reports_per_frame_cost_against_the_network():
     from retarget_lib.evaluation.bench_contact import bench_eso
 

@@ -8,13 +8,13 @@ import numpy as np
 import pytest
 import torch
 
+from retarget_lib.core.motion import Motion
+from retarget_lib.core.rotations import quat_from_axis_angle, quat_to_matrix
+from retarget_lib.core.skeleton import Skeleton
 from retarget_lib.data.sources import cmu
 from retarget_lib.files import DataError, cache_dir, sha256_file
 from retarget_lib.io import BVHError, load_bvh, save_bvh
 from retarget_lib.io.bvh import UNIT_SCALES
-from retarget_lib.core.motion import Motion
-from retarget_lib.core.rotations import quat_from_axis_angle, quat_to_matrix
-from retarget_lib.core.skeleton import Skeleton
 
 # A two-joint file; line numbers are used by the malformed-input tests below.
 GOOD = """HIERARCHY
@@ -236,6 +236,7 @@ def header_value(path, key):
 @pytest.mark.parametrize("name,joints,fps,unit", [
     ("01_01.bvh", 31, 120.0, "cmu"), ("01_03.bvh", 31, 120.0, "cmu"),
     ("Boxing_Toes.bvh", 21, 100.0, "cm")])
+@pytest.mark.data
 def test_real_clips_load_with_plausible_units(real_clips, name, joints, fps, unit):
     m = real_clips[name]
     path = cmu.cmu_clip_path(name)
@@ -252,6 +253,7 @@ def test_real_clips_load_with_plausible_units(real_clips, name, joints, fps, uni
     assert 1.2 < first.max() - first.min() < 2.0
 
 
+@pytest.mark.data
 @pytest.mark.parametrize("name", ["01_01.bvh", "01_03.bvh", "Boxing_Toes.bvh"])
 def test_real_clips_round_trip(real_clips, tmp_path, name):
     m = real_clips[name]
@@ -306,6 +308,7 @@ def test_default_layout_without_meta_is_cm(tmp_path):
     assert "Frame Time: 0.01666667" in text and back.fps == 60.0
 
 
+@pytest.mark.data
 def test_writer_ignores_a_stale_layout_from_another_skeleton(tmp_path, real_clips):
     # a motion loaded from a 31-joint file keeps that file's meta; a 6-joint motion must not use it
     m = odd_order_motion().copy(meta=dict(real_clips["01_01.bvh"].meta))
@@ -362,6 +365,7 @@ def test_line_numbers_survive_crlf(tmp_path):
         load_bvh(write(tmp_path, text))
 
 
+@pytest.mark.data
 def test_extra_frame_lines_are_ignored_and_counted(tmp_path, real_clips):
     m = load_bvh(write(tmp_path, GOOD.replace("Frames: 2", "Frames: 1")), unit="m")
     assert m.num_frames == 1 and m.meta["extra_frame_lines"] == 1
@@ -372,6 +376,7 @@ def test_extra_frame_lines_are_ignored_and_counted(tmp_path, real_clips):
 
 
 # ------------------------------------------------------------------------ cmu-assimp source
+@pytest.mark.data
 def test_cmu_checksums_and_names():
     assert cmu.CMU_CLIPS == tuple(cmu.CMU_SHA256)
     for name in cmu.CMU_CLIPS:
@@ -380,6 +385,7 @@ def test_cmu_checksums_and_names():
         cmu.cmu_clip_path("02_01.bvh")
 
 
+@pytest.mark.data
 def test_cmu_fallback_unpacks_the_deb_into_the_cache(tmp_path, monkeypatch):
     if shutil.which("dpkg-deb") is None or shutil.which("apt-get") is None:
         pytest.skip("needs Debian's apt-get and dpkg-deb")
@@ -410,6 +416,7 @@ def test_cmu_without_apt_says_how_to_install(tmp_path, monkeypatch):
         cmu.cmu_clip_path("01_01.bvh")
 
 
+@pytest.mark.data
 def test_cmu_corrupt_file_fails_the_checksum(tmp_path, monkeypatch):
     fake = tmp_path / "BVH"
     fake.mkdir()

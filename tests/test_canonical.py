@@ -5,13 +5,13 @@ import numpy as np
 import pytest
 import torch
 
-from retarget_lib.data.sources.cmu import CMU_CLIPS, cmu_clip_path, load_cmu_clip
-from retarget_lib.io import load_bvh
+from retarget_lib.core.canonical import canonical_name_map, strip_prefix, to_canonical22
 from retarget_lib.core.motion import Motion
 from retarget_lib.core.rotations import (quat_conjugate, quat_from_axis_angle, quat_mul, quat_rotate,
                                          quat_to_matrix)
 from retarget_lib.core.skeleton import CANONICAL22, CANONICAL22_PARENTS, JointSetError, Skeleton
-from retarget_lib.core.canonical import canonical_name_map, strip_prefix, to_canonical22
+from retarget_lib.data.sources.cmu import CMU_CLIPS, cmu_clip_path, load_cmu_clip
+from retarget_lib.io import load_bvh
 
 
 def mixamo_motion(seed=0, frames=40, twists=None, rename=None) -> Motion:
@@ -130,6 +130,7 @@ def folded():
     return out
 
 
+@pytest.mark.data
 @pytest.mark.parametrize("name", ["01_01.bvh", "01_03.bvh"])
 def test_cmu_fold_error_is_the_neck_length_change(folded, name):
     m, c = folded[name]
@@ -149,6 +150,7 @@ def test_cmu_fold_error_is_the_neck_length_change(folded, name):
     assert errors["Head"].max() < 0.025  # measured: 2.17 cm (01_01), 1.32 cm (01_03)
 
 
+@pytest.mark.data
 def test_biovision_fold_is_exact_with_spine2_inserted(folded):
     m, c = folded["Boxing_Toes.bvh"]
     errors = kept_errors(m, c)
@@ -160,6 +162,7 @@ def test_biovision_fold_is_exact_with_spine2_inserted(folded):
 
 
 # ---------------------------------------------------------------- resampling, normalisation
+@pytest.mark.data
 def test_resample_120_to_30_keeps_duration_and_frames(folded):
     _, c = folded["01_01.bvh"]
     r = load_cmu_clip("01_01.bvh", fps=30, normalize=False)
@@ -171,6 +174,7 @@ def test_resample_120_to_30_keeps_duration_and_frames(folded):
     assert abs(b.duration - folded["Boxing_Toes.bvh"][1].duration) < 1 / 30
 
 
+@pytest.mark.data
 @pytest.mark.parametrize("name", CMU_CLIPS)
 def test_normalize_root_faces_z_at_the_origin(name):
     raw = load_cmu_clip(name, normalize=False)
@@ -194,6 +198,7 @@ def test_normalize_root_faces_z_at_the_origin(name):
                                atol=1e-9)
 
 
+@pytest.mark.data
 @pytest.mark.parametrize("name", ["01_01.bvh", "Boxing_Toes.bvh"])
 def test_from_canonical22_restores_the_full_joint_set(name):
     """fold -> unfold on the real clips: the 22 kept joints land where the canonical motion puts them."""

@@ -7,6 +7,8 @@ import pytest
 import torch
 import trimesh
 
+from retarget_lib.core.character import Character
+from retarget_lib.core.skeleton import CANONICAL22, CANONICAL22_PARENTS, J
 from retarget_lib.data.synthetic.characters import (
     CHARACTER_NAMES,
     CHARACTER_SPECS,
@@ -17,8 +19,6 @@ from retarget_lib.data.synthetic.characters import (
     make_character,
     random_character,
 )
-from retarget_lib.core.character import Character
-from retarget_lib.core.skeleton import CANONICAL22, CANONICAL22_PARENTS, J
 
 
 @pytest.fixture(scope="module")

@@ -7,10 +7,10 @@ import torch
 
 from retarget_lib.cli import main
 from retarget_lib.config import load_config
-from retarget_lib.training.contact import LOG_TERMS, ContactTraining, export_model
-from retarget_lib.methods.contact import contact_clip, load_contact_model, retarget_with_network
 from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.data.synthetic.motions import body_radii_from_mesh, make_motion
+from retarget_lib.methods.contact import contact_clip, load_contact_model, retarget_with_network
+from retarget_lib.training.contact import LOG_TERMS, ContactTraining, export_model
 from retarget_lib.training.loop import fit
 
 
@@ -32,6 +32,7 @@ def test_clip_has_detected_hand_contacts(small):
     assert len(clips[0].self_contacts) > 0 and clips[0].foot_contacts.shape == (clips[0].motion.num_frames, 4)
 
 
+@pytest.mark.slow
 def test_training_logs_every_term_and_resumes_exactly(small, tmp_path):
     clips, targets, config = small
     run = ContactTraining(config, clips, targets)
@@ -55,6 +56,7 @@ def test_training_logs_every_term_and_resumes_exactly(small, tmp_path):
     np.testing.assert_allclose(np.linalg.norm(out.rotations, axis=-1), 1.0, atol=1e-5)
 
 
+@pytest.mark.data
 def test_contact_method_on_the_command_line(tmp_path, capsys):
     from retarget_lib.data.sources.cmu import cmu_clip_path
     from retarget_lib.io import load_bvh, save_bvh

@@ -6,6 +6,9 @@ import itertools
 import numpy as np
 import pytest
 
+from retarget_lib.core.character import Character
+from retarget_lib.core.skeleton import J, canonical22_skeleton
+from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.geometry.contacts import (
     FOOT_JOINTS,
     SelfContacts,
@@ -22,9 +25,6 @@ from retarget_lib.geometry.contacts import (
     vertex_correspondence,
     vertex_groups,
 )
-from retarget_lib.core.character import Character
-from retarget_lib.data.synthetic.characters import make_character
-from retarget_lib.core.skeleton import J, canonical22_skeleton
 from skeletons import make_skeleton
 
 
@@ -126,6 +126,7 @@ def test_foot_contacts_reject_bad_shapes():
         detect_foot_contacts(np.zeros((5, 21, 3)), sk)
 
 
+@pytest.mark.data
 def test_foot_contacts_match_a_synthetic_walk(synthetic):
     clip = synthetic.clip("walk_000")
     detected = detect_foot_contacts(clip.motion.global_positions(), clip.motion.skeleton)
@@ -281,6 +282,7 @@ def synthetic():
     return load_synthetic()
 
 
+@pytest.mark.data
 @pytest.mark.parametrize("name", ["clap_000", "pray_001"])
 def test_hand_hand_contacts_of_a_synthetic_clip_on_its_performer(synthetic, name):
     clip = synthetic.clip(name)

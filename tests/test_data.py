@@ -5,12 +5,12 @@ import pytest
 
 from retarget_lib.cli import main
 from retarget_lib.data import manifest, status
-from retarget_lib.files import DataError, atomic_write, check_sha256, sha256_file
+from retarget_lib.data.splits import tdcn_split
 from retarget_lib.data.synthetic.characters import CHARACTER_NAMES
-from retarget_lib.data.synthetic.motions import MOTION_FAMILIES
 from retarget_lib.data.synthetic.dataset import (dataset_path, fingerprint_of, load_synthetic, read_dataset,
                                                  save_dataset)
-from retarget_lib.data.splits import tdcn_split
+from retarget_lib.data.synthetic.motions import MOTION_FAMILIES
+from retarget_lib.files import DataError, atomic_write, check_sha256, sha256_file
 
 
 @pytest.fixture(scope="module")
@@ -18,6 +18,7 @@ def ds():
     return load_synthetic()
 
 
+@pytest.mark.data
 def test_every_source_has_id_license_origin_and_check():
     m = manifest.load_manifest()
     assert set(m["sources"]) == {"synthetic", "cmu-assimp", "mannequin-x", "mixamo-local"}
@@ -60,6 +61,7 @@ def test_checksum_and_atomic_write(tmp_path):
     assert p.read_bytes() == b"hello" and list(tmp_path.iterdir()) == [p]
 
 
+@pytest.mark.data
 def test_dataset_content(ds):
     assert set(ds.characters) == set(CHARACTER_NAMES) and len(CHARACTER_NAMES) >= 16
     heights = [c.height for c in ds.characters.values()]
@@ -73,6 +75,7 @@ def test_dataset_content(ds):
     assert len({c.performer for c in ds.clips}) == len(CHARACTER_NAMES)
 
 
+@pytest.mark.data
 def test_dataset_feet_planted_and_hands_touch(ds):
     from retarget_lib.core.skeleton import J
 
@@ -90,6 +93,7 @@ def test_dataset_feet_planted_and_hands_touch(ds):
     assert gap.max() < 0.12  # wrist joints: palms touching, hand thickness apart
 
 
+@pytest.mark.data
 def test_save_read_round_trip_and_fingerprint(ds, tmp_path):
     small = type(ds)({k: ds.characters[k] for k in list(ds.characters)[:2]}, ds.clips[:3])
     save_dataset(small, tmp_path / "d.npz")
@@ -109,6 +113,7 @@ def test_manifest_records_the_split_the_code_makes():
     assert not set(s.train_characters) & set(s.test_characters)
 
 
+@pytest.mark.data
 def test_cli_data_list_and_verify(capsys):
     assert main(["data", "list"]) == 0
     out = capsys.readouterr().out

@@ -5,17 +5,17 @@ import pytest
 import torch
 
 from retarget_lib.core.character import Character
-from retarget_lib.data.synthetic.characters import make_character
-from retarget_lib.data.synthetic.motions import make_motion
-from retarget_lib.methods.eso import (TERMS, encoder_space_optimization, eso_source, eso_throughput,
-                                      reachable_pairs, reached_joints)
-from retarget_lib.losses.contact import ContactEnergyWeights
 from retarget_lib.core.quantities import MotionQuantities, motion_quantities
-from retarget_lib.models.georet import GeometryConditionedRNN, motion_features, pose_outputs
-from retarget_lib.geometry.penetration import InterpenetrationEnergy
 from retarget_lib.core.rotations import quat_identity
 from retarget_lib.core.skeleton import J
 from retarget_lib.core.skinning import linear_blend_skinning
+from retarget_lib.data.synthetic.characters import make_character
+from retarget_lib.data.synthetic.motions import make_motion
+from retarget_lib.geometry.penetration import InterpenetrationEnergy
+from retarget_lib.losses.contact import ContactEnergyWeights
+from retarget_lib.methods.eso import (TERMS, encoder_space_optimization, eso_source, eso_throughput,
+                                      reachable_pairs, reached_joints)
+from retarget_lib.models.georet import GeometryConditionedRNN, motion_features, pose_outputs
 
 from skeletons import make_skeleton
 

@@ -4,11 +4,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from retarget_lib.methods.copy import copy_rotations
 from retarget_lib.core.transfer import retarget_ground_truth
 from retarget_lib.evaluation.paper import PAPER_TABLE4, TABLE4_COLUMNS
 from retarget_lib.evaluation.tdcn import (markdown_table, normalized_mse, ordering_checks, paper_comparison,
                                           tdcn_cases, tdcn_table, write_table)
+from retarget_lib.methods.copy import copy_rotations
 
 
 def test_normalized_mse_known_values():
@@ -29,12 +29,14 @@ def cases():
     return tdcn_cases()
 
 
+@pytest.mark.data
 def test_cases_cover_the_four_scenarios(cases):
     assert sorted({c.scenario for c in cases}) == [1, 2, 3, 4]
     assert all(c.source_name != c.target_name for c in cases)
     assert all(c.truth.skeleton is not None and c.truth.num_frames == c.source.num_frames for c in cases)
 
 
+@pytest.mark.data
 def test_ground_truth_method_scores_zero_and_copy_does_not(cases, tmp_path):
     table, per_case = tdcn_table({"copy-rest": retarget_ground_truth, "copy": copy_rotations}, cases[::4])
     ours = [f"ours {c}" for c in TABLE4_COLUMNS]
@@ -54,6 +56,7 @@ def test_paper_numbers_and_markdown():
     assert md.splitlines()[2] == "| x | 1.23 |" and md.splitlines()[3] == "| y |  |"
 
 
+@pytest.mark.data
 def test_cli_evaluate_writes_every_table4_row(tmp_path, capsys):
     from retarget_lib.cli import main
 

@@ -3,12 +3,12 @@
 import numpy as np
 import pytest
 
-from retarget_lib.geometry.contacts import SelfContacts, detect_foot_contacts
+from retarget_lib.core.motion import Motion
 from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.evaluation.contact import (CONTACT_TARGETS, ablation_steps, contact_tables,
                                              foot_contact_accuracy, vertex_contact_mse)
 from retarget_lib.evaluation.paper import PAPER_TABLE1, PAPER_TABLE3
-from retarget_lib.core.motion import Motion
+from retarget_lib.geometry.contacts import SelfContacts, detect_foot_contacts
 
 
 def test_vertex_contact_mse_known_value():

@@ -5,6 +5,8 @@ import pytest
 import torch
 
 from retarget_lib.core.kinematics import forward_kinematics
+from retarget_lib.core.rotations import quat_identity
+from retarget_lib.core.skeleton import CANONICAL22_PARENTS
 from retarget_lib.models.georet import (
     MOTION_FEATURE_LAYOUT,
     MOTION_FEATURES,
@@ -15,8 +17,6 @@ from retarget_lib.models.georet import (
     normalize_rest_vertices,
     pose_outputs,
 )
-from retarget_lib.core.rotations import quat_identity
-from retarget_lib.core.skeleton import CANONICAL22_PARENTS
 
 from skeletons import make_skeleton
 

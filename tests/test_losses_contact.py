@@ -6,6 +6,19 @@ import numpy as np
 import pytest
 import torch
 
+from retarget_lib.core.quantities import (
+    FOOT_CONTACT_IDS,
+    MotionQuantities,
+    foot_ground_heights,
+    forward_root_velocity,
+    frame_velocities,
+    leg_height,
+    leg_ratio,
+    motion_quantities,
+)
+from retarget_lib.core.rotations import quat_from_axis_angle, quat_identity
+from retarget_lib.core.skeleton import J
+from retarget_lib.geometry.penetration import InterpenetrationEnergy, interpenetration_energy
 from retarget_lib.losses.contact import (
     END_EFFECTORS,
     TABLE3_ROWS,
@@ -22,19 +35,6 @@ from retarget_lib.losses.contact import (
     skeleton_energy,
     weak_energy,
 )
-from retarget_lib.core.quantities import (
-    FOOT_CONTACT_IDS,
-    MotionQuantities,
-    foot_ground_heights,
-    forward_root_velocity,
-    frame_velocities,
-    leg_height,
-    leg_ratio,
-    motion_quantities,
-)
-from retarget_lib.geometry.penetration import InterpenetrationEnergy, interpenetration_energy
-from retarget_lib.core.rotations import quat_from_axis_angle, quat_identity
-from retarget_lib.core.skeleton import J
 
 from skeletons import make_skeleton
 

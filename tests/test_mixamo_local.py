@@ -4,12 +4,12 @@ import numpy as np
 import pytest
 
 from retarget_lib.data import manifest
+from retarget_lib.data.sources.mixamo_local import load_mixamo_motion, scan_mixamo_folder
 from retarget_lib.data.status import check_sources
-from retarget_lib.files import DataError
-from retarget_lib.data.sources.mixamo_local import (load_mixamo_motion, scan_mixamo_folder,
-                                                    write_mixamo_fixture)
 from retarget_lib.data.synthetic.dataset import load_synthetic
+from retarget_lib.files import DataError
 from retarget_lib.io import load_bvh, load_shape_npz
+from mixamo_fixture import write_mixamo_fixture
 
 
 @pytest.fixture(scope="module")
@@ -23,6 +23,7 @@ def fixture_dir(tmp_path_factory):
     return root, clips, ds
 
 
+@pytest.mark.data
 def test_layout_names_and_units(fixture_dir):
     root, clips, _ = fixture_dir
     found = scan_mixamo_folder(root)
@@ -38,6 +39,7 @@ def test_layout_names_and_units(fixture_dir):
     assert raw.meta["unit"] == "cm"
 
 
+@pytest.mark.data
 def test_motion_folds_back_to_the_original(fixture_dir):
     root, clips, ds = fixture_dir
     for clip in clips:
@@ -47,6 +49,7 @@ def test_motion_folds_back_to_the_original(fixture_dir):
         np.testing.assert_allclose(m.global_positions(), clip.motion.slice(0, 60).global_positions(), atol=2e-5)
 
 
+@pytest.mark.data
 def test_shape_npz_loads_as_the_character(fixture_dir):
     root, clips, ds = fixture_dir
     ch = ds.characters[clips[0].performer]
@@ -56,6 +59,7 @@ def test_shape_npz_loads_as_the_character(fixture_dir):
     np.testing.assert_allclose(back.weights.sum(1), 1.0, atol=1e-6)
 
 
+@pytest.mark.data
 def test_manifest_sees_the_folder(fixture_dir, monkeypatch, tmp_path):
     root, _, _ = fixture_dir
     monkeypatch.setenv("RETARGET_MIXAMO", str(root))

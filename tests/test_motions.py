@@ -4,6 +4,9 @@ import numpy as np
 import pytest
 import torch
 
+from retarget_lib.core.rotations import quat_rotate
+from retarget_lib.core.skeleton import FOOT_CONTACT_JOINTS
+from retarget_lib.core.skeleton import CANONICAL22_PARENTS, J
 from retarget_lib.data.synthetic.motions import (
     DURATION_RANGES,
     FPS,
@@ -13,9 +16,6 @@ from retarget_lib.data.synthetic.motions import (
     make_motion,
     motion_library,
 )
-from retarget_lib.core.skeleton import FOOT_CONTACT_JOINTS
-from retarget_lib.core.rotations import quat_rotate
-from retarget_lib.core.skeleton import CANONICAL22_PARENTS, J
 from skeletons import contact_runs, make_skeleton
 
 SKELETONS = {

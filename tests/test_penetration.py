@@ -8,13 +8,13 @@ import pytest
 import torch
 import trimesh
 
+from retarget_lib.core.skeleton import J
 from retarget_lib.geometry.collision import (TriangleBVH, brute_force_candidate_pairs,
                                              colliding_triangle_pairs, triangles_intersect)
 from retarget_lib.geometry.penetration import (InterpenetrationEnergy, cap_holes, circumcircle,
                                                cone_distance_field, geodesic_distances, geodesic_pair_weights,
                                                interpenetration_energy, interpenetration_score,
                                                penetration_rate, ray_winding_numbers, vertex_normals)
-from retarget_lib.core.skeleton import J
 
 FLAT = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]  # normal +z, circumcentre (.5, .5, 0)
 # a vertical triangle in the plane y = 0.25 whose edge x = z-axis-parallel pierces FLAT at (0.25, 0.25, 0)

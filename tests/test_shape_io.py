@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
+from retarget_lib.core.skeleton import CANONICAL22
 from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.io.shape import SHAPE_KEYS, load_shape_npz, save_shape_npz
-from retarget_lib.core.skeleton import CANONICAL22
 
 
 @pytest.fixture(scope="module")

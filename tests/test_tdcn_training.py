@@ -13,14 +13,16 @@ import torch
 
 from retarget_lib.cli import main
 from retarget_lib.config import load_config
-from retarget_lib.data.synthetic.dataset import load_synthetic
 from retarget_lib.data.splits import tdcn_split
+from retarget_lib.data.synthetic.dataset import load_synthetic
 from retarget_lib.losses import NonFiniteLossError
+from retarget_lib.methods.tdcn import load_generator, retarget_motion_with
 from retarget_lib.models import PROFILE_WIDTHS, NKNGenerator, TDCNGenerator
 from retarget_lib.models.features import skeleton_height
-from retarget_lib.training.tdcn import RetargetTraining, WindowSampler, training_clips
-from retarget_lib.methods.tdcn import load_generator, retarget_motion_with
 from retarget_lib.training.loop import fit, load_checkpoint
+from retarget_lib.training.tdcn import RetargetTraining, WindowSampler, training_clips
+
+pytestmark = pytest.mark.data  # trains on the synthetic dataset (`retarget data build`)
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 ROWS = {"tdcn_baseline": "Baseline", "tdcn_baseline_dense": "Baseline-dense",

@@ -103,6 +103,7 @@ def test_player_static_and_widget_modes(tpose):
         viz.player(motions, mode="nope")
 
 
+@pytest.mark.data
 def test_player_character_picker_shows_the_motion_on_that_character():
     from retarget_lib.data.synthetic.dataset import load_synthetic
 
