@@ -160,7 +160,9 @@ def test_causal_tdcn_sees_only_the_past():
     with torch.no_grad():
         full = _tdcn_out(g)(x)
         part = _tdcn_out(g)(x[..., :120])
-    assert torch.equal(full[:, :120], part)
+    # equal up to float64 rounding: the convolution's summation order depends on the clip length
+    # (1 ulp, 2.2e-16, measured with torch 2.13 on this CPU)
+    torch.testing.assert_close(part, full[:, :120], rtol=0.0, atol=1e-12)
 
 
 def test_dense_variant_has_more_parameters():
