@@ -60,8 +60,8 @@ from ..methods.registry import get_method
 from .paper import CONTACT_PAPER_METRICS, PAPER_TABLE1, PAPER_TABLE3, PAPER_TABLE5, PAPER_TABLE6
 from .tdcn import METRES_TO_CM, normalized_mse, write_table
 
-__all__ = ["CONTACT_TARGETS", "CONTACT_PROFILES", "METRICS",
-           "ContactCase", "shipped_contact_results", "rerun_cases", "contact_cases", "contact_methods", "evaluate_contact_case", "evaluate_contact_methods",
+__all__ = ["CONTACT_TARGETS", "CONTACT_PROFILES", "METRICS", "ContactCase", "shipped_contact_results", "rerun_cases",
+           "contact_cases", "contact_methods", "evaluate_contact_case", "evaluate_contact_methods",
            "vertex_contact_mse", "foot_contact_accuracy", "contact_tables", "TABLE3_STEPS", "ablation_steps",
            "run_contact_evaluation"]
 
@@ -294,7 +294,8 @@ def _table(per_case: pd.DataFrame, rows: tuple[str, ...], paper: Mapping[str, tu
         r = {f"ours {m}": (ours.loc[row, m] if row in ours.index else np.nan) for m in METRICS}
         r.update({f"paper {m}": v for m, v in zip(CONTACT_PAPER_METRICS, paper.get(row, (np.nan,) * 4))})
         out.append(pd.Series(r, name=row))
-    cols = [c for m in METRICS for c in (f"ours {m}", f"paper {m}") if not (c.startswith("paper") and m not in CONTACT_PAPER_METRICS)]
+    cols = [c for m in METRICS for c in (f"ours {m}", f"paper {m}")
+            if not (c.startswith("paper") and m not in CONTACT_PAPER_METRICS)]
     return pd.DataFrame(out)[cols]
 
 

@@ -470,8 +470,8 @@ def _file_layout(motion: Motion) -> tuple[list[str], list[list[str]]]:
 
 
 def load_canonical_bvh(path: str | os.PathLike, fps: float = 30.0, convention: str | None = None) -> Motion:
-    """:func:`load_bvh`, folded onto the canonical 22 joints (:func:`~retarget_lib.core.skeleton.to_canonical22`)
-    and resampled to ``fps``.
+    """:func:`load_bvh`, folded onto the canonical 22 joints
+    (:func:`~retarget_lib.core.canonical.to_canonical22`) and resampled to ``fps``.
 
     Args:
         path: any BVH the library can fold (Mixamo, CMU, Biovision, SMPL-X names).

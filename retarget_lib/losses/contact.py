@@ -20,17 +20,18 @@ Conventions and readings (the paper leaves them open; decided here):
 * **Eq. 3** averages the Euclidean *norm* ``‖v_i − v_j‖₂`` (not its square), as printed: two
   vertices 3 cm apart give ``Ej2j = 0.03``.
 * **Velocities in Eqs. 6 and 9** are backward differences; the first frame of a clip has zero
-  velocity (:func:`~retarget_lib.core.quantities.frame_velocities`), so there only Efoot's height term acts. Clip-level
-  energies are the mean of the per-frame energies ``E(t)`` over frames (Eq. 1 is per frame);
-  ``*_per_frame`` variants return ``(..., T)``.
-* **Efoot's ground.** ``ḡ_j^y`` is the joint's rest (T-pose) height (:func:`~retarget_lib.core.quantities.foot_ground_heights`):
-  "we get the heel height from reference pose ... so that ground height of zero corresponds to
-  contact" (Sec. 3.1.1).
+  velocity (:func:`~retarget_lib.core.quantities.frame_velocities`), so there only Efoot's height
+  term acts. Clip-level energies are the mean of the per-frame energies ``E(t)`` over frames
+  (Eq. 1 is per frame); ``*_per_frame`` variants return ``(..., T)``.
+* **Efoot's ground.** ``ḡ_j^y`` is the joint's rest (T-pose) height
+  (:func:`~retarget_lib.core.quantities.foot_ground_heights`): "we get the heel height from
+  reference pose ... so that ground height of zero corresponds to contact" (Sec. 3.1.1).
 * **Eq. 8.** ``θ`` are 3×3 rotation matrices (the paper's ``R^(9J)`` representation), so
   ``‖θ^B_j − θ^A_j‖²`` is the squared Frobenius norm: a 90° difference gives ``4``. Only the
   rotation sum is weighted by ``ρ``, as printed. ``o`` is the root velocity
-  (:func:`~retarget_lib.core.quantities.forward_root_velocity`: the displacement from frame ``t`` to ``t + 1``, matching the
-  network's Eq. 18), ``o^(A→B) = (h_legs_B / h_legs_A) o^A`` with :func:`~retarget_lib.core.quantities.leg_height`.
+  (:func:`~retarget_lib.core.quantities.forward_root_velocity`: the displacement from frame ``t``
+  to ``t + 1``, matching the network's Eq. 18), ``o^(A→B) = (h_legs_B / h_legs_A) o^A`` with
+  :func:`~retarget_lib.core.quantities.leg_height`.
 * **End effectors** (Eq. 9, "hands and feet"): ``LeftHand, RightHand, LeftFoot, RightFoot``
   (:data:`END_EFFECTORS`).
 * **ESO's relaxed self-contact term** (App. B.1, "aggregating 0.7 of the distance from the
@@ -394,8 +395,10 @@ def skeleton_energy(output: MotionQuantities, source: MotionQuantities, leg_rati
     """``Eskel = Eweak + ω Eee`` (Eq. 7) of a clip, each term averaged over frames.
 
     Args:
-        output: :class:`~retarget_lib.core.quantities.MotionQuantities` of the retargeted motion (``B``), ``(..., T, ...)``.
-        source: :class:`~retarget_lib.core.quantities.MotionQuantities` of the source motion (``A``), same frames.
+        output: :class:`~retarget_lib.core.quantities.MotionQuantities` of the retargeted motion
+            (``B``), ``(..., T, ...)``.
+        source: :class:`~retarget_lib.core.quantities.MotionQuantities` of the source motion
+            (``A``), same frames.
         leg_ratio: ``h_legs_B / h_legs_A``, float or ``(...)``.
         weights: :class:`ContactEnergyWeights` (``ρ``, ``ω``).
 

@@ -293,8 +293,8 @@ def height_loss(p_a: Tensor, p_b_hat: Tensor, r_a: Tensor, r_b_hat: Tensor, h_a,
 
     ``Lh = smoothL1(l^A_{2:T} − l̂^B_{2:T}) + λg · smoothL1(m^A_{2:T} − m̂^B_{2:T})`` with
     ``l`` the per-joint frame-to-frame displacement magnitudes over ``H`` (Eqs. 9-12, see
-    :func:`~retarget_lib.core.quantities.normalized_joint_displacements`), ``m`` the root's distance from the origin over ``H``
-    (Eqs. 15-16) and ``smoothL1`` Eq. 14. Frame 1 of ``m`` is not used (Eq. 17 says ``2:T``; the
+    :func:`~retarget_lib.core.quantities.normalized_joint_displacements`), ``m`` the root's
+    distance from the origin over ``H`` (Eqs. 15-16) and ``smoothL1`` Eq. 14. Frame 1 of ``m`` is not used (Eq. 17 says ``2:T``; the
     authors' code uses ``1:T−1`` — immaterial for long clips).
 
     Example: a joint moving 3 cm in a frame on a 1.5 m character (l = 0.02) matches the same

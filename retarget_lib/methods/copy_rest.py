@@ -13,10 +13,10 @@ __all__ = ["copy_rotations_rest_compensated", "load"]
 def copy_rotations_rest_compensated(motion: Motion, target_skeleton: Skeleton) -> Motion:
     """Baseline "copy with rest-pose compensation".
 
-    This is the same mathematics as :func:`~retarget_lib.core.transfer.retarget_ground_truth` (which is implemented as a
-    rest-compensated copy), so on synthetic pairs it scores zero error by construction; it is
-    listed separately so that evaluation tables can name it. On real Mixamo data the ground
-    truth comes from Mixamo's own retargeter and the two differ.
+    This is the same mathematics as :func:`~retarget_lib.core.transfer.retarget_ground_truth`
+    (which is implemented as a rest-compensated copy), so on synthetic pairs it scores zero error
+    by construction; it is listed separately so that evaluation tables can name it. On real Mixamo
+    data the ground truth comes from Mixamo's own retargeter and the two differ.
     """
     out = retarget_ground_truth(motion, target_skeleton)
     out.meta["retargeted"] = "copy_rest_compensated"

@@ -308,7 +308,7 @@ def encoder_space_optimization(model: GeometryConditionedRNN, source_features: T
         source: source :class:`~retarget_lib.losses.contact.MotionQuantities` with ``(T, ...)``
             arrays (rotations, root velocity, global joints) and the source height.
         foot_contacts: ``(T, 4)`` bool source foot contacts (``ik.FOOT_CONTACT_JOINTS`` order).
-        leg_ratio: ``h_legs_B / h_legs_A`` (:func:`~retarget_lib.losses.contact.leg_ratio`).
+        leg_ratio: ``h_legs_B / h_legs_A`` (:func:`~retarget_lib.core.quantities.leg_ratio`).
         contacts: target-mesh self-contacts: a ``contacts.SelfContacts`` (``.at(t)``), a sequence
             of ``(n_t, 2)`` vertex-pair arrays, or ``None``.
         interpenetration: the target's ``penetration.InterpenetrationEnergy`` (its geodesic

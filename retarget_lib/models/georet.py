@@ -15,7 +15,7 @@ Choices the paper leaves open (decided here):
 * **Input** ``m^A_t ∈ R^267`` (:func:`motion_features`): the source's joint positions relative to
   the root (FK with the root at the origin, the root's rotation applied; 22×3), its local
   rotations as row-major 3×3 matrices (22×9) and its root velocity
-  ``o^A_t = r_(t+1) − r_t`` (3; :func:`~retarget_lib.losses.contact.forward_root_velocity`).
+  ``o^A_t = r_(t+1) − r_t`` (3; :func:`~retarget_lib.core.quantities.forward_root_velocity`).
   Positions and velocity are divided by the source height ``h_A`` (NKN/TDCN ``H``).
 * **Scale.** Everything the decoder sees about the target is divided by ``h_B``: ``p^B_(t−1)``,
   ``o^B_(t−1)``, the rest offsets ``s̄^B`` (all 22 rows, the root row being the hips' rest

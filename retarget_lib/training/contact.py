@@ -1,5 +1,5 @@
 """Training the geometry-conditioned RNN on the contact-aware energy (Villegas et al. 2021,
-Sec. 3.2-3.4, App. B.1), and retargeting with it.
+Sec. 3.2-3.4, App. B.1); retargeting with it is :mod:`retarget_lib.methods.contact`.
 
 The network (:class:`~retarget_lib.models.georet.GeometryConditionedRNN`) is trained without
 ground truth: each step retargets a batch of 60-frame source windows onto random training

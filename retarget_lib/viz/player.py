@@ -107,17 +107,17 @@ class Player:
         m = self.motions[self.name]
         self.image = widgets.Image(format="png", value=png_bytes(self.render()))
         self.slider = widgets.IntSlider(value=self.frame, min=0, max=m.num_frames - 1, description="frame",
-                                  continuous_update=True)
+                                        continuous_update=True)
         self.play = widgets.Play(value=self.frame, min=0, max=m.num_frames - 1, interval=int(1000 / m.fps))
         widgets.jslink((self.play, "value"), (self.slider, "value"))
         self.picker = widgets.Dropdown(options=list(self.motions), value=self.name, description="motion")
         self.character_picker = widgets.Dropdown(options=[self.PERFORMER] + list(self.characters),
-                                           value=self.PERFORMER, description="character")
+                                                 value=self.PERFORMER, description="character")
         self.slider.observe(self._on_frame, names="value")
         self.picker.observe(self._on_pick, names="value")
         self.character_picker.observe(self._on_character, names="value")
-        return widgets.VBox([widgets.HBox([self.picker, self.character_picker]), widgets.HBox([self.play, self.slider]),
-                       self.image])
+        return widgets.VBox([widgets.HBox([self.picker, self.character_picker]),
+                             widgets.HBox([self.play, self.slider]), self.image])
 
     def _on_frame(self, change) -> None:
         self.frame = int(change["new"])

@@ -6,8 +6,9 @@ images. World conventions are the library's: +Y up, characters face +Z, a charac
 How a picture is built: each character is a :class:`Scene` (a pose ``(J, 3)`` and/or a mesh).
 Joint spheres and bone tubes are generated in NumPy with a fixed topology, so animating only
 overwrites point coordinates and normals of existing VTK arrays; one plotter is reused for all
-frames (:func:`animate`, :class:`~retarget_lib.viz.player.Player`). A flat "shadow" (the geometry
-projected onto ``y = 0``) on a checkerboard floor makes foot contact and sliding readable.
+frames (:func:`~retarget_lib.viz.animate.animate`, :class:`~retarget_lib.viz.player.Player`). A flat
+"shadow" (the geometry projected onto ``y = 0``) on a checkerboard floor makes foot contact and
+sliding readable.
 """
 
 from __future__ import annotations
@@ -345,7 +346,8 @@ class SceneRenderer:
     """One offscreen plotter that draws a fixed set of scenes and updates them in place.
 
     ``update(scenes)`` with the same structure (joint counts, mesh topologies) only rewrites point
-    arrays; a different structure rebuilds the actors. Used by :func:`animate` and the player.
+    arrays; a different structure rebuilds the actors. Used by
+    :func:`~retarget_lib.viz.animate.animate` and the player.
 
     Args:
         window_size: ``(width, height)`` pixels.

@@ -108,7 +108,8 @@ def default_body_radii(skeleton: Skeleton) -> dict[str, float]:
 
     Keys: ``"hip"`` pelvis half-width at the iliac crest, ``"torso"`` chest half-depth (spine to
     sternum), ``"head"`` head radius, ``"hand"`` half-thickness of the hand (wrist joint to palm).
-    Pass measured values (e.g. from the character's mesh) to :func:`make_motion` instead.
+    Pass measured values (e.g. from the character's mesh) to
+    :func:`~retarget_lib.data.synthetic.motions.make_motion` instead.
 
     Args:
         skeleton: canonical-22 skeleton.
