@@ -181,7 +181,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="config profile (default $RETARGET_PROFILE or fast)")
     p.add_argument("--out", help="run folder (default runs/<config name>)")
     p.add_argument("--resume", action="store_true", help="continue from <out>/last.pt if it exists")
-    p.add_argument("--export", help="also write a slim inference-only model checkpoint here (weights as float16)")
+    p.add_argument("--export", help="also write a slim inference-only model checkpoint here (TDCN weights as "
+                                    "float16, NKN and contact-aware ones as float32)")
     p.set_defaults(func=_cmd_train)
 
     p = sub.add_parser("evaluate", help="regenerate a paper table (CSV + Markdown, paper numbers beside ours)")

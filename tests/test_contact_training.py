@@ -50,6 +50,8 @@ def test_training_logs_every_term_and_resumes_exactly(small, tmp_path):
         torch.testing.assert_close(v, b["modules"]["model"][k])
 
     slim = export_model(full, tmp_path / "model.pt")
+    stored = torch.load(slim, weights_only=True)["modules"]["model"]
+    assert all(v.dtype == torch.float32 for v in stored.values() if v.is_floating_point())  # see export_model
     model, cfg = load_contact_model(slim)
     out = retarget_with_network(model, clips[0].motion.slice(0, 10), targets["dex"])
     assert out.rotations.shape == (10, 22, 4) and out.skeleton is targets["dex"].skeleton

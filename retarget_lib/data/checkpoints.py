@@ -6,10 +6,11 @@
 * Files are **read** with ``torch.load(..., weights_only=True)``: tensors and plain Python values
   only (dict, list, tuple, str, int, float, bool, None), nothing in the file is executed. Tensors
   stored as float16 come back as float32.
-* Exported, inference-only models are **written** with their floating-point tensors as float16
+* Exported, inference-only models may be **written** with their floating-point tensors as float16
   (:func:`save_state` with ``half=True``): half the bytes on disk and in the git history. The
-  reported numbers move by far less than 1e-3 relative (README, "Checkpoints"). Training
-  checkpoints (``last.pt``, ``final.pt``) keep float32, so a resumed run is exact.
+  exporters do so only where that moves no reported number by more than 1e-3 relative (TDCN
+  generators; README, "Checkpoints"). Training checkpoints (``last.pt``, ``final.pt``) keep
+  float32, so a resumed run is exact.
 """
 
 from __future__ import annotations

@@ -208,10 +208,14 @@ class ContactTraining:
 
 
 def export_model(checkpoint: str | Path, out: str | Path) -> Path:
-    """Slim, inference-only copy of a training checkpoint (atomic): weights (as float16), step and
-    config; :func:`~retarget_lib.methods.contact.load_contact_model` reads it as float32."""
+    """Slim, inference-only copy of a training checkpoint (atomic): weights, step and config.
+
+    The weights stay float32: stored as float16 they moved per-case contact metrics by up to 2.5 %
+    relative (interpenetration of the Efull network on clap_008 -> otto), far above the 1e-3 that
+    the shipped results are allowed to move.
+    """
     state = load_checkpoint(checkpoint)
     slim = {"step": state["step"], "config": state["config"], "modules": {"model": state["modules"]["model"]}}
-    return save_state(slim, out, half=True)
+    return save_state(slim, out)
 
 
