@@ -54,8 +54,7 @@ from ..geometry.contacts import SelfContacts, detect_foot_contacts, transfer_con
 from ..geometry.ik import apply_foot_contact_ik
 from ..geometry.penetration import InterpenetrationEnergy, interpenetration_score, penetration_rate
 from ..losses.contact import TABLE3_ROWS as ENERGY_ROWS
-from ..methods.contact import contact_clip, load_contact_model, retarget_with_network
-from ..methods.eso import encoder_space_optimization, eso_source
+from ..methods.contact import contact_clip, load_contact_model, retarget_with_eso, retarget_with_network
 from ..methods.registry import get_method
 from .paper import CONTACT_PAPER_METRICS, PAPER_TABLE1, PAPER_TABLE3, PAPER_TABLE5, PAPER_TABLE6
 from .tdcn import METRES_TO_CM, normalized_mse, write_table
@@ -211,15 +210,8 @@ def _ik_method(model) -> ContactMethod:
 
 
 def _eso_method(model, eso_config: Mapping) -> ContactMethod:
-    def run(case: ContactCase, eint) -> Motion:
-        src = eso_source(case.source, case.target, case.foot_contacts)
-        res = encoder_space_optimization(model, src.features, case.target, src.quantities, src.foot_contacts,
-                                         src.leg_ratio, contacts=case.contacts, interpenetration=eint,
-                                         iterations=int(eso_config["iterations"]), lr=float(eso_config["lr"]),
-                                         reach=float(eso_config["reach"]), blend=float(eso_config["blend"]))
-        return Motion(case.target.skeleton, res.rotations.double().numpy(), res.root_positions.double().numpy(),
-                      case.source.fps, name=f"{case.clip}->{case.target.name}")
-    return run
+    return lambda case, eint: retarget_with_eso(model, eso_config, case.source, case.target, case.contacts, eint,
+                                                case.foot_contacts, name=f"{case.clip}->{case.target.name}")
 
 
 def _skeleton_method(fn) -> ContactMethod:

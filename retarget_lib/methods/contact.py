@@ -13,7 +13,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 from functools import partial
-from typing import Any, Callable
+from typing import Any, Callable, Mapping
 
 import numpy as np
 import torch
@@ -32,7 +32,7 @@ from .eso import encoder_space_optimization, eso_source
 Tensor = torch.Tensor
 
 __all__ = ["ContactClip", "contact_clip", "model_from_config", "load_contact_model", "retarget_with_network",
-           "ESO_MAX_VERTICES", "retarget_contact_with", "load"]
+           "ESO_MAX_VERTICES", "retarget_contact_with", "retarget_with_eso", "load"]
 
 #: above this many vertices, ESO works on a decimated copy of the target mesh (its Eint needs an
 #: all-pairs geodesic table: 36 MB at 3k vertices, 2.3 GB at 24k); the output is skeletal, so the
@@ -158,15 +158,36 @@ def retarget_contact_with(model: GeometryConditionedRNN, config: dict, source: M
     if source_character is not None:
         clip = contact_clip(source, source_character)
         contacts = transfer_contacts(clip.self_contacts, source_character, target)
-    src = eso_source(source, target)
-    e = config["eso"]
+    return retarget_with_eso(model, config["eso"], source, target, contacts,
+                             InterpenetrationEnergy(target.faces, target.rest_vertices))
+
+
+def retarget_with_eso(model: GeometryConditionedRNN, eso_config: Mapping, source: Motion, target: Character,
+                      contacts: SelfContacts | None, interpenetration: InterpenetrationEnergy,
+                      foot_contacts: np.ndarray | None = None, name: str | None = None) -> Motion:
+    """The network's output refined by encoder-space optimisation (Sec. 3.3) with the App. B.1
+    settings of a checkpoint's config.
+
+    Args:
+        model: the geometry-conditioned RNN (eval mode).
+        eso_config: the config's ``eso`` section (``iterations``, ``lr``, ``reach``, ``blend``).
+        source: canonical-22 source motion.
+        target: target ``Character``.
+        contacts: the source's hand contacts on the target's mesh, or ``None``.
+        interpenetration: the target's Eint.
+        foot_contacts: ``(T, 4)`` the source's foot contacts (default: detected on the source).
+        name: the result's name (default the source's).
+
+    Returns:
+        The motion on ``target.skeleton``.
+    """
+    src = eso_source(source, target, foot_contacts)
     res = encoder_space_optimization(model, src.features, target, src.quantities, src.foot_contacts, src.leg_ratio,
-                                     contacts=contacts,
-                                     interpenetration=InterpenetrationEnergy(target.faces, target.rest_vertices),
-                                     iterations=int(e["iterations"]), lr=float(e["lr"]), reach=float(e["reach"]),
-                                     blend=float(e["blend"]))
+                                     contacts=contacts, interpenetration=interpenetration,
+                                     iterations=int(eso_config["iterations"]), lr=float(eso_config["lr"]),
+                                     reach=float(eso_config["reach"]), blend=float(eso_config["blend"]))
     return Motion(target.skeleton, res.rotations.double().numpy(), res.root_positions.double().numpy(), source.fps,
-                  name=source.name)
+                  name=source.name if name is None else name)
 
 
 def load(checkpoint: str | os.PathLike) -> Callable[..., Motion]:
