@@ -87,6 +87,30 @@ def test_weight_rows_not_summing_to_one_are_listed(tmp_path, character):
         load_shape_npz(_write(tmp_path, character, skinning_weights=w))
 
 
+def test_float32_rounded_weights_are_renormalised_once_on_stderr(tmp_path, character, capsys):
+    # real Mixamo exports: float32 weights whose rows sum to 0.997-1.0
+    w = character.weights.copy()
+    w[[5, 9]] *= 0.997
+    loaded = load_shape_npz(_write(tmp_path, character, skinning_weights=w))
+    # renormalised rows sum to 1 up to float64 rounding
+    np.testing.assert_allclose(loaded.weights.sum(1), 1.0, atol=1e-12)
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "renormalised 2 skinning-weight rows" in err
+
+
+@pytest.mark.parametrize("bad, message", [
+    ("negative", r"must be >= 0; rows \[4\] \(1 in all\)"),
+    ("zero", r"rows \[4\] \(1 in all\) are all zero"),
+])
+def test_negative_or_empty_weight_rows_stay_errors(tmp_path, character, bad, message):
+    w = character.weights.copy()
+    w[4] = 0.0
+    if bad == "negative":
+        w[4, 0], w[4, 1] = -0.5, 1.5
+    with pytest.raises(ValueError, match=message):
+        load_shape_npz(_write(tmp_path, character, skinning_weights=w))
+
+
 def test_missing_joints_are_named(tmp_path, character):
     names = np.array(["mixamorig:" + n for n in CANONICAL22])
     names[[5, 17]] = ["mixamorig:HeadTop_End", "mixamorig:LeftHandIndex1"]

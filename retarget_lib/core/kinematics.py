@@ -28,9 +28,11 @@ from typing import NamedTuple, Sequence
 import numpy as np
 import torch
 
+from .rotations import quat_conjugate, quat_mul, quat_normalize
+
 Tensor = torch.Tensor
 
-__all__ = ["FKResult", "forward_kinematics", "local_positions"]
+__all__ = ["FKResult", "forward_kinematics", "local_positions", "align_local_rotations"]
 
 
 class FKResult(NamedTuple):
@@ -174,3 +176,29 @@ def local_positions(rotations: Tensor, offsets: Tensor, parents: Sequence[int]) 
         ``(..., J, 3)`` root-relative positions (the root's global rotation is applied).
     """
     return forward_kinematics(rotations, offsets, parents, None).positions
+
+
+def align_local_rotations(rotations: Tensor, align: Tensor, parents: Sequence[int]) -> Tensor:
+    """Re-express local rotations with per-joint global alignments: ``q'_j = C_p⁻¹ ⊗ q_j ⊗ C_j``.
+
+    If ``G_j`` are the global rotations of ``rotations``, those of the result are ``G_j C_j``:
+    each joint's frame is turned by its own ``C_j``, the rest of the chain untouched. A constant
+    ``C`` is a rest-pose alignment between two characters (the synthetic ground truth,
+    :func:`retarget_lib.data.pairs.transfer_rotations`); the residual networks predict ``C`` per
+    frame, starting at the identity (= copy the rotations).
+
+    Args:
+        rotations: ``(..., J, 4)`` local unit quaternions (wxyz).
+        align: ``(..., J, 4)`` alignments ``C`` (wxyz). The right factor ``C_j`` is used as given
+            (so the result's norm is ``‖C_j‖``, which a norm regulariser can see); the left factor
+            ``C_p`` is normalised. ``C`` of the root's parent is the identity.
+        parents: ``J`` parents (root first, ``-1``).
+
+    Returns:
+        ``(..., J, 4)``.
+    """
+    unit = quat_normalize(align, eps=1e-8)
+    identity = torch.zeros_like(unit[..., :1, :])
+    identity[..., 0] = 1.0
+    left = torch.cat([identity, unit[..., list(parents[1:]), :]], -2)
+    return quat_mul(quat_conjugate(left), quat_mul(rotations, align))

@@ -107,6 +107,24 @@ def evaluate_case(method: Method, case: EvalCase, short_frames: int = SHORT_FRAM
     return out
 
 
+def error_breakdown(method: Method, case: EvalCase, frames: int = SHORT_FRAMES) -> dict[str, float]:
+    """Where one method's error on one case comes from: the root's path or the pose.
+
+    The first ``frames`` frames are retargeted as one short chunk and scored like Table 4
+    (:func:`normalized_mse`); ``root`` is the same measure on the root joint alone, and ``pose``
+    on the root-relative joints (the root subtracted from prediction and ground truth).
+
+    Returns:
+        ``{"total", "root", "pose"}``, cm²/cm.
+    """
+    pred = method(case.source.slice(0, frames), case.target).global_positions()
+    truth = case.truth.slice(0, frames).global_positions()
+    h = case.target.height()
+    return {"total": normalized_mse(pred, truth, h),
+            "root": normalized_mse(pred[:, :1], truth[:, :1], h),
+            "pose": normalized_mse(pred - pred[:, :1], truth - truth[:, :1], h)}
+
+
 def evaluate_method(method: Method, cases: list[EvalCase]) -> pd.DataFrame:
     """Per-case results: one row per case with scenario, names and the four metrics."""
     return pd.DataFrame([{"scenario": c.scenario, "source": c.source_name, "target": c.target_name,
@@ -214,9 +232,10 @@ def write_table(table: pd.DataFrame, out_dir: str | Path, name: str, note: str =
 
 
 def tdcn_methods() -> tuple[dict[str, Method], list[str]]:
-    """The methods to put in Table 4: the registry's two copy baselines and every Table 4 row whose
+    """The methods to put in Table 4: the registry's two copy baselines, every Table 4 row whose
     checkpoint is shipped (``table: tdcn`` in the manifest; loaded once, by the registry method its
-    entry names); and the rows still without one (reported, never faked)."""
+    entry names), then our shipped variants that are not rows of the paper (e.g. ``ours-residual``,
+    no paper numbers); and the paper's rows still without one (reported, never faked)."""
     methods: dict[str, Method] = {name: get_method(name).retargeter() for name in ("copy", "copy-rest")}
     shipped = table_checkpoints("tdcn")
     missing = []
@@ -226,6 +245,9 @@ def tdcn_methods() -> tuple[dict[str, Method], list[str]]:
             missing.append(row)
             continue
         methods[row] = get_method(entry.method).retargeter(entry.id)
+    for row, entry in shipped.items():  # our variants (not rows of the paper), e.g. "ours-residual"
+        if row not in PAPER_TABLE4:
+            methods[row] = get_method(entry.method).retargeter(entry.id)
     return methods, missing
 
 

@@ -23,6 +23,8 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+import sys
+
 import numpy as np
 
 from ..core.canonical import strip_prefix
@@ -35,6 +37,9 @@ __all__ = ["SHAPE_KEYS", "load_shape_npz", "save_shape_npz"]
 SHAPE_KEYS = ("rest_vertices", "rest_faces", "skinning_weights", "skeleton", "joint_names")
 _UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001}
 _WEIGHT_TOL = 1e-3
+#: rows whose sum is off by more than _WEIGHT_TOL but at most this are renormalised (real Mixamo
+#: exports store float32 weights whose rows sum to 0.997-1.0), with one line on stderr
+_RENORMALIZE_TOL = 1e-2
 
 
 def _unit_scale(unit: str | float) -> float:
@@ -103,11 +108,22 @@ def _validated(arrays: dict, path: Path) -> tuple[np.ndarray, ...]:
             raise ValueError(f"{path}: {key} has NaN or inf in rows {_rows(bad)}")
     if faces.size and (faces.min() < 0 or faces.max() >= nv):
         raise ValueError(f"{path}: rest_faces index vertices outside 0..{nv - 1}")
-    off = np.abs(weights.sum(axis=1) - 1.0) > _WEIGHT_TOL
-    if off.any() or (weights < 0).any():
-        rows = off | (weights < 0).any(axis=1)
-        raise ValueError(f"{path}: skinning_weights rows must be >= 0 and sum to 1; rows {_rows(rows)} "
+    negative = (weights < 0).any(axis=1)
+    if negative.any():
+        raise ValueError(f"{path}: skinning_weights must be >= 0; rows {_rows(negative)} have negative weights")
+    sums = weights.sum(axis=1)
+    empty = sums <= 0
+    if empty.any():
+        raise ValueError(f"{path}: skinning_weights rows {_rows(empty)} are all zero (vertices bound to no joint)")
+    off = np.abs(sums - 1.0) > _RENORMALIZE_TOL
+    if off.any():
+        raise ValueError(f"{path}: skinning_weights rows must sum to 1 (within {_RENORMALIZE_TOL}); rows {_rows(off)} "
                          "do not")
+    drift = np.abs(sums - 1.0) > _WEIGHT_TOL
+    if drift.any():
+        print(f"{path}: renormalised {int(drift.sum())} skinning-weight rows that sum to "
+              f"{sums[drift].min():.4f}..{sums[drift].max():.4f} (float32 export rounding)", file=sys.stderr)
+    weights = weights / sums[:, None]
     return (vertices.astype(np.float64), faces.astype(np.int64), weights.astype(np.float64),
             offsets.astype(np.float64), [strip_prefix(str(n)) for n in names])
 

@@ -54,7 +54,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass
-from typing import Literal, Mapping, NamedTuple
+from typing import Literal, Mapping, NamedTuple, Sequence
 
 import torch
 import torch.nn.functional as F
@@ -330,6 +330,37 @@ def height_loss(p_a: Tensor, p_b_hat: Tensor, r_a: Tensor, r_b_hat: Tensor, h_a,
     return smooth_l1(l_a - l_b, reduction) + lambda_g * smooth_l1(m_a - m_b, reduction)
 
 
+def bone_direction_loss(p_a: Tensor, p_b_hat: Tensor, parents: Sequence[int],
+                        reduction: Reduction = "mean") -> Tensor:
+    """Bone-direction term ``Ld = mean_j ‖u^B_j − u^A_j‖²`` — not in the TDCN paper (weight 0 there).
+
+    ``u_j = (p_j − p_parent(j)) / ‖p_j − p_parent(j)‖`` is the world direction of the bone that ends
+    at joint ``j`` (root-relative positions, root rotation applied). It is the skeleton-level
+    "weak supervision" of Villegas et al. 2021 (their Eq. 8 keeps local rotations close to the
+    source's) written on global bone *directions*, so that it holds between characters whose rest
+    poses differ (an A-pose and a T-pose): none of the TDCN terms can see a rest-pose difference
+    (they compare magnitudes, Eqs. 9-18, or the same character, Eqs. 7, 21), so without such a
+    term copying local rotations is a minimum of Eq. 6. Lengths and proportions are untouched.
+
+    Args:
+        p_a: ``(B, T, J, 3)`` source root-relative positions.
+        p_b_hat: ``(B, T, J, 3)`` retargeted root-relative positions.
+        parents: ``J`` parents (root first, ``-1``).
+        reduction: ``"mean"`` → scalar; ``"per_sample"`` → ``(B,)``.
+    """
+    if p_a.shape != p_b_hat.shape:
+        raise ValueError(f"shape mismatch: {tuple(p_a.shape)} vs {tuple(p_b_hat.shape)}")
+    child = list(range(1, len(parents)))
+    par = list(parents[1:])
+
+    def directions(p: Tensor) -> Tensor:
+        bone = p[..., child, :] - p[..., par, :]
+        return bone / bone.norm(dim=-1, keepdim=True).clamp_min(1e-8)
+
+    sq = (directions(p_a) - directions(p_b_hat)).pow(2).sum(-1)  # (B, T, J-1)
+    return _reduce(sq, reduction)
+
+
 # --------------------------------------------------------------------------------------------
 # La
 # --------------------------------------------------------------------------------------------
@@ -502,6 +533,7 @@ class TDCNLossWeights:
     lambda_r: float = 0.1
     lambda_o: float = 1.0
     lambda_g: float = 5.0
+    lambda_d: float = 0.0
 
     def as_dict(self) -> dict[str, float]:
         return asdict(self)
@@ -510,7 +542,7 @@ class TDCNLossWeights:
 #: term name (as in Eq. 6, also the CSV column) -> its weight's field in :class:`TDCNLossWeights`
 TERM_WEIGHTS: dict[str, str] = {
     "Lc": "lambda_c", "Lt": "lambda_t", "Lh": "lambda_h",
-    "La": "lambda_a", "Lr": "lambda_r", "Lo": "lambda_o",
+    "La": "lambda_a", "Lr": "lambda_r", "Lo": "lambda_o", "Ld": "lambda_d",
 }
 
 

@@ -20,13 +20,13 @@ import torch
 
 from ..core.character import Character
 from ..core.motion import Motion
-from ..core.quantities import MotionQuantities, leg_ratio, motion_quantities
+from ..core.quantities import MotionQuantities, forward_root_velocity, leg_ratio, motion_quantities
 from ..core.skinning import subsample_mesh
 from ..data.checkpoints import load_state
 from ..files import atomic_write, cache_dir
 from ..geometry.contacts import SelfContacts, detect_foot_contacts, detect_self_contacts, transfer_contacts
 from ..geometry.penetration import InterpenetrationEnergy
-from ..models.georet import GeometryConditionedRNN, motion_features, pose_outputs
+from ..models.georet import GeometryConditionedRNN, ResidualBase, motion_features, pose_outputs
 from .eso import encoder_space_optimization, eso_source
 
 Tensor = torch.Tensor
@@ -100,7 +100,7 @@ def model_from_config(config: dict) -> GeometryConditionedRNN:
     """The network of ``config["model"]`` (App. B.1: hidden 512, PointNet 256, dropout 0.1)."""
     m = config["model"]
     return GeometryConditionedRNN(hidden=int(m["hidden"]), layers=int(m["layers"]), geometry=int(m["geometry"]),
-                                  dropout=float(m["dropout"]))
+                                  dropout=float(m["dropout"]), residual=bool(m.get("residual", False)))
 
 
 def load_contact_model(checkpoint: str | os.PathLike) -> tuple[GeometryConditionedRNN, dict]:
@@ -123,9 +123,11 @@ def retarget_with_network(model: GeometryConditionedRNN, source: Motion, target:
     rot, root, off = source.torch(torch.float32)
     feats = motion_features(rot[None], root[None], off, source.skeleton.parents, source.skeleton.height())
     t_off = torch.as_tensor(target.skeleton.offsets, dtype=torch.float32)
+    ratio = leg_ratio(source.skeleton, target.skeleton)
+    base = ResidualBase(rot[None], forward_root_velocity(root[None]) * ratio)
     out = model(feats, t_off[None], torch.as_tensor(target.rest_vertices, dtype=torch.float32)[None],
-                torch.as_tensor(target.weights, dtype=torch.float32)[None], target.height)
-    start = leg_ratio(source.skeleton, target.skeleton) * root[0]
+                torch.as_tensor(target.weights, dtype=torch.float32)[None], target.height, base)
+    start = ratio * root[0]
     posed = pose_outputs(out.rotations, out.root_velocity, t_off, start=start[None])
     return Motion(target.skeleton, out.rotations[0].double().numpy(), posed.root_positions[0].double().numpy(),
                   source.fps, name=f"{source.name}->{getattr(target, 'name', 'target')}")

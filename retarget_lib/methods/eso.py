@@ -67,7 +67,7 @@ from ..geometry.penetration import InterpenetrationEnergy
 from ..losses.contact import (ContactEnergyWeights, eso_self_contact_energy, end_effector_energy_per_frame,
                               foot_contact_energy_per_frame, reach_hold_energy, self_contact_energy,
                               weak_energy)
-from ..models.georet import DecoderState, GeometryConditionedRNN, TargetContext, motion_features
+from ..models.georet import DecoderState, GeometryConditionedRNN, ResidualBase, TargetContext, motion_features
 
 Tensor = torch.Tensor
 
@@ -266,10 +266,11 @@ class _Problem:
         pairs = self.contacts.at(t) if hasattr(self.contacts, "at") else self.contacts[t]
         return np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
 
-    def pose(self, h_enc: Tensor, o_prev: Tensor, state: DecoderState, context: TargetContext,
+    def pose(self, t: int, h_enc: Tensor, o_prev: Tensor, state: DecoderState, context: TargetContext,
              mesh: bool) -> _Pose:
         """Decode frame ``t`` from ``h^enc_t`` with ``o_(t−1)`` swapped into the state, then FK (+ LBS)."""
-        rot, _, new_state = self.model.decode_step(h_enc, state._replace(root_velocity=o_prev), context)
+        base = ResidualBase(self.source.rotations[t][None], self.leg_ratio * self.source.root_velocity[t][None])
+        rot, _, new_state = self.model.decode_step(h_enc, state._replace(root_velocity=o_prev), context, base)
         pos = new_state.local_positions + new_state.root_position[:, None]  # Eq. 18
         verts = None
         if mesh:
@@ -385,7 +386,7 @@ def _optimise_frame(t: int, problem: _Problem, h_enc: Tensor, state: DecoderStat
     h = h_enc.clone().requires_grad_(True)
     o_prev = state.root_velocity.clone().requires_grad_(True)
     with torch.no_grad():
-        initial = problem.pose(h, o_prev, state, context, mesh=True)
+        initial = problem.pose(t, h, o_prev, state, context, mesh=True)
     previous = frames[-1].positions if frames else initial.positions
     frame = _Frame(t, initial, previous, problem)
     log.active[t], log.collisions[t] = len(frame.pairs), len(frame.collisions)
@@ -393,7 +394,7 @@ def _optimise_frame(t: int, problem: _Problem, h_enc: Tensor, state: DecoderStat
     mesh = frame.needs_mesh(redetect_every)
     for n in range(iterations):
         optimiser.zero_grad(set_to_none=True)
-        pose = problem.pose(h, o_prev, state, context, mesh)
+        pose = problem.pose(t, h, o_prev, state, context, mesh)
         if frame.uses_int and redetect_every and n and n % redetect_every == 0:
             frame.detect(pose.vertices[0])
         terms = frame.energy(pose, o_prev)
@@ -401,7 +402,7 @@ def _optimise_frame(t: int, problem: _Problem, h_enc: Tensor, state: DecoderStat
         optimiser.step()
         log.record(t, n, terms)
     with torch.no_grad():
-        final = problem.pose(h, o_prev, state, context, mesh)
+        final = problem.pose(t, h, o_prev, state, context, mesh)
         log.record(t, iterations, frame.energy(final, o_prev))
     return final._replace(vertices=None)
 

@@ -85,6 +85,10 @@ def retarget_motion_with(generator: torch.nn.Module, motion: Motion, target: Ske
                          windowed: bool = False, chunk: int = 256) -> Motion:
     """Retarget a whole clip with a trained TDCN/NKN generator (any length).
 
+    A residual generator (``ours-residual``) has translation-invariant inputs and the source's
+    leg-scaled root as its root: it runs on the clip as it is, in one pass (``windowed`` is not
+    needed).
+
     ``windowed=False`` (the paper, Sec. 3.1): the clip is centred like the training windows
     (:func:`centre_root`) and run through the network in one pass; the removed horizontal shift
     is added back scaled by ``H(s̄B) / H(s̄A)``. A long travelling clip then feeds root positions
@@ -110,7 +114,10 @@ def retarget_motion_with(generator: torch.nn.Module, motion: Motion, target: Ske
     off_b = torch.as_tensor(target.offsets, dtype=torch.float32)
     ratio = skeleton_height(off_b) / skeleton_height(off_a)
     with torch.inference_mode():
-        if not windowed:
+        if getattr(generator, "residual", False):  # translation-invariant inputs, analytic root: no centring
+            q_b, r_b = (x[0] for x in generator.retarget(q[None], r[None], off_a, off_b))
+            shift = torch.zeros(3)
+        elif not windowed:
             r, shift = centre_root(r)
             q_b, r_b = (x[0] for x in generator.retarget(q[None], r[None], off_a, off_b))
         elif isinstance(generator, TDCNGenerator):

@@ -80,6 +80,8 @@ TABLE4_ROWS: dict[str, dict[str, Any]] = {
     "A3": {"kind": "tdcn", "variant": "ours", "loss": "no_height"},
     "A4": {"kind": "tdcn", "variant": "disc81"},
     "A5": {"kind": "tdcn", "variant": "causal"},
+    # not a row of the paper: "ours" with a residual output over copy (TDCNGenerator.compose_residual)
+    "ours-residual": {"kind": "tdcn", "variant": "ours", "residual": True},
 }
 
 _TDCN_VARIANTS = {"ours": {}, "dense": {"dense": True}, "causal": {"causal": True},
@@ -90,7 +92,7 @@ _NKN_VARIANTS = {"baseline": {"backbone": "gru"}, "dense": {"backbone": "dense"}
 _KNOWN = {"row", "kind", "variant", "profile", "channels", "disc_channels", "disc_receptive_field",
           "dropout", "normalize_inputs", "height_loss", "normalize_root", "backbone", "dilations", "kernel",
           "slope", "head_hidden", "skip_projection", "num_layers", "disc_norm", "causal", "dense",
-          "data", "loss"}
+          "data", "loss", "residual"}
 
 
 class ModelPair(NamedTuple):
@@ -167,7 +169,7 @@ def build_model(config: Mapping[str, Any] | None = None) -> ModelPair:
     if cfg["kind"] == "tdcn":
         gen = TDCNGenerator(channels=cfg["channels"],
                             **pick("dropout", "dilations", "kernel", "causal", "dense", "slope", "head_hidden",
-                                   "skip_projection"))
+                                   "skip_projection", "residual"))
         disc = PatchDiscriminator(channels=cfg["disc_channels"], receptive_field=cfg["disc_receptive_field"],
                                   **({"norm": cfg["disc_norm"]} if "disc_norm" in cfg else {}),
                                   **pick("slope"))

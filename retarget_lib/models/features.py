@@ -67,6 +67,9 @@ __all__ = [
     "nkn_source_features",
     "discriminator_features",
     "FeatureNormalizer",
+    "residual_input_channels",
+    "residual_generator_features",
+    "leg_length",
 ]
 
 NUM_JOINTS = 22
@@ -74,6 +77,11 @@ NUM_JOINTS = 22
 # Height bones are (child, parent) pairs with a direct parent link, so H is a sum of offset norms.
 assert all(CANONICAL22_PARENTS[c] == p for c, p in HEIGHT_BONES)
 _HEIGHT_CHILDREN = tuple(c for c, _ in HEIGHT_BONES)
+
+
+def residual_input_channels(num_joints: int = NUM_JOINTS) -> int:
+    """``C_in`` of the residual TDCN: ``p`` (3J) + ``q`` (4J) + root (3) + ``s̄B`` (3J) + ``s̄A`` (3J)."""
+    return 13 * num_joints + 3
 
 
 def generator_input_channels(num_joints: int = NUM_JOINTS) -> int:
@@ -164,6 +172,58 @@ def generator_features(rotations: Tensor, root_positions: Tensor, offsets_src: T
         positions = source_local_positions(rotations, offsets_src, parents)
     skel = batched_offsets(offsets_tgt.to(rotations.dtype), b).reshape(b, 1, 3 * j).expand(b, t, 3 * j)
     x = torch.cat([positions.reshape(b, t, 3 * j), rotations.reshape(b, t, 4 * j), root_positions, skel], -1)
+    return x.transpose(1, 2)
+
+
+def leg_length(offsets: Tensor) -> Tensor:
+    """Rest height of the hips above the lowest foot joint (metres), as
+    :meth:`retarget_lib.skeleton.Skeleton.leg_length`, from canonical-22 rest offsets.
+
+    Args:
+        offsets: ``(..., 22, 3)`` rest offsets.
+
+    Returns:
+        ``(...)`` leg lengths (differentiable).
+    """
+    y = offsets[..., 1]
+    left = y[..., [6, 7, 8, 9]].cumsum(-1)    # LeftUpLeg, LeftLeg, LeftFoot, LeftToeBase
+    right = y[..., [10, 11, 12, 13]].cumsum(-1)
+    return -torch.cat([left, right], -1).min(-1).values
+
+
+def residual_generator_features(rotations: Tensor, root_positions: Tensor, offsets_src: Tensor,
+                                offsets_tgt: Tensor, positions: Tensor | None = None,
+                                parents: Sequence[int] = CANONICAL22_PARENTS) -> Tensor:
+    """Input of the residual TDCN variant: ``[p_t, q_t, ρ_t, s̄B, s̄A]`` per frame.
+
+    Differs from :func:`generator_features` (the paper's Eq. 2) in two ways, both so that the
+    network can compute a rest-pose alignment and never sees an absolute horizontal position:
+
+    * the root enters as ``ρ_t = (Δx_t, y_t, Δz_t) / H(s̄A)`` (horizontal velocity, height;
+      ``Δ·_1 = 0``) instead of ``r_t``: the output no longer depends on where the clip is;
+    * the source skeleton ``s̄A`` is appended (the paper gives only ``s̄B``; ``s̄A`` is implicit in
+      ``p``), so the two rest poses are both visible.
+
+    Args:
+        rotations: ``(B, T, J, 4)`` source local quaternions (wxyz).
+        root_positions: ``(B, T, 3)`` source root positions (metres).
+        offsets_src: ``(B, J, 3)`` or ``(J, 3)`` source rest offsets ``s̄A``.
+        offsets_tgt: ``(B, J, 3)`` or ``(J, 3)`` target rest offsets ``s̄B``.
+        positions: optional precomputed ``(B, T, J, 3)`` ``p``.
+        parents: ``J`` parent indices.
+
+    Returns:
+        ``(B, 13J + 3, T)`` channels-first.
+    """
+    b, t, j, _ = rotations.shape
+    off_a = batched_offsets(offsets_src.to(rotations.dtype), b)
+    if positions is None:
+        positions = source_local_positions(rotations, off_a, parents)
+    v = root_velocities(root_positions)
+    rho = torch.stack([v[..., 0], root_positions[..., 1], v[..., 2]], -1) / skeleton_height(off_a).view(b, 1, 1)
+    skel_b = batched_offsets(offsets_tgt.to(rotations.dtype), b).reshape(b, 1, 3 * j).expand(b, t, 3 * j)
+    skel_a = off_a.reshape(b, 1, 3 * j).expand(b, t, 3 * j)
+    x = torch.cat([positions.reshape(b, t, 3 * j), rotations.reshape(b, t, 4 * j), rho, skel_b, skel_a], -1)
     return x.transpose(1, 2)
 
 

@@ -48,7 +48,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from ..core.kinematics import forward_kinematics
+from ..core.kinematics import align_local_rotations, forward_kinematics
 from ..core.quantities import forward_root_velocity
 from ..core.rotations import matrix_from_6d, matrix_to_quat, quat_identity, quat_to_matrix
 from ..core.skeleton import CANONICAL22_PARENTS
@@ -60,6 +60,7 @@ __all__ = [
     "MOTION_FEATURES",
     "MOTION_FEATURE_LAYOUT",
     "GeoRetOutput",
+    "ResidualBase",
     "PosedOutput",
     "TargetContext",
     "DecoderState",
@@ -214,6 +215,23 @@ class GeoRetOutput(NamedTuple):
     geometry: Tensor
 
 
+class ResidualBase(NamedTuple):
+    """What a residual network corrects (our variant, ``residual=True``): Eweak's targets (Eq. 8).
+
+    Attributes:
+        rotations: ``(B, T, 22, 4)`` the source's local rotations ``θ^A`` (wxyz).
+        root_velocity: ``(B, T, 3)`` ``o^(A→B)``, the source's root velocity times the leg ratio
+            (metres per frame).
+    """
+
+    rotations: Tensor
+    root_velocity: Tensor
+
+    def frame(self, t: int) -> "ResidualBase":
+        """Frame ``t``: ``rotations (B, 22, 4)``, ``root_velocity (B, 3)``."""
+        return ResidualBase(self.rotations[:, t], self.root_velocity[:, t])
+
+
 class TargetContext(NamedTuple):
     """The per-sequence constants of the decoder (:meth:`GeometryConditionedRNN.target_context`).
 
@@ -295,11 +313,17 @@ class GeometryConditionedRNN(nn.Module):
         geometry: PointNet width / embedding size (256).
         dropout: between stacked GRU layers (0.1).
         parents: joint parents for FK.
+        residual: our variant (not the paper's): the rotation head predicts per-joint alignments
+            ``C_j`` and the output is ``θ^B_j = C_p⁻¹ θ^A_j C_j``
+            (:func:`~retarget_lib.kinematics.align_local_rotations`), the velocity head a
+            correction of ``o^(A→B)``; both start at zero change, so the untrained network
+            copies the source (Eweak = 0). Needs a :class:`ResidualBase` in every call.
     """
 
     def __init__(self, joints: int = NUM_JOINTS, hidden: int = 512, layers: int = 2, geometry: int = 256,
-                 dropout: float = 0.1, parents: Sequence[int] = CANONICAL22_PARENTS):
+                 dropout: float = 0.1, parents: Sequence[int] = CANONICAL22_PARENTS, residual: bool = False):
         super().__init__()
+        self.residual = bool(residual)
         if joints != len(parents):
             raise ValueError(f"{joints} joints but {len(parents)} parents")
         self.joints, self.hidden, self.layers = joints, hidden, layers
@@ -369,13 +393,14 @@ class GeometryConditionedRNN(nn.Module):
         return DecoderState(off.new_zeros(self.layers, b, self.hidden), rest, off.new_zeros(b, 3), root, identity)
 
     def decode_step(self, h_enc: Tensor, state: DecoderState, context: TargetContext,
-                    ) -> tuple[Tensor, Tensor, DecoderState]:
+                    base: ResidualBase | None = None) -> tuple[Tensor, Tensor, DecoderState]:
         """One decoder step (Eqs. 13-15, 17-18).
 
         Args:
             h_enc: ``(B, hidden)`` ``h^enc_t``.
             state: :class:`DecoderState` before frame ``t``.
             context: :meth:`target_context`.
+            base: frame ``t`` of the :class:`ResidualBase` (``residual`` models only).
 
         Returns:
             ``(θ_t (B, 22, 4) unit wxyz, o_t (B, 3) metres per frame, state after frame t)``; the new
@@ -391,13 +416,19 @@ class GeometryConditionedRNN(nn.Module):
             hidden.append(x)
         rotations = matrix_to_quat(matrix_from_6d(self.rotation_head(x).view(b, self.joints, 6)))
         velocity = self.velocity_head(x) * h
+        if self.residual:
+            if base is None:
+                raise ValueError("a residual GeometryConditionedRNN needs the ResidualBase of the frame")
+            rotations = align_local_rotations(base.rotations.to(rotations.dtype), rotations, self.parents)
+            velocity = velocity + base.root_velocity.to(velocity.dtype)
         local, global_rotations = forward_kinematics(rotations, context.offsets, self.parents, None)
         return rotations, velocity, DecoderState(torch.stack(hidden), local, velocity, state.next_root(),
                                                  global_rotations)
 
     # ------------------------------------------------------------------ whole sequences
     def forward(self, source_features: Tensor, target_offsets: Tensor, target_vertices: Tensor,
-                target_weights: Tensor, target_height: float | Tensor | None = None) -> GeoRetOutput:
+                target_weights: Tensor, target_height: float | Tensor | None = None,
+                base: ResidualBase | None = None) -> GeoRetOutput:
         """Retarget a batch of clips (Eqs. 12-19), decoding frame by frame.
 
         Args:
@@ -406,6 +437,7 @@ class GeometryConditionedRNN(nn.Module):
             target_vertices: ``(B, V, 3)`` target rest vertices (metres), any ``V``.
             target_weights: ``(B, V, 22)`` skinning weights.
             target_height: ``h_B`` (default from the offsets).
+            base: the :class:`ResidualBase` (``residual`` models only).
 
         Returns:
             :class:`GeoRetOutput`; global joints via :func:`pose_outputs`.
@@ -415,7 +447,8 @@ class GeometryConditionedRNN(nn.Module):
         state = self.initial_state(context)
         rots, vels, locs = [], [], []
         for t in range(h_enc.shape[1]):  # autoregressive: needs p_(t−1), o_(t−1)
-            rot, vel, state = self.decode_step(h_enc[:, t], state, context)
+            rot, vel, state = self.decode_step(h_enc[:, t], state, context,
+                                               None if base is None else base.frame(t))
             rots.append(rot)
             vels.append(vel)
             locs.append(state.local_positions)

@@ -68,9 +68,11 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from ..core.rotations import quat_normalize
+from ..core.kinematics import align_local_rotations
+from ..core.rotations import quat_conjugate, quat_mul, quat_normalize
 from ..core.skeleton import CANONICAL22_PARENTS
-from .features import NUM_JOINTS, FeatureNormalizer, generator_features, generator_input_channels
+from .features import (NUM_JOINTS, FeatureNormalizer, generator_features, generator_input_channels, leg_length,
+                       residual_generator_features, residual_input_channels)
 
 Tensor = torch.Tensor
 
@@ -450,16 +452,18 @@ class TDCNGenerator(nn.Module):
                  kernel: int = 3, causal: bool = False, dense: bool = False, num_joints: int = NUM_JOINTS,
                  in_channels: int | None = None, slope: float = DEFAULT_SLOPE,
                  head_hidden: int | None = None, skip_projection: bool = False,
-                 parents: Sequence[int] = CANONICAL22_PARENTS):
+                 parents: Sequence[int] = CANONICAL22_PARENTS, residual: bool = False):
         super().__init__()
         self.num_joints = num_joints
-        self.in_channels = generator_input_channels(num_joints) if in_channels is None else in_channels
+        self.residual = bool(residual)
+        default_in = (residual_input_channels if self.residual else generator_input_channels)(num_joints)
+        self.in_channels = default_in if in_channels is None else in_channels
         self.parents = tuple(parents)
         self.normalizer = FeatureNormalizer(self.in_channels)
         self.body = DilatedStack(self.in_channels, channels, dilations, kernel, 3, dropout, causal, dense,
                                  norm="batch", slope=slope, skip_projection=skip_projection, padding="edge")
         head_hidden = channels // 2 if head_hidden is None else head_hidden
-        self.head = FrameHead(channels, 4 * num_joints + 3, head_hidden, slope)
+        self.head = FrameHead(channels, 4 * num_joints + (0 if self.residual else 3), head_hidden, slope)
         init_identity_head(self.head.out, num_joints)
 
     @property
@@ -525,10 +529,59 @@ class TDCNGenerator(nn.Module):
         Returns:
             :class:`GeneratorOutput` with raw q̂ ``(B, T, J, 4)``, r̂ ``(B, T, 3)``, no velocities.
         """
-        x = generator_features(rotations, root_positions, offsets_src, offsets_tgt, positions, self.parents)
         norm = self.normalizer if normalizer is None else normalizer
-        q, r = self._run(norm(x), normalize=False)
+        if not self.residual:
+            x = generator_features(rotations, root_positions, offsets_src, offsets_tgt, positions, self.parents)
+            q, r = self._run(norm(x), normalize=False)
+            return GeneratorOutput(q, r, None)
+        b = rotations.shape[0]
+        off_a, off_b = offsets_src.expand(b, -1, -1), offsets_tgt.expand(b, -1, -1)
+        # one pass over the batch twice: towards the target, and towards the source itself
+        x = residual_generator_features(rotations.repeat(2, 1, 1, 1), root_positions.repeat(2, 1, 1),
+                                        off_a.repeat(2, 1, 1), torch.cat([off_b, off_a]),
+                                        None if positions is None else positions.repeat(2, 1, 1, 1), self.parents)
+        raw, _ = self._run(norm(x), normalize=False)
+        align = quat_mul(raw[:b], quat_conjugate(normalize_quaternions(raw[b:])))
+        q, r = self.compose_residual(align, rotations, root_positions, offsets_src, offsets_tgt)
         return GeneratorOutput(q, r, None)
+
+    def compose_residual(self, align: Tensor, rotations: Tensor, root_positions: Tensor,
+                         offsets_src: Tensor, offsets_tgt: Tensor) -> tuple[Tensor, Tensor]:
+        """The residual variant's output: a correction of "copy" (our variant, not the paper).
+
+        The alignments are ``C_j(t) = N_j(x, s̄A → s̄B) ⊗ unit(N_j(x, s̄A → s̄A))⁻¹``: the head's
+        raw quaternion for the target, "minus" the one it gives for the source's own skeleton
+        (both from one batched pass, :meth:`generate`). Retargeting onto the source's own skeleton
+        is therefore the identity for *any* input, by construction, and whatever the network does
+        regardless of the target cancels. The output is
+
+        ``q̂_j = unit(C_p(j))⁻¹ ⊗ q^A_j ⊗ C_j``  and  ``r̂ = r^A · leg(s̄B) / leg(s̄A)``
+
+        (:func:`~retarget_lib.kinematics.align_local_rotations`). With ``C = 1`` — the head's
+        initialisation — this is the "copy" baseline, and the same-skeleton case (``A = B``) is
+        already the identity. A constant ``C_j`` is exactly a rest-pose alignment
+        (:func:`retarget_lib.data.pairs.transfer_rotations`), so the rest-pose difference of two
+        characters is a constant for the network to learn. Since ``‖q̂_j‖ = ‖C_j‖`` the
+        regulariser Eq. 22 still sees the raw norm.
+
+        The root is not learned: it is the source's trajectory scaled by the leg-length ratio, as
+        Mixamo, the synthetic ground truth and Villegas et al.'s ``o^(A→B)`` (Eq. 8) scale it.
+        (Learning it against Lh's root term and the discriminator's ``δ``, which normalise by the
+        full height ``H`` (Eqs. 15-18), moved it towards the height ratio instead: on the TDCN test
+        pairs the root then carried most of the error.)
+
+        Args:
+            align: ``(B, T, J, 4)`` raw ``C``.
+            rotations: ``(B, T, J, 4)`` source local quaternions.
+            root_positions: ``(B, T, 3)`` source root positions.
+            offsets_src, offsets_tgt: ``(B, J, 3)`` or ``(J, 3)``.
+
+        Returns:
+            ``(q̂ (B, T, J, 4) raw, r̂ (B, T, 3))``.
+        """
+        b = rotations.shape[0]
+        ratio = leg_length(offsets_tgt.expand(b, -1, -1)) / leg_length(offsets_src.expand(b, -1, -1))
+        return align_local_rotations(rotations, align, self.parents), root_positions * ratio.view(b, 1, 1)
 
     def retarget(self, rotations: Tensor, root_positions: Tensor, offsets_src: Tensor, offsets_tgt: Tensor,
                  normalizer: nn.Module | None = None) -> tuple[Tensor, Tensor]:

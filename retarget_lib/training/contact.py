@@ -43,7 +43,7 @@ from ..geometry.contacts import vertex_correspondence
 from ..geometry.penetration import InterpenetrationEnergy
 from ..losses.contact import ContactEnergyWeights, foot_contact_energy, self_contact_energy, skeleton_energy
 from ..methods.contact import ContactClip, contact_clip, model_from_config
-from ..models.georet import batch_meshes, pose_outputs
+from ..models.georet import ResidualBase, batch_meshes, pose_outputs
 from .loop import TrainTask, load_checkpoint, seed_everything
 
 Tensor = torch.Tensor
@@ -166,7 +166,8 @@ class ContactTraining:
         heights = torch.tensor([t.height for t in targets])
         ratios = torch.tensor([leg_ratio(c.motion.skeleton, t.character.skeleton) for c, _, t, _ in draws])
         verts, skin = batch_meshes([t.vertices for t in targets], [t.weights for t in targets])
-        out = self.model(features, offsets, verts, skin, heights)
+        out = self.model(features, offsets, verts, skin, heights,
+                         ResidualBase(src.rotations, src.root_velocity * ratios[:, None, None]))
         start = ratios[:, None] * src.positions[:, 0, 0]
         posed = pose_outputs(out.rotations, out.root_velocity, offsets, start=start)
         output = MotionQuantities(out.rotations, out.root_velocity, posed.positions, heights)

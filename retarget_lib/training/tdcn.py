@@ -111,13 +111,16 @@ from ..data.checkpoints import save_state
 from ..data.splits import tdcn_split
 from ..data.synthetic.dataset import load_synthetic
 from ..losses import (MotionTensors, TDCNLossWeights, adversarial_loss, adversarial_loss_discriminator,
+                      bone_direction_loss,
                       adversarial_loss_generator, check_finite, cycle_loss, height_loss, orientation_loss,
                       regularization_loss, sigmoid_ce_discriminator_loss, sigmoid_ce_generator_loss,
                       total_generator_loss, twist_loss)
 from ..methods.tdcn import centre_root, model_config
 from ..models import build_model, normalize_quaternions, resolve_config
-from ..models.features import (generator_features, nkn_source_features, root_velocities, skeleton_height,
+from ..models.features import (generator_features, nkn_source_features, residual_generator_features, root_velocities,
+                               skeleton_height,
                                source_local_positions)
+from ..core.rotations import quat_from_axis_angle, quat_mul, quat_rotate
 from .loop import TrainTask, load_checkpoint, seed_everything
 
 Tensor = torch.Tensor
@@ -183,15 +186,20 @@ class TrainingClips:
         return starts
 
 
-@lru_cache(maxsize=1)
-def training_clips() -> TrainingClips:
+@lru_cache(maxsize=2)
+def training_clips(mirror: bool = False) -> TrainingClips:
     """The TDCN split's train characters × train clips (ground-truth transfers), built once.
+
+    Args:
+        mirror: also every clip's left/right mirror image (:meth:`Motion.mirror`), as more clips.
 
     Returns:
         :class:`TrainingClips` (treat as read-only: it is shared within the process).
     """
     ds, split = load_synthetic(), tdcn_split()
     clips = [ds.clip(f"{m.family}_{m.seed:03d}").motion for m in split.train_motions]
+    if mirror:
+        clips += [c.mirror() for c in clips]
     lengths = torch.tensor([0] + [c.num_frames for c in clips])
     rotations, roots = [], []
     for name in split.train_characters:
@@ -244,10 +252,14 @@ class WindowSampler:
         scale_range: ``(low, high)`` of the balanced-data factor (paper: ``(0.5, 1.5)``), or
             ``None`` for unbalanced data (factor 1).
         scale_targets: scale the target skeleton (and its real windows) by its own factor too.
+        random_yaw: turn every window about the vertical axis through its centre frame's root by
+            a uniform random angle (our augmentation, not the paper's: the synthetic clips all
+            start facing +Z, real clips face anywhere).
     """
 
     def __init__(self, clips: TrainingClips, window: int = 81, same_fraction: float = 0.5,
-                 scale_range: tuple[float, float] | None = (0.5, 1.5), scale_targets: bool = True):
+                 scale_range: tuple[float, float] | None = (0.5, 1.5), scale_targets: bool = True,
+                 random_yaw: bool = False):
         if len(clips.characters) < 2:
             raise ValueError("need at least two training characters")
         if not 0.0 <= same_fraction <= 1.0:
@@ -257,6 +269,7 @@ class WindowSampler:
             raise ValueError(f"scale_range must be null or [low, high] with 0 < low <= high, got {scale_range}")
         self.clips, self.window, self.same_fraction = clips, int(window), float(same_fraction)
         self.scale_low, self.scale_high, self.scale_targets = low, high, bool(scale_targets)
+        self.random_yaw = bool(random_yaw)
         self.starts = clips.window_starts(self.window)
 
     def _scales(self, batch: int, generator: torch.Generator | None) -> Tensor:
@@ -267,8 +280,17 @@ class WindowSampler:
         start = self.starts[torch.randint(len(self.starts), (len(character),), generator=generator)]
         frames = start[:, None] + torch.arange(self.window)
         rows = character[:, None]
-        root = self.clips.root_positions[rows, frames] * scale[:, None, None]
-        return self.clips.rotations[rows, frames], centre_root(root)[0]
+        root = centre_root(self.clips.root_positions[rows, frames] * scale[:, None, None])[0]
+        rotations = self.clips.rotations[rows, frames]
+        if self.random_yaw:
+            angle = (2 * torch.rand(len(character), generator=generator) - 1) * torch.pi
+            axis_angle = torch.zeros(len(character), 3)
+            axis_angle[:, 1] = angle
+            yaw = quat_from_axis_angle(axis_angle)[:, None]
+            rotations = rotations.clone()
+            rotations[:, :, 0] = quat_mul(yaw, rotations[:, :, 0])
+            root = quat_rotate(yaw, root)
+        return rotations, root
 
     def sample(self, batch: int, generator: torch.Generator | None = None) -> TrainingBatch:
         """Draw ``batch`` samples (global torch RNG unless ``generator`` is given)."""
@@ -341,8 +363,11 @@ class RetargetTraining:
         _check_row(self.resolved, config, self.weights)
         loss, data, train = config["loss"], config["data"], config["train"]
         self.gan, self.alpha_deg, self.batch = loss["gan"], float(loss["twist_alpha_deg"]), int(train["batch"])
-        self.sampler = WindowSampler(training_clips() if clips is None else clips, data["window"], data["same_fraction"],
-                                     data["scale_range"], data["scale_targets"])
+        self.twist_exclude_root = bool(loss.get("twist_exclude_root", False))
+        if clips is None:
+            clips = training_clips(bool(data.get("mirror", False)))
+        self.sampler = WindowSampler(clips, data["window"], data["same_fraction"], data["scale_range"],
+                                     data["scale_targets"], bool(data.get("random_yaw", False)))
         if self.resolved["normalize_inputs"]:
             self._fit_normalizer()
         adam = dict(lr=float(train["lr"]), betas=tuple(float(b) for b in train["betas"]))
@@ -360,7 +385,8 @@ class RetargetTraining:
         b = self.sampler.sample(_NORMALIZER_WINDOWS, torch.Generator().manual_seed(int(self.config["seed"])))
         p = source_local_positions(b.rotations, b.offsets_source)
         if self.resolved["kind"] == "tdcn":
-            x = generator_features(b.rotations, b.root_positions, b.offsets_source, b.offsets_target, p)
+            features = residual_generator_features if self.generator.residual else generator_features
+            x = features(b.rotations, b.root_positions, b.offsets_source, b.offsets_target, p)
         else:
             h = skeleton_height(b.offsets_source) if self.generator.normalize_root else None
             x = nkn_source_features(p, b.root_positions, h)
@@ -396,12 +422,13 @@ class RetargetTraining:
         h_fake = d(d.features(p_b, out_b.root_positions, off_b))
         terms = {
             "Lc": cycle_loss(x_a, MotionTensors(p_a_hat, out_a.rotations, out_a.root_positions)),
-            "Lt": twist_loss(out_b.rotations, out_a.rotations, self.alpha_deg),
+            "Lt": twist_loss(out_b.rotations, out_a.rotations, self.alpha_deg, exclude_root=self.twist_exclude_root),
             "Lh": height_loss(p_a, p_b, root_a, root_b, skeleton_height(off_a), skeleton_height(off_b),
                               self.weights.lambda_g),
             "La": adversarial_loss(h_fake, x_a, x_b_hat, batch.same_character, gan=self.gan),
             "Lr": regularization_loss(out_b.rotations, out_a.rotations),
             "Lo": orientation_loss(q_a[:, :, 0], out_b.rotations[:, :, 0]),
+            "Ld": bone_direction_loss(p_a, p_b, self.generator.parents),
         }
         return terms, x_b_hat
 

@@ -1,0 +1,124 @@
+"""The residual TDCN and GeoRet variants (ours, not the papers'), their alignment algebra and the
+bone-direction term."""
+
+import math
+
+import numpy as np
+import pytest
+import torch
+
+from retarget_lib.core.kinematics import align_local_rotations, forward_kinematics
+from retarget_lib.losses import bone_direction_loss
+from retarget_lib.models import build_model
+from retarget_lib.models.features import leg_length
+from retarget_lib.core.rotations import quat_from_axis_angle, quat_normalize
+from retarget_lib.core.skeleton import CANONICAL22_PARENTS
+
+PARENTS = CANONICAL22_PARENTS
+
+
+def random_quats(*shape, seed=0):
+    g = torch.Generator().manual_seed(seed)
+    return quat_normalize(torch.randn(*shape, 4, generator=g, dtype=torch.float64))
+
+
+def test_align_identity_returns_the_rotations():
+    q = random_quats(5, 22)
+    ident = torch.zeros_like(q)
+    ident[..., 0] = 1.0
+    # float64 quaternion products of unit quaternions: rounding only
+    assert torch.allclose(align_local_rotations(q, ident, PARENTS), q, atol=1e-12)
+
+
+def test_align_turns_each_global_frame_by_its_own_alignment():
+    q, c = random_quats(3, 22, seed=1), random_quats(3, 22, seed=2)
+    off = torch.randn(22, 3, dtype=torch.float64)
+    g_before = forward_kinematics(q, off, PARENTS, None).rotations
+    g_after = forward_kinematics(align_local_rotations(q, c, PARENTS), off, PARENTS, None).rotations
+    from retarget_lib.core.rotations import quat_mul
+    expected = quat_mul(g_before, c)
+    # the same rotation up to the quaternion sign; float64 rounding through 7 levels of products
+    dot = (g_after * expected).sum(-1).abs()
+    assert torch.allclose(dot, torch.ones_like(dot), atol=1e-10)
+
+
+def test_bone_direction_loss_hand_values():
+    # two bones of a chain: straight up vs. turned by 90 degrees -> |u - u'|^2 = 2 for the turned bone
+    parents = (-1, 0, 1)
+    p_a = torch.tensor([[0.0, 0, 0], [0, 1, 0], [0, 2, 0]]).view(1, 1, 3, 3)
+    p_b = torch.tensor([[0.0, 0, 0], [0, 1, 0], [1, 1, 0]]).view(1, 1, 3, 3)
+    assert bone_direction_loss(p_a, p_b, parents).item() == pytest.approx(1.0)  # mean of (0, 2)
+    # uniform scaling changes no direction
+    assert bone_direction_loss(p_a, 2.5 * p_a, parents).item() == pytest.approx(0.0, abs=1e-12)
+
+
+def test_leg_length_matches_the_skeleton():
+    from retarget_lib.data.synthetic.characters import make_character
+
+    sk = make_character("ada").skeleton
+    assert leg_length(torch.as_tensor(sk.offsets)).item() == pytest.approx(sk.leg_length(), rel=1e-12)
+
+
+def _zero_head(linear):
+    with torch.no_grad():
+        linear.weight.zero_()
+
+
+def test_untrained_residual_tdcn_is_copy_and_same_skeleton_is_identity():
+    gen, _ = build_model({"row": "ours-residual", "profile": "fast"})
+    gen.eval()
+    _zero_head(gen.head.out)  # the head's bias is the identity: C = 1 exactly
+    q = random_quats(2, 30, 22, seed=3).float()
+    r = torch.randn(2, 30, 3)
+    off_a = torch.randn(22, 3) * 0.1
+    off_a[[6, 7, 8, 9, 10, 11, 12, 13], 1] = -0.2  # legs point down: a positive leg length
+    off_b = off_a * 1.3
+    with torch.no_grad():
+        q_hat, r_hat = gen.retarget(q, r, off_a, off_b)
+    # float32 quaternion products: rounding only
+    assert torch.allclose(q_hat, q, atol=1e-5)
+    # the root is the source's times the leg ratio (1.3 for a uniformly scaled skeleton)
+    assert torch.allclose(r_hat, r * 1.3, atol=1e-5)
+
+
+def test_residual_georet_starts_at_the_source_rotations():
+    from retarget_lib.models.georet import GeometryConditionedRNN, ResidualBase, motion_features
+
+    model = GeometryConditionedRNN(hidden=32, geometry=16, residual=True).eval()
+    with torch.no_grad():
+        model.rotation_head.weight.zero_()
+        model.velocity_head.weight.zero_()
+    q = random_quats(1, 8, 22, seed=4).float()
+    root = torch.cumsum(torch.randn(1, 8, 3) * 0.01, 1)
+    off = torch.randn(22, 3) * 0.1
+    feats = motion_features(q, root, off)
+    vel = torch.randn(1, 8, 3) * 0.01
+    verts, weights = torch.randn(1, 50, 3), torch.softmax(torch.randn(1, 50, 22), -1)
+    with torch.no_grad():
+        out = model(feats, off, verts, weights, base=ResidualBase(q, vel))
+    from retarget_lib.core.rotations import quat_to_matrix
+    # same rotation (sign-free comparison as matrices), float32 rounding
+    assert torch.allclose(quat_to_matrix(out.rotations), quat_to_matrix(q), atol=1e-5)
+    assert torch.allclose(out.root_velocity, vel, atol=1e-6)
+    with pytest.raises(ValueError, match="ResidualBase"):
+        model(feats, off, verts, weights)
+
+
+def test_residual_tdcn_on_its_own_skeleton_is_the_identity_for_any_weights():
+    torch.manual_seed(0)
+    gen, _ = build_model({"row": "ours-residual", "profile": "fast"})
+    gen.eval()
+    with torch.no_grad():
+        gen.head.out.weight.normal_(std=0.5)  # far from the identity initialisation
+    q = random_quats(2, 40, 22, seed=5).float()
+    r = torch.randn(2, 40, 3)
+    off = torch.randn(2, 22, 3) * 0.1
+    off[:, [6, 7, 8, 9, 10, 11, 12, 13], 1] = -0.2
+    with torch.no_grad():
+        q_hat, r_hat = gen.retarget(q, r, off, off)
+        q_other, _ = gen.retarget(q, r, off, off * torch.tensor([1.2, 0.9, 1.0]))
+    from retarget_lib.core.rotations import quat_to_matrix
+    # float32 products of a few unit quaternions: rounding only
+    assert torch.allclose(quat_to_matrix(q_hat), quat_to_matrix(q), atol=1e-4)
+    assert torch.allclose(r_hat, r, atol=1e-5)
+    assert not torch.allclose(quat_to_matrix(q_other), quat_to_matrix(q), atol=1e-2)  # another target: a change
