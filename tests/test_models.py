@@ -325,6 +325,7 @@ def test_build_model_builds_every_table4_row():
         "A3": (TDCNGenerator, dict(causal=False)),
         "A4": (TDCNGenerator, dict(causal=False)),
         "A5": (TDCNGenerator, dict(causal=True)),
+        "ours-residual": (TDCNGenerator, dict(causal=False, residual=True)),  # our variant, not a paper row
     }
     assert set(expect) == set(TABLE4_ROWS)
     q, r, oa, ob = _motion(1, 6)

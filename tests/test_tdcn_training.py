@@ -28,9 +28,9 @@ CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 ROWS = {"tdcn_baseline": "Baseline", "tdcn_baseline_dense": "Baseline-dense",
         "tdcn_baseline_dilated": "Baseline-dilated", "tdcn_baseline_height": "Baseline-height",
         "tdcn_paper": "ours", "tdcn_a1_dense": "A1", "tdcn_a2_unbalanced": "A2", "tdcn_a3_no_height": "A3",
-        "tdcn_a4_disc81": "A4", "tdcn_a5_causal": "A5"}
+        "tdcn_a4_disc81": "A4", "tdcn_a5_causal": "A5", "tdcn_ours_residual": "ours-residual"}
 TINY = ["model.channels=16", "model.disc_channels=16", "train.batch=4"]
-TERMS = ["Lc", "Lt", "Lh", "La", "Lr", "Lo", "total", "D"]
+TERMS = ["Lc", "Lt", "Lh", "La", "Lr", "Lo", "Ld", "total", "D"]
 
 
 def config(stem, *overrides, profile="fast"):
@@ -50,7 +50,8 @@ def test_paper_settings_and_every_table4_row_config():
     paper = load_config(CONFIGS / "tdcn_paper.yaml", profile="paper")
     assert paper["model"]["channels"] == 1024 and paper["model"]["dropout"] == 0.1
     assert paper["train"]["batch"] == 128 and paper["train"]["lr"] == 1e-4 and paper["train"]["betas"] == [0.5, 0.999]
-    assert paper["data"] == {"window": 81, "same_fraction": 0.5, "scale_range": [0.5, 1.5], "scale_targets": True}
+    assert paper["data"] == {"window": 81, "same_fraction": 0.5, "scale_range": [0.5, 1.5], "scale_targets": True,
+                             "mirror": False, "random_yaw": False}
     assert {k: paper["loss"][k] for k in ("lambda_t", "lambda_h", "lambda_a", "lambda_r", "lambda_o", "lambda_g")} \
         == {"lambda_t": 10, "lambda_h": 10, "lambda_a": 1, "lambda_r": 0.1, "lambda_o": 1, "lambda_g": 5}
     assert sorted(p.stem for p in CONFIGS.glob("tdcn_*.yaml")) == sorted(ROWS)
