@@ -184,7 +184,7 @@ def align_local_rotations(rotations: Tensor, align: Tensor, parents: Sequence[in
     If ``G_j`` are the global rotations of ``rotations``, those of the result are ``G_j C_j``:
     each joint's frame is turned by its own ``C_j``, the rest of the chain untouched. A constant
     ``C`` is a rest-pose alignment between two characters (the synthetic ground truth,
-    :func:`retarget_lib.data.pairs.transfer_rotations`); the residual networks predict ``C`` per
+    :func:`retarget_lib.core.transfer.transfer_rotations`); the residual networks predict ``C`` per
     frame, starting at the identity (= copy the rotations).
 
     Args:

@@ -256,6 +256,8 @@ class _Problem:
         self.ground_heights = torch.as_tensor(foot_ground_heights(target.skeleton), dtype=dtype)
         self.source = MotionQuantities(*(torch.as_tensor(x, dtype=dtype) for x in source[:3]), float(source.height))
         self.leg_ratio = float(leg_ratio)
+        #: what a residual network corrects (Eweak's targets θ^A, o^(A→B)); ignored by the paper's network
+        self.base = ResidualBase(self.source.rotations[None], self.leg_ratio * self.source.root_velocity[None])
         self.foot_contacts = np.asarray(foot_contacts, dtype=bool)
         self.contacts = contacts
         self.interpenetration = interpenetration
@@ -269,8 +271,8 @@ class _Problem:
     def pose(self, t: int, h_enc: Tensor, o_prev: Tensor, state: DecoderState, context: TargetContext,
              mesh: bool) -> _Pose:
         """Decode frame ``t`` from ``h^enc_t`` with ``o_(t−1)`` swapped into the state, then FK (+ LBS)."""
-        base = ResidualBase(self.source.rotations[t][None], self.leg_ratio * self.source.root_velocity[t][None])
-        rot, _, new_state = self.model.decode_step(h_enc, state._replace(root_velocity=o_prev), context, base)
+        rot, _, new_state = self.model.decode_step(h_enc, state._replace(root_velocity=o_prev), context,
+                                                   self.base.frame(t))
         pos = new_state.local_positions + new_state.root_position[:, None]  # Eq. 18
         verts = None
         if mesh:

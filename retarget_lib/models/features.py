@@ -48,7 +48,7 @@ from torch import nn
 
 from ..core.kinematics import forward_kinematics
 from ..core.quantities import discriminator_inputs
-from ..core.skeleton import CANONICAL22_PARENTS, HEIGHT_BONES
+from ..core.skeleton import CANONICAL22_PARENTS, HEIGHT_BONES, J
 
 Tensor = torch.Tensor
 
@@ -175,9 +175,13 @@ def generator_features(rotations: Tensor, root_positions: Tensor, offsets_src: T
     return x.transpose(1, 2)
 
 
+_LEFT_LEG = ("LeftUpLeg", "LeftLeg", "LeftFoot", "LeftToeBase")
+_RIGHT_LEG = ("RightUpLeg", "RightLeg", "RightFoot", "RightToeBase")
+
+
 def leg_length(offsets: Tensor) -> Tensor:
     """Rest height of the hips above the lowest foot joint (metres), as
-    :meth:`retarget_lib.skeleton.Skeleton.leg_length`, from canonical-22 rest offsets.
+    :meth:`retarget_lib.core.skeleton.Skeleton.leg_length`, from canonical-22 rest offsets.
 
     Args:
         offsets: ``(..., 22, 3)`` rest offsets.
@@ -186,8 +190,8 @@ def leg_length(offsets: Tensor) -> Tensor:
         ``(...)`` leg lengths (differentiable).
     """
     y = offsets[..., 1]
-    left = y[..., [6, 7, 8, 9]].cumsum(-1)    # LeftUpLeg, LeftLeg, LeftFoot, LeftToeBase
-    right = y[..., [10, 11, 12, 13]].cumsum(-1)
+    left = y[..., [J[n] for n in _LEFT_LEG]].cumsum(-1)    # rest heights below the hips, down the chain
+    right = y[..., [J[n] for n in _RIGHT_LEG]].cumsum(-1)
     return -torch.cat([left, right], -1).min(-1).values
 
 
@@ -217,14 +221,11 @@ def residual_generator_features(rotations: Tensor, root_positions: Tensor, offse
     """
     b, t, j, _ = rotations.shape
     off_a = batched_offsets(offsets_src.to(rotations.dtype), b)
-    if positions is None:
-        positions = source_local_positions(rotations, off_a, parents)
     v = root_velocities(root_positions)
     rho = torch.stack([v[..., 0], root_positions[..., 1], v[..., 2]], -1) / skeleton_height(off_a).view(b, 1, 1)
-    skel_b = batched_offsets(offsets_tgt.to(rotations.dtype), b).reshape(b, 1, 3 * j).expand(b, t, 3 * j)
-    skel_a = off_a.reshape(b, 1, 3 * j).expand(b, t, 3 * j)
-    x = torch.cat([positions.reshape(b, t, 3 * j), rotations.reshape(b, t, 4 * j), rho, skel_b, skel_a], -1)
-    return x.transpose(1, 2)
+    # the paper's [p, q, r, s̄B] with ρ in r's channels, then s̄A
+    x = generator_features(rotations, rho, off_a, offsets_tgt, positions, parents)
+    return torch.cat([x, off_a.reshape(b, 3 * j, 1).expand(b, 3 * j, t)], 1)
 
 
 def split_generator_features(features: Tensor, num_joints: int = NUM_JOINTS) -> dict[str, Tensor]:

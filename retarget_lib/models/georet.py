@@ -315,7 +315,7 @@ class GeometryConditionedRNN(nn.Module):
         parents: joint parents for FK.
         residual: our variant (not the paper's): the rotation head predicts per-joint alignments
             ``C_j`` and the output is ``θ^B_j = C_p⁻¹ θ^A_j C_j``
-            (:func:`~retarget_lib.kinematics.align_local_rotations`), the velocity head a
+            (:func:`~retarget_lib.core.kinematics.align_local_rotations`), the velocity head a
             correction of ``o^(A→B)``; both start at zero change, so the untrained network
             copies the source (Eweak = 0). Needs a :class:`ResidualBase` in every call.
     """

@@ -557,10 +557,10 @@ class TDCNGenerator(nn.Module):
 
         ``q̂_j = unit(C_p(j))⁻¹ ⊗ q^A_j ⊗ C_j``  and  ``r̂ = r^A · leg(s̄B) / leg(s̄A)``
 
-        (:func:`~retarget_lib.kinematics.align_local_rotations`). With ``C = 1`` — the head's
+        (:func:`~retarget_lib.core.kinematics.align_local_rotations`). With ``C = 1`` — the head's
         initialisation — this is the "copy" baseline, and the same-skeleton case (``A = B``) is
         already the identity. A constant ``C_j`` is exactly a rest-pose alignment
-        (:func:`retarget_lib.data.pairs.transfer_rotations`), so the rest-pose difference of two
+        (:func:`retarget_lib.core.transfer.transfer_rotations`), so the rest-pose difference of two
         characters is a constant for the network to learn. Since ``‖q̂_j‖ = ‖C_j‖`` the
         regulariser Eq. 22 still sees the raw norm.
 

@@ -106,21 +106,19 @@ from typing import NamedTuple
 
 import torch
 
+from ..core.rotations import quat_from_axis_angle, quat_mul, quat_rotate
 from ..core.transfer import retarget_ground_truth
 from ..data.checkpoints import save_state
 from ..data.splits import tdcn_split
 from ..data.synthetic.dataset import load_synthetic
 from ..losses import (MotionTensors, TDCNLossWeights, adversarial_loss, adversarial_loss_discriminator,
-                      bone_direction_loss,
-                      adversarial_loss_generator, check_finite, cycle_loss, height_loss, orientation_loss,
-                      regularization_loss, sigmoid_ce_discriminator_loss, sigmoid_ce_generator_loss,
-                      total_generator_loss, twist_loss)
+                      adversarial_loss_generator, bone_direction_loss, check_finite, cycle_loss, height_loss,
+                      orientation_loss, regularization_loss, sigmoid_ce_discriminator_loss,
+                      sigmoid_ce_generator_loss, total_generator_loss, twist_loss)
 from ..methods.tdcn import centre_root, model_config
 from ..models import build_model, normalize_quaternions, resolve_config
-from ..models.features import (generator_features, nkn_source_features, residual_generator_features, root_velocities,
-                               skeleton_height,
-                               source_local_positions)
-from ..core.rotations import quat_from_axis_angle, quat_mul, quat_rotate
+from ..models.features import (generator_features, nkn_source_features, residual_generator_features,
+                               root_velocities, skeleton_height, source_local_positions)
 from .loop import TrainTask, load_checkpoint, seed_everything
 
 Tensor = torch.Tensor
