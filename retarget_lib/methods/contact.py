@@ -22,6 +22,7 @@ from ..core.character import Character
 from ..core.motion import Motion
 from ..core.quantities import MotionQuantities, forward_root_velocity, leg_ratio, motion_quantities
 from ..core.skinning import subsample_mesh
+from ..core.transfer import transfer_rotations
 from ..data.checkpoints import load_state
 from ..files import atomic_write, cache_dir
 from ..geometry.contacts import SelfContacts, detect_foot_contacts, detect_self_contacts, transfer_contacts
@@ -31,7 +32,8 @@ from .eso import encoder_space_optimization, eso_source
 
 Tensor = torch.Tensor
 
-__all__ = ["ContactClip", "contact_clip", "model_from_config", "load_contact_model", "retarget_with_network",
+__all__ = ["ContactClip", "contact_clip", "model_from_config", "load_contact_model", "eweak_rotations",
+           "retarget_with_network",
            "ESO_MAX_VERTICES", "retarget_contact_with", "retarget_with_eso", "load"]
 
 #: above this many vertices, ESO works on a decimated copy of the target mesh (its Eint needs an
@@ -112,6 +114,30 @@ def load_contact_model(checkpoint: str | os.PathLike) -> tuple[GeometryCondition
     return model.eval(), state["config"]
 
 
+def eweak_rotations(model: GeometryConditionedRNN, rotations: np.ndarray, source: Any, target: Any) -> Tensor:
+    """The ``θ^A`` that Eweak (Eq. 8) compares the output with, and a residual network's base.
+
+    The paper's network: the source's local rotations as they are. A residual network (our variant,
+    ``model.residual``): the same rotations re-expressed on the target's rest pose
+    (:func:`~retarget_lib.core.transfer.transfer_rotations`, the rest-compensated copy), so that
+    an untrained residual network reproduces every global bone direction of the source rather than
+    its local angles. Mixamo's characters share one T-pose, so there the two coincide (the
+    alignment is the identity); ours do not (A-pose, T-pose, bent elbows), and comparing raw local
+    angles would ask the network to keep each rest-pose difference as a pose error.
+
+    Args:
+        model: the network (only ``model.residual`` is read).
+        rotations: ``(..., 22, 4)`` source local rotations (wxyz).
+        source, target: the two skeletons.
+
+    Returns:
+        ``(..., 22, 4)`` float32.
+    """
+    if model.residual:
+        rotations = transfer_rotations(rotations, source, target)
+    return torch.as_tensor(np.asarray(rotations), dtype=torch.float32)
+
+
 @torch.no_grad()
 def retarget_with_network(model: GeometryConditionedRNN, source: Motion, target: Any) -> Motion:
     """Retarget ``source`` onto ``target`` (a ``Character``) with the network alone (no ESO):
@@ -124,7 +150,8 @@ def retarget_with_network(model: GeometryConditionedRNN, source: Motion, target:
     feats = motion_features(rot[None], root[None], off, source.skeleton.parents, source.skeleton.height())
     t_off = torch.as_tensor(target.skeleton.offsets, dtype=torch.float32)
     ratio = leg_ratio(source.skeleton, target.skeleton)
-    base = ResidualBase(rot[None], forward_root_velocity(root[None]) * ratio)
+    base = ResidualBase(eweak_rotations(model, source.rotations, source.skeleton, target.skeleton)[None],
+                        forward_root_velocity(root[None]) * ratio)
     out = model(feats, t_off[None], torch.as_tensor(target.rest_vertices, dtype=torch.float32)[None],
                 torch.as_tensor(target.weights, dtype=torch.float32)[None], target.height, base)
     start = ratio * root[0]
@@ -183,7 +210,7 @@ def retarget_with_eso(model: GeometryConditionedRNN, eso_config: Mapping, source
     Returns:
         The motion on ``target.skeleton``.
     """
-    src = eso_source(source, target, foot_contacts)
+    src = eso_source(source, target, foot_contacts, rest_aligned=model.residual)
     res = encoder_space_optimization(model, src.features, target, src.quantities, src.foot_contacts, src.leg_ratio,
                                      contacts=contacts, interpenetration=interpenetration,
                                      iterations=int(eso_config["iterations"]), lr=float(eso_config["lr"]),

@@ -58,6 +58,7 @@ import numpy as np
 import torch
 
 from ..core.motion import Motion
+from ..core.transfer import transfer_rotations
 from ..core.quantities import (MotionQuantities, foot_ground_heights, leg_ratio as skeleton_leg_ratio,
                                motion_quantities)
 from ..core.skeleton import J
@@ -123,7 +124,8 @@ class EsoSource(NamedTuple):
     foot_contacts: np.ndarray
 
 
-def eso_source(motion: Motion, target: Any, foot_contacts: np.ndarray | None = None) -> EsoSource:
+def eso_source(motion: Motion, target: Any, foot_contacts: np.ndarray | None = None,
+               rest_aligned: bool = False) -> EsoSource:
     """Prepare a canonical-22 source motion for :func:`encoder_space_optimization` on ``target``.
 
     Args:
@@ -131,10 +133,17 @@ def eso_source(motion: Motion, target: Any, foot_contacts: np.ndarray | None = N
         target: a ``Character``-like object (``.skeleton``).
         foot_contacts: ``(T, 4)`` bool; default :func:`retarget_lib.geometry.contacts.detect_foot_contacts`
             on the source.
+        rest_aligned: Eweak's ``θ^A`` (and a residual network's base) are the source rotations
+            re-expressed on the target's rest pose
+            (:func:`~retarget_lib.core.transfer.transfer_rotations`): pass ``model.residual``
+            (see :func:`~retarget_lib.methods.contact.eweak_rotations`).
     """
     rot, root, off = motion.torch(torch.float32)
     height = motion.skeleton.height()
     quantities = motion_quantities(rot, root, off, height, motion.skeleton.parents)
+    if rest_aligned:
+        aligned = transfer_rotations(motion.rotations, motion.skeleton, target.skeleton)
+        quantities = quantities._replace(rotations=torch.as_tensor(aligned, dtype=torch.float32))
     if foot_contacts is None:
         foot_contacts = detect_foot_contacts(quantities.positions.double().numpy(), motion.skeleton)
     features = motion_features(rot[None], root[None], off, motion.skeleton.parents, height)

@@ -219,7 +219,9 @@ class ResidualBase(NamedTuple):
     """What a residual network corrects (our variant, ``residual=True``): Eweak's targets (Eq. 8).
 
     Attributes:
-        rotations: ``(B, T, 22, 4)`` the source's local rotations ``θ^A`` (wxyz).
+        rotations: ``(B, T, 22, 4)`` Eweak's ``θ^A`` (wxyz): the source's local rotations
+            re-expressed on the target's rest pose
+            (:func:`~retarget_lib.methods.contact.eweak_rotations`).
         root_velocity: ``(B, T, 3)`` ``o^(A→B)``, the source's root velocity times the leg ratio
             (metres per frame).
     """

@@ -42,7 +42,7 @@ from ..data.synthetic.dataset import dataset_path, fingerprint_of, load_syntheti
 from ..geometry.contacts import vertex_correspondence
 from ..geometry.penetration import InterpenetrationEnergy
 from ..losses.contact import ContactEnergyWeights, foot_contact_energy, self_contact_energy, skeleton_energy
-from ..methods.contact import ContactClip, contact_clip, model_from_config
+from ..methods.contact import ContactClip, contact_clip, eweak_rotations, model_from_config
 from ..models.georet import ResidualBase, batch_meshes, pose_outputs
 from .loop import TrainTask, load_checkpoint, seed_everything
 
@@ -119,6 +119,7 @@ class ContactTraining:
         self.weights = energy_weights(config)
         self.targets = [_Target(c, self.weights.geodesic_weights, self.weights.use_int) for c in targets.values()]
         self._correspondence: dict[tuple[str, str], np.ndarray] = {}
+        self._aligned: dict[tuple[str, str], Tensor] = {}
         seed_everything(int(config["seed"]))  # the initial weights depend on the config's seed only
         self.model = model_from_config(config)
         t = config["train"]
@@ -135,6 +136,17 @@ class ContactTraining:
         if key not in self._correspondence:
             self._correspondence[key] = vertex_correspondence(source, target.character)
         return self._correspondence[key]
+
+    def eweak_rotations(self, clip: ContactClip, target: _Target) -> Tensor:
+        """``(T, 22, 4)`` Eweak's ``θ^A`` of ``clip`` onto ``target``
+        (:func:`~retarget_lib.methods.contact.eweak_rotations`), cached per pair."""
+        if not self.model.residual:
+            return clip.quantities.rotations
+        key = (clip.name, target.character.name)
+        if key not in self._aligned:
+            self._aligned[key] = eweak_rotations(self.model, clip.motion.rotations, clip.motion.skeleton,
+                                                 target.character.skeleton)
+        return self._aligned[key]
 
     def epoch(self, step: int) -> int:
         """0-based epoch of ``step`` (``steps / epochs`` steps each)."""
@@ -157,7 +169,7 @@ class ContactTraining:
         win = slice(0, self.window)
         sl = [slice(s, s + self.window) for _, s, _, _ in draws]
         features = torch.stack([c.features[s] for (c, *_), s in zip(draws, sl)])
-        src = MotionQuantities(torch.stack([c.quantities.rotations[s] for (c, *_), s in zip(draws, sl)]),
+        src = MotionQuantities(torch.stack([self.eweak_rotations(c, t)[s] for (c, _, t, _), s in zip(draws, sl)]),
                                torch.stack([c.quantities.root_velocity[s] for (c, *_), s in zip(draws, sl)]),
                                torch.stack([c.quantities.positions[s] for (c, *_), s in zip(draws, sl)]),
                                torch.tensor([c.quantities.height for c, *_ in draws]))
