@@ -12,13 +12,14 @@ character, two synthetic clips on the unseen mannequin-x body, and the three rea
 
 from __future__ import annotations
 
-from typing import Callable, NamedTuple
+from typing import Any, Callable, NamedTuple
 
 import numpy as np
 import pandas as pd
 
+from ..core.character import Character
 from ..core.motion import Motion
-from ..core.skeleton import J, Skeleton
+from ..core.skeleton import J
 from ..core.transfer import retarget_ground_truth
 from ..data.sources.cmu import CMU_CLIPS, load_cmu_clip
 from ..data.sources.mannequin import load_mannequin
@@ -34,11 +35,13 @@ _FEET = [J["LeftFoot"], J["RightFoot"], J["LeftToeBase"], J["RightToeBase"]]
 
 class IdentityClip(NamedTuple):
     """One clip of the identity check: ``group`` (``synthetic``, ``mannequin-x``, ``cmu``),
-    a name, and the motion (canonical 22 joints)."""
+    a name, the motion (canonical 22 joints) and, where it has one, the skinned character that
+    performs it (the CMU clips have none)."""
 
     group: str
     name: str
     motion: Motion
+    character: Character | None = None
 
 
 def identity_clips(synthetic_clips: tuple[str, ...] = ("walk_008", "punch_009", "squat_009", "wave_000", "clap_008"),
@@ -56,29 +59,33 @@ def identity_clips(synthetic_clips: tuple[str, ...] = ("walk_008", "punch_009", 
     out = []
     for ch in characters:
         for name in synthetic_clips:
+            character = ds.characters[ch]
             out.append(IdentityClip("synthetic", f"{name}@{ch}",
-                                    retarget_ground_truth(ds.clip(name).motion, ds.characters[ch].skeleton)))
-    body = load_mannequin().skeleton
+                                    retarget_ground_truth(ds.clip(name).motion, character.skeleton), character))
+    body = load_mannequin()
     for name in mannequin_clips:
-        out.append(IdentityClip("mannequin-x", f"{name}@mannequin-x", retarget_ground_truth(ds.clip(name).motion, body)))
+        out.append(IdentityClip("mannequin-x", f"{name}@mannequin-x",
+                                retarget_ground_truth(ds.clip(name).motion, body.skeleton), body))
     for name in CMU_CLIPS:
         out.append(IdentityClip("cmu", name, load_cmu_clip(name)))
     return out
 
 
-def identity_error(method: Callable[[Motion, Skeleton], Motion], motion: Motion) -> dict[str, float]:
+def identity_error(method: Callable[[Motion, Any], Motion], motion: Motion, target: Any = None) -> dict[str, float]:
     """Retarget ``motion`` onto its own skeleton with ``method`` and measure the change.
 
     Args:
-        method: ``(source motion, target skeleton) -> motion``.
+        method: ``(source motion, target) -> motion``.
         motion: canonical-22 motion.
+        target: what ``method`` is given as the target: the motion's own skeleton (default) or
+            the character that performs it (methods that need a mesh).
 
     Returns:
         ``mean``, ``hands``, ``feet``: mean root-relative joint displacement (cm at
         :data:`REFERENCE_HEIGHT`) over all joints / the hands / the feet and toes; ``root``: mean
         root displacement (same unit).
     """
-    out = method(motion, motion.skeleton)
+    out = method(motion, motion.skeleton if target is None else target)
     scale = 100.0 * REFERENCE_HEIGHT / motion.skeleton.height()
     p, q = out.global_positions(), motion.global_positions()
     d = np.linalg.norm((p - p[:, :1]) - (q - q[:, :1]), axis=-1) * scale  # (T, J)
@@ -86,12 +93,21 @@ def identity_error(method: Callable[[Motion, Skeleton], Motion], motion: Motion)
             "root": float(np.linalg.norm(p[:, 0] - q[:, 0], axis=-1).mean() * scale)}
 
 
-def identity_errors(method: Callable[[Motion, Skeleton], Motion],
-                    clips: list[IdentityClip] | None = None) -> pd.DataFrame:
+def identity_errors(method: Callable[[Motion, Any], Motion], clips: list[IdentityClip] | None = None,
+                    characters: bool = False) -> pd.DataFrame:
     """:func:`identity_error` on every clip (default :func:`identity_clips`).
+
+    Args:
+        method: ``(source motion, target skeleton or character) -> motion``.
+        clips: the clips.
+        characters: give ``method`` the performing character (skinned; e.g. the contact-aware
+            method) instead of the skeleton; clips without one (CMU) are left out.
 
     Returns:
         One row per clip: ``group``, ``clip``, ``mean``, ``hands``, ``feet``, ``root``.
     """
     clips = identity_clips() if clips is None else clips
-    return pd.DataFrame([{"group": c.group, "clip": c.name, **identity_error(method, c.motion)} for c in clips])
+    if characters:
+        clips = [c for c in clips if c.character is not None]
+    return pd.DataFrame([{"group": c.group, "clip": c.name,
+                          **identity_error(method, c.motion, c.character if characters else None)} for c in clips])
