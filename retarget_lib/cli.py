@@ -16,6 +16,11 @@
 
 Each command imports what it runs inside its ``_cmd_*`` function: the library below this module
 loads torch (about 3 s here), which ``retarget --help`` (0.2 s) does without.
+
+Bad input (a :class:`~retarget_lib.errors.RetargetInputError`, a
+:class:`~retarget_lib.files.DataError`, or an ``OSError`` on a user's path) exits with status 2
+and one line on stderr naming the file and the problem, never a traceback. SIGTERM and SIGINT
+exit with 128 + the signal number after removing the temporary file of any write in progress.
 """
 
 from __future__ import annotations
@@ -25,7 +30,8 @@ import sys
 from pathlib import Path
 
 from .config import load_config
-from .files import DataError, atomic_write, sha256_file
+from .errors import RetargetInputError
+from .files import DataError, atomic_write, exit_on_signals, sha256_file
 
 
 def _cmd_data(args: argparse.Namespace) -> int:
@@ -201,13 +207,23 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _one_line(error: Exception) -> str:
+    """The message of a user-input error on one line (an ``OSError`` with its file name)."""
+    if isinstance(error, OSError) and error.filename is not None:
+        text = f"{error.filename}: {error.strerror or error}"
+    else:
+        text = str(error) or type(error).__name__
+    return " ".join(part.strip() for part in text.splitlines() if part.strip())
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point; returns the exit status (2 with a one-line message on data/input errors)."""
     args = build_parser().parse_args(argv)
+    exit_on_signals()
     try:
         return args.func(args)
-    except (DataError, ValueError, FileNotFoundError) as e:
-        print(f"retarget {args.command}: error: {e}", file=sys.stderr)
+    except (RetargetInputError, DataError, ValueError, OSError) as e:
+        print(f"retarget {args.command}: error: {_one_line(e)}", file=sys.stderr)
         return 2
 
 
