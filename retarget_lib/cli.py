@@ -5,7 +5,7 @@
     retarget data build|list|verify      build the embedded dataset; list/verify data_manifest.yaml
     retarget retarget --source IN.bvh --target TARGET.bvh|CHARACTER [--target-mesh SHAPE.npz]
                       [--source-mesh SHAPE.npz] --method NAME (from retarget_lib.methods.registry)
-                      [--checkpoint ID|PATH] --out OUT.bvh
+                      [--checkpoint ID|PATH] [--fps N] [--force] --out OUT.bvh
     retarget train    --config configs/NAME.yaml [key=value ...] [--profile fast|paper] [--out DIR]
                       [--resume] [--export MODEL.pt]
                                          train a TDCN/NKN Table 4 row (retarget_lib.training.tdcn) or,
@@ -57,7 +57,7 @@ def _cmd_retarget(args: argparse.Namespace) -> int:
     from .methods.retarget import retarget_file
 
     out = retarget_file(args.source, args.target, args.method, args.out, args.checkpoint, args.target_mesh,
-                        args.source_mesh)
+                        args.source_mesh, fps=args.fps, force=args.force)
     print(f"wrote {out}")
     return 0
 
@@ -176,7 +176,9 @@ def build_parser() -> argparse.ArgumentParser:
                                          "interpenetration only)")
     p.add_argument("--checkpoint", help="manifest id or path of a checkpoint for a learned method (default: "
                                         "the method's default in data_manifest.yaml)")
-    p.add_argument("--out", required=True, help="output .bvh")
+    p.add_argument("--fps", type=float, help="output frame rate (default: the source's)")
+    p.add_argument("--force", action="store_true", help="allow --out to overwrite an input file")
+    p.add_argument("--out", required=True, help="output .bvh (never an input unless --force)")
     p.set_defaults(func=_cmd_retarget)
 
     p = sub.add_parser("train", help="train a TDCN/NKN (Table 4) or contact-aware (Table 3) model from a YAML config")
