@@ -2,7 +2,9 @@
 traceback, a silent wrong output, code execution or a destroyed input.
 
 Through the CLI: exit status 2 and one line on stderr naming the file (or key) and the problem.
-Through the library: a documented exception type (:mod:`retarget_lib.errors`).
+Through the library: a documented exception type (:mod:`retarget_lib.errors`). The BVH reader
+is also fuzzed (``hypothesis``): any mutation of a valid file loads to finite data within the
+bounds or raises ``BVHError`` naming a line, within a second.
 """
 
 import os
@@ -16,6 +18,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from retarget_lib.cli import main
 from retarget_lib.config import ConfigError, load_config
@@ -426,3 +430,76 @@ def test_every_method_writes_a_named_target_in_the_sources_unit(tmp_path, src):
         out = tmp_path / f"{method}.bvh"
         assert main(retarget_args(src, out, "kato", method)) == 0
         assert load_bvh(out).meta["unit"] == "inch", method
+
+
+# ------------------------------------------------------------------------------- BVH reader fuzz
+FUZZ_BASE = """HIERARCHY
+ROOT Hips
+{
+  OFFSET 0 90 0
+  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation
+  JOINT Spine
+  {
+    OFFSET 0 10 0
+    CHANNELS 3 Zrotation Xrotation Yrotation
+    End Site
+    {
+      OFFSET 0 10 0
+    }
+  }
+}
+MOTION
+Frames: 2
+Frame Time: 0.0333333
+0 90 0 10 20 30 1 2 3
+1 91 0 11 21 31 2 3 4
+"""
+_FUZZ_TOKENS = ["{", "}", "ROOT", "JOINT", "End", "Site", "OFFSET", "CHANNELS", "MOTION", "Frames:", "Frame",
+                "Time:", "3", "-1", "0", "1e308", "nan", "inf", "1e-12", "100", "Xrotation", "Zposition", "", "\t",
+                "99999999999", "é", "\x00"]
+
+
+@st.composite
+def mutated_bvh(draw):
+    """The valid file above with one to three mutations: a token replaced or inserted, a line
+    deleted or duplicated, the text truncated."""
+    lines = FUZZ_BASE.splitlines()
+    for _ in range(draw(st.integers(1, 3))):
+        kind = draw(st.sampled_from(["replace", "insert", "delete", "duplicate", "truncate"]))
+        i = draw(st.integers(0, len(lines) - 1))
+        words = lines[i].split()
+        token = draw(st.sampled_from(_FUZZ_TOKENS) | st.text(max_size=6))
+        if kind == "replace" and words:
+            words[draw(st.integers(0, len(words) - 1))] = token
+            lines[i] = " ".join(words)
+        elif kind == "insert":
+            words.insert(draw(st.integers(0, len(words))), token)
+            lines[i] = " ".join(words)
+        elif kind == "delete" and len(lines) > 1:
+            del lines[i]
+        elif kind == "duplicate":
+            lines.insert(i, lines[i])
+        elif kind == "truncate":
+            lines = lines[: i + 1]
+    return "\n".join(lines) + "\n"
+
+
+@settings(max_examples=300, deadline=1000, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(text=mutated_bvh())
+def test_any_mutation_loads_within_bounds_or_names_a_line(tmp_path, text):
+    path = tmp_path / "fuzz.bvh"
+    path.write_text(text, encoding="utf-8", errors="surrogatepass")
+    try:
+        m = load_bvh(path)
+    except BVHError as e:
+        assert re.search(r"fuzz\.bvh: line \d+: ", str(e)), str(e)
+        assert "\n" not in str(e)
+        return
+    except InputFileError as e:  # an empty file after truncation
+        assert "empty file" in str(e)
+        return
+    assert np.isfinite(m.rotations).all() and np.isfinite(m.root_positions).all()
+    assert np.isfinite(m.skeleton.offsets).all()
+    assert np.abs(m.root_positions).max() <= 1e6 * m.meta["unit_scale"]
+    assert 1 <= m.fps <= 1000 and 1 <= m.num_frames <= 1_000_000
+    np.testing.assert_allclose(np.linalg.norm(m.rotations, axis=-1), 1.0, atol=1e-9)  # unit quaternions
