@@ -503,3 +503,25 @@ def test_any_mutation_loads_within_bounds_or_names_a_line(tmp_path, text):
     assert np.abs(m.root_positions).max() <= 1e6 * m.meta["unit_scale"]
     assert 1 <= m.fps <= 1000 and 1 <= m.num_frames <= 1_000_000
     np.testing.assert_allclose(np.linalg.norm(m.rotations, axis=-1), 1.0, atol=1e-9)  # unit quaternions
+
+
+# -------------------------------------------------------------------------------- data verify
+def test_data_verify_names_truncated_empty_and_bit_flipped_cache_files(tmp_path, monkeypatch, capsys):
+    from retarget_lib.data.status import check_cache
+
+    monkeypatch.setenv("RETARGET_CACHE", str(tmp_path))
+    folder = tmp_path / "contact_training"
+    folder.mkdir()
+    np.savez(folder / "good.npz", a=np.arange(1000.0))
+    data = (folder / "good.npz").read_bytes()
+    (folder / "cut.npz").write_bytes(data[: len(data) // 2])
+    (folder / "empty.npz").write_bytes(b"")
+    flipped = bytearray(data)
+    flipped[len(data) // 2] ^= 0xFF  # inside the array's bytes: the zip CRC fails
+    (folder / "flip.npz").write_bytes(bytes(flipped))
+    status = check_cache()
+    assert status.state == "BAD" and "3 bad file(s)" in status.detail
+    for name in ("cut.npz: truncated or corrupt", "empty.npz: empty file", "flip.npz: truncated or corrupt"):
+        assert name in status.detail
+    assert "good.npz" not in status.detail
+    assert_cli_error(capsys, ["data", "verify"], "data verification failed", "flip.npz", "cut.npz", "empty.npz")
