@@ -5,7 +5,7 @@
     retarget data build|list|verify      build the embedded dataset; list/verify data_manifest.yaml
     retarget retarget --source IN.bvh --target TARGET.bvh|CHARACTER [--target-mesh SHAPE.npz]
                       [--source-mesh SHAPE.npz] --method NAME (from retarget_lib.methods.registry)
-                      [--checkpoint ID|PATH] --out OUT.bvh
+                      [--checkpoint ID|PATH] [--fps N] [--force] --out OUT.bvh
     retarget train    --config configs/NAME.yaml [key=value ...] [--profile fast|paper] [--out DIR]
                       [--resume] [--export MODEL.pt]
                                          train a TDCN/NKN Table 4 row (retarget_lib.training.tdcn) or,
@@ -16,6 +16,11 @@
 
 Each command imports what it runs inside its ``_cmd_*`` function: the library below this module
 loads torch (about 3 s here), which ``retarget --help`` (0.2 s) does without.
+
+Bad input (a :class:`~retarget_lib.errors.RetargetInputError`, a
+:class:`~retarget_lib.files.DataError`, or an ``OSError`` on a user's path) exits with status 2
+and one line on stderr naming the file and the problem, never a traceback. SIGTERM and SIGINT
+exit with 128 + the signal number after removing the temporary file of any write in progress.
 """
 
 from __future__ import annotations
@@ -25,7 +30,8 @@ import sys
 from pathlib import Path
 
 from .config import load_config
-from .files import DataError, atomic_write, sha256_file
+from .errors import RetargetInputError
+from .files import DataError, atomic_write, exit_on_signals, sha256_file
 
 
 def _cmd_data(args: argparse.Namespace) -> int:
@@ -51,7 +57,7 @@ def _cmd_retarget(args: argparse.Namespace) -> int:
     from .methods.retarget import retarget_file
 
     out = retarget_file(args.source, args.target, args.method, args.out, args.checkpoint, args.target_mesh,
-                        args.source_mesh)
+                        args.source_mesh, fps=args.fps, force=args.force)
     print(f"wrote {out}")
     return 0
 
@@ -170,7 +176,9 @@ def build_parser() -> argparse.ArgumentParser:
                                          "interpenetration only)")
     p.add_argument("--checkpoint", help="manifest id or path of a checkpoint for a learned method (default: "
                                         "the method's default in data_manifest.yaml)")
-    p.add_argument("--out", required=True, help="output .bvh")
+    p.add_argument("--fps", type=float, help="output frame rate (default: the source's)")
+    p.add_argument("--force", action="store_true", help="allow --out to overwrite an input file")
+    p.add_argument("--out", required=True, help="output .bvh (never an input unless --force)")
     p.set_defaults(func=_cmd_retarget)
 
     p = sub.add_parser("train", help="train a TDCN/NKN (Table 4) or contact-aware (Table 3) model from a YAML config")
@@ -201,13 +209,23 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _one_line(error: Exception) -> str:
+    """The message of a user-input error on one line (an ``OSError`` with its file name)."""
+    if isinstance(error, OSError) and error.filename is not None:
+        text = f"{error.filename}: {error.strerror or error}"
+    else:
+        text = str(error) or type(error).__name__
+    return " ".join(part.strip() for part in text.splitlines() if part.strip())
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point; returns the exit status (2 with a one-line message on data/input errors)."""
     args = build_parser().parse_args(argv)
+    exit_on_signals()
     try:
         return args.func(args)
-    except (DataError, ValueError, FileNotFoundError) as e:
-        print(f"retarget {args.command}: error: {e}", file=sys.stderr)
+    except (RetargetInputError, DataError, ValueError, OSError) as e:
+        print(f"retarget {args.command}: error: {_one_line(e)}", file=sys.stderr)
         return 2
 
 

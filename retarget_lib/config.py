@@ -5,12 +5,17 @@ base's. A ``profiles:`` mapping holds per-profile deltas (``fast`` for CI and la
 the papers' sizes) applied after the merge. Command-line ``key=value`` overrides (dotted keys,
 values parsed as YAML) come last. The seed lives in the config like everything else.
 
+The merged config is checked against :mod:`retarget_lib.config_schema` before anything runs:
+unknown keys, wrong types and invalid values (in the file or an override) raise
+:class:`ConfigError` naming the file or override, the key and what is allowed.
+
 Example::
 
     # configs/tdcn_a3_no_height.yaml  (ablation A3: ours without Lh)
     base: tdcn_paper.yaml
     name: A3
-    loss: {height: 0.0}
+    model: {row: A3}
+    loss: {lambda_h: 0.0}
 """
 
 from __future__ import annotations
@@ -22,10 +27,13 @@ from typing import Any, Iterable
 
 import yaml
 
+from .config_schema import check_value, validate
+from .errors import RetargetInputError
+
 PROFILES = ("fast", "paper")
 
 
-class ConfigError(ValueError):
+class ConfigError(RetargetInputError):
     """A config file or override is malformed (the message names the file or key)."""
 
 
@@ -44,10 +52,17 @@ def _read(path: Path, seen: tuple[Path, ...] = ()) -> dict:
     path = path.resolve()
     if path in seen:
         raise ConfigError(f"config base cycle: {' -> '.join(str(p) for p in seen + (path,))}")
-    if not path.exists():
-        raise ConfigError(f"config file not found: {path}")
-    with open(path) as f:
-        data = yaml.safe_load(f) or {}
+    if not path.is_file():
+        raise ConfigError(f"{path}: config file not found" if not path.exists() else f"{path}: not a file")
+    try:
+        with open(path) as f:
+            data = yaml.safe_load(f) or {}
+    except yaml.YAMLError as e:
+        mark = getattr(e, "problem_mark", None)
+        where = f" line {mark.line + 1}" if mark is not None else ""
+        raise ConfigError(f"{path}:{where} malformed YAML: {getattr(e, 'problem', None) or e}") from None
+    except UnicodeDecodeError:
+        raise ConfigError(f"{path}: not a text file") from None
     if not isinstance(data, dict):
         raise ConfigError(f"{path}: a config must be a mapping")
     base = data.pop("base", None)
@@ -68,7 +83,10 @@ def parse_override(item: str) -> tuple[list[str], Any]:
     key, raw = item.split("=", 1)
     if not key or any(not part for part in key.split(".")):
         raise ConfigError(f"override {item!r} has an empty key")
-    return key.split("."), yaml.safe_load(raw)
+    try:
+        return key.split("."), yaml.safe_load(raw)
+    except yaml.YAMLError:
+        raise ConfigError(f"override {item!r}: the value is not valid YAML") from None
 
 
 def set_key(config: dict, keys: list[str], value: Any) -> None:
@@ -100,10 +118,22 @@ def load_config(path: str | os.PathLike, overrides: Iterable[str] = (), profile:
         raise ConfigError(f"unknown profile {profile!r}; choose from {PROFILES}")
     cfg = _read(Path(path))
     profiles = cfg.pop("profiles", {}) or {}
+    if not isinstance(profiles, dict) or not all(isinstance(v, dict) for v in profiles.values() if v is not None):
+        raise ConfigError(f"{path}: 'profiles' must map profile names to config deltas")
+    unknown = set(profiles) - set(PROFILES)
+    if unknown:
+        raise ConfigError(f"{path}: unknown profiles {sorted(unknown)}; allowed: {', '.join(PROFILES)}")
+    for merged in [cfg] + [deep_merge(cfg, delta or {}) for delta in profiles.values()]:
+        problem = validate(merged)  # also the keys a profile replaces, and every profile's values
+        if problem:
+            raise ConfigError(f"{path}: {problem}")
     cfg = deep_merge(cfg, profiles.get(profile, {}) or {})
     for item in overrides:
         keys, value = parse_override(item)
         set_key(cfg, keys, value)
+        problem = check_value(cfg, keys, value)
+        if problem:
+            raise ConfigError(f"override {item!r}: {problem}")
     if "seed" not in cfg:
         raise ConfigError(f"{path}: every experiment config needs a 'seed'")
     cfg["profile"] = profile

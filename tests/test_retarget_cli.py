@@ -37,10 +37,11 @@ def test_bvh_target_keeps_its_names_units_and_matches_in_memory_result(short_sou
     assert written.skeleton.joint_names == target_raw.skeleton.joint_names
     assert written.meta["unit"] == target_raw.meta["unit"]
     np.testing.assert_allclose(written.skeleton.offsets, target_raw.skeleton.offsets, atol=1e-8)
-    assert written.fps == 30 and written.num_frames == 60
+    # methods run at 30 fps; the result comes back at the source's 120 fps (60 frames -> 59 * 4 + 1)
+    assert written.fps == 120 and written.num_frames == 237
     src = to_canonical22(load_bvh(short_source)).resample(30.0)
     expected = reference(src, resolve_target(str(target))[0]).global_positions()
-    np.testing.assert_allclose(to_canonical22(written).global_positions(), expected, atol=tol)
+    np.testing.assert_allclose(to_canonical22(written).resample(30.0).global_positions(), expected, atol=tol)
 
 
 def test_character_target_and_errors(short_source, tmp_path, capsys):
@@ -63,10 +64,10 @@ def test_tdcn_method_uses_the_shipped_checkpoint(short_source, tmp_path, capsys)
     assert main(["retarget", "--source", str(short_source), "--target", str(cmu_clip_path("Boxing_Toes.bvh")),
                  "--method", "tdcn", "--out", str(out)]) == 0
     written = load_bvh(out)
-    assert written.num_frames == 60 and np.isfinite(written.rotations).all()
+    assert written.num_frames == 237 and np.isfinite(written.rotations).all()
     assert main(["retarget", "--source", str(short_source), "--target", "kato", "--method", "nkn",
                  "--out", str(out)]) == 0
-    assert load_bvh(out).num_frames == 60
+    assert load_bvh(out).num_frames == 237
     # a TDCN checkpoint given to --method nkn is refused by name
     assert main(["retarget", "--source", str(short_source), "--target", "kato", "--method", "nkn",
                  "--checkpoint", "tdcn-ours-fast", "--out", str(out)]) == 2

@@ -19,10 +19,10 @@ def write(path, text):
 def test_config_delta_profile_and_overrides(tmp_path):
     write(tmp_path / "base.yaml", "seed: 1\nmodel: {channels: 1024, dropout: 0.1}\n"
                                   "train: {steps: 1000, batch: 128}\nprofiles: {fast: {model: {channels: 64}}}\n")
-    write(tmp_path / "a3.yaml", "base: base.yaml\nname: A3\nloss: {height: 0.0}\n")
+    write(tmp_path / "a3.yaml", "base: base.yaml\nname: A3\nloss: {lambda_h: 0.0}\n")
     cfg = load_config(tmp_path / "a3.yaml", ["train.steps=20"], profile="fast")
     assert cfg["model"] == {"channels": 64, "dropout": 0.1}
-    assert cfg["loss"] == {"height": 0.0} and cfg["train"] == {"steps": 20, "batch": 128}
+    assert cfg["loss"] == {"lambda_h": 0.0} and cfg["train"] == {"steps": 20, "batch": 128}
     assert load_config(tmp_path / "a3.yaml", profile="paper")["model"]["channels"] == 1024
     with pytest.raises(ConfigError, match="unknown config key 'train.stpes'"):
         load_config(tmp_path / "a3.yaml", ["train.stpes=3"])

@@ -105,9 +105,12 @@ def canonical_name_map(joint_names: Sequence[str], convention: str | None = None
         ``{source index: canonical index}`` for every source joint that is kept.
 
     Raises:
-        JointSetError: naming the canonical joints that no source joint maps to.
+        JointSetError: an unknown ``convention`` (the known ones are named), or naming the
+            canonical joints that no source joint maps to.
     """
     convention = convention or detect_convention(joint_names)
+    if convention not in NAME_MAPS:
+        raise JointSetError(f"unknown joint-name convention {convention!r}; known: {', '.join(NAME_MAPS)}")
     table = NAME_MAPS[convention]
     out: dict[int, int] = {}
     for i, n in enumerate(joint_names):

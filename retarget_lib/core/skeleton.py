@@ -13,6 +13,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 import numpy as np
 
+from ..errors import RetargetInputError
+
 CANONICAL22: tuple[str, ...] = (
     "Hips", "Spine", "Spine1", "Spine2", "Neck", "Head",
     "LeftUpLeg", "LeftLeg", "LeftFoot", "LeftToeBase",
@@ -44,7 +46,7 @@ HEIGHT_BONES: tuple[tuple[int, int], ...] = (
 FOOT_CONTACT_JOINTS: tuple[str, ...] = ("LeftFoot", "RightFoot", "LeftToeBase", "RightToeBase")
 
 
-class JointSetError(ValueError):
+class JointSetError(RetargetInputError):
     """A motion's joints cannot be mapped onto the canonical 22 (the message names the missing ones)."""
 
 

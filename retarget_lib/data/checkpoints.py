@@ -11,6 +11,10 @@
   exporters do so only where that moves no reported number by more than 1e-3 relative (TDCN
   generators; README, "Checkpoints"). Training checkpoints (``last.pt``, ``final.pt``) keep
   float32, so a resumed run is exact.
+* A file that is not a checkpoint (empty, truncated, text, bit-flipped so that it no longer
+  unpickles) or holds no ``config``/``modules`` mappings, or model weights that are non-finite or
+  beyond :data:`MAX_WEIGHT`, raises :class:`~retarget_lib.errors.CheckpointError` naming the file.
+  Whether the weights fit the model is checked where the model is built.
 """
 
 from __future__ import annotations
@@ -21,10 +25,16 @@ from typing import Any
 
 import torch
 
-from ..files import DataError, atomic_write
+from ..errors import CheckpointError
+from ..files import DataError, atomic_write, readable_file
 from .manifest import checkpoint, checkpoint_entries
 
-__all__ = ["resolve_checkpoint", "load_state", "save_state"]
+__all__ = ["MAX_WEIGHT", "resolve_checkpoint", "load_state", "save_state"]
+
+#: largest magnitude of a model weight or normaliser statistic accepted in a checkpoint. The
+#: shipped models stay below 50 (batch-norm running variances); a flipped exponent bit in a
+#: float16/float32 weight of order 1 gives 2**16 or more
+MAX_WEIGHT = 1e4
 
 
 def resolve_checkpoint(ref: str | os.PathLike) -> Path:
@@ -38,16 +48,19 @@ def resolve_checkpoint(ref: str | os.PathLike) -> Path:
         shipped file).
 
     Raises:
-        DataError: the id's file is missing or fails its checksum; the reference is neither an id
-            nor an existing file (the known ids are named).
+        DataError: the id's file is missing or fails its checksum.
+        CheckpointError: the reference is neither an id nor an existing file (the known ids are
+            named).
+        InputFileError: the path is a directory, unreadable or empty.
     """
     entries = checkpoint_entries()
     if isinstance(ref, str) and ref in entries:
         return checkpoint(ref).path
     path = Path(ref)
-    if not path.is_file():
-        raise DataError(f"checkpoint {str(ref)!r} is neither a shipped checkpoint id ({', '.join(entries)}) "
-                        "nor an existing file")
+    if not path.exists():
+        raise CheckpointError(f"checkpoint {str(ref)!r} is neither a shipped checkpoint id ({', '.join(entries)}) "
+                              "nor an existing file")
+    readable_file(path, "checkpoint file")
     for entry in entries.values():
         if entry.path.exists() and entry.path.samefile(path):
             return checkpoint(entry.id).path
@@ -80,8 +93,43 @@ def _halve(t: torch.Tensor) -> torch.Tensor:
 
 def load_state(ref: str | os.PathLike) -> dict:
     """Read a checkpoint (:func:`resolve_checkpoint`) with ``weights_only=True``; float16
-    tensors are returned as float32."""
-    return _map_tensors(torch.load(resolve_checkpoint(ref), map_location="cpu", weights_only=True), _upcast)
+    tensors are returned as float32.
+
+    Raises:
+        CheckpointError: not a loadable checkpoint, no ``config``/``modules`` mappings, or
+            module weights that are non-finite or beyond :data:`MAX_WEIGHT` (which one is named).
+        DataError, InputFileError: as :func:`resolve_checkpoint`.
+    """
+    path = resolve_checkpoint(ref)
+    try:
+        state = torch.load(path, map_location="cpu", weights_only=True)
+    except Exception as e:  # weights_only: any failure means the bytes are not a checkpoint
+        problem = str(e).strip().splitlines()[0][:200] if str(e).strip() else type(e).__name__
+        raise CheckpointError(f"{path}: not a readable checkpoint (truncated, corrupt or not a torch file): "
+                              f"{problem}") from None
+    _validate(state, path)
+    return _map_tensors(state, _upcast)
+
+
+def _validate(state: Any, path: Path) -> None:
+    """Raise :class:`CheckpointError` unless ``state`` holds ``config`` and ``modules`` mappings
+    whose floating-point weights are finite and within :data:`MAX_WEIGHT`."""
+    if not isinstance(state, dict) or not isinstance(state.get("config"), dict) \
+            or not isinstance(state.get("modules"), dict):
+        raise CheckpointError(f"{path}: not a checkpoint of `retarget train` (expected a mapping with 'config' and "
+                              "'modules')")
+    for module, weights in state["modules"].items():
+        if not isinstance(weights, dict):
+            raise CheckpointError(f"{path}: modules[{module!r}] is not a state dict")
+        for name, t in weights.items():
+            if not isinstance(t, torch.Tensor):
+                raise CheckpointError(f"{path}: {module}.{name} is not a tensor")
+            if t.is_floating_point() and t.numel():
+                if not torch.isfinite(t).all():
+                    raise CheckpointError(f"{path}: {module}.{name} has NaN or inf weights (corrupt file)")
+                if t.abs().max() > MAX_WEIGHT:
+                    raise CheckpointError(f"{path}: {module}.{name} has weights beyond the limit |w| <= "
+                                          f"{MAX_WEIGHT:g} (corrupt file?)")
 
 
 def save_state(state: dict, path: str | os.PathLike, half: bool = False) -> Path:

@@ -1,13 +1,21 @@
 """Is every data source and shipped checkpoint present and intact? (``retarget data list`` prints
-:func:`source_table`, ``retarget data verify`` runs :func:`verify`.)"""
+:func:`source_table`, ``retarget data verify`` runs :func:`verify`.)
+
+Besides the manifest's checksums, :func:`verify` reads every ``.npz`` in the cache (the built
+dataset and derived caches such as ``contact_training/``) in full, so a truncated, empty or
+bit-flipped file (the zip CRC) is named, and sweeps the temporary files of killed writes.
+"""
 
 from __future__ import annotations
 
 import importlib.util
+import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..files import DataError, cache_dir, sha256_file
+import numpy as np
+
+from ..files import DataError, cache_dir, sha256_file, sweep_stale_temps
 from .manifest import checkpoint, load_manifest, mixamo_local_dir, source
 from .sources.cmu import cmu_clip_path
 from .sources.mixamo_local import scan_mixamo_folder
@@ -66,6 +74,9 @@ def _check_synthetic() -> SourceStatus:
     if not path.exists():
         return SourceStatus("synthetic", src["kind"], False, None, "not built: run `retarget data build`")
     expected = src.get("fingerprint")
+    problem = _npz_problem(path)
+    if problem:
+        return SourceStatus("synthetic", src["kind"], True, False, f"{problem}; rebuild with `retarget data build --force`")
     got = fingerprint_of(path)
     if expected is None:
         return SourceStatus("synthetic", src["kind"], True, None, f"built; fingerprint {got} (none recorded)")
@@ -88,6 +99,33 @@ def _check_mixamo_local() -> SourceStatus:
     n_motions = sum(len(c.motions) for c in found)
     return SourceStatus("mixamo-local", src["kind"], True, True,
                         f"{len(found)} characters, {n_motions} motions in {root}")
+
+
+def _npz_problem(path: Path) -> str | None:
+    """Why ``path`` is not a complete ``.npz`` (empty, truncated, a failed CRC), or ``None``."""
+    if path.stat().st_size == 0:
+        return f"{path}: empty file"
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            for key in z.files:
+                z[key]
+    except (zipfile.BadZipFile, EOFError, OSError, ValueError) as e:
+        return f"{path}: truncated or corrupt ({e})"
+    return None
+
+
+def check_cache() -> SourceStatus:
+    """Every ``.npz`` under the cache read in full (:func:`_npz_problem`); stale temporary files
+    of killed writes removed."""
+    root = cache_dir()
+    files = sorted(root.rglob("*.npz"))
+    for folder in {root, *(f.parent for f in files)}:
+        sweep_stale_temps(folder)
+    bad = [problem for f in files if (problem := _npz_problem(f))]
+    if bad:
+        return SourceStatus("cache", "derived", True, False, f"{len(bad)} bad file(s), delete them and rerun: "
+                            + "; ".join(bad))
+    return SourceStatus("cache", "derived", True, True, f"{len(files)} cached .npz files read in full under {root}")
 
 
 _CHECKS = {
@@ -124,7 +162,7 @@ def check_sources() -> list[SourceStatus]:
 def verify() -> list[SourceStatus]:
     """Check every source and checkpoint; raise :class:`DataError` listing each required one that
     fails."""
-    statuses = check_sources() + check_checkpoints()
+    statuses = check_sources() + check_checkpoints() + [check_cache()]
     problems = [s for s in statuses if not s.optional and s.state in ("BAD", "MISSING")]
     if problems:
         lines = "\n".join(f"  {s.id}: {s.detail}" for s in problems)

@@ -18,7 +18,28 @@ Semantics used here (the common ones, e.g. Blender's and Holden's readers):
   :func:`infer_unit_scale`).
 
 The ``MOTION`` block is parsed with NumPy in one conversion, not value by value: the CMU clips
-(3-5k frames x 96 channels) load in well under a second.
+(3-5k frames x 96 channels) load in well under a second. Loading is linear in the file's size.
+
+Bounds (:class:`BVHError` naming the line and the bound, or
+:class:`~retarget_lib.errors.InputFileError` for the file size), each far beyond any real clip:
+
+=========================  ==============  ==================================================
+bound                      value           why
+=========================  ==============  ==================================================
+file size                  64 MiB          CMU's longest clips are ~10 MiB; checked before
+                                           reading, and a file whose first word is not
+                                           ``HIERARCHY`` is refused after its first line
+joints                     1000            Mixamo with fingers has 65, SMPL-X 55, CMU 31
+nesting depth              100             the longest human chain (root to a fingertip) ~25
+frames (declared)          1,000,000       9 h at 30 fps
+frame time                 0.001-1 s       1 to 1000 frames per second
+rotation values            |a| <= 1e5 deg  larger angles have lost all precision (1e308 would
+                                           turn into noise, not a rotation)
+offsets and positions      |x| <= 1e6      file units: 10 km in centimetres
+=========================  ==============  ==================================================
+
+:func:`save_bvh` refuses what :func:`load_bvh` would refuse (non-finite values, a frame rate
+outside those bounds, lengths beyond them), so every file it writes loads back.
 """
 
 from __future__ import annotations
@@ -36,9 +57,11 @@ from ..core.canonical import strip_prefix, to_canonical22
 from ..core.motion import Motion
 from ..core.rotations import quat_angle, quat_from_euler, quat_to_euler
 from ..core.skeleton import Skeleton
-from ..files import atomic_write
+from ..errors import RetargetInputError
+from ..files import atomic_write, readable_file
 
-__all__ = ["BVHError", "UNIT_SCALES", "infer_unit_scale", "load_bvh", "save_bvh"]
+__all__ = ["BVHError", "UNIT_SCALES", "infer_unit_scale", "load_bvh", "save_bvh", "MAX_FILE_BYTES", "MAX_JOINTS",
+           "MAX_DEPTH", "MAX_FRAMES", "MIN_FRAME_TIME", "MAX_FRAME_TIME", "MAX_ANGLE_DEG", "MAX_LENGTH"]
 
 #: Metres per file unit of the length units met in BVH files. ``"cmu"`` is the ASF/AMC length unit
 #: of the CMU database (``length = 1/0.45`` inch), kept by the cgspeed BVH conversion.
@@ -54,6 +77,15 @@ HUMAN_HEIGHT = 1.7
 
 _CHANNELS = {c.lower(): c for c in (
     "Xposition", "Yposition", "Zposition", "Xrotation", "Yrotation", "Zrotation")}
+# bounds (module docstring: why each)
+MAX_FILE_BYTES = 64 * 2**20
+MAX_JOINTS = 1000
+MAX_DEPTH = 100
+MAX_FRAMES = 1_000_000
+MIN_FRAME_TIME, MAX_FRAME_TIME = 1e-3, 1.0
+MAX_ANGLE_DEG = 1e5
+MAX_LENGTH = 1e6
+
 _DEFAULT_ROOT_CHANNELS = ["Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation"]
 _DEFAULT_CHANNELS = ["Zrotation", "Xrotation", "Yrotation"]
 _TOKEN = re.compile(r"[{}]|[^\s{}]+")
@@ -61,7 +93,7 @@ _FRAMES = re.compile(r"^\s*Frames\s*:\s*(\S*)\s*$", re.IGNORECASE)
 _FRAME_TIME = re.compile(r"^\s*Frame\s+Time\s*:\s*(\S*)\s*$", re.IGNORECASE)
 
 
-class BVHError(ValueError):
+class BVHError(RetargetInputError):
     """A malformed BVH file; the message names the file, the line number and the problem."""
 
 
@@ -116,6 +148,8 @@ def _floats(tokens: list[str], count: int, what: str, line: int) -> np.ndarray:
         raise BVHError(f"line {line}: bad number in {what}: {tokens}") from None
     if not np.isfinite(out).all():
         raise BVHError(f"line {line}: non-finite number in {what}: {tokens}")
+    if np.abs(out).max() > MAX_LENGTH:
+        raise BVHError(f"line {line}: {what} value beyond the limit |x| <= {MAX_LENGTH:g} file units: {tokens}")
     return out
 
 
@@ -145,16 +179,23 @@ def _parse_channels(tokens: list[str], line: int, joint: str) -> list[str]:
     return out
 
 
-def _parse_block(tok: _Tokens, joints: list[_Joint], parent: int, name_line: int) -> None:
-    """Parse one ``ROOT``/``JOINT`` block whose keyword was on ``name_line``."""
+def _parse_block(tok: _Tokens, joints: list[_Joint], by_name: dict[str, _Joint], parent: int, name_line: int,
+                 depth: int = 1) -> None:
+    """Parse one ``ROOT``/``JOINT`` block whose keyword was on ``name_line``, ``depth`` levels deep
+    (the root is 1); ``by_name`` indexes ``joints`` by name."""
     name = " ".join(tok.rest_of_line(name_line))
     if not name:
         raise BVHError(f"line {name_line}: joint without a name")
-    for j in joints:
-        if j.name == name:
-            raise BVHError(f"line {name_line}: duplicate joint name {name!r} (first on line {j.line})")
+    if name in by_name:
+        raise BVHError(f"line {name_line}: duplicate joint name {name!r} (first on line {by_name[name].line})")
+    if len(joints) >= MAX_JOINTS:
+        raise BVHError(f"line {name_line}: more than {MAX_JOINTS} joints (the limit; real skeletons have < 100)")
+    if depth > MAX_DEPTH:
+        raise BVHError(f"line {name_line}: joints nested more than {MAX_DEPTH} deep (the limit; human "
+                       "skeletons nest < 30)")
     joint = _Joint(name, parent, name_line)
     joints.append(joint)
+    by_name[name] = joint
     index = len(joints) - 1
     t, line = tok.next(f"'{{' after joint {name!r}")
     if t != "{":
@@ -169,7 +210,7 @@ def _parse_block(tok: _Tokens, joints: list[_Joint], parent: int, name_line: int
         elif key == "CHANNELS":
             joint.channels = _parse_channels(tok.rest_of_line(line), line, name)
         elif key == "JOINT":
-            _parse_block(tok, joints, index, line)
+            _parse_block(tok, joints, by_name, index, line, depth + 1)
         elif key == "END":
             _parse_end_site(tok, joint, line)
         elif key == "ROOT":
@@ -216,7 +257,7 @@ def _parse_hierarchy(lines: list[str]) -> tuple[list[_Joint], int]:
     if t.upper() != "ROOT":
         raise BVHError(f"line {line}: expected ROOT, found {t!r}")
     joints: list[_Joint] = []
-    _parse_block(tok, joints, -1, line)
+    _parse_block(tok, joints, {}, -1, line)
     if not tok.done():
         t, line = tok.next("")
         if t.upper() == "ROOT":
@@ -241,13 +282,14 @@ def _header_value(lines: list[str], idx: int, pattern: re.Pattern, what: str) ->
     return m.group(1), idx
 
 
-def _parse_motion(lines: list[str], motion_idx: int, n_channels: int) -> tuple[np.ndarray, float, int]:
-    """Parse ``MOTION``.
+def _parse_motion(lines: list[str], motion_idx: int, channels: list[list[str]]) -> tuple[np.ndarray, float, int]:
+    """Parse ``MOTION`` (``channels``: each joint's, in file order).
 
     Returns:
         ``(values (T, C) in file units and degrees, frame time in seconds, number of ignored
         non-blank lines after the declared frames)``.
     """
+    n_channels = sum(len(c) for c in channels)
     value, fi = _header_value(lines, motion_idx + 1, _FRAMES, "Frames:")
     try:
         n_frames = int(value)
@@ -255,13 +297,16 @@ def _parse_motion(lines: list[str], motion_idx: int, n_channels: int) -> tuple[n
         raise BVHError(f"line {fi + 1}: bad frame count {value!r}") from None
     if n_frames <= 0:
         raise BVHError(f"line {fi + 1}: the file has {n_frames} frames; a motion needs at least one")
+    if n_frames > MAX_FRAMES:
+        raise BVHError(f"line {fi + 1}: {n_frames} frames exceed the limit of {MAX_FRAMES}")
     value, ti = _header_value(lines, fi + 1, _FRAME_TIME, "Frame Time:")
     try:
         frame_time = float(value)
     except ValueError:
         raise BVHError(f"line {ti + 1}: bad frame time {value!r}") from None
-    if not frame_time > 0 or not math.isfinite(frame_time):
-        raise BVHError(f"line {ti + 1}: frame time must be positive, got {value!r}")
+    if not MIN_FRAME_TIME <= frame_time <= MAX_FRAME_TIME:
+        raise BVHError(f"line {ti + 1}: frame time must be positive and within the limits {MIN_FRAME_TIME:g}-"
+                       f"{MAX_FRAME_TIME:g} s (1 to 1000 frames per second), got {value!r}")
 
     rows: list[list[str]] = []
     numbers: list[int] = []  # 1-based line number of each row
@@ -296,7 +341,23 @@ def _parse_motion(lines: list[str], motion_idx: int, n_channels: int) -> tuple[n
     if not finite.all():
         k = int(np.flatnonzero(~finite)[0])
         raise BVHError(f"line {numbers[k]}: non-finite value in frame {k}")
+    _check_magnitudes(data, channels, numbers)
     return data, frame_time, extra
+
+
+def _check_magnitudes(data: np.ndarray, channels: list[list[str]], numbers: list[int]) -> None:
+    """Raise :class:`BVHError` naming the first line with a rotation beyond :data:`MAX_ANGLE_DEG`
+    or a position beyond :data:`MAX_LENGTH` (``numbers``: the line of each frame)."""
+    names = list(chain.from_iterable(channels))
+    rotation = np.array([c.endswith("rotation") for c in names], dtype=bool)
+    limit = np.where(rotation, MAX_ANGLE_DEG, MAX_LENGTH)
+    over = (np.abs(data) > limit).any(axis=1)
+    if over.any():
+        k = int(np.flatnonzero(over)[0])
+        c = int(np.flatnonzero(np.abs(data[k]) > limit)[0])
+        what = f"rotation beyond |a| <= {MAX_ANGLE_DEG:g} degrees" if rotation[c] else \
+            f"position beyond |x| <= {MAX_LENGTH:g} file units"
+        raise BVHError(f"line {numbers[k]}: {names[c]} value {data[k, c]:g} in frame {k} is a {what} (the limit)")
 
 
 # ------------------------------------------------------------------------------------ units
@@ -374,22 +435,36 @@ def load_bvh(path: str | os.PathLike, unit: str | float | None = None) -> Motion
         does; ``Boxing_Toes.bvh`` has one).
 
     Raises:
-        BVHError: a malformed file (the message names the line and the problem).
+        BVHError: a malformed file or one beyond a bound (module docstring; the message names the
+            line and the problem).
+        InputFileError: missing, a directory, unreadable, empty or larger than
+            :data:`MAX_FILE_BYTES`.
     """
-    path = Path(path)
-    with open(path, encoding="utf-8", errors="replace") as f:
-        lines = f.read().splitlines()
+    path = readable_file(path, "BVH file", MAX_FILE_BYTES)
     try:
+        with open(path, encoding="utf-8", errors="replace") as f:
+            _check_first_word(f.readline(4096))
+            f.seek(0)
+            lines = f.read().splitlines()
         return _build_motion(lines, path, unit)
     except BVHError as e:
         raise BVHError(f"{path}: {e}") from None
+
+
+def _check_first_word(first: str) -> None:
+    """Refuse a file whose first word is not ``HIERARCHY`` or ``ROOT`` before reading the rest of
+    it (the first line, at most 4096 characters)."""
+    word = first.lstrip("\ufeff").split()[:1]
+    if not word or word[0].upper() not in ("HIERARCHY", "ROOT"):
+        shown = first.strip()[:40]
+        raise BVHError(f"line 1: expected HIERARCHY, found {shown!r}: not a BVH file")
 
 
 def _build_motion(lines: list[str], path: Path, unit: str | float | None) -> Motion:
     joints, motion_idx = _parse_hierarchy(lines)
     channels = [j.channels for j in joints]
     starts = np.cumsum([0] + [len(c) for c in channels])
-    data, frame_time, extra = _parse_motion(lines, motion_idx, int(starts[-1]))
+    data, frame_time, extra = _parse_motion(lines, motion_idx, channels)
     T, nj = data.shape[0], len(joints)
 
     offsets = np.stack([j.offset for j in joints])  # file units
@@ -469,6 +544,23 @@ def _file_layout(motion: Motion) -> tuple[list[str], list[list[str]]]:
     return file_names, channels
 
 
+def _check_writable(motion: Motion, scale: float, path: Path) -> None:
+    """Raise :class:`BVHError` if ``motion`` cannot be written as a BVH that :func:`load_bvh` reads
+    back (``scale``: metres per file unit)."""
+    fps = float(motion.fps)
+    if not (math.isfinite(fps) and fps > 0 and MIN_FRAME_TIME <= 1.0 / fps <= MAX_FRAME_TIME):
+        raise BVHError(f"{path}: cannot write frame rate {fps:g} fps: the frame time must be positive and within "
+                       f"{MIN_FRAME_TIME:g}-{MAX_FRAME_TIME:g} s")
+    arrays = {"rotations": motion.rotations, "root positions": motion.root_positions / scale,
+              "offsets": motion.skeleton.offsets / scale}
+    for what, values in arrays.items():
+        if not np.isfinite(values).all():
+            raise BVHError(f"{path}: cannot write non-finite (NaN or inf) {what}")
+    for what in ("root positions", "offsets"):
+        if np.abs(arrays[what]).max() > MAX_LENGTH:
+            raise BVHError(f"{path}: cannot write {what} beyond the limit |x| <= {MAX_LENGTH:g} file units")
+
+
 def load_canonical_bvh(path: str | os.PathLike, fps: float = 30.0, convention: str | None = None) -> Motion:
     """:func:`load_bvh`, folded onto the canonical 22 joints
     (:func:`~retarget_lib.core.canonical.to_canonical22`) and resampled to ``fps``.
@@ -494,11 +586,17 @@ def save_bvh(motion: Motion, path: str | os.PathLike, unit: str | float | None =
     when they match the skeleton, else the joint names with root
     ``Xposition Yposition Zposition Zrotation Xrotation Yrotation`` and ``Zrotation Xrotation
     Yrotation`` elsewhere. Non-root position channels are written as the constant offset.
+
+    Raises:
+        BVHError: the motion holds what :func:`load_bvh` would refuse (non-finite values, a frame
+            rate outside 1-1000 fps, lengths beyond :data:`MAX_LENGTH` file units); nothing is
+            written.
     """
     if unit is not None:
         _, scale = _resolve_unit(unit)
     else:
         scale = float(motion.meta.get("unit_scale", UNIT_SCALES["cm"]))
+    _check_writable(motion, scale, Path(path))
     sk = motion.skeleton
     file_names, channels = _file_layout(motion)
     T, nj = motion.num_frames, sk.num_joints

@@ -21,18 +21,19 @@ root's rest position); :func:`save_shape_npz` writes one back.
 from __future__ import annotations
 
 import os
-from pathlib import Path
-
 import sys
+import zipfile
+from pathlib import Path
 
 import numpy as np
 
 from ..core.canonical import strip_prefix
 from ..core.character import Character
 from ..core.skeleton import CANONICAL22, canonical22_skeleton
-from ..files import atomic_write
+from ..errors import RetargetInputError
+from ..files import atomic_write, readable_file
 
-__all__ = ["SHAPE_KEYS", "load_shape_npz", "save_shape_npz"]
+__all__ = ["SHAPE_KEYS", "ShapeError", "load_shape_npz", "save_shape_npz"]
 
 SHAPE_KEYS = ("rest_vertices", "rest_faces", "skinning_weights", "skeleton", "joint_names")
 _UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001}
@@ -40,6 +41,10 @@ _WEIGHT_TOL = 1e-3
 #: rows whose sum is off by more than _WEIGHT_TOL but at most this are renormalised (real Mixamo
 #: exports store float32 weights whose rows sum to 0.997-1.0), with one line on stderr
 _RENORMALIZE_TOL = 1e-2
+
+
+class ShapeError(RetargetInputError):
+    """A shape ``.npz`` that is not a valid character (the message names the file and the problem)."""
 
 
 def _unit_scale(unit: str | float) -> float:
@@ -71,15 +76,22 @@ def load_shape_npz(path: str | os.PathLike, unit: str | float | None = None) -> 
         in canonical order, metres, vertices in the world rest pose.
 
     Raises:
-        ValueError: naming the problem: missing keys, wrong shapes, NaN/inf values, face indices
-            out of range, weight rows not summing to 1 (which rows), missing joints (which).
+        ShapeError: naming the problem: not a readable ``.npz`` (truncated, corrupt, pickled
+            objects), missing keys, wrong shapes, NaN/inf values, face indices out of range, weight
+            rows not summing to 1 (which rows), missing joints (which).
+        InputFileError: missing, a directory, unreadable or empty.
     """
-    path = Path(path)
-    with np.load(path, allow_pickle=False) as data:
-        missing = [k for k in SHAPE_KEYS if k not in data.files]
-        if missing:
-            raise ValueError(f"{path}: missing keys {missing} (a shape file needs {list(SHAPE_KEYS)})")
-        arrays = {k: data[k] for k in SHAPE_KEYS}
+    path = readable_file(path, "shape .npz file")
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            missing = [k for k in SHAPE_KEYS if k not in data.files]
+            if missing:
+                raise ShapeError(f"{path}: missing keys {missing} (a shape file needs {list(SHAPE_KEYS)})")
+            arrays = {k: data[k] for k in SHAPE_KEYS}
+    except ShapeError:
+        raise
+    except (zipfile.BadZipFile, EOFError, OSError, ValueError) as e:
+        raise ShapeError(f"{path}: not a readable .npz file (truncated or corrupt?): {e}") from None
     vertices, faces, weights, offsets, names = _validated(arrays, path)
     order = _canonical_order(names, path)
     offsets, weights = offsets[order], weights[:, order]
@@ -99,25 +111,25 @@ def _validated(arrays: dict, path: Path) -> tuple[np.ndarray, ...]:
                 "skeleton": (22, 3), "joint_names": (22,)}
     for key, shape in expected.items():
         if arrays[key].shape != shape:
-            raise ValueError(f"{path}: {key} must have shape {shape}, got {arrays[key].shape}")
+            raise ShapeError(f"{path}: {key} must have shape {shape}, got {arrays[key].shape}")
     if not np.issubdtype(faces.dtype, np.integer):
-        raise ValueError(f"{path}: rest_faces must be integers, got {faces.dtype}")
+        raise ShapeError(f"{path}: rest_faces must be integers, got {faces.dtype}")
     for key in ("rest_vertices", "skinning_weights", "skeleton"):
         bad = ~np.isfinite(arrays[key]).all(axis=-1)
         if bad.any():
-            raise ValueError(f"{path}: {key} has NaN or inf in rows {_rows(bad)}")
+            raise ShapeError(f"{path}: {key} has NaN or inf in rows {_rows(bad)}")
     if faces.size and (faces.min() < 0 or faces.max() >= nv):
-        raise ValueError(f"{path}: rest_faces index vertices outside 0..{nv - 1}")
+        raise ShapeError(f"{path}: rest_faces index vertices outside 0..{nv - 1}")
     negative = (weights < 0).any(axis=1)
     if negative.any():
-        raise ValueError(f"{path}: skinning_weights must be >= 0; rows {_rows(negative)} have negative weights")
+        raise ShapeError(f"{path}: skinning_weights must be >= 0; rows {_rows(negative)} have negative weights")
     sums = weights.sum(axis=1)
     empty = sums <= 0
     if empty.any():
-        raise ValueError(f"{path}: skinning_weights rows {_rows(empty)} are all zero (vertices bound to no joint)")
+        raise ShapeError(f"{path}: skinning_weights rows {_rows(empty)} are all zero (vertices bound to no joint)")
     off = np.abs(sums - 1.0) > _RENORMALIZE_TOL
     if off.any():
-        raise ValueError(f"{path}: skinning_weights rows must sum to 1 (within {_RENORMALIZE_TOL}); rows {_rows(off)} "
+        raise ShapeError(f"{path}: skinning_weights rows must sum to 1 (within {_RENORMALIZE_TOL}); rows {_rows(off)} "
                          "do not")
     drift = np.abs(sums - 1.0) > _WEIGHT_TOL
     if drift.any():
@@ -136,10 +148,10 @@ def _rows(mask: np.ndarray, limit: int = 10) -> str:
 
 
 def _canonical_order(names: list[str], path: Path) -> list[int]:
-    """File column of each canonical joint; ``ValueError`` naming missing joints."""
+    """File column of each canonical joint; :class:`ShapeError` naming missing joints."""
     missing = [n for n in CANONICAL22 if n not in names]
     if missing:
-        raise ValueError(f"{path}: joint_names lacks canonical joints {missing}; it has {names}")
+        raise ShapeError(f"{path}: joint_names lacks canonical joints {missing}; it has {names}")
     return [names.index(n) for n in CANONICAL22]
 
 

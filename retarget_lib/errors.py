@@ -1,0 +1,48 @@
+"""The library's exception types for bad input (this module imports nothing of the library).
+
+Every error a user can cause with a file, a path, a config or an option is a
+:class:`RetargetInputError` (a ``ValueError``) whose message names the file or key and the problem
+in one line; the command line prints it and exits with status 2, without a traceback.
+
+========================  ===================================================================
+type                      raised for
+========================  ===================================================================
+:class:`InputFileError`   a path that is missing, a directory, unreadable, empty or truncated
+:class:`OutputPathError`  an ``--out`` that would overwrite an input, has an unsupported
+                          extension, or cannot be created (its parent is a file)
+:class:`LimitError`       a value beyond a documented bound (frame time, frame count, joints,
+                          nesting depth, magnitudes, file size); the message names the limit
+:class:`CheckpointError`  a checkpoint file that is not a valid model of the expected kind
+========================  ===================================================================
+
+Also :class:`~retarget_lib.io.bvh.BVHError` (a malformed BVH; names the line),
+:class:`~retarget_lib.io.shape.ShapeError` (a malformed shape ``.npz``) and
+:class:`~retarget_lib.config.ConfigError` (a config file or override) derive from
+:class:`RetargetInputError`. :class:`~retarget_lib.files.DataError` (a shipped or cached data
+file missing or corrupt) is separate: it is not the user's input, but the CLI also exits with 2.
+"""
+
+from __future__ import annotations
+
+__all__ = ["RetargetInputError", "InputFileError", "OutputPathError", "LimitError", "CheckpointError"]
+
+
+class RetargetInputError(ValueError):
+    """Bad user input; the message names the file or key and the problem, in one line."""
+
+
+class InputFileError(RetargetInputError):
+    """An input path that is missing, a directory, unreadable, empty or truncated."""
+
+
+class OutputPathError(RetargetInputError):
+    """An output path that would overwrite an input, has an unsupported extension or cannot be
+    created."""
+
+
+class LimitError(RetargetInputError):
+    """A value beyond one of the library's documented bounds (the message names the bound)."""
+
+
+class CheckpointError(RetargetInputError):
+    """A checkpoint file that cannot be read or is not a valid model of the expected kind."""
