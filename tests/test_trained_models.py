@@ -4,7 +4,7 @@ copying rotations on the Table 4 test pairs (issue: "models must work, not only 
 import numpy as np
 import pytest
 
-from retarget_lib.evaluation.identity import identity_errors
+from retarget_lib.evaluation.identity import identity_clips, identity_errors
 from retarget_lib.evaluation.tdcn import evaluate_method, tdcn_cases
 from retarget_lib.methods.registry import get_method
 
@@ -34,3 +34,46 @@ def test_default_tdcn_beats_copy_on_table4_pairs(tdcn):
         assert ours[length].mean() < copy[length].mean(), (length, ours[length].mean(), copy[length].mean())
     # and on most pairs, not only on average
     assert np.mean(ours["short"].values <= copy["short"].values) >= 0.75
+
+
+@pytest.fixture(scope="module")
+def contact_network():
+    from retarget_lib.methods.contact import load_contact_model, retarget_with_network
+
+    model, _ = load_contact_model(get_method("contact").default_checkpoint())
+    return lambda motion, character: retarget_with_network(model, motion, character)
+
+
+def test_default_contact_network_returns_a_clip_on_its_own_character(contact_network):
+    errors = identity_errors(contact_network, characters=True)
+    by_group = errors.groupby("group")[["mean", "hands"]].mean()
+    assert set(by_group.index) == {"synthetic", "mannequin-x"}
+    # Looser than TDCN's 2 cm: the network alone is trained to move limbs out of its own body
+    # (Eint) and hands onto their contacts (Ej2j), so on its own character it does not return the
+    # input exactly (measured 2.2-2.3 cm at 1.7 m for the shipped checkpoint, hands 2.9-3.5 cm).
+    # 3 cm / 5 cm keep that honest; the 7.8 % of the height (13 cm) this issue started from fails.
+    assert (by_group["mean"] <= 3.0).all(), by_group.to_dict()
+    assert (by_group["hands"] <= 5.0).all(), by_group.to_dict()
+
+
+def test_default_contact_method_with_eso_returns_a_clip_on_its_own_character():
+    # `--method contact` (network + ESO, the source's own mesh for its hand contacts): the 2 cm
+    # contract of TDCN. ESO's weak term also removes the network's root drift.
+    contact = get_method("contact").retargeter()
+    clips = [c for c in identity_clips() if c.character is not None][::4]  # walk, clap, wave; two bodies
+    errors = identity_errors(lambda m, c: contact(m, c, source_character=c), clips, characters=True)
+    assert (errors["mean"] <= 2.0).all(), errors.to_dict()
+    assert (errors["root"] <= 10.0).all(), errors.to_dict()
+
+
+def test_default_contact_network_beats_copy_on_the_contact_cases(contact_network):
+    from retarget_lib.evaluation.contact import _skeleton_method, contact_cases, evaluate_contact_methods
+
+    cases = contact_cases("fast")[::5]  # 8 of the 36 cases, skinny and bulky targets, several families
+    methods = {"network": lambda case, eint: contact_network(case.source, case.target),
+               "copy": _skeleton_method(get_method("copy").retargeter())}
+    means = evaluate_contact_methods(methods, cases, eval_every=6).groupby("method").mean(numeric_only=True)
+    net, copy = means.loc["network"], means.loc["copy"]
+    assert net["global position MSE"] <= copy["global position MSE"], means
+    assert net["vertex contact MSE"] < copy["vertex contact MSE"], means
+    assert net["interpenetration"] <= 0.2 * copy["interpenetration"], means
