@@ -35,3 +35,12 @@ def test_eso_bench_row_reports_per_frame_cost_against_the_network():
     (row,) = bench_eso(quick=True)
     assert "ESO per frame" in row.name and row.seconds > 0 and row.reference_seconds > 0
     assert "1/" in format_table([row]) or row.speedup >= 0.1
+
+
+@pytest.mark.slow
+@pytest.mark.data
+def test_contact_training_bench_reports_windows_per_second():
+    from retarget_lib.evaluation.bench import bench_contact_training
+
+    (row,) = bench_contact_training(quick=True)
+    assert "windows/s" in row.name and row.seconds > 0 and row.reference_seconds > 0

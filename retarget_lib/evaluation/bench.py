@@ -21,6 +21,7 @@ from ..core.skeleton import CANONICAL22_PARENTS
 from ..files import REPO_ROOT
 from ..models import PROFILE_WIDTHS
 from ..models.tdcn import TDCNGenerator
+from ..training.contact import ContactTraining
 from ..training.tdcn import RetargetTraining
 from .bench_contact import bench_eint, bench_eso
 from .timing import BenchRow, format_table, time_it
@@ -162,12 +163,13 @@ def bench_tdcn(quick: bool = False, frames: int = 1000) -> list[BenchRow]:
 
 
 def bench_training(quick: bool = False, batch: int = 16) -> list[BenchRow]:
-    """One full TDCN training step (Eq. 6: A→B→A cycle, all losses, G and D updates) at fast and
-    paper width, beside the generator's bare forward+backward on the same batch (same run).
-    The row name carries the throughput in windows/s."""
+    """One full TDCN training step (Eq. 6: A→B→A cycle, all losses, G and D updates) of the paper's
+    "ours" at fast and paper width and of the residual default at fast width, beside the
+    generator's bare forward+backward on the same batch (same run). The row name carries the
+    throughput in windows/s."""
     rows = []
-    for profile in ("fast", "paper"):
-        cfg = load_config(REPO_ROOT / "configs" / "tdcn_paper.yaml", [f"train.batch={batch}"], profile=profile)
+    for config, profile in (("tdcn_paper", "fast"), ("tdcn_paper", "paper"), ("tdcn_ours_residual", "fast")):
+        cfg = load_config(REPO_ROOT / "configs" / f"{config}.yaml", [f"train.batch={batch}"], profile=profile)
         run = RetargetTraining(cfg)
         step = time_it(lambda: run.step(0), repeat=2 if quick else 5, warmup=1)
         sample = run.sampler.sample(batch)
@@ -178,14 +180,31 @@ def bench_training(quick: bool = False, batch: int = 16) -> list[BenchRow]:
             out.rotations.square().mean().backward()
 
         ref = time_it(bare, repeat=2 if quick else 5, warmup=1)
-        rows.append(BenchRow(f"TDCN training step, {profile} width {cfg['model']['channels']}, batch {batch}: "
-                             f"{batch / step:.1f} windows/s", step,
+        rows.append(BenchRow(f"TDCN training step ({config}), {profile} width {cfg['model']['channels']}, "
+                             f"batch {batch}: {batch / step:.1f} windows/s", step,
                              "generator forward+backward only", ref))
     return rows
 
 
+def bench_contact_training(quick: bool = False) -> list[BenchRow]:
+    """One contact-aware training step (Efull, Eqs. 1-9, of 60-frame windows at the fast profile)
+    of the residual default, beside the same step with the Eskel row's energy (no mesh terms:
+    what Ej2j, Eint and the skinned frame cost). The row name carries the throughput in windows/s."""
+    def step_time(config: str) -> tuple[float, int]:
+        cfg = load_config(REPO_ROOT / "configs" / f"{config}.yaml", profile="fast")
+        run = ContactTraining(cfg)
+        return time_it(lambda: run.step(run.steps // 2), repeat=2 if quick else 5, warmup=1), run.batch
+
+    full, batch = step_time("contact_residual")
+    skeleton_only, _ = step_time("contact_eskel")
+    return [BenchRow(f"contact training step (contact_residual, Efull), fast, batch {batch}: "
+                     f"{batch / full:.1f} windows/s", full, "the same step with Eskel only (contact_eskel)",
+                     skeleton_only)]
+
+
 #: every benchmark of ``retarget bench``, by name (``--only``)
 BENCHES: dict[str, Callable[..., list[BenchRow]]] = {"fk": bench_fk, "tdcn": bench_tdcn, "training": bench_training,
+                                                      "contact-training": bench_contact_training,
                                                       "eint": bench_eint, "eso": bench_eso}
 
 

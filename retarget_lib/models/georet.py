@@ -318,8 +318,9 @@ class GeometryConditionedRNN(nn.Module):
         residual: our variant (not the paper's): the rotation head predicts per-joint alignments
             ``C_j`` and the output is ``θ^B_j = C_p⁻¹ θ^A_j C_j``
             (:func:`~retarget_lib.core.kinematics.align_local_rotations`), the velocity head a
-            correction of ``o^(A→B)``; both start at zero change, so the untrained network
-            copies the source (Eweak = 0). Needs a :class:`ResidualBase` in every call.
+            correction of ``o^(A→B)``; both start close to no change (biases at the identity,
+            head weights scaled by 0.01), so the untrained network is close to its base, the
+            rest-compensated copy (Eweak ≈ 0). Needs a :class:`ResidualBase` in every call.
     """
 
     def __init__(self, joints: int = NUM_JOINTS, hidden: int = 512, layers: int = 2, geometry: int = 256,
