@@ -446,7 +446,7 @@ def load_gltf_motion(path: str | os.PathLike, fps: float | None = None, animatio
     if not channels:
         raise doc.error(f"animation {animation} has no rotation or translation channels")
     start, end = min(ch[2][0] for ch in channels), max(ch[2][-1] for ch in channels)
-    count = int(np.floor((end - start) * rate + 1e-6)) + 1
+    count = int(np.floor((end - start) * rate + 0.01)) + 1  # float32 key times: within 1 % of a frame
     if count > MAX_FRAMES:
         raise LimitError(f"{doc.path}: {count} frames at {rate:g} fps exceed the limit of {MAX_FRAMES}")
     t = start + np.arange(count) / rate
