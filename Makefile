@@ -27,6 +27,7 @@ $(STAMP): pyproject.toml
 	$(BIN)/pip install -q --upgrade pip
 	$(BIN)/pip install -q torch==2.13.0
 	$(BIN)/pip install -q -e '.[dev]'
+	bash .ci/node-deps.sh $(VENV)
 	touch $(STAMP)
 
 setup: $(STAMP)

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Install the Debian packages the suite uses, if they are missing and we may (root).
+# nodejs + npm: the Khronos glTF validator (.ci/node-deps.sh). Optional, for FBX input: libassimp5.
 set -euo pipefail
-pkgs=(libegl1 libgl1 libgl1-mesa-dri libglx-mesa0 assimp-testmodels)
+pkgs=(libegl1 libgl1 libgl1-mesa-dri libglx-mesa0 assimp-testmodels nodejs npm)
 missing=()
 for p in "${pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

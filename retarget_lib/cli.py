@@ -57,7 +57,8 @@ def _cmd_retarget(args: argparse.Namespace) -> int:
     from .methods.retarget import retarget_file
 
     out = retarget_file(args.source, args.target, args.method, args.out, args.checkpoint, args.target_mesh,
-                        args.source_mesh, fps=args.fps, force=args.force)
+                        args.source_mesh, fps=args.fps, force=args.force, joint_map=args.joint_map,
+                        source_joint_map=args.source_joint_map)
     print(f"wrote {out}")
     return 0
 
@@ -162,15 +163,23 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--force", action="store_true", help="rebuild even if the cache is up to date")
     p.set_defaults(func=_cmd_data)
 
-    p = sub.add_parser("retarget", help="retarget a BVH clip to a target skeleton or character",
-                       formatter_class=_RetargetHelp)
-    p.add_argument("--source", required=True, help="source BVH (any joint set the library can fold)")
+    p = sub.add_parser("retarget", help="retarget a clip (BVH, SMPL-X/AMASS .npz, GLB, FBX) to a target skeleton "
+                                        "or character", formatter_class=_RetargetHelp)
+    p.add_argument("--source", required=True,
+                   help="source motion: .bvh (any joint set the library can fold), SMPL-X/AMASS .npz, "
+                        ".glb/.gltf (its first animation), .fbx (needs the fbx extra)")
     p.add_argument("--target", required=True,
-                   help="target BVH (its skeleton, units and joint names are used) or a character name")
+                   help="target .bvh (its skeleton, units and joint names are used), .glb/.gltf/.fbx character "
+                        "(skeleton, mesh, skin, all joints), shape .npz, SMPL-X/AMASS .npz (its betas' "
+                        "skeleton), or a character name")
+    p.add_argument("--joint-map", help="mapping file (YAML/JSON 'CanonicalName: file_joint_name') for a .glb/.fbx "
+                                       "target whose joint names no rig map covers")
+    p.add_argument("--source-joint-map", help="the same for a .glb/.fbx source")
     p.add_argument("--method", required=True, choices=_RegisteredMethods(), metavar="NAME",
                    help="a method of the registry (retarget_lib/methods/registry.py)")
     p.add_argument("--target-mesh", help="target character shape .npz (rest_vertices, faces, weights, "
-                                         "offsets, joint names) for --method contact")
+                                         "offsets, joint names) for --method contact when the target has no mesh "
+                                         "(a .bvh); a .glb/.fbx/name target brings its own")
     p.add_argument("--source-mesh", help="source character shape .npz: its hand self-contacts are detected "
                                          "and preserved by --method contact (without it: feet and "
                                          "interpenetration only)")
@@ -178,7 +187,8 @@ def build_parser() -> argparse.ArgumentParser:
                                         "the method's default in data_manifest.yaml)")
     p.add_argument("--fps", type=float, help="output frame rate (default: the source's)")
     p.add_argument("--force", action="store_true", help="allow --out to overwrite an input file")
-    p.add_argument("--out", required=True, help="output .bvh (never an input unless --force)")
+    p.add_argument("--out", required=True, help="output .bvh, or .glb: the target's skinned mesh performing the "
+                                                "result (never an input unless --force)")
     p.set_defaults(func=_cmd_retarget)
 
     p = sub.add_parser("train", help="train a TDCN/NKN (Table 4) or contact-aware (Table 3) model from a YAML config")

@@ -13,9 +13,17 @@ type                      raised for
 :class:`LimitError`       a value beyond a documented bound (frame time, frame count, joints,
                           nesting depth, magnitudes, file size); the message names the limit
 :class:`CheckpointError`  a checkpoint file that is not a valid model of the expected kind
+:class:`GLTFError`        a glTF/GLB file that is malformed, out of bounds, or not a skinned
+                          character (no skin, several skeleton roots, sparse accessors ...)
+:class:`AMASSError`       an SMPL-X / AMASS ``.npz`` motion that lacks a key (``betas``,
+                          ``poses``, ``trans``, the frame rate) or has wrong shapes or values
+:class:`FBXError`         an FBX file the optional FBX reader cannot convert, or the reader
+                          (the ``fbx`` extra) is not installed
 ========================  ===================================================================
 
 Also :class:`~retarget_lib.io.bvh.BVHError` (a malformed BVH; names the line),
+:class:`~retarget_lib.core.skeleton.JointSetError` (joints that cannot be mapped onto the canonical
+22; names them),
 :class:`~retarget_lib.io.shape.ShapeError` (a malformed shape ``.npz``) and
 :class:`~retarget_lib.config.ConfigError` (a config file or override) derive from
 :class:`RetargetInputError`. :class:`~retarget_lib.files.DataError` (a shipped or cached data
@@ -24,7 +32,8 @@ file missing or corrupt) is separate: it is not the user's input, but the CLI al
 
 from __future__ import annotations
 
-__all__ = ["RetargetInputError", "InputFileError", "OutputPathError", "LimitError", "CheckpointError"]
+__all__ = ["RetargetInputError", "InputFileError", "OutputPathError", "LimitError", "CheckpointError", "GLTFError",
+           "AMASSError", "FBXError"]
 
 
 class RetargetInputError(ValueError):
@@ -46,3 +55,15 @@ class LimitError(RetargetInputError):
 
 class CheckpointError(RetargetInputError):
     """A checkpoint file that cannot be read or is not a valid model of the expected kind."""
+
+
+class GLTFError(RetargetInputError):
+    """A glTF 2.0 / GLB file that is malformed, out of bounds or not a skinned character."""
+
+
+class AMASSError(RetargetInputError):
+    """An SMPL-X / AMASS ``.npz`` motion with a missing key, a wrong shape or non-finite values."""
+
+
+class FBXError(RetargetInputError):
+    """An FBX file that cannot be converted, or the optional FBX reader is not installed."""

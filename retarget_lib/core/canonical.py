@@ -128,7 +128,8 @@ def canonical_name_map(joint_names: Sequence[str], convention: str | None = None
     return out
 
 
-def to_canonical22(motion: Motion, convention: str | None = None) -> Motion:
+def to_canonical22(motion: Motion, convention: str | None = None,
+                   joint_map: dict[int, int] | None = None) -> Motion:
     """Fold a motion on any supported joint set onto the canonical 22 joints.
 
     Kept joints keep their world positions. Removed joints are folded into their kept ancestors:
@@ -149,6 +150,8 @@ def to_canonical22(motion: Motion, convention: str | None = None) -> Motion:
     Args:
         motion: any :class:`~retarget_lib.core.motion.Motion`.
         convention: a key of :data:`NAME_MAPS`, or ``None`` to detect it from the names.
+        joint_map: ``{motion joint index: canonical index}`` to use instead of a name
+            convention (e.g. a glTF rig's map from :func:`~retarget_lib.io.rig_maps.map_joints`).
 
     Returns:
         A new Motion on :data:`CANONICAL22` with the same fps and frame count.
@@ -159,8 +162,11 @@ def to_canonical22(motion: Motion, convention: str | None = None) -> Motion:
     sk = motion.skeleton
     if sk.is_canonical22():
         return motion.copy()
-    convention = convention or detect_convention(sk.joint_names)
-    cmap = canonical_name_map(sk.joint_names, convention)
+    if joint_map is None:
+        convention = convention or detect_convention(sk.joint_names)
+        cmap = canonical_name_map(sk.joint_names, convention)
+    else:
+        cmap, convention = dict(joint_map), "joint_map"
     src_of = {c: s for s, c in cmap.items()}
     gpos, grot = motion.fk()
     rest = sk.rest_positions()
@@ -246,7 +252,8 @@ def fit_global_rotations(rotations: np.ndarray, positions: np.ndarray, offsets: 
     return quat_canonical(out).numpy()
 
 
-def from_canonical22(motion: Motion, skeleton: Skeleton, convention: str | None = None) -> Motion:
+def from_canonical22(motion: Motion, skeleton: Skeleton, convention: str | None = None,
+                     joint_map: dict[int, int] | None = None) -> Motion:
     """Put a canonical-22 motion back on a full joint set (the inverse of :func:`to_canonical22`).
 
     Used to write a retargeted motion with the target file's own joints, names and rest offsets.
@@ -255,20 +262,25 @@ def from_canonical22(motion: Motion, skeleton: Skeleton, convention: str | None 
     ``*_End``) get identity. This reproduces the canonical world positions exactly when
     ``motion.skeleton`` is ``to_canonical22`` of ``skeleton``'s rest pose and the folded joints sit on
     straight rest chains, as in Mixamo and CMU rigs; for the Biovision layout the inserted
-    ``Spine2`` is merged into the chest (its rotation moves the neck and collars slightly).
+    ``Spine2`` is merged into the chest (its rotation moves the neck and collars slightly). Joints
+    above the hips (an Unreal ``root``) keep identity and follow the hips' translation.
 
     Args:
         motion: canonical-22 motion (e.g. a retargeting result).
         skeleton: the full target skeleton (e.g. ``load_bvh(target).skeleton``).
         convention: a key of :data:`NAME_MAPS`, or ``None`` to detect it.
+        joint_map: ``{skeleton joint index: canonical index}`` to use instead of a name convention.
 
     Returns:
         A Motion on ``skeleton`` with ``motion``'s frames, fps and root positions.
     """
     if not motion.skeleton.is_canonical22():
         raise JointSetError("from_canonical22 needs a canonical-22 motion")
-    convention = convention or detect_convention(skeleton.joint_names)
-    cmap = canonical_name_map(skeleton.joint_names, convention)
+    if joint_map is None:
+        convention = convention or detect_convention(skeleton.joint_names)
+        cmap = canonical_name_map(skeleton.joint_names, convention)
+    else:
+        cmap = dict(joint_map)
     rot22 = torch.from_numpy(motion.rotations)
     T = motion.num_frames
     out = np.zeros((T, skeleton.num_joints, 4))
@@ -288,5 +300,10 @@ def from_canonical22(motion: Motion, skeleton: Skeleton, convention: str | None 
         for k in reversed(path[:-1]):
             q = quat_mul(q, rot22[:, k])
         out[:, j] = q.numpy()
-    return Motion(skeleton.copy(), out, motion.root_positions.copy(), motion.fps, name=motion.name,
+    # a root above the hips (an Unreal ``root``, an armature joint) keeps its rest rotation and
+    # carries the hips: it sits at the hips' position minus their rest offset from it
+    hips = next(j for j, c in cmap.items() if c == J["Hips"])
+    rest = skeleton.rest_positions()
+    root = motion.root_positions - (rest[hips] - rest[0])
+    return Motion(skeleton.copy(), out, root, motion.fps, name=motion.name,
                   meta={"converted_from": "canonical22"})

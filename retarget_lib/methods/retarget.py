@@ -1,15 +1,25 @@
 """Retarget a file to a target skeleton or character with a method of the registry (the
 ``retarget retarget`` command).
 
-A target BVH contributes its rest offsets (the character), its joint names, channel layout and
-length unit: the result is written on the target's *full* joint set
-(:func:`~retarget_lib.core.canonical.from_canonical22`), so it loads next to the target's own clips.
-A target given by name is written in the source file's length unit. The methods run at
-:data:`METHOD_FPS`; the result is resampled back to the source's frame rate (or ``fps``).
+Sources and targets are read by suffix (:mod:`.inputs`: BVH, SMPL-X/AMASS ``.npz``, glTF/GLB, FBX
+through the optional extra; a target may also be a shape ``.npz`` or a character name). The
+methods run on the canonical 22 joints at :data:`METHOD_FPS`; the result is resampled back to the
+source's frame rate (or ``fps``) and written by the output's suffix:
+
+* ``.bvh``: on a BVH target's *full* joint set, names, channel layout and length unit
+  (:func:`~retarget_lib.core.canonical.from_canonical22`), so it loads next to the target's own
+  clips; on a GLB/FBX target's own joints; a target given by name in the source file's unit;
+* ``.glb``: the target's mesh, skin and all its joints (fingers and extra joints follow their
+  parents) performing the result: a skinned, animated glTF 2.0 file (:func:`~retarget_lib.io.gltf_write.save_glb`);
+  needs a target with a mesh (a GLB/FBX/shape file, a character name, or ``--target-mesh``);
+* FBX is read (the optional extra) but not written (:mod:`~retarget_lib.io.fbx` says why).
+
+``--method contact`` uses the target file's own mesh (a GLB/FBX/shape file or a name) unless
+``--target-mesh`` is given, and a GLB/FBX source's mesh as the source character.
 
 Everything the user gives is checked before any work: the output path (:func:`~retarget_lib.files.check_output`:
-a ``.bvh``, never an input unless ``force``), options the method would ignore (a mesh for a
-skeleton-only method), a target mesh whose skeleton disagrees with the target BVH. A result that
+a supported suffix, never an input unless ``force``), options the method would ignore (a mesh for a
+skeleton-only method), a target mesh whose skeleton disagrees with the target file. A result that
 is non-finite or implausibly far away (a corrupt checkpoint) is refused, not written.
 """
 
@@ -20,27 +30,23 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.canonical import from_canonical22, to_canonical22
-from ..core.character import Character
+from ..core.canonical import from_canonical22
 from ..core.motion import Motion
 from ..core.skeleton import Skeleton
-from ..data.sources.mannequin import load_mannequin
-from ..data.synthetic.characters import CHARACTER_NAMES, make_character
-from ..errors import CheckpointError, RetargetInputError
+from ..errors import CheckpointError, OutputPathError, RetargetInputError
 from ..files import check_output
-from ..io.bvh import load_bvh, save_bvh
+from ..io.bvh import save_bvh
+from ..io.gltf_write import save_glb
 from ..io.shape import load_shape_npz
+from .inputs import MESH_TOLERANCE, Target, load_source, load_target
 from .registry import Method, get_method
 
-__all__ = ["METHOD_FPS", "OUTPUT_SUFFIXES", "MESH_TOLERANCE", "resolve_target", "resolve_character", "retarget_file"]
+__all__ = ["METHOD_FPS", "OUTPUT_SUFFIXES", "MESH_TOLERANCE", "resolve_target", "retarget_file"]
 
 #: the frame rate every method works at (the models were trained on 30 fps windows)
 METHOD_FPS = 30.0
-#: what ``out`` can be (glTF/FBX writers do not exist yet)
-OUTPUT_SUFFIXES = (".bvh",)
-#: a target mesh's rest offsets may differ from the target BVH's by this fraction of the target's
-#: height (float32 exports and unit round trips move them by < 0.1 %)
-MESH_TOLERANCE = 0.01
+#: what ``out`` can be
+OUTPUT_SUFFIXES = (".bvh", ".glb")
 #: a result whose root goes further from the origin than this many times the source's range
 #: (scaled to the target's size) plus the target's height is refused: no retargeting moves a root
 #: that far; a corrupt checkpoint does
@@ -48,28 +54,9 @@ ROOT_RANGE_FACTOR = 10.0
 
 
 def resolve_target(target: str) -> tuple[Skeleton, Motion | None]:
-    """``(canonical-22 skeleton, full target motion or None)`` for a BVH path or a character name."""
-    if target.lower().endswith(".bvh"):
-        full = load_bvh(target)
-        return to_canonical22(full.slice(0, 1)).skeleton, full
-    if target not in CHARACTER_NAMES:
-        raise ValueError(f"target {target!r} is neither a .bvh file nor a character; characters: "
-                         f"{', '.join(CHARACTER_NAMES)}")
-    return make_character(target).skeleton, None
-
-
-def resolve_character(target: str, target_mesh: str | os.PathLike | None) -> Character:
-    """The target :class:`~retarget_lib.core.character.Character` of a method that needs the
-    target's mesh: the shape file ``target_mesh`` if given, else the character named ``target``
-    (a synthetic character or ``mannequin-x``)."""
-    if target_mesh is not None:
-        return load_shape_npz(target_mesh)
-    if target == "mannequin-x":
-        return load_mannequin()
-    if target in CHARACTER_NAMES:
-        return make_character(target)
-    raise ValueError(f"--method contact needs the target's mesh: give --target-mesh SHAPE.npz or a character "
-                     f"name as --target ({', '.join(CHARACTER_NAMES)}, mannequin-x); got {target!r}")
+    """``(canonical-22 skeleton, full target BVH motion or None)`` of ``--target`` (see :mod:`.inputs`)."""
+    resolved = load_target(target)
+    return resolved.skeleton, resolved.bvh
 
 
 def _check_options(chosen: Method, target: str, target_mesh, source_mesh, checkpoint) -> None:
@@ -82,16 +69,6 @@ def _check_options(chosen: Method, target: str, target_mesh, source_mesh, checkp
     if not chosen.needs_checkpoint and checkpoint is not None:
         raise RetargetInputError(f"{checkpoint}: --method {chosen.name} has no checkpoint; --checkpoint would be "
                                  "ignored")
-
-
-def _check_mesh_matches(character: Character, target_skeleton: Skeleton, target_mesh, target) -> None:
-    """Refuse a target mesh whose rest skeleton is not the target BVH's (:data:`MESH_TOLERANCE`)."""
-    height = target_skeleton.height()
-    diff = np.abs(character.skeleton.offsets[1:] - target_skeleton.offsets[1:]).max()
-    if diff > MESH_TOLERANCE * height:
-        raise RetargetInputError(f"{target_mesh}: its skeleton differs from the target {target} by {diff * 100:.1f} cm "
-                                 f"(more than {MESH_TOLERANCE:.0%} of the target's height): a mesh of another "
-                                 "character?")
 
 
 def _check_plausible(result: Motion, source: Motion, target_skeleton: Skeleton, method: str, checkpoint) -> None:
@@ -123,21 +100,25 @@ def _load_retargeter(chosen: Method, checkpoint):
 def retarget_file(source: str | os.PathLike, target: str, method: str, out: str | os.PathLike,
                   checkpoint: str | os.PathLike | None = None, target_mesh: str | os.PathLike | None = None,
                   source_mesh: str | os.PathLike | None = None, fps: float | None = None,
-                  force: bool = False) -> Path:
-    """Load ``source``, retarget it to ``target`` with the registry's ``method`` and write ``out``
-    (BVH).
+                  force: bool = False, joint_map: str | os.PathLike | None = None,
+                  source_joint_map: str | os.PathLike | None = None) -> Path:
+    """Load ``source``, retarget it to ``target`` with the registry's ``method`` and write ``out``.
 
     Args:
-        source: source BVH (any joint set :func:`~retarget_lib.core.canonical.to_canonical22` folds).
-        target: a target BVH (its skeleton, names and units) or a character name.
+        source: source motion: ``.bvh``, SMPL-X/AMASS ``.npz``, ``.glb``/``.gltf``, ``.fbx``.
+        target: target: ``.bvh``, ``.glb``/``.gltf``, ``.fbx``, shape or AMASS ``.npz``, or a
+            character name (:mod:`.inputs`).
         method: a name of :data:`~retarget_lib.methods.registry.REGISTRY`.
-        out: output BVH.
+        out: output ``.bvh`` or ``.glb`` (module docstring).
         checkpoint: manifest id or path for a learned method (default: the method's default in the
             manifest).
-        target_mesh: target shape ``.npz``, for a method that needs the target's mesh.
+        target_mesh: target shape ``.npz``, for a method that needs the target's mesh when the
+            target has none (a BVH).
         source_mesh: source shape ``.npz``: its hand self-contacts are preserved by ``contact``.
         fps: output frame rate (default: the source's).
         force: allow ``out`` to be one of the inputs.
+        joint_map: mapping file for a GLB/FBX target the rig name maps do not cover.
+        source_joint_map: the same for a GLB/FBX source.
 
     Returns:
         the output path.
@@ -145,36 +126,49 @@ def retarget_file(source: str | os.PathLike, target: str, method: str, out: str 
     Raises:
         RetargetInputError: any bad input (its subclasses name the file and the problem):
             :class:`~retarget_lib.errors.OutputPathError`, :class:`~retarget_lib.io.bvh.BVHError`,
+            :class:`~retarget_lib.errors.GLTFError`, :class:`~retarget_lib.errors.AMASSError`,
+            :class:`~retarget_lib.errors.FBXError`, :class:`~retarget_lib.core.skeleton.JointSetError`,
             :class:`~retarget_lib.io.shape.ShapeError`, :class:`~retarget_lib.errors.CheckpointError`,
             :class:`~retarget_lib.errors.LimitError`, :class:`~retarget_lib.errors.InputFileError`.
     """
     chosen = get_method(method)
     _check_options(chosen, str(target), target_mesh, source_mesh, checkpoint)
-    check_output(out, [source, target, target_mesh, source_mesh, checkpoint], OUTPUT_SUFFIXES, force)
-    raw = load_bvh(source)
-    motion = to_canonical22(raw).resample(METHOD_FPS)
-    out_fps = float(fps) if fps is not None else raw.fps
+    check_output(out, [source, target, target_mesh, source_mesh, checkpoint, joint_map, source_joint_map],
+                 OUTPUT_SUFFIXES, force)
+    src = load_source(source, source_joint_map)
+    tgt = load_target(str(target), target_mesh, joint_map)
+    suffix = Path(out).suffix.lower()
+    if suffix != ".bvh" and tgt.rig is None:
+        raise OutputPathError(f"{out}: a {suffix} result is the target's skinned mesh, and the target {target} has "
+                              "none; give a .glb/.fbx/shape .npz target, a character name, or --target-mesh")
+    out_fps = float(fps) if fps is not None else src.motion.fps
     if not (np.isfinite(out_fps) and 1.0 <= out_fps <= 1000.0):
         raise RetargetInputError(f"--fps {fps}: the output frame rate must be within 1-1000")
+    motion = src.motion.resample(METHOD_FPS)
     if chosen.needs_mesh:
-        character = resolve_character(str(target), target_mesh)
-        target_full = None
-        if str(target).lower().endswith(".bvh"):
-            target_skeleton, target_full = resolve_target(str(target))
-            _check_mesh_matches(character, target_skeleton, target_mesh, target)
-        source_character = load_shape_npz(source_mesh) if source_mesh is not None else None
-        result = _load_retargeter(chosen, checkpoint)(motion, character, source_character=source_character)
-        target_skeleton = character.skeleton
+        if tgt.character is None:
+            raise RetargetInputError(f"--method contact needs the target's mesh: give a .glb/.fbx/shape .npz target, "
+                                     f"--target-mesh SHAPE.npz or a character name; {target} has none")
+        source_character = load_shape_npz(source_mesh) if source_mesh is not None else src.character
+        result = _load_retargeter(chosen, checkpoint)(motion, tgt.character, source_character=source_character)
     else:
-        target_skeleton, target_full = resolve_target(str(target))
-        result = _load_retargeter(chosen, checkpoint)(motion, target_skeleton)
-    _check_plausible(result, motion, target_skeleton, method, checkpoint)
-    result = result.resample(out_fps)
-    if target_full is not None:  # the target's joints, names, channels and unit
-        result = from_canonical22(result, target_full.skeleton)
-        keys, layout = ("unit_scale", "unit", "channels", "file_joint_names"), target_full.meta
-    else:  # a named character: the source file's unit, whatever the method
-        keys, layout = ("unit_scale", "unit"), raw.meta
-    result.meta.update({k: layout[k] for k in keys if k in layout})
-    save_bvh(result, out)
+        result = _load_retargeter(chosen, checkpoint)(motion, tgt.skeleton)
+    _check_plausible(result, motion, tgt.skeleton, method, checkpoint)
+    _write(result.resample(out_fps), tgt, src.meta, Path(out))
     return Path(out)
+
+
+def _write(result: Motion, tgt: Target, source_layout: dict, out: Path) -> None:
+    """Write a canonical result by ``out``'s suffix on the target's own joints (module docstring)."""
+    suffix = out.suffix.lower()
+    if suffix == ".glb":
+        save_glb(tgt.rig, out, tgt.rig.motion_from_canonical(result))
+    elif tgt.bvh is not None:  # the target's joints, names, channels and unit
+        full = from_canonical22(result, tgt.bvh.skeleton)
+        full.meta.update({k: tgt.bvh.meta[k] for k in ("unit_scale", "unit", "channels", "file_joint_names")
+                          if k in tgt.bvh.meta})
+        save_bvh(full, out)
+    else:  # a GLB/FBX target's own joints, else the canonical 22; in the source file's unit
+        full = tgt.rig.motion_from_canonical(result) if tgt.rig is not None else result
+        full.meta.update({k: source_layout[k] for k in ("unit_scale", "unit") if k in source_layout})
+        save_bvh(full, out)

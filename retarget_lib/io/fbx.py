@@ -1,0 +1,94 @@
+"""FBX characters and animations through the Open Asset Import Library (the optional ``fbx`` extra).
+
+Set-up: Debian's ``libassimp5`` (the C++ library, 12.7 MB installed with its two dependencies) and
+the PyPI binding ``impasse`` (``pip install -e .[fbx]``). Chosen over Blender as a Python module
+(PyPI ``bpy`` 5.0.1: a 374 MB download, 821 MB installed, and it pins ``numpy<2``, which the
+suite's environment cannot take); ``pyassimp`` 5.2.5 fails on Debian's ``libassimp5`` 5.2.5 with a
+NULL pointer access on the first skinned file, ``impasse`` (its maintained fork, cffi) reads it.
+
+How: assimp converts the FBX into a binary glTF in a temporary folder, and the glTF reader does
+the rest (:func:`~retarget_lib.io.gltf.load_gltf_rig`, :func:`~retarget_lib.io.gltf.load_gltf_motion`:
+world rest pose including the FBX's armature scale, rig maps, skin). Errors name the FBX file, not
+the temporary one.
+
+Writing FBX is not offered: assimp 5.2.5's FBX exporter writes binary files that assimp itself
+cannot read back, and its ASCII files (which it can) come back with every keyframe time 1000 times
+too late (its glTF importer counts ticks in milliseconds, the FBX exporter ignores the tick rate).
+Write ``.glb``; Blender, Unity, Unreal and three.js all import it.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Iterator
+
+from ..core.motion import Motion
+from ..core.rig import Rig
+from ..errors import FBXError, RetargetInputError
+from ..files import readable_file
+from .gltf import MAX_FILE_BYTES, load_gltf_motion, load_gltf_rig
+
+__all__ = ["FBXError", "fbx_missing", "load_fbx_rig", "load_fbx_motion"]
+
+_INSTALL = "install the fbx extra: `sudo apt-get install libassimp5` and `pip install -e .[fbx]`"
+
+
+def _impasse():
+    """The ``impasse`` module (:class:`~retarget_lib.errors.FBXError` naming the set-up if missing)."""
+    try:
+        import impasse  # noqa: PLC0415 (optional dependency)
+    except (ImportError, OSError) as e:  # OSError: the binding is there but libassimp is not
+        raise FBXError(f"FBX needs the Open Asset Import Library ({type(e).__name__}: {e}); {_INSTALL}") from None
+    return impasse
+
+
+def fbx_missing() -> str | None:
+    """Why FBX files cannot be read or written here, or ``None`` when they can."""
+    try:
+        _impasse()
+    except FBXError as e:
+        return str(e)
+    return None
+
+
+@contextmanager
+def _as_glb(path: str | os.PathLike) -> Iterator[Path]:
+    """The FBX ``path`` converted to a temporary ``.glb``; errors of the glTF reader inside are
+    re-raised naming ``path``."""
+    path = readable_file(path, "FBX file", MAX_FILE_BYTES)
+    impasse = _impasse()
+    with tempfile.TemporaryDirectory(prefix="retarget-fbx-") as tmp:
+        glb = Path(tmp) / f"{path.stem}.glb"
+        try:
+            impasse.export(impasse.load(str(path)), str(glb), "glb2")
+        except impasse.errors.AssimpError as e:
+            raise FBXError(f"{path}: the Open Asset Import Library cannot read it as FBX ({e})") from None
+        try:
+            yield glb
+        except RetargetInputError as e:
+            raise type(e)(str(e).replace(str(glb), str(path))) from None
+
+
+def load_fbx_rig(path: str | os.PathLike, mapping: str | os.PathLike | dict | None = None) -> Rig:
+    """Read a skinned character from an FBX file (see :func:`~retarget_lib.io.gltf.load_gltf_rig`).
+
+    Raises:
+        FBXError: the extra is missing or assimp cannot read the file; the glTF reader's errors
+            (no skin, unmappable joints ...) naming the FBX file.
+    """
+    with _as_glb(path) as glb:
+        rig = load_gltf_rig(glb, mapping)
+    rig.name, rig.meta["source"] = Path(path).stem, str(path)
+    return rig
+
+
+def load_fbx_motion(path: str | os.PathLike, fps: float | None = None,
+                    mapping: str | os.PathLike | dict | None = None) -> tuple[Motion, Rig]:
+    """Sample the first animation of a skinned FBX file (see :func:`~retarget_lib.io.gltf.load_gltf_motion`)."""
+    with _as_glb(path) as glb:
+        motion, rig = load_gltf_motion(glb, fps=fps, mapping=mapping)
+    rig.name, rig.meta["source"], motion.meta["source"] = Path(path).stem, str(path), str(path)
+    return motion, rig

@@ -1,0 +1,179 @@
+"""What the files of ``retarget retarget`` are: a source motion and a target character, by suffix.
+
+================  =====================================================================
+source            read as
+================  =====================================================================
+``.bvh``          any BVH the library folds (:func:`~retarget_lib.core.canonical.to_canonical22`)
+``.npz``          an SMPL-X / AMASS motion (:func:`~retarget_lib.io.amass.load_amass`)
+``.glb/.gltf``    the first animation of a skinned glTF file; its mesh is the source
+                  character (hand contacts for ``contact``)
+``.fbx``          the same through the optional FBX reader (``pip install -e .[fbx]``)
+================  =====================================================================
+
+================  =====================================================================
+target            gives
+================  =====================================================================
+``.bvh``          the skeleton; the result is written on its joints, channels and unit
+``.glb/.gltf``    skeleton, mesh and skin, all its joints (a GLB result keeps them)
+``.fbx``          the same through the optional FBX reader
+``.npz``          a character shape file (mesh), or an SMPL-X/AMASS file (the skeleton
+                  of its betas)
+a name            a synthetic character or ``mannequin-x`` (skeleton and mesh)
+================  =====================================================================
+"""
+
+from __future__ import annotations
+
+import os
+import zipfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..core.canonical import to_canonical22
+from ..core.character import Character
+from ..core.motion import Motion
+from ..core.rig import Rig
+from ..core.skeleton import Skeleton
+from ..data.sources.mannequin import load_mannequin
+from ..data.synthetic.characters import CHARACTER_NAMES, make_character
+from ..errors import InputFileError, RetargetInputError
+from ..io import fbx
+from ..io.amass import load_amass, smplx_skeleton
+from ..io.bvh import load_bvh
+from ..io.gltf import load_gltf_motion, load_gltf_rig
+from ..io.shape import SHAPE_KEYS, load_shape_npz
+
+__all__ = ["SOURCE_SUFFIXES", "TARGET_SUFFIXES", "Source", "Target", "load_source", "load_target"]
+
+SOURCE_SUFFIXES = (".bvh", ".npz", ".glb", ".gltf", ".fbx")
+TARGET_SUFFIXES = (".bvh", ".glb", ".gltf", ".fbx", ".npz")
+_GLTF = (".glb", ".gltf")
+
+
+@dataclass
+class Source:
+    """A source clip.
+
+    Attributes:
+        motion: the canonical-22 motion at the file's frame rate.
+        meta: the file's layout (length unit) for writing a named target in it.
+        character: the source's skinned character when the file has a mesh (GLB/FBX), else None.
+    """
+
+    motion: Motion
+    meta: dict
+    character: Character | None
+
+
+@dataclass
+class Target:
+    """A target character.
+
+    Attributes:
+        skeleton: its canonical-22 skeleton.
+        character: its canonical-22 skinned character when a mesh is known, else None.
+        rig: the character on its own joints (a GLB/FBX file's, else the canonical one) when a mesh
+            is known: what a ``.glb`` / ``.fbx`` result is written with.
+        bvh: the full target BVH motion (its joints, channels and unit) for a ``.bvh`` target.
+    """
+
+    skeleton: Skeleton
+    character: Character | None = None
+    rig: Rig | None = None
+    bvh: Motion | None = None
+
+
+def _suffix(path: str | os.PathLike) -> str:
+    return Path(path).suffix.lower()
+
+
+def load_source(path: str | os.PathLike, joint_map: str | os.PathLike | None = None) -> Source:
+    """Read a source clip by suffix (module docstring).
+
+    Args:
+        path: ``.bvh``, ``.npz``, ``.glb``/``.gltf`` or ``.fbx``.
+        joint_map: a mapping file for a GLB/FBX rig the name maps do not cover.
+
+    Raises:
+        RetargetInputError: an unsupported suffix, or the reader's error for a bad file.
+    """
+    suffix = _suffix(path)
+    if joint_map is not None and suffix not in _GLTF + (".fbx",):
+        raise RetargetInputError(f"{joint_map}: --source-joint-map is for .glb/.gltf/.fbx sources, not {path}")
+    if suffix == ".bvh":
+        raw = load_bvh(path)
+        return Source(to_canonical22(raw), raw.meta, None)
+    if suffix == ".npz":
+        motion = load_amass(path)
+        return Source(motion, {}, None)
+    if suffix in _GLTF or suffix == ".fbx":
+        motion, rig = (load_gltf_motion(path, mapping=joint_map) if suffix in _GLTF
+                       else fbx.load_fbx_motion(path, mapping=joint_map))
+        return Source(rig.motion_to_canonical(motion), {}, rig.character())
+    raise InputFileError(f"{path}: cannot read a {suffix or 'suffix-less'} source; supported: "
+                         f"{', '.join(SOURCE_SUFFIXES)}")
+
+
+def _is_shape_npz(path: str | os.PathLike) -> bool:
+    """Whether an ``.npz`` is a character shape file (else it is read as SMPL-X/AMASS)."""
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            return set(SHAPE_KEYS) <= set(data.files)
+    except (zipfile.BadZipFile, EOFError, OSError, ValueError):
+        return True  # let the shape reader name the problem
+
+
+def load_target(target: str, target_mesh: str | os.PathLike | None = None,
+                joint_map: str | os.PathLike | None = None) -> Target:
+    """Resolve ``--target`` (a file by suffix, or a character name) and ``--target-mesh``.
+
+    Raises:
+        RetargetInputError: an unknown name or suffix, or the reader's error for a bad file.
+    """
+    suffix = _suffix(target)
+    if joint_map is not None and suffix not in _GLTF + (".fbx",):
+        raise RetargetInputError(f"{joint_map}: --joint-map is for .glb/.gltf/.fbx targets, not {target}")
+    if suffix == ".bvh":
+        full = load_bvh(target)
+        out = Target(to_canonical22(full.slice(0, 1)).skeleton, bvh=full)
+    elif suffix in _GLTF or suffix == ".fbx":
+        rig = load_gltf_rig(target, joint_map) if suffix in _GLTF else fbx.load_fbx_rig(target, joint_map)
+        character = rig.character()
+        out = Target(character.skeleton, character, rig)
+    elif suffix == ".npz":
+        if _is_shape_npz(target):
+            character = load_shape_npz(target)
+            out = Target(character.skeleton, character, Rig.from_character(character))
+        else:
+            out = Target(smplx_skeleton(load_amass(target).meta["betas"]))
+    elif suffix:
+        raise InputFileError(f"{target}: cannot read a {suffix} target; supported: {', '.join(TARGET_SUFFIXES)} "
+                             "or a character name")
+    elif target == "mannequin-x" or target in CHARACTER_NAMES:
+        character = load_mannequin() if target == "mannequin-x" else make_character(target)
+        out = Target(character.skeleton, character, Rig.from_character(character))
+    else:
+        raise RetargetInputError(f"target {target!r} is neither a file (.bvh, .glb, .gltf, .fbx, .npz) nor a "
+                                 f"character; characters: {', '.join(CHARACTER_NAMES)}, mannequin-x")
+    if target_mesh is not None:
+        character = load_shape_npz(target_mesh)
+        _check_mesh_matches(character, out.skeleton, target_mesh, target)
+        out.character, out.rig = character, Rig.from_character(character)
+    return out
+
+
+#: a target mesh's rest offsets may differ from the target's skeleton by this fraction of the
+#: target's height (float32 exports and unit round trips move them by < 0.1 %)
+MESH_TOLERANCE = 0.01
+
+
+def _check_mesh_matches(character: Character, target_skeleton: Skeleton, target_mesh, target) -> None:
+    """Refuse a target mesh whose rest skeleton is not the target's (:data:`MESH_TOLERANCE`)."""
+    height = target_skeleton.height()
+    diff = np.abs(character.skeleton.offsets[1:] - target_skeleton.offsets[1:]).max()
+    if diff > MESH_TOLERANCE * height:
+        raise RetargetInputError(f"{target_mesh}: its skeleton differs from the target {target} by {diff * 100:.1f} cm "
+                                 f"(more than {MESH_TOLERANCE:.0%} of the target's height): a mesh of another "
+                                 "character?")
