@@ -2,7 +2,10 @@
 # Install the Debian packages the suite uses, if they are missing and we may (root).
 # nodejs + npm: the Khronos glTF validator (.ci/node-deps.sh). Optional, for FBX input: libassimp5.
 set -euo pipefail
-pkgs=(libegl1 libgl1 libgl1-mesa-dri libglx-mesa0 assimp-testmodels nodejs npm)
+pkgs=(libegl1 libgl1 libgl1-mesa-dri libglx-mesa0 assimp-testmodels)
+# Node from any source will do (many machines have it outside Debian's packages): only when there is
+# no npm at all do we ask Debian for it
+command -v npm >/dev/null || pkgs+=(nodejs npm)
 missing=()
 for p in "${pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
