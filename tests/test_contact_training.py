@@ -67,7 +67,10 @@ def test_contact_method_on_the_command_line(tmp_path, capsys):
     save_bvh(load_bvh(cmu_clip_path("01_03.bvh")).slice(0, 24), short)
     out = tmp_path / "contact.bvh"
     assert main(["retarget", "--source", str(short), "--target", "gus", "--method", "contact", "--out", str(out)]) == 0
-    assert load_bvh(out).num_frames == 6  # 120 fps -> 30 fps
+    result = load_bvh(out)
+    # the method runs at 30 fps (6 frames over 5/30 s); the output comes back at the source's
+    # 120 fps over that same span: 5/30 s * 120 + 1 = 21 frames
+    assert result.fps == pytest.approx(120.0) and result.num_frames == 21
     assert main(["retarget", "--source", str(short), "--target", str(cmu_clip_path("Boxing_Toes.bvh")),
                  "--method", "contact", "--out", str(out)]) == 2
     assert "--target-mesh" in capsys.readouterr().err
