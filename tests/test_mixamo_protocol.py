@@ -1,0 +1,121 @@
+"""The reviewer's path: Table 4 on a ``mixamo-local`` folder (retarget_lib.evaluation.mixamo),
+checked on the library's fixture folder and on a tiny case computed by hand."""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from retarget_lib.cli import main
+from retarget_lib.core.character import Character
+from retarget_lib.core.skeleton import canonical22_skeleton
+from retarget_lib.data.sources.mixamo_fixture import write_mixamo_character, write_mixamo_fixture
+from retarget_lib.data.synthetic.characters import make_character
+from retarget_lib.data.synthetic.motions import make_motion
+from retarget_lib.evaluation.mixamo import (CASE_COLUMNS, paper_pairs, run_mixamo_tdcn_evaluation, scenario_of,
+                                            unseen_motions)
+from retarget_lib.methods.registry import get_method
+
+
+@pytest.fixture(scope="module")
+def fixture_root(tmp_path_factory):
+    return write_mixamo_fixture(tmp_path_factory.mktemp("mixamo_fixture"))
+
+
+def test_scenario_rule_gives_the_papers_pairs_their_scenarios():
+    """Tables 2-3: pages 18, 23, 28, 33 are performed by scenario 1/2 sources (seen), 45, 51, 52
+    only by scenario 3/4 sources (unseen); the rule must put each of the eight pairs in its scenario."""
+    performers = {18: {"Kaya", "Warrok W Kurniawan"}, 28: {"Big Vegas", "Malcolm"}, 23: {"Peasant Man", "Liam"},
+                  33: {"AJ", "Mutant"}, 51: {"Sporty Granny", "Malcolm"}, 52: {"Claire", "Warrok W Kurniawan", "Mutant"},
+                  45: {"Mutant", "Liam"}}
+    unseen = unseen_motions(performers)
+    assert unseen == {45, 51, 52}
+    pages = {("Kaya", "Warrok W Kurniawan"): 18, ("Big Vegas", "Malcolm"): 28, ("Peasant Man", "Liam"): 23,
+             ("AJ", "Mutant"): 33, ("Sporty Granny", "Malcolm"): 51, ("Claire", "Warrok W Kurniawan"): 52,
+             ("Mutant", "Liam"): 45, ("Claire", "Mutant"): 52}
+    for (src, tgt), scenario in paper_pairs().items():
+        assert scenario_of(tgt, pages[src, tgt], unseen) == scenario
+
+
+def _scaled(character: Character, s: float, name: str) -> Character:
+    """The same character uniformly scaled by ``s``."""
+    return Character(name, canonical22_skeleton(character.skeleton.offsets * s), character.rest_vertices * s,
+                     character.faces, character.weights)
+
+
+def test_copy_row_matches_a_hand_computation(tmp_path):
+    """Source A; target B = A scaled by s, whose "own clip" is A's rotations with the root scaled by
+    s plus a drift d(t) = c·t/(T−1) along x. ``copy`` keeps the rotations and scales the root by
+    the leg ratio (= s), so every joint is off by exactly d(t): nmse = mean_t |d(t)|² / H_B (cm²/cm)
+    and the root-relative error is 0. Target C is B exported at 60 fps: the prediction is compared
+    at C's frame times k/60, where the drift is c·k/(2(T−1))."""
+    T, s, c = 130, 1.25, 0.05
+    a = make_character("cleo")
+    b = _scaled(a, s, "B")
+    clip = make_motion("walk", a.skeleton, 3, duration=5.0).slice(0, T)
+    clip.name = "Walk"
+    drift = np.zeros((T, 3))
+    drift[:, 0] = c * np.arange(T) / (T - 1)
+    own = clip.copy(skeleton=b.skeleton, root_positions=clip.root_positions * s + drift)
+    write_mixamo_character(tmp_path, a, [clip], name="A")
+    write_mixamo_character(tmp_path, b, [own], name="B")
+    write_mixamo_character(tmp_path, _scaled(a, s, "C"), [own], name="C", fps=60.0)
+    run_mixamo_tdcn_evaluation(tmp_path / "out", tmp_path, methods={"copy": get_method("copy").retargeter()})
+    rows = pd.read_csv(tmp_path / "out" / "table4_cases.csv").set_index(["source", "target"])
+    h_cm = 100.0 * b.skeleton.height()
+    t = np.arange(T)
+    k = np.arange(2 * T - 1)  # C's frames at 60 fps
+    expected = {("A", "B"): ((c * t / (T - 1)) ** 2, (c * t[:120] / (T - 1)) ** 2),
+                ("A", "C"): ((c * k / (2 * (T - 1))) ** 2, (c * k[:239] / (2 * (T - 1))) ** 2)}
+    for pair, (long_sq, short_sq) in expected.items():
+        row = rows.loc[pair]
+        assert row["frames"] == len(long_sq)
+        # BVH text stores 6 decimals (cm, degrees): ~1e-8 m per joint, 1e-5 relative on |d|² at c = 5 cm
+        np.testing.assert_allclose(row["nmse"], 1e4 * long_sq.mean() / h_cm, rtol=1e-4)
+        np.testing.assert_allclose(row["nmse_short"], 1e4 * short_sq.mean() / h_cm, rtol=1e-4)
+        assert row["nmse_root_relative"] < 1e-6 and row["nmse_short_root_relative"] < 1e-6
+
+
+def test_fixture_folder_tables_and_coverage(fixture_root, tmp_path):
+    table, coverage, _ = run_mixamo_tdcn_evaluation(tmp_path, fixture_root, only=["copy", "copy-rest"])
+    for name in ("table4.md", "table4.csv", "table4_cases.csv"):
+        assert (tmp_path / name).stat().st_size > 0
+    cases = pd.read_csv(tmp_path / "table4_cases.csv")
+    assert tuple(cases.columns[:7]) == CASE_COLUMNS[:7] == ("source", "target", "motion", "method", "frames", "nmse",
+                                                            "nmse_root_relative")
+    assert set(cases["method"]) == {"copy", "copy-rest"} and np.isfinite(cases["nmse"]).all()
+    # Claire is exported at 60 fps: her clips are compared at 60 fps frame times
+    into_claire = cases[(cases["target"] == "Claire") & (cases["motion"] == "Sitting Clap")]
+    assert (into_claire["truth_fps"] == 60).all() and (into_claire["frames"] == 299).all()
+    # the paper's pairs present in the fixture, and the missing ones reported, not an error
+    status = coverage.set_index(["source", "target"])["status"]
+    assert status["Kaya", "Warrok W Kurniawan"] == "present" and status["Claire", "Warrok W Kurniawan"] == "present"
+    assert status["AJ", "Mutant"].startswith("missing")
+    md = (tmp_path / "table4.md").read_text()
+    assert "frame counts differ" in md and "Walking While Texting" in md
+    assert set(table.index.get_level_values("pairs")) == {"paper", "all"}
+
+
+def test_partial_folder_is_a_coverage_report(tmp_path):
+    """One character: no pair at all is still a written report."""
+    cleo = make_character("cleo")
+    write_mixamo_character(tmp_path / "in", cleo, [_named(make_motion("pray", cleo.skeleton, 1).slice(0, 20), "Praying")],
+                           name="Kaya")
+    table, coverage, _ = run_mixamo_tdcn_evaluation(tmp_path / "out", tmp_path / "in",
+                                                    methods={"copy": get_method("copy").retargeter()})
+    assert table.empty and (coverage["status"] != "present").all()
+    assert "(no case)" in (tmp_path / "out" / "table4.md").read_text()
+
+
+def _named(motion, name):
+    motion.name = name
+    return motion
+
+
+def test_cli_evaluate_on_the_folder(fixture_root, tmp_path, capsys):
+    assert main(["evaluate", "--table", "tdcn", "--data", "mixamo-local", "--mixamo", str(fixture_root),
+                 "--methods", "copy", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "present" in out and "table4_cases.csv" in out
+    assert main(["evaluate", "--table", "tdcn", "--data", "mixamo-local", "--mixamo", str(tmp_path / "nowhere"),
+                 "--out", str(tmp_path)]) == 2
+    assert "RETARGET_MIXAMO" in capsys.readouterr().err
