@@ -91,18 +91,30 @@ def _cmd_train(args: argparse.Namespace) -> int:
     return 0
 
 
-def _cmd_evaluate(args: argparse.Namespace) -> int:
-    if args.table == "contact":
+def _evaluate_contact(args: argparse.Namespace) -> int:
+    if args.data == "mixamo-local":
+        from .evaluation.mixamo_contact import run_mixamo_contact_evaluation
+
+        tables, coverage, missing = run_mixamo_contact_evaluation(args.out, args.mixamo, args.profile or "fast",
+                                                                  args.methods)
+        print("coverage (target, motion) of the appendix's lists:\n"
+              + coverage.groupby(["body", "status"]).size().rename("cases").to_string())
+    else:
         from .evaluation.contact import run_contact_evaluation
 
         tables, missing = run_contact_evaluation(args.out, args.profile or "fast")
-        for name, table in tables.items():
-            print(f"{name}:\n{table.filter(like='ours').round(3).to_string()}\n")
-        if missing:
-            print(f"no trained checkpoint yet for: {', '.join(missing)}")
-        print(f"wrote {args.out}/contact_table1.csv/.md, contact_table3.*, contact_table5.*, contact_table6.*, "
-              "contact_cases.csv")
-        return 0
+    for name, table in tables.items():
+        print(f"{name}:\n{table.filter(like='ours').round(3).to_string()}\n")
+    if missing:
+        print(f"no trained checkpoint yet for: {', '.join(missing)}")
+    print(f"wrote {args.out}/contact_table1.csv/.md, contact_table3.*, contact_table5.*, contact_table6.*, "
+          "contact_cases.csv" + (", contact_coverage.csv" if args.data == "mixamo-local" else ""))
+    return 0
+
+
+def _cmd_evaluate(args: argparse.Namespace) -> int:
+    if args.table == "contact":
+        return _evaluate_contact(args)
     if args.data == "mixamo-local":
         return _evaluate_tdcn_mixamo(args)
     from .evaluation.tdcn import run_tdcn_evaluation
@@ -222,9 +234,10 @@ def build_parser() -> argparse.ArgumentParser:
                         "protocols (ground truth = each target's own clip; see data_manifest.yaml)")
     p.add_argument("--mixamo", help="the mixamo-local folder (default $RETARGET_MIXAMO or data/mixamo)")
     p.add_argument("--methods", nargs="+", metavar="ROW",
-                   help="with --data mixamo-local: evaluate only these rows (e.g. copy copy-rest ours)")
+                   help="with --data mixamo-local: evaluate only these table rows (e.g. copy copy-rest ours; "
+                        "contact: e.g. copy copy-rest 'Ours (residual)')")
     p.add_argument("--checkpoint", action="append", metavar="PATH",
-                   help="with --data mixamo-local: also evaluate this checkpoint (repeatable)")
+                   help="with --table tdcn --data mixamo-local: also evaluate this TDCN/NKN checkpoint (repeatable)")
     p.add_argument("--out", required=True, help="output folder")
     p.set_defaults(func=_cmd_evaluate)
 

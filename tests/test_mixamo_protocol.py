@@ -1,5 +1,6 @@
-"""The reviewer's path: Table 4 on a ``mixamo-local`` folder (retarget_lib.evaluation.mixamo),
-checked on the library's fixture folder and on a tiny case computed by hand."""
+"""The reviewer's path: Table 4 and the contact tables on a ``mixamo-local`` folder
+(retarget_lib.evaluation.mixamo, .mixamo_contact), checked on the library's fixture folder and on a
+tiny case computed by hand."""
 
 import numpy as np
 import pandas as pd
@@ -9,10 +10,12 @@ from retarget_lib.cli import main
 from retarget_lib.core.character import Character
 from retarget_lib.core.skeleton import canonical22_skeleton
 from retarget_lib.data.sources.mixamo_fixture import write_mixamo_character, write_mixamo_fixture
+from retarget_lib.data.sources.mixamo_local import load_mixamo_folder
 from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.data.synthetic.motions import make_motion
 from retarget_lib.evaluation.mixamo import (CASE_COLUMNS, paper_pairs, run_mixamo_tdcn_evaluation, scenario_of,
                                             unseen_motions)
+from retarget_lib.evaluation.mixamo_contact import mixamo_contact_cases
 from retarget_lib.methods.registry import get_method
 
 
@@ -119,3 +122,29 @@ def test_cli_evaluate_on_the_folder(fixture_root, tmp_path, capsys):
     assert main(["evaluate", "--table", "tdcn", "--data", "mixamo-local", "--mixamo", str(tmp_path / "nowhere"),
                  "--out", str(tmp_path)]) == 2
     assert "RETARGET_MIXAMO" in capsys.readouterr().err
+
+
+def test_contact_coverage_without_the_source_mesh(tmp_path):
+    """No Y Bot: every appendix (target, motion) is reported with its reason; no case, no error."""
+    cleo = make_character("cleo")
+    write_mixamo_character(tmp_path, cleo, [_named(make_motion("pray", cleo.skeleton, 1).slice(0, 20), "Praying")],
+                           name="Kaya")
+    cases, coverage = mixamo_contact_cases(load_mixamo_folder(tmp_path))
+    assert cases == [] and len(coverage) == 30 * 6
+    assert set(coverage["status"]) == {"no Y Bot shape.npz"}
+
+
+@pytest.mark.slow
+def test_cli_contact_tables_on_the_folder(fixture_root, tmp_path, monkeypatch, capsys):
+    """~50 s: contact detection on the source mesh and the geodesic Eint of each target."""
+    monkeypatch.setenv("RETARGET_CACHE", str(tmp_path / "cache"))
+    assert main(["evaluate", "--table", "contact", "--data", "mixamo-local", "--mixamo", str(fixture_root),
+                 "--methods", "copy", "copy-rest", "--out", str(tmp_path / "out")]) == 0
+    assert "contact_coverage.csv" in capsys.readouterr().out
+    cases = pd.read_csv(tmp_path / "out" / "contact_cases.csv")
+    # Y Bot performs the fixture's three motions; Kaya lacks "Praying": 5 (motion, target) cases per method
+    assert len(cases) == 2 * 5 and set(cases["body"]) == {"skinny", "bulky"}
+    table1 = pd.read_csv(tmp_path / "out" / "contact_table1.csv", index_col=0)
+    assert np.isfinite(table1.loc["copy", "ours global position MSE"])
+    for name in ("contact_table5.md", "contact_table6.md", "contact_coverage.csv"):
+        assert (tmp_path / "out" / name).exists()
