@@ -13,10 +13,11 @@ from retarget_lib.data.sources.mixamo_fixture import write_mixamo_character, wri
 from retarget_lib.data.sources.mixamo_local import load_mixamo_folder
 from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.data.synthetic.motions import make_motion
-from retarget_lib.evaluation.mixamo import (CASE_COLUMNS, paper_pairs, run_mixamo_tdcn_evaluation, scenario_of,
-                                            unseen_motions)
+from retarget_lib.data.mixamo_splits import mixamo_training_set, paper_pairs, scenario_of, unseen_motions
+from retarget_lib.evaluation.mixamo import CASE_COLUMNS, run_mixamo_tdcn_evaluation
 from retarget_lib.evaluation.mixamo_contact import mixamo_contact_cases
 from retarget_lib.methods.registry import get_method
+from retarget_lib.training.tdcn import training_clips
 
 
 @pytest.fixture(scope="module")
@@ -148,3 +149,30 @@ def test_cli_contact_tables_on_the_folder(fixture_root, tmp_path, monkeypatch, c
     assert np.isfinite(table1.loc["copy", "ours global position MSE"])
     for name in ("contact_table5.md", "contact_table6.md", "contact_coverage.csv"):
         assert (tmp_path / "out" / name).exists()
+
+
+def test_training_set_follows_the_papers_split(fixture_root):
+    """Training characters: the manifest's nine that the folder has (Kaya, Warrok); motions: all but
+    the unseen ones ("Praying", performed by the scenario 3/4 source Claire and no 1/2 source)."""
+    skeletons, clips = mixamo_training_set(fixture_root)
+    assert list(skeletons) == ["Kaya", "Warrok W Kurniawan"]
+    assert sorted(ref.name for ref, _ in clips) == ["Sitting Clap", "Walking While Texting"]
+    assert all(set(own) == set(skeletons) and ref.fps == 30.0 for ref, own in clips)
+
+
+def test_cli_trains_a_table4_row_on_the_folder(fixture_root, tmp_path, monkeypatch, capsys):
+    """A two-step smoke run of TDCN "ours" with data.source=mixamo-local."""
+    monkeypatch.setenv("RETARGET_MIXAMO", str(fixture_root))
+    out = tmp_path / "run"
+    assert main(["train", "--config", "configs/tdcn_paper.yaml", "data.source=mixamo-local", "train.steps=2",
+                 "train.batch=2", "train.checkpoint_every=2", "--profile", "fast", "--out", str(out)]) == 0
+    assert (out / "final.pt").exists() and len(pd.read_csv(out / "losses.csv")) == 2
+    assert main(["train", "--config", "configs/tdcn_paper.yaml", "data.source=mixamo", "--out", str(out)]) == 2
+    assert "data.source" in capsys.readouterr().err
+
+
+@pytest.mark.data
+def test_mixed_training_set_has_both_casts(fixture_root):
+    clips = training_clips(False, "mixamo-local+synthetic", str(fixture_root))
+    assert {"Kaya", "Warrok W Kurniawan"} < set(clips.characters) and len(clips.characters) > 2
+    assert {"Sitting Clap", "Walking While Texting"} < set(clips.clip_names) and "Praying" not in clips.clip_names

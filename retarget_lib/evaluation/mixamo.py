@@ -7,10 +7,11 @@ characters that perform the same motion (same file name) with the same frame cou
 are expressed at the ground truth's frame rate (:func:`same_length`); the rest of the folder is
 reported as coverage, never as an error.
 
-**Scenarios** (Tables 2-3): a target is *seen* if it is one of the manifest's TDCN training
-characters; a motion is *unseen* if it is performed by a source of scenario 3 or 4 (Sporty Granny,
-Claire, Mutant) and by no source of scenario 1 or 2 (:func:`unseen_motions`) — the rule that gives
-exactly the paper's eight pairs their scenarios (pages 45, 51, 52 unseen; 18, 23, 28, 33 seen).
+**Scenarios** (Tables 2-3, :mod:`retarget_lib.data.mixamo_splits`): a target is *seen* if it is
+one of the manifest's TDCN training characters; a motion is *unseen* if it is performed by a
+source of scenario 3 or 4 (Sporty Granny, Claire, Mutant) and by no source of scenario 1 or 2 —
+the rule that gives exactly the paper's eight pairs their scenarios (pages 45, 51, 52 unseen; 18,
+23, 28, 33 seen), and the rule training follows.
 Table 4 is reported twice: over the paper's eight (source, target) pairs, on every motion they
 share, and over every pair of the folder by the same rule.
 
@@ -34,14 +35,15 @@ import numpy as np
 import pandas as pd
 
 from ..core.motion import Motion
-from ..data.manifest import mixamo_local_dir, source
+from ..data.manifest import mixamo_local_dir
+from ..data.mixamo_splits import paper_pairs, scenario_of, unseen_motions
 from ..data.sources.mixamo_local import MixamoFolder, load_mixamo_folder
 from ..files import atomic_write
 from ..methods.tdcn import load_generator, retarget_motion_with
 from .tdcn import (EvalCase, Method, evaluate_methods, markdown_table, normalized_mse, short_chunks,
                    table_from_cases, tdcn_methods, truth_frames)
 
-__all__ = ["METHOD_FPS", "CASE_COLUMNS", "tdcn_lists", "unseen_motions", "scenario_of", "same_length",
+__all__ = ["METHOD_FPS", "CASE_COLUMNS", "same_length",
            "mixamo_scores", "mixamo_tdcn_cases", "is_paper_case", "checkpoint_method", "mixamo_tdcn_per_case",
            "run_mixamo_tdcn_evaluation"]
 
@@ -50,38 +52,6 @@ METHOD_FPS = 30.0
 #: the per-case CSV's columns: the required ones first, then the context
 CASE_COLUMNS = ("source", "target", "motion", "method", "frames", "nmse", "nmse_root_relative", "scenario",
                 "paper_pair", "nmse_short", "nmse_short_root_relative", "short_chunks", "source_fps", "truth_fps")
-
-
-def tdcn_lists() -> dict:
-    """The manifest's TDCN lists (``mixamo-local`` → ``test_lists.tdcn``)."""
-    return source("mixamo-local")["test_lists"]["tdcn"]
-
-
-def paper_pairs() -> dict[tuple[str, str], int]:
-    """The paper's eight ``(source, target) -> scenario`` pairs (Table 3)."""
-    return {(p["source"], p["target"]): int(key.split("_")[0])
-            for key, pairs in tdcn_lists()["scenarios"].items() for p in pairs}
-
-
-def unseen_motions(performers: Mapping[str, set[str]]) -> set[str]:
-    """Motions that count as unseen (scenarios 3-4) in a folder.
-
-    Args:
-        performers: ``motion -> characters performing it``.
-
-    Returns:
-        the motions performed by a scenario 3/4 source and by no scenario 1/2 source.
-    """
-    pairs = paper_pairs()
-    seen_sources = {s for (s, _), k in pairs.items() if k in (1, 2)}
-    unseen_sources = {s for (s, _), k in pairs.items() if k in (3, 4)}
-    return {m for m, who in performers.items() if who & unseen_sources and not who & seen_sources}
-
-
-def scenario_of(target: str, motion: str, unseen: set[str]) -> int:
-    """Scenario 1-4 of a case: seen/unseen motion × training/test target character."""
-    seen_target = target in tdcn_lists()["train_characters"]
-    return {(True, True): 1, (True, False): 2, (False, True): 3, (False, False): 4}[(motion not in unseen, seen_target)]
 
 
 def same_length(source: Motion, truth: Motion) -> bool:
