@@ -7,6 +7,7 @@ import pandas as pd
 import pytest
 
 from retarget_lib.cli import main
+from retarget_lib.config import load_config
 from retarget_lib.core.character import Character
 from retarget_lib.core.skeleton import canonical22_skeleton
 from retarget_lib.data.sources.mixamo_fixture import write_mixamo_character, write_mixamo_fixture
@@ -17,6 +18,8 @@ from retarget_lib.data.mixamo_splits import mixamo_training_set, paper_pairs, sc
 from retarget_lib.evaluation.mixamo import CASE_COLUMNS, run_mixamo_tdcn_evaluation
 from retarget_lib.evaluation.mixamo_contact import mixamo_contact_cases
 from retarget_lib.methods.registry import get_method
+from retarget_lib.training.contact import ContactTraining
+from retarget_lib.training.contact import training_clips as contact_training_clips
 from retarget_lib.training.tdcn import training_clips
 
 
@@ -143,7 +146,7 @@ def test_cli_contact_tables_on_the_folder(fixture_root, tmp_path, monkeypatch, c
                  "--methods", "copy", "copy-rest", "--out", str(tmp_path / "out")]) == 0
     assert "contact_coverage.csv" in capsys.readouterr().out
     cases = pd.read_csv(tmp_path / "out" / "contact_cases.csv")
-    # Y Bot performs the fixture's three motions; Kaya lacks "Praying": 5 (motion, target) cases per method
+    # Y Bot performs the fixture's three test motions; Kaya lacks "Praying": 5 (motion, target) cases per method
     assert len(cases) == 2 * 5 and set(cases["body"]) == {"skinny", "bulky"}
     table1 = pd.read_csv(tmp_path / "out" / "contact_table1.csv", index_col=0)
     assert np.isfinite(table1.loc["copy", "ours global position MSE"])
@@ -156,7 +159,7 @@ def test_training_set_follows_the_papers_split(fixture_root):
     the unseen ones ("Praying", performed by the scenario 3/4 source Claire and no 1/2 source)."""
     skeletons, clips = mixamo_training_set(fixture_root)
     assert list(skeletons) == ["Kaya", "Warrok W Kurniawan"]
-    assert sorted(ref.name for ref, _ in clips) == ["Sitting Clap", "Walking While Texting"]
+    assert sorted(ref.name for ref, _ in clips) == ["Sitting Clap", "Walking", "Walking While Texting"]
     assert all(set(own) == set(skeletons) and ref.fps == 30.0 for ref, own in clips)
 
 
@@ -176,3 +179,19 @@ def test_mixed_training_set_has_both_casts(fixture_root):
     clips = training_clips(False, "mixamo-local+synthetic", str(fixture_root))
     assert {"Kaya", "Warrok W Kurniawan"} < set(clips.characters) and len(clips.characters) > 2
     assert {"Sitting Clap", "Walking While Texting"} < set(clips.clip_names) and "Praying" not in clips.clip_names
+
+
+@pytest.mark.slow
+def test_contact_training_runs_on_the_folder(fixture_root, tmp_path, monkeypatch):
+    """~30 s (contact detection on each training clip): a two-step run of the Efull row on the
+    folder's training characters; the appendix's test motions are never among its sources."""
+    monkeypatch.setenv("RETARGET_MIXAMO", str(fixture_root))
+    monkeypatch.setenv("RETARGET_CACHE", str(tmp_path / "cache"))
+    config = load_config("configs/contact_paper.yaml", ["data.source=mixamo-local", "model.hidden=32",
+                                                        "model.geometry=16", "train.batch=2", "train.steps=2"])
+    clips, targets = contact_training_clips(config)
+    assert sorted(targets) == ["Kaya", "Warrok W Kurniawan"]
+    assert sorted(c.name for c in clips) == ["Kaya/Walking", "Warrok W Kurniawan/Walking"]
+    run = ContactTraining(config, clips, targets)
+    losses = [run.step(i) for i in range(2)]
+    assert all(np.isfinite(v) for log in losses for v in log.values())

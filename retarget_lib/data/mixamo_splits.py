@@ -9,6 +9,11 @@ Mixamo page, which a folder of ``<Character>/<Motion>.bvh`` files does not recor
 the paper's eight pairs exactly their scenarios (pages 45, 51, 52 unseen; 18, 23, 28, 33 seen).
 Training (:func:`mixamo_training_set`) uses the training characters' clips of every motion that is
 not unseen, so scenario 3/4 motions and the test characters are never trained on.
+
+Contact-aware (Villegas et al. 2021, Sec. 4, App. C): the test source (Y Bot) is never trained on;
+the paper trains on the seven characters of NKN's training set [32], which it does not name, so
+:func:`mixamo_contact_training_set` uses the manifest's TDCN training characters (NKN's set plus two,
+TDCN Sec. 5) that have a ``shape.npz``, on every motion except the appendix's 30 test motions.
 """
 
 from __future__ import annotations
@@ -16,12 +21,14 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Mapping
 
+from ..core.character import Character
 from ..core.motion import Motion
 from ..core.skeleton import Skeleton
 from .manifest import mixamo_local_dir, source
 from .sources.mixamo_local import load_mixamo_folder
 
-__all__ = ["TRAIN_FPS", "tdcn_lists", "paper_pairs", "unseen_motions", "scenario_of", "mixamo_training_set"]
+__all__ = ["TRAIN_FPS", "tdcn_lists", "contact_lists", "paper_pairs", "unseen_motions", "scenario_of",
+           "mixamo_training_set", "mixamo_contact_training_set"]
 
 #: frame rate of the training clips (the methods' rate)
 TRAIN_FPS = 30.0
@@ -30,6 +37,11 @@ TRAIN_FPS = 30.0
 def tdcn_lists() -> dict:
     """The manifest's TDCN lists (``mixamo-local`` → ``test_lists.tdcn``)."""
     return source("mixamo-local")["test_lists"]["tdcn"]
+
+
+def contact_lists() -> dict:
+    """The manifest's contact lists (``mixamo-local`` → ``test_lists.contact``)."""
+    return source("mixamo-local")["test_lists"]["contact"]
 
 
 def paper_pairs() -> dict[tuple[str, str], int]:
@@ -98,3 +110,37 @@ def mixamo_training_set(root: str | Path | None = None) -> tuple[dict[str, Skele
     if not clips:
         raise ValueError(f"mixamo-local folder {folder.root}: no seen motion of the training characters")
     return skeletons, clips
+
+
+def mixamo_contact_training_set(root: str | Path | None = None) -> tuple[dict[str, Character], list[tuple[str, str, Motion]]]:
+    """The contact-aware training characters and clips of a folder (module docstring).
+
+    Each clip is resampled to :data:`TRAIN_FPS` and put on its character's mesh skeleton (the
+    ``shape.npz`` rest offsets) so that skinning it is consistent.
+
+    Returns:
+        ``(characters, clips)``: training character -> :class:`Character` (its mesh), and
+        ``(character, cache key, motion)`` per training clip (motion named ``"<character>/<motion>"``).
+
+    Raises:
+        ValueError: no training character with a mesh, or no training clip.
+    """
+    folder = load_mixamo_folder(root if root is not None else mixamo_local_dir())
+    lists = contact_lists()
+    excluded = {lists["source_character"]}
+    characters = {n: c for n in tdcn_lists()["train_characters"] if n not in excluded
+                  and (c := folder.character(n)) is not None}
+    if not characters:
+        raise ValueError(f"mixamo-local folder {folder.root}: no shape.npz of a training character "
+                         f"{tdcn_lists()['train_characters']}")
+    test_motions = {m["name"] for m in lists["motions"]}
+    clips = []
+    for (name, motion), clip in sorted(folder.clips.items()):
+        if name in characters and motion not in test_motions:
+            m = clip.resample(TRAIN_FPS).with_skeleton(characters[name].skeleton)
+            m.name = f"{name}/{motion}"
+            clips.append((name, f"mixamo_{folder.fingerprint(name, motion)}_{m.num_frames}", m))
+    if not clips:
+        raise ValueError(f"mixamo-local folder {folder.root}: no clip of {sorted(characters)} outside the "
+                         "contact test motions")
+    return characters, clips

@@ -18,34 +18,22 @@ of each clip, Eint every 3rd frame; ``paper``: whole clips, every frame).
 
 from __future__ import annotations
 
-import hashlib
 from pathlib import Path
 from typing import Sequence
 
 import pandas as pd
 
-from ..data.manifest import mixamo_local_dir, source
+from ..data.manifest import mixamo_local_dir
+from ..data.mixamo_splits import contact_lists
 from ..data.sources.mixamo_local import MixamoFolder, load_mixamo_folder
-from ..files import atomic_write, sha256_file
+from ..files import atomic_write
 from ..geometry.contacts import transfer_contacts
 from ..methods.contact import contact_clip
 from .contact import (CONTACT_PROFILES, TABLE1_ROWS, TABLE3_ROWS, ContactCase, contact_methods,
                       evaluate_contact_methods, write_contact_tables)
 from .mixamo import METHOD_FPS, same_length
 
-__all__ = ["contact_lists", "mixamo_contact_cases", "run_mixamo_contact_evaluation"]
-
-
-def contact_lists() -> dict:
-    """The manifest's contact lists (``mixamo-local`` → ``test_lists.contact``)."""
-    return source("mixamo-local")["test_lists"]["contact"]
-
-
-def _cache_key(folder: MixamoFolder, character: str, motion: str, frames: int) -> str:
-    """Contact-detection cache key: the clip's and the mesh's file contents, and the frame count."""
-    entry = next(c for c in folder.characters if c.name == character)
-    digest = hashlib.sha256((sha256_file(entry.motions[motion]) + sha256_file(entry.shape)).encode()).hexdigest()
-    return f"mixamo_{digest[:16]}_{frames}"
+__all__ = ["mixamo_contact_cases", "run_mixamo_contact_evaluation"]
 
 
 def mixamo_contact_cases(folder: MixamoFolder, profile: str = "fast") -> tuple[list[ContactCase], pd.DataFrame]:
@@ -78,7 +66,7 @@ def mixamo_contact_cases(folder: MixamoFolder, profile: str = "fast") -> tuple[l
             if n not in prepared:
                 src30 = src30.slice(0, n)
                 src30.name = motion
-                prepared[n] = contact_clip(src30, src_char, _cache_key(folder, src_name, motion, n))
+                prepared[n] = contact_clip(src30, src_char, f"mixamo_{folder.fingerprint(src_name, motion)}_{n}")
             clip, target = prepared[n], targets[name]
             cases.append(ContactCase(motion, motion, src_char, target, clip.motion, truth30.slice(0, n),
                                      clip.foot_contacts, transfer_contacts(clip.self_contacts, src_char, target),

@@ -52,12 +52,14 @@ class FixtureMotion(NamedTuple):
 
 
 #: "Praying" is not performed by Kaya (a TDCN scenario 1/2 source), so it is an unseen motion of
-#: the TDCN split (:func:`retarget_lib.evaluation.mixamo.unseen_motions`); "Sitting Clap" is longer
-#: than one 120-frame short chunk
+#: the TDCN split (:func:`retarget_lib.data.mixamo_splits.unseen_motions`); "Sitting Clap" is longer
+#: than one 120-frame short chunk; "Walking" is the only motion outside the contact paper's test
+#: list (a contact training clip)
 FIXTURE_MOTIONS: tuple[FixtureMotion, ...] = (
     FixtureMotion("Sitting Clap", "clap", 8, 150, tuple(FIXTURE_CAST)),
     FixtureMotion("Praying", "pray", 8, 90, ("Y Bot", "Warrok W Kurniawan", "Claire")),
     FixtureMotion("Walking While Texting", "walk", 8, 60, tuple(FIXTURE_CAST)),
+    FixtureMotion("Walking", "walk", 2, 70, ("Kaya", "Warrok W Kurniawan")),
 )
 #: the realism of real downloads: Claire at 60 fps, Kaya's weight rows summing to 0.998, Claire's
 #: "Walking While Texting" two frames short (its pairs are reported as "frame counts differ")

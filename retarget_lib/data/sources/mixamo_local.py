@@ -11,13 +11,14 @@ Layout (``$RETARGET_MIXAMO``, default ``data/mixamo``; see ``data_manifest.yaml`
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from ...core.canonical import to_canonical22
 from ...core.character import Character
 from ...core.motion import Motion
-from ...files import DataError
+from ...files import DataError, sha256_file
 from ...io.bvh import load_bvh
 from ...io.shape import load_shape_npz
 
@@ -96,6 +97,12 @@ class MixamoFolder:
         for character, motion in sorted(self.clips, key=lambda k: k[1]):
             out.setdefault(motion, set()).add(character)
         return out
+
+    def fingerprint(self, character: str, motion: str) -> str:
+        """16 hex digits of the sha256 of a clip's BVH and its character's ``shape.npz`` (cache keys)."""
+        entry = next(c for c in self.characters if c.name == character)
+        parts = [sha256_file(entry.motions[motion])] + ([sha256_file(entry.shape)] if entry.shape else [])
+        return hashlib.sha256("".join(parts).encode()).hexdigest()[:16]
 
     def character(self, name: str) -> Character | None:
         """The character's ``shape.npz`` as a :class:`Character` named ``name`` (``None`` without one)."""
