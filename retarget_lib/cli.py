@@ -113,6 +113,10 @@ def _evaluate_contact(args: argparse.Namespace) -> int:
 
 
 def _cmd_evaluate(args: argparse.Namespace) -> int:
+    if args.data != "mixamo-local" and (args.mixamo or args.methods or args.checkpoint):
+        raise RetargetInputError("--mixamo, --methods and --checkpoint need --data mixamo-local")
+    if args.table == "contact" and args.checkpoint:
+        raise RetargetInputError("--checkpoint adds a TDCN/NKN row: use it with --table tdcn")
     if args.table == "contact":
         return _evaluate_contact(args)
     if args.data == "mixamo-local":

@@ -16,7 +16,7 @@ from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.data.synthetic.motions import make_motion
 from retarget_lib.data.mixamo_splits import mixamo_training_set, paper_pairs, scenario_of, unseen_motions
 from retarget_lib.evaluation.mixamo import CASE_COLUMNS, run_mixamo_tdcn_evaluation
-from retarget_lib.evaluation.mixamo_contact import mixamo_contact_cases
+from retarget_lib.evaluation.mixamo_contact import mixamo_contact_cases, run_mixamo_contact_evaluation
 from retarget_lib.methods.registry import get_method
 from retarget_lib.training.contact import ContactTraining
 from retarget_lib.training.contact import training_clips as contact_training_clips
@@ -126,16 +126,21 @@ def test_cli_evaluate_on_the_folder(fixture_root, tmp_path, capsys):
     assert main(["evaluate", "--table", "tdcn", "--data", "mixamo-local", "--mixamo", str(tmp_path / "nowhere"),
                  "--out", str(tmp_path)]) == 2
     assert "RETARGET_MIXAMO" in capsys.readouterr().err
+    assert main(["evaluate", "--table", "tdcn", "--methods", "copy", "--out", str(tmp_path)]) == 2
+    assert "--data mixamo-local" in capsys.readouterr().err
 
 
 def test_contact_coverage_without_the_source_mesh(tmp_path):
     """No Y Bot: every appendix (target, motion) is reported with its reason; no case, no error."""
     cleo = make_character("cleo")
-    write_mixamo_character(tmp_path, cleo, [_named(make_motion("pray", cleo.skeleton, 1).slice(0, 20), "Praying")],
+    write_mixamo_character(tmp_path / "in", cleo, [_named(make_motion("pray", cleo.skeleton, 1).slice(0, 20), "Praying")],
                            name="Kaya")
-    cases, coverage = mixamo_contact_cases(load_mixamo_folder(tmp_path))
+    cases, coverage = mixamo_contact_cases(load_mixamo_folder(tmp_path / "in"))
     assert cases == [] and len(coverage) == 30 * 6
     assert set(coverage["status"]) == {"no Y Bot shape.npz"}
+    tables, _, _ = run_mixamo_contact_evaluation(tmp_path / "out", tmp_path / "in", rows=("copy",))
+    assert tables["table1"].filter(like="ours").isna().all().all()
+    assert (tmp_path / "out" / "contact_coverage.csv").exists() and (tmp_path / "out" / "contact_table5.md").exists()
 
 
 @pytest.mark.slow

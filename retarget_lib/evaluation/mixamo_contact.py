@@ -29,7 +29,7 @@ from ..data.sources.mixamo_local import MixamoFolder, load_mixamo_folder
 from ..files import atomic_write
 from ..geometry.contacts import transfer_contacts
 from ..methods.contact import contact_clip
-from .contact import (CONTACT_PROFILES, TABLE1_ROWS, TABLE3_ROWS, ContactCase, contact_methods,
+from .contact import (CONTACT_PROFILES, METRICS, TABLE1_ROWS, TABLE3_ROWS, ContactCase, contact_methods,
                       evaluate_contact_methods, write_contact_tables)
 from .mixamo import METHOD_FPS, same_length
 
@@ -97,8 +97,8 @@ def run_mixamo_contact_evaluation(out_dir: str | Path, root: str | Path | None =
     methods, missing = contact_methods(tuple(rows) if rows else TABLE1_ROWS + TABLE3_ROWS)
     per_case = evaluate_contact_methods(methods, cases, CONTACT_PROFILES[profile]["eval_every"],
                                         same={"Efull + ESO": "Ours", "Efull-residual + ESO": "Ours (residual)"})
-    if per_case.empty:
-        per_case = pd.DataFrame(columns=["method", "body"])
+    if per_case.empty:  # no case: empty tables (the paper's numbers only) and the coverage
+        per_case = pd.DataFrame(columns=["method", "body", *METRICS], dtype=float)
     evaluated = coverage[coverage["status"] == "evaluated"]
     note = (f"Contact-aware retargeting on the mixamo-local folder {folder.root}, profile {profile}: source "
             f"{contact_lists()['source_character']}, {len(cases)} (motion, target) cases of the appendix's "
