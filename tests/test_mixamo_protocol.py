@@ -166,6 +166,9 @@ def test_training_set_follows_the_papers_split(fixture_root):
     assert list(skeletons) == ["Kaya", "Warrok W Kurniawan"]
     assert sorted(ref.name for ref, _ in clips) == ["Sitting Clap", "Walking", "Walking While Texting"]
     assert all(set(own) == set(skeletons) and ref.fps == 30.0 for ref, own in clips)
+    # Warrok's "Walking" file has 0.2 % longer rest offsets: it is put on his one training skeleton
+    walking = dict((ref.name, own) for ref, own in clips)["Walking"]["Warrok W Kurniawan"]
+    np.testing.assert_array_equal(walking.skeleton.offsets, skeletons["Warrok W Kurniawan"].offsets)
 
 
 def test_cli_trains_a_table4_row_on_the_folder(fixture_root, tmp_path, monkeypatch, capsys):
