@@ -71,7 +71,8 @@ def scenario_of(target: str, motion: str, unseen: set[str]) -> int:
     return {(True, True): 1, (True, False): 2, (False, True): 3, (False, False): 4}[(motion not in unseen, seen_target)]
 
 
-def mixamo_training_set(root: str | Path | None = None) -> tuple[dict[str, Skeleton], list[tuple[Motion, Mapping[str, Motion]]]]:
+def mixamo_training_set(root: str | Path | None = None,
+                        ) -> tuple[dict[str, Skeleton], list[tuple[Motion, Mapping[str, Motion]]]]:
     """The TDCN training set of a folder, for :func:`~retarget_lib.training.tdcn.stack_clips`.
 
     Each training character's skeleton is that of its first clip (by motion name); its other clips
@@ -112,7 +113,8 @@ def mixamo_training_set(root: str | Path | None = None) -> tuple[dict[str, Skele
     return skeletons, clips
 
 
-def mixamo_contact_training_set(root: str | Path | None = None) -> tuple[dict[str, Character], list[tuple[str, str, Motion]]]:
+def mixamo_contact_training_set(root: str | Path | None = None,
+                                ) -> tuple[dict[str, Character], list[tuple[str, str, Motion]]]:
     """The contact-aware training characters and clips of a folder (module docstring).
 
     Each clip is resampled to :data:`TRAIN_FPS` and put on its character's mesh skeleton (the

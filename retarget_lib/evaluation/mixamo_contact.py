@@ -75,7 +75,8 @@ def mixamo_contact_cases(folder: MixamoFolder, profile: str = "fast") -> tuple[l
 
 
 def run_mixamo_contact_evaluation(out_dir: str | Path, root: str | Path | None = None, profile: str = "fast",
-                                  rows: Sequence[str] | None = None) -> tuple[dict[str, pd.DataFrame], pd.DataFrame, list[str]]:
+                                  rows: Sequence[str] | None = None,
+                                  ) -> tuple[dict[str, pd.DataFrame], pd.DataFrame, list[str]]:
     """Tables 1, 3, 5, 6 on a ``mixamo-local`` folder; writes ``contact_table{1,3,5,6}.csv/.md``,
     ``contact_cases.csv`` and ``contact_coverage.csv`` into ``out_dir``.
 

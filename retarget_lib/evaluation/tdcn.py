@@ -156,9 +156,10 @@ def evaluate_case(method: Method, case: EvalCase, short_frames: int = SHORT_FRAM
     h = case.target.height()
     truth = case.truth.global_positions()
     out = {}
-    for length, chunks in (("long", [(0, case.source.num_frames)]), ("short", short_chunks(case.source.num_frames, short_frames))):
-        per_chunk = [scores(*aligned_positions(method(case.source.slice(a, b), case.target), a, truth, case.truth.fps), h)
-                     for a, b in chunks]
+    frames = case.source.num_frames
+    for length, chunks in (("long", [(0, frames)]), ("short", short_chunks(frames, short_frames))):
+        per_chunk = [scores(*aligned_positions(method(case.source.slice(a, b), case.target), a, truth,
+                                               case.truth.fps), h) for a, b in chunks]
         out.update({f"{length}{k}": float(np.mean([c[k] for c in per_chunk])) for k in per_chunk[0]})
     return out
 
