@@ -12,6 +12,9 @@
                                          for configs/contact_*.yaml, a contact-aware Table 3 row
                                          (retarget_lib.training.contact)
     retarget evaluate --table tdcn|contact [--profile fast|paper] --out DIR
+                      [--data synthetic|mixamo-local [--mixamo DIR] [--methods ROW ...] [--checkpoint PATH]]
+                                         mixamo-local: the papers' protocols on a reviewer's Mixamo folder
+                                         (retarget_lib.evaluation.mixamo, .mixamo_contact)
     retarget bench [--quick]             speed table (ratios against references in the same run)
 
 Each command imports what it runs inside its ``_cmd_*`` function: the library below this module
@@ -89,18 +92,36 @@ def _cmd_train(args: argparse.Namespace) -> int:
     return 0
 
 
-def _cmd_evaluate(args: argparse.Namespace) -> int:
-    if args.table == "contact":
+def _evaluate_contact(args: argparse.Namespace) -> int:
+    if args.data == "mixamo-local":
+        from .evaluation.mixamo_contact import run_mixamo_contact_evaluation
+
+        tables, coverage, missing = run_mixamo_contact_evaluation(args.out, args.mixamo, args.profile or "fast",
+                                                                  args.methods)
+        print("coverage (target, motion) of the appendix's lists:\n"
+              + coverage.groupby(["body", "status"]).size().rename("cases").to_string())
+    else:
         from .evaluation.contact import run_contact_evaluation
 
         tables, missing = run_contact_evaluation(args.out, args.profile or "fast")
-        for name, table in tables.items():
-            print(f"{name}:\n{table.filter(like='ours').round(3).to_string()}\n")
-        if missing:
-            print(f"no trained checkpoint yet for: {', '.join(missing)}")
-        print(f"wrote {args.out}/contact_table1.csv/.md, contact_table3.*, contact_table5.*, contact_table6.*, "
-              "contact_cases.csv")
-        return 0
+    for name, table in tables.items():
+        print(f"{name}:\n{table.filter(like='ours').round(3).to_string()}\n")
+    if missing:
+        print(f"no trained checkpoint yet for: {', '.join(missing)}")
+    print(f"wrote {args.out}/contact_table1.csv/.md, contact_table3.*, contact_table5.*, contact_table6.*, "
+          "contact_cases.csv" + (", contact_coverage.csv" if args.data == "mixamo-local" else ""))
+    return 0
+
+
+def _cmd_evaluate(args: argparse.Namespace) -> int:
+    if args.data != "mixamo-local" and (args.mixamo or args.methods or args.checkpoint):
+        raise RetargetInputError("--mixamo, --methods and --checkpoint need --data mixamo-local")
+    if args.table == "contact" and args.checkpoint:
+        raise RetargetInputError("--checkpoint adds a TDCN/NKN row: use it with --table tdcn")
+    if args.table == "contact":
+        return _evaluate_contact(args)
+    if args.data == "mixamo-local":
+        return _evaluate_tdcn_mixamo(args)
     from .evaluation.tdcn import run_tdcn_evaluation
 
     table, missing = run_tdcn_evaluation(args.out)
@@ -109,6 +130,20 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     if missing:
         print(f"no trained checkpoint yet for: {', '.join(missing)}")
     print(f"wrote {args.out}/table4.csv, table4.md, table4_h2.*, table4_cases.csv")
+    return 0
+
+
+def _evaluate_tdcn_mixamo(args: argparse.Namespace) -> int:
+    from .evaluation.mixamo import run_mixamo_tdcn_evaluation
+
+    table, coverage, missing = run_mixamo_tdcn_evaluation(args.out, args.mixamo, args.methods, args.checkpoint or ())
+    print("paper's pairs (Table 3):\n" + coverage.to_string(index=False))
+    if len(table):
+        cols = [c for c in table.columns if c.endswith("avg")]
+        print(table[cols].round(3).to_string())
+    if missing:
+        print(f"no trained checkpoint yet for: {', '.join(missing)}")
+    print(f"wrote {args.out}/table4.md, table4.csv, table4_cases.csv")
     return 0
 
 
@@ -208,6 +243,15 @@ def build_parser() -> argparse.ArgumentParser:
                    help="tdcn: Kim et al. 2020, Table 4; contact: Villegas et al. 2021, Tables 1, 3, 5, 6")
     p.add_argument("--profile", choices=["fast", "paper"],
                    help="contact protocol size (fast: 6 clips x 6 targets, 60 frames; paper: 16 clips, whole)")
+    p.add_argument("--data", choices=["synthetic", "mixamo-local"], default="synthetic",
+                   help="synthetic: the embedded split; mixamo-local: your Mixamo download with the papers' "
+                        "protocols (ground truth = each target's own clip; see data_manifest.yaml)")
+    p.add_argument("--mixamo", help="the mixamo-local folder (default $RETARGET_MIXAMO or data/mixamo)")
+    p.add_argument("--methods", nargs="+", metavar="ROW",
+                   help="with --data mixamo-local: evaluate only these table rows (e.g. copy copy-rest ours; "
+                        "contact: e.g. copy copy-rest 'Ours (residual)')")
+    p.add_argument("--checkpoint", action="append", metavar="PATH",
+                   help="with --table tdcn --data mixamo-local: also evaluate this TDCN/NKN checkpoint (repeatable)")
     p.add_argument("--out", required=True, help="output folder")
     p.set_defaults(func=_cmd_evaluate)
 

@@ -70,6 +70,11 @@ def _table4_rows():
     return TABLE4_ROWS
 
 
+def _data_sources():
+    from .training.tdcn import DATA_SOURCES
+    return DATA_SOURCES
+
+
 def _table3_rows():
     from .losses.contact import TABLE3_ROWS
     return TABLE3_ROWS
@@ -89,7 +94,9 @@ TDCN: dict[str, Any] = {
               "num_layers": POS_INT, "disc_norm": TEXT, "causal": BOOL, "dense": BOOL, "residual": BOOL,
               "normalize_root": BOOL, "backbone": TEXT, "data": TEXT, "loss": TEXT},
     "data": {"window": POS_INT, "same_fraction": FRACTION, "scale_range": SCALE_RANGE, "scale_targets": BOOL,
-             "mirror": BOOL, "random_yaw": BOOL},
+             "mirror": BOOL, "random_yaw": BOOL,
+             "source": lazy_choice("synthetic, mixamo-local ($RETARGET_MIXAMO) or mixamo-local+synthetic",
+                                   _data_sources)},
     "loss": {"gan": choice("lsgan", "sigmoid_ce"), "twist_alpha_deg": NONNEG_NUM, "twist_exclude_root": BOOL,
              **{f"lambda_{k}": NONNEG_NUM for k in "ctharogd"}},
     "train": {"steps": POS_INT, "batch": POS_INT, "lr": POS_NUM, "betas": BETAS, "checkpoint_every": POS_INT},
@@ -102,7 +109,9 @@ CONTACT: dict[str, Any] = {
     "energy": {"row": lazy_choice("the Table 3 rows (retarget_lib.losses.contact.TABLE3_ROWS)", _table3_rows),
                "lambda_j2j": NONNEG_NUM, "beta_int": NONNEG_NUM, "gamma_foot": NONNEG_NUM, "rho": NONNEG_NUM,
                "omega": NONNEG_NUM, "length_unit": POS_NUM},
-    "data": {"window": POS_INT, "held_out_seed": NONNEG_INT, "train_characters": NAMES},
+    "data": {"window": POS_INT, "held_out_seed": NONNEG_INT, "train_characters": NAMES,
+             "source": lazy_choice("synthetic, mixamo-local ($RETARGET_MIXAMO) or mixamo-local+synthetic",
+                                   _data_sources)},
     "train": {"steps": POS_INT, "epochs": POS_INT, "batch": POS_INT, "lr": POS_NUM, "betas": BETAS,
               "lr_decay": Rule("a number in (0, 1]", lambda v: _is_num(v) and 0 < v <= 1),
               "checkpoint_every": POS_INT},

@@ -9,7 +9,7 @@ from retarget_lib.data.status import check_sources
 from retarget_lib.data.synthetic.dataset import load_synthetic
 from retarget_lib.files import DataError
 from retarget_lib.io import load_bvh, load_shape_npz
-from mixamo_fixture import write_mixamo_fixture
+from retarget_lib.data.sources.mixamo_fixture import write_mixamo_character
 
 
 @pytest.fixture(scope="module")
@@ -19,7 +19,7 @@ def fixture_dir(tmp_path_factory):
     clips = [ds.family("walk")[0], ds.family("clap")[0]]
     for clip in clips:
         character = ds.characters[clip.performer]
-        write_mixamo_fixture(root, character, [clip.motion.slice(0, 60)])
+        write_mixamo_character(root, character, [clip.motion.slice(0, 60)])
     return root, clips, ds
 
 

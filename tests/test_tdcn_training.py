@@ -51,7 +51,7 @@ def test_paper_settings_and_every_table4_row_config():
     assert paper["model"]["channels"] == 1024 and paper["model"]["dropout"] == 0.1
     assert paper["train"]["batch"] == 128 and paper["train"]["lr"] == 1e-4 and paper["train"]["betas"] == [0.5, 0.999]
     assert paper["data"] == {"window": 81, "same_fraction": 0.5, "scale_range": [0.5, 1.5], "scale_targets": True,
-                             "mirror": False, "random_yaw": False}
+                             "mirror": False, "random_yaw": False, "source": "synthetic"}
     assert {k: paper["loss"][k] for k in ("lambda_t", "lambda_h", "lambda_a", "lambda_r", "lambda_o", "lambda_g")} \
         == {"lambda_t": 10, "lambda_h": 10, "lambda_a": 1, "lambda_r": 0.1, "lambda_o": 1, "lambda_g": 5}
     assert sorted(p.stem for p in CONFIGS.glob("tdcn_*.yaml")) == sorted(ROWS)

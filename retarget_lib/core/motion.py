@@ -143,7 +143,24 @@ class Motion:
         if n_new > MAX_FRAMES:
             raise LimitError(f"resampling {self.name or 'the motion'} ({T} frames at {self.fps:g} fps) to {fps:g} fps "
                              f"gives {n_new} frames, beyond the limit of {MAX_FRAMES}")
-        t = np.arange(n_new) * (self.fps / fps)
+        return self._at_frames(np.arange(n_new) * (self.fps / fps), fps)
+
+    def at_times(self, seconds: np.ndarray, fps: float | None = None) -> "Motion":
+        """The motion at arbitrary times: slerp for rotations, linear for root positions.
+
+        Args:
+            seconds: ``(N,)`` times since the first frame (clamped to the clip).
+            fps: the ``fps`` of the result (default this motion's); the times need not be uniform.
+
+        Returns:
+            an ``N``-frame motion.
+        """
+        return self._at_frames(np.asarray(seconds, dtype=np.float64) * self.fps, self.fps if fps is None else fps)
+
+    def _at_frames(self, t: np.ndarray, fps: float) -> "Motion":
+        """Frames at fractional frame positions ``t (N,)`` (clamped), with frame rate ``fps``."""
+        T, n_new = self.num_frames, len(t)
+        t = np.clip(t, 0.0, T - 1)
         i0 = np.clip(np.floor(t).astype(int), 0, T - 1)
         i1 = np.clip(i0 + 1, 0, T - 1)
         a = t - i0

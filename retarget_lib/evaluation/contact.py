@@ -60,7 +60,7 @@ from .paper import CONTACT_PAPER_METRICS, PAPER_TABLE1, PAPER_TABLE3, PAPER_TABL
 from .tdcn import METRES_TO_CM, normalized_mse, write_table
 
 __all__ = ["CONTACT_TARGETS", "CONTACT_PROFILES", "METRICS", "ContactCase", "shipped_contact_results", "rerun_cases",
-           "contact_cases", "contact_methods", "evaluate_contact_case", "evaluate_contact_methods",
+           "contact_cases", "contact_methods", "evaluate_contact_case", "evaluate_contact_methods", "write_contact_tables",
            "vertex_contact_mse", "foot_contact_accuracy", "contact_tables", "TABLE3_STEPS", "ablation_steps",
            "run_contact_evaluation"]
 
@@ -103,6 +103,8 @@ class ContactCase:
         truth: the same clip authored on the target (ground truth).
         foot_contacts: ``(T, 4)`` bool detected on the source.
         contacts: the source's detected hand contacts, on the *target* mesh (App. F transfer).
+        body_type: the target's group, ``"skinny"`` or ``"bulky"`` (Tables 5 and 6).
+        contact_rich: whether the clip has hand contacts (synthetic: by design of its family).
     """
 
     clip: str
@@ -113,14 +115,8 @@ class ContactCase:
     truth: Motion
     foot_contacts: np.ndarray
     contacts: SelfContacts
-
-    @property
-    def contact_rich(self) -> bool:
-        return self.family in CONTACT_RICH
-
-    @property
-    def body_type(self) -> str:
-        return next(k for k, names in CONTACT_TARGETS.items() if self.target.name in names)
+    body_type: str
+    contact_rich: bool
 
 
 @lru_cache(maxsize=None)
@@ -153,7 +149,9 @@ def contact_cases(profile: str = "fast") -> list[ContactCase]:
                     truth = make_motion(family, target.skeleton, seed, body_radii=_radii(name))
                     truth = truth.slice(0, motion.num_frames)
                     cases.append(ContactCase(motion.name, family, source_char, target, motion, truth,
-                                             clip.foot_contacts, transfer_contacts(clip.self_contacts, source_char, target)))
+                                             clip.foot_contacts, transfer_contacts(clip.self_contacts, source_char, target),
+                                             body_type=next(k for k, v in CONTACT_TARGETS.items() if name in v),
+                                             contact_rich=family in CONTACT_RICH))
     return cases
 
 
@@ -388,15 +386,26 @@ def run_contact_evaluation(out_dir: str | Path, profile: str = "fast", rows: tup
     if rows and (out / "contact_cases.csv").exists():
         old = pd.read_csv(out / "contact_cases.csv")
         per_case = pd.concat([old[~old["method"].isin(per_case["method"].unique())], per_case], ignore_index=True)
-    tables = contact_tables(per_case)
     note = (f"Contact-aware retargeting, profile {profile}: source {CONTACT_SOURCE} (unseen), {len(cases)} cases "
             f"(targets {CONTACT_TARGETS}); interpenetration x1000, vertex contact MSE and global position MSE "
             "in cm^2/cm; 'paper' columns: Villegas et al. 2021 (Mixamo). "
             + (f"Rows without a shipped checkpoint: {', '.join(missing)}." if missing else ""))
+    return write_contact_tables(per_case, out, note), missing
+
+
+def write_contact_tables(per_case: pd.DataFrame, out_dir: str | Path, note: str) -> dict[str, pd.DataFrame]:
+    """:func:`contact_tables` of ``per_case`` written as ``contact_table{1,3,5,6}.csv/.md`` (each
+    with ``note``) and ``contact_cases.csv`` into ``out_dir`` (atomically).
+
+    Returns:
+        the tables.
+    """
+    out = Path(out_dir)
+    tables = contact_tables(per_case)
     titles = {"table1": "Table 1", "table3": "Table 3 (ablation)", "table5": "Table 5 (skinny targets)",
               "table6": "Table 6 (bulky targets)"}
     for name, table in tables.items():
         write_table(table, out, f"contact_{name}", f"{titles[name]}. {note}")
     with atomic_write(out / "contact_cases.csv", "w") as f:
         per_case.to_csv(f, index=False, float_format="%.6g")
-    return tables, missing
+    return tables

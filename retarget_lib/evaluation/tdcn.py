@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Mapping
+from typing import Callable, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
@@ -88,22 +88,79 @@ def tdcn_cases() -> list[EvalCase]:
     return cases
 
 
-def evaluate_case(method: Method, case: EvalCase, short_frames: int = SHORT_FRAMES) -> dict[str, float]:
-    """Short and long normalised MSE (both ``H`` and ``H²`` variants) of one method on one case."""
+#: per-comparison scores: ``(pred (N,J,3), truth (N,J,3), H) -> {suffix: value}`` (metres in, any unit out)
+Scores = Callable[[np.ndarray, np.ndarray, float], dict[str, float]]
+
+
+def table4_scores(pred: np.ndarray, truth: np.ndarray, height: float) -> dict[str, float]:
+    """Table 4's scores of one comparison: ``""`` (cm²/H in cm) and ``"_h2"`` (/H², unit-free)."""
+    return {"": normalized_mse(pred, truth, height), "_h2": normalized_mse(pred, truth, height, squared_height=True)}
+
+
+def short_chunks(frames: int, short_frames: int = SHORT_FRAMES) -> list[tuple[int, int]]:
+    """The "short" protocol's ``[start, stop)`` chunks of a ``frames``-frame clip: consecutive
+    ``short_frames``-frame chunks (a remainder shorter than a chunk is dropped); a clip shorter than
+    one chunk is one chunk."""
+    chunks = [(s, s + short_frames) for s in range(0, frames - short_frames + 1, short_frames)]
+    return chunks or [(0, frames)]
+
+
+def truth_frames(pred_frames: int, pred_fps: float, start: int, truth_frames_total: int, truth_fps: float) -> np.ndarray:
+    """Indices of the ground-truth frames inside the time span of a prediction.
+
+    The prediction covers source frames ``start .. start + pred_frames - 1`` at ``pred_fps``; the
+    ground truth's frame ``k`` is at ``k / truth_fps`` seconds. At equal rates these are frames
+    ``start .. start + pred_frames - 1`` (cut at the ground truth's end).
+
+    Returns:
+        ``(N,)`` int ground-truth frame indices.
+    """
+    if abs(pred_fps - truth_fps) < 1e-9:
+        return np.arange(start, min(start + pred_frames, truth_frames_total))
+    t0, t1 = start / pred_fps, (start + pred_frames - 1) / pred_fps
+    k = np.arange(int(np.ceil(t0 * truth_fps - 1e-6)), int(np.floor(t1 * truth_fps + 1e-6)) + 1)
+    return k[(k >= 0) & (k < truth_frames_total)]
+
+
+def aligned_positions(pred: Motion, start: int, truth: np.ndarray, truth_fps: float) -> tuple[np.ndarray, np.ndarray]:
+    """A prediction's and the ground truth's global joint positions at the ground truth's frame times.
+
+    Args:
+        pred: the method's output for source frames ``start ..`` (at ``pred.fps``).
+        start: first source frame of ``pred``.
+        truth: ``(T, J, 3)`` ground-truth global positions (metres).
+        truth_fps: the ground truth's frame rate.
+
+    Returns:
+        ``(pred (N,J,3), truth (N,J,3))``; at equal frame rates the prediction's own frames,
+        otherwise the prediction interpolated (:meth:`Motion.at_times`) at the ground-truth frames
+        of its time span (:func:`truth_frames`).
+    """
+    k = truth_frames(pred.num_frames, pred.fps, start, len(truth), truth_fps)
+    if abs(pred.fps - truth_fps) < 1e-9:
+        return pred.global_positions()[: len(k)], truth[k]
+    return pred.at_times(k / truth_fps - start / pred.fps).global_positions(), truth[k]
+
+
+def evaluate_case(method: Method, case: EvalCase, short_frames: int = SHORT_FRAMES,
+                  scores: Scores = table4_scores) -> dict[str, float]:
+    """Long (whole clip) and short (mean over :func:`short_chunks`) scores of one method on one case.
+
+    Each chunk is retargeted on its own and compared at the ground truth's frame times
+    (:func:`aligned_positions`).
+
+    Returns:
+        ``{"long" + suffix, "short" + suffix}`` for every suffix of ``scores`` (default
+        :func:`table4_scores`: ``long, long_h2, short, short_h2``).
+    """
     h = case.target.height()
-    out = {}
-    long_pred = method(case.source, case.target).global_positions()
     truth = case.truth.global_positions()
-    out["long"] = normalized_mse(long_pred, truth, h)
-    out["long_h2"] = normalized_mse(long_pred, truth, h, squared_height=True)
-    chunks = [(s, s + short_frames) for s in range(0, case.source.num_frames - short_frames + 1, short_frames)]
-    chunks = chunks or [(0, case.source.num_frames)]
-    short, short_h2 = [], []
-    for a, b in chunks:
-        pred = method(case.source.slice(a, b), case.target).global_positions()
-        short.append(normalized_mse(pred, truth[a:b], h))
-        short_h2.append(normalized_mse(pred, truth[a:b], h, squared_height=True))
-    out["short"], out["short_h2"] = float(np.mean(short)), float(np.mean(short_h2))
+    out = {}
+    frames = case.source.num_frames
+    for length, chunks in (("long", [(0, frames)]), ("short", short_chunks(frames, short_frames))):
+        per_chunk = [scores(*aligned_positions(method(case.source.slice(a, b), case.target), a, truth,
+                                               case.truth.fps), h) for a, b in chunks]
+        out.update({f"{length}{k}": float(np.mean([c[k] for c in per_chunk])) for k in per_chunk[0]})
     return out
 
 
@@ -125,20 +182,46 @@ def error_breakdown(method: Method, case: EvalCase, frames: int = SHORT_FRAMES) 
             "pose": normalized_mse(pred - pred[:, :1], truth - truth[:, :1], h)}
 
 
-def evaluate_method(method: Method, cases: list[EvalCase]) -> pd.DataFrame:
-    """Per-case results: one row per case with scenario, names and the four metrics."""
+def evaluate_method(method: Method, cases: list[EvalCase], scores: Scores = table4_scores) -> pd.DataFrame:
+    """Per-case results: one row per case with scenario, names and the scores of :func:`evaluate_case`."""
     return pd.DataFrame([{"scenario": c.scenario, "source": c.source_name, "target": c.target_name,
-                          "clip": c.clip, **evaluate_case(method, c)} for c in cases])
+                          "clip": c.clip, **evaluate_case(method, c, scores=scores)} for c in cases])
+
+
+def evaluate_methods(methods: Mapping[str, Method], cases: list[EvalCase], scores: Scores = table4_scores) -> pd.DataFrame:
+    """:func:`evaluate_method` of every method, stacked, with a leading ``method`` column."""
+    per_case = []
+    for name, method in methods.items():
+        res = evaluate_method(method, cases, scores)
+        res.insert(0, "method", name)
+        per_case.append(res)
+    return pd.concat(per_case, ignore_index=True)
 
 
 def table4_row(per_case: pd.DataFrame, squared_height: bool = False) -> pd.Series:
-    """Scenario means and their average, short then long, in :data:`TABLE4_COLUMNS` order."""
+    """Scenario means and their average, short then long, in :data:`TABLE4_COLUMNS` order.
+
+    A scenario without cases is NaN; "avg" is the mean over the scenarios present.
+    """
     suffix = "_h2" if squared_height else ""
     values = []
     for length in ("short", "long"):
         by = per_case.groupby("scenario")[length + suffix].mean().reindex([1, 2, 3, 4])
         values += list(by.values) + [float(by.mean())]
     return pd.Series(values, index=list(TABLE4_COLUMNS))
+
+
+def table_from_cases(per_case: pd.DataFrame, squared_height: bool = False) -> pd.DataFrame:
+    """Table 4 from per-case results (:func:`evaluate_methods`): a row per method (in order of
+    appearance) with ``ours <column>`` and, for rows the paper reports, ``paper <column>``."""
+    rows = {}
+    for name, res in per_case.groupby("method", sort=False):
+        row = {f"ours {c}": v for c, v in table4_row(res, squared_height).items()}
+        paper = PAPER_TABLE4.get(name) if not squared_height else None
+        if paper is not None:
+            row.update({f"paper {c}": v for c, v in zip(TABLE4_COLUMNS, paper)})
+        rows[name] = row
+    return pd.DataFrame(rows).T
 
 
 def tdcn_table(methods: Mapping[str, Method], cases: list[EvalCase] | None = None,
@@ -154,19 +237,8 @@ def tdcn_table(methods: Mapping[str, Method], cases: list[EvalCase] | None = Non
         ``(table, per_case)``: ``table`` has a row per method with our columns and, for rows the
         paper reports, ``paper <column>`` columns; ``per_case`` has every case's numbers.
     """
-    cases = cases if cases is not None else tdcn_cases()
-    rows, per_case = {}, []
-    for name, method in methods.items():
-        res = evaluate_method(method, cases)
-        res.insert(0, "method", name)
-        per_case.append(res)
-        ours = table4_row(res, squared_height)
-        paper = PAPER_TABLE4.get(name) if not squared_height else None
-        row = {f"ours {c}": v for c, v in ours.items()}
-        if paper is not None:
-            row.update({f"paper {c}": v for c, v in zip(TABLE4_COLUMNS, paper)})
-        rows[name] = row
-    return pd.DataFrame(rows).T, pd.concat(per_case, ignore_index=True)
+    per_case = evaluate_methods(methods, cases if cases is not None else tdcn_cases())
+    return table_from_cases(per_case, squared_height), per_case
 
 
 def paper_comparison(table: pd.DataFrame) -> pd.DataFrame:
@@ -231,22 +303,27 @@ def write_table(table: pd.DataFrame, out_dir: str | Path, name: str, note: str =
     return csv_path, md_path
 
 
-def tdcn_methods() -> tuple[dict[str, Method], list[str]]:
+def tdcn_methods(only: Sequence[str] | None = None) -> tuple[dict[str, Method], list[str]]:
     """The methods to put in Table 4: the registry's two copy baselines, every Table 4 row whose
     checkpoint is shipped (``table: tdcn`` in the manifest; loaded once, by the registry method its
     entry names), then our shipped variants that are not rows of the paper (e.g. ``ours-residual``,
-    no paper numbers); and the paper's rows still without one (reported, never faked)."""
-    methods: dict[str, Method] = {name: get_method(name).retargeter() for name in ("copy", "copy-rest")}
+    no paper numbers); and the paper's rows still without one (reported, never faked).
+
+    Args:
+        only: keep only these row names (default: all; a name that is not a row is ignored).
+    """
+    keep = (lambda row: True) if only is None else (lambda row: row in only)
+    methods: dict[str, Method] = {name: get_method(name).retargeter() for name in ("copy", "copy-rest") if keep(name)}
     shipped = table_checkpoints("tdcn")
     missing = []
     for row in PAPER_TABLE4:
         entry = shipped.get(row)
         if entry is None:
             missing.append(row)
-            continue
-        methods[row] = get_method(entry.method).retargeter(entry.id)
+        elif keep(row):
+            methods[row] = get_method(entry.method).retargeter(entry.id)
     for row, entry in shipped.items():  # our variants (not rows of the paper), e.g. "ours-residual"
-        if row not in PAPER_TABLE4:
+        if row not in PAPER_TABLE4 and keep(row):
             methods[row] = get_method(entry.method).retargeter(entry.id)
     return methods, missing
 
@@ -259,9 +336,8 @@ def run_tdcn_evaluation(out_dir: str | Path) -> tuple[pd.DataFrame, list[str]]:
         ``(table, missing_rows)``.
     """
     methods, missing = tdcn_methods()
-    cases = tdcn_cases()
-    table, per_case = tdcn_table(methods, cases)
-    table_h2, _ = tdcn_table(methods, cases, squared_height=True)
+    table, per_case = tdcn_table(methods, tdcn_cases())
+    table_h2 = table_from_cases(per_case, squared_height=True)
     note = ("Normalised MSE of global joint positions (cm² / H in cm; NKN/TDCN definition) on the "
             "synthetic four-scenario split; 'paper' columns are Kim et al. 2020, Table 4 (Mixamo). "
             "copy-rest is the synthetic ground truth's own definition, so it scores 0 by construction. "

@@ -20,6 +20,10 @@ so the detected hand contacts are real contacts of that body), with seeds below
 (:mod:`retarget_lib.evaluation.contact`) uses other characters as targets, held-out seeds and a
 source body never seen in training (``mannequin-x``, our stand-in for Mixamo's Y-bot). Source foot
 and hand contacts are detected once per clip and cached (``.cache/contact_training``).
+With ``data.source: mixamo-local`` the sources and targets come from a reviewer's Mixamo folder
+instead (:func:`~retarget_lib.data.mixamo_splits.mixamo_contact_training_set`: the training
+characters' own meshes and clips, the appendix's test motions and Y Bot held out);
+``mixamo-local+synthetic`` uses both.
 
 **Epochs.** The paper trains 10 epochs with a learning-rate decay of 0.95 per epoch; here an
 "epoch" is ``train.steps / train.epochs`` steps, so the decay and the Efoot ramp follow the same
@@ -38,6 +42,8 @@ from ..core.character import Character
 from ..core.quantities import MotionQuantities, foot_ground_heights, leg_ratio
 from ..core.skinning import linear_blend_skinning
 from ..data.checkpoints import save_state
+from ..data.manifest import mixamo_local_dir
+from ..data.mixamo_splits import mixamo_contact_training_set
 from ..data.synthetic.dataset import dataset_path, fingerprint_of, load_synthetic
 from ..geometry.contacts import vertex_correspondence
 from ..geometry.penetration import InterpenetrationEnergy
@@ -58,22 +64,33 @@ LOG_TERMS: tuple[str, ...] = ("weak", "ee", "foot", "j2j", "int", "total")
 def training_clips(config: dict) -> tuple[list[ContactClip], dict[str, Character]]:
     """The training sources and targets of ``config["data"]`` (see the module docstring).
 
+    ``data.source``: ``synthetic`` (default), ``mixamo-local`` (the reviewer's folder,
+    :func:`~retarget_lib.data.mixamo_splits.mixamo_contact_training_set`) or both
+    (``mixamo-local+synthetic``).
+
     Returns:
-        ``(clips, targets)``: clips performed by the training characters with seeds below
-        ``held_out_seed``, and the training characters by name.
+        ``(clips, targets)``: clips performed by the training characters (synthetic: seeds below
+        ``held_out_seed``), and the training characters by name.
     """
     data = config["data"]
-    ds = load_synthetic()
-    names = list(data["train_characters"])
-    unknown = [n for n in names if n not in ds.characters]
-    if unknown:
-        raise ValueError(f"data.train_characters: unknown characters {unknown}; known: {sorted(ds.characters)}")
-    key = fingerprint_of(dataset_path())[:12]
-    clips = [contact_clip(c.motion, ds.characters[c.performer], f"{key}_{c.name}")
-             for c in ds.clips if c.performer in names and int(c.name.rsplit("_", 1)[1]) < int(data["held_out_seed"])]
+    source = data.get("source", "synthetic")
+    clips, targets = [], {}
+    if source != "synthetic":
+        targets, mixamo = mixamo_contact_training_set(mixamo_local_dir())
+        clips = [contact_clip(motion, targets[name], key) for name, key, motion in mixamo]
+    if source != "mixamo-local":
+        ds = load_synthetic()
+        names = list(data["train_characters"])
+        unknown = [n for n in names if n not in ds.characters]
+        if unknown:
+            raise ValueError(f"data.train_characters: unknown characters {unknown}; known: {sorted(ds.characters)}")
+        key = fingerprint_of(dataset_path())[:12]
+        clips += [contact_clip(c.motion, ds.characters[c.performer], f"{key}_{c.name}")
+                  for c in ds.clips if c.performer in names and int(c.name.rsplit("_", 1)[1]) < int(data["held_out_seed"])]
+        targets.update({n: ds.characters[n] for n in names})
     if not clips:
         raise ValueError("no training clip: no clip of the training characters below data.held_out_seed")
-    return clips, {n: ds.characters[n] for n in names}
+    return clips, targets
 
 
 def energy_weights(config: dict) -> ContactEnergyWeights:

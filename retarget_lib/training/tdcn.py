@@ -102,13 +102,16 @@ from __future__ import annotations
 from dataclasses import dataclass, fields
 from functools import lru_cache
 from pathlib import Path
-from typing import NamedTuple
+from typing import Mapping, NamedTuple, Sequence
 
 import torch
 
+from ..core.motion import Motion
 from ..core.rotations import quat_from_axis_angle, quat_mul, quat_rotate
+from ..core.skeleton import Skeleton
 from ..core.transfer import retarget_ground_truth
 from ..data.checkpoints import save_state
+from ..data.manifest import mixamo_local_dir
 from ..data.splits import tdcn_split
 from ..data.synthetic.dataset import load_synthetic
 from ..losses import (MotionTensors, TDCNLossWeights, adversarial_loss, adversarial_loss_discriminator,
@@ -124,7 +127,9 @@ from .loop import TrainTask, load_checkpoint, seed_everything
 Tensor = torch.Tensor
 
 __all__ = [
+    "DATA_SOURCES",
     "TrainingClips",
+    "stack_clips",
     "training_clips",
     "TrainingBatch",
     "WindowSampler",
@@ -176,38 +181,77 @@ class TrainingClips:
         Raises:
             ValueError: no clip is long enough.
         """
-        starts = [torch.arange(int(a), int(b) - window + 1) for a, b in zip(self.clip_bounds[:-1],
-                                                                              self.clip_bounds[1:])]
+        starts = [torch.arange(int(a), max(int(a), int(b) - window + 1))  # none in a clip shorter than a window
+                  for a, b in zip(self.clip_bounds[:-1], self.clip_bounds[1:])]
         starts = torch.cat(starts)
         if starts.numel() == 0:
             raise ValueError(f"no training clip has {window} frames")
         return starts
 
 
+#: ``data.source`` values: the embedded synthetic split, a reviewer's Mixamo folder, or both
+DATA_SOURCES = ("synthetic", "mixamo-local", "mixamo-local+synthetic")
+
+
+def stack_clips(skeletons: Mapping[str, Skeleton], clips: Sequence[tuple[Motion, Mapping[str, Motion]]]) -> TrainingClips:
+    """Every character performing every clip, concatenated along time (:class:`TrainingClips`).
+
+    Args:
+        skeletons: character name -> canonical-22 skeleton.
+        clips: ``(reference, own versions)`` per clip: a character with an own version (same frame
+            count as the reference, on its skeleton) performs that; every other character performs
+            the ground-truth transfer of the reference
+            (:func:`~retarget_lib.core.transfer.retarget_ground_truth`).
+    """
+    lengths = torch.tensor([0] + [ref.num_frames for ref, _ in clips])
+    rotations, roots = [], []
+    for name, skeleton in skeletons.items():
+        versions = [own[name] if name in own else retarget_ground_truth(ref, skeleton) for ref, own in clips]
+        rotations.append(torch.cat([torch.as_tensor(m.rotations, dtype=torch.float32) for m in versions]))
+        roots.append(torch.cat([torch.as_tensor(m.root_positions, dtype=torch.float32) for m in versions]))
+    offsets = torch.stack([torch.as_tensor(s.offsets, dtype=torch.float32) for s in skeletons.values()])
+    return TrainingClips(tuple(skeletons), tuple(ref.name for ref, _ in clips), lengths.cumsum(0),
+                         offsets, torch.stack(rotations), torch.stack(roots))
+
+
+def _synthetic_clips() -> tuple[dict[str, Skeleton], list[tuple[Motion, dict]]]:
+    """The TDCN split's train characters and train clips (every version a ground-truth transfer)."""
+    ds, split = load_synthetic(), tdcn_split()
+    clips = [(ds.clip(f"{m.family}_{m.seed:03d}").motion, {}) for m in split.train_motions]
+    return {n: ds.characters[n].skeleton for n in split.train_characters}, clips
+
+
 @lru_cache(maxsize=2)
-def training_clips(mirror: bool = False) -> TrainingClips:
-    """The TDCN split's train characters × train clips (ground-truth transfers), built once.
+def training_clips(mirror: bool = False, source: str = "synthetic", mixamo_root: str | None = None) -> TrainingClips:
+    """The training characters × training clips of ``source``, built once per process.
 
     Args:
         mirror: also every clip's left/right mirror image (:meth:`Motion.mirror`), as more clips.
+        source: one of :data:`DATA_SOURCES`. ``synthetic``: the TDCN split's train characters ×
+            train clips (ground-truth transfers). ``mixamo-local``: the folder's paper training
+            characters and seen motions (:func:`~retarget_lib.data.sources.mixamo_training.mixamo_training_set`),
+            each character's own clip where it has one. ``mixamo-local+synthetic``: both
+            characters sets, both clip sets; a character without its own version of a clip
+            performs the clip's ground-truth transfer.
+        mixamo_root: the ``mixamo-local`` folder (default ``$RETARGET_MIXAMO``).
 
     Returns:
         :class:`TrainingClips` (treat as read-only: it is shared within the process).
     """
-    ds, split = load_synthetic(), tdcn_split()
-    clips = [ds.clip(f"{m.family}_{m.seed:03d}").motion for m in split.train_motions]
+    if source not in DATA_SOURCES:
+        raise ValueError(f"data.source must be one of {DATA_SOURCES}, got {source!r}")
+    skeletons: dict[str, Skeleton] = {}
+    clips: list[tuple[Motion, Mapping[str, Motion]]] = []
+    if source != "synthetic":
+        from ..data.mixamo_splits import mixamo_training_set
+
+        skeletons, clips = mixamo_training_set(mixamo_root)
+    if source != "mixamo-local":
+        synthetic_skeletons, synthetic_clips = _synthetic_clips()
+        skeletons, clips = {**skeletons, **synthetic_skeletons}, clips + synthetic_clips
     if mirror:
-        clips += [c.mirror() for c in clips]
-    lengths = torch.tensor([0] + [c.num_frames for c in clips])
-    rotations, roots = [], []
-    for name in split.train_characters:
-        versions = [retarget_ground_truth(c, ds.characters[name].skeleton) for c in clips]
-        rotations.append(torch.cat([torch.as_tensor(m.rotations, dtype=torch.float32) for m in versions]))
-        roots.append(torch.cat([torch.as_tensor(m.root_positions, dtype=torch.float32) for m in versions]))
-    offsets = torch.stack([torch.as_tensor(ds.characters[n].skeleton.offsets, dtype=torch.float32)
-                           for n in split.train_characters])
-    return TrainingClips(tuple(split.train_characters), tuple(c.name for c in clips), lengths.cumsum(0),
-                         offsets, torch.stack(rotations), torch.stack(roots))
+        clips += [(ref.mirror(), {k: v.mirror() for k, v in own.items()}) for ref, own in clips]
+    return stack_clips(skeletons, clips)
 
 
 class TrainingBatch(NamedTuple):
@@ -363,7 +407,9 @@ class RetargetTraining:
         self.gan, self.alpha_deg, self.batch = loss["gan"], float(loss["twist_alpha_deg"]), int(train["batch"])
         self.twist_exclude_root = bool(loss.get("twist_exclude_root", False))
         if clips is None:
-            clips = training_clips(bool(data.get("mirror", False)))
+            source = data.get("source", "synthetic")
+            root = str(mixamo_local_dir()) if source != "synthetic" else None
+            clips = training_clips(bool(data.get("mirror", False)), source, root)
         self.sampler = WindowSampler(clips, data["window"], data["same_fraction"], data["scale_range"],
                                      data["scale_targets"], bool(data.get("random_yaw", False)))
         if self.resolved["normalize_inputs"]:

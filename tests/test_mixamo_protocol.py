@@ -1,0 +1,205 @@
+"""The reviewer's path: Table 4 and the contact tables on a ``mixamo-local`` folder
+(retarget_lib.evaluation.mixamo, .mixamo_contact), checked on the library's fixture folder and on a
+tiny case computed by hand."""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from retarget_lib.cli import main
+from retarget_lib.config import load_config
+from retarget_lib.core.character import Character
+from retarget_lib.core.skeleton import canonical22_skeleton
+from retarget_lib.data.sources.mixamo_fixture import write_mixamo_character, write_mixamo_fixture
+from retarget_lib.data.sources.mixamo_local import load_mixamo_folder
+from retarget_lib.data.synthetic.characters import make_character
+from retarget_lib.data.synthetic.motions import make_motion
+from retarget_lib.data.mixamo_splits import mixamo_training_set, paper_pairs, scenario_of, unseen_motions
+from retarget_lib.evaluation.mixamo import CASE_COLUMNS, run_mixamo_tdcn_evaluation
+from retarget_lib.evaluation.mixamo_contact import mixamo_contact_cases, run_mixamo_contact_evaluation
+from retarget_lib.methods.registry import get_method
+from retarget_lib.training.contact import ContactTraining
+from retarget_lib.training.contact import training_clips as contact_training_clips
+from retarget_lib.training.tdcn import training_clips
+
+
+@pytest.fixture(scope="module")
+def fixture_root(tmp_path_factory):
+    return write_mixamo_fixture(tmp_path_factory.mktemp("mixamo_fixture"))
+
+
+def test_scenario_rule_gives_the_papers_pairs_their_scenarios():
+    """Tables 2-3: pages 18, 23, 28, 33 are performed by scenario 1/2 sources (seen), 45, 51, 52
+    only by scenario 3/4 sources (unseen); the rule must put each of the eight pairs in its scenario."""
+    performers = {18: {"Kaya", "Warrok W Kurniawan"}, 28: {"Big Vegas", "Malcolm"}, 23: {"Peasant Man", "Liam"},
+                  33: {"AJ", "Mutant"}, 51: {"Sporty Granny", "Malcolm"}, 52: {"Claire", "Warrok W Kurniawan", "Mutant"},
+                  45: {"Mutant", "Liam"}}
+    unseen = unseen_motions(performers)
+    assert unseen == {45, 51, 52}
+    pages = {("Kaya", "Warrok W Kurniawan"): 18, ("Big Vegas", "Malcolm"): 28, ("Peasant Man", "Liam"): 23,
+             ("AJ", "Mutant"): 33, ("Sporty Granny", "Malcolm"): 51, ("Claire", "Warrok W Kurniawan"): 52,
+             ("Mutant", "Liam"): 45, ("Claire", "Mutant"): 52}
+    for (src, tgt), scenario in paper_pairs().items():
+        assert scenario_of(tgt, pages[src, tgt], unseen) == scenario
+
+
+def _scaled(character: Character, s: float, name: str) -> Character:
+    """The same character uniformly scaled by ``s``."""
+    return Character(name, canonical22_skeleton(character.skeleton.offsets * s), character.rest_vertices * s,
+                     character.faces, character.weights)
+
+
+def test_copy_row_matches_a_hand_computation(tmp_path):
+    """Source A; target B = A scaled by s, whose "own clip" is A's rotations with the root scaled by
+    s plus a drift d(t) = c·t/(T−1) along x. ``copy`` keeps the rotations and scales the root by
+    the leg ratio (= s), so every joint is off by exactly d(t): nmse = mean_t |d(t)|² / H_B (cm²/cm)
+    and the root-relative error is 0. Target C is B exported at 60 fps: the prediction is compared
+    at C's frame times k/60, where the drift is c·k/(2(T−1))."""
+    T, s, c = 130, 1.25, 0.05
+    a = make_character("cleo")
+    b = _scaled(a, s, "B")
+    clip = make_motion("walk", a.skeleton, 3, duration=5.0).slice(0, T)
+    clip.name = "Walk"
+    drift = np.zeros((T, 3))
+    drift[:, 0] = c * np.arange(T) / (T - 1)
+    own = clip.copy(skeleton=b.skeleton, root_positions=clip.root_positions * s + drift)
+    write_mixamo_character(tmp_path, a, [clip], name="A")
+    write_mixamo_character(tmp_path, b, [own], name="B")
+    write_mixamo_character(tmp_path, _scaled(a, s, "C"), [own], name="C", fps=60.0)
+    run_mixamo_tdcn_evaluation(tmp_path / "out", tmp_path, methods={"copy": get_method("copy").retargeter()})
+    rows = pd.read_csv(tmp_path / "out" / "table4_cases.csv").set_index(["source", "target"])
+    h_cm = 100.0 * b.skeleton.height()
+    t = np.arange(T)
+    k = np.arange(2 * T - 1)  # C's frames at 60 fps
+    expected = {("A", "B"): ((c * t / (T - 1)) ** 2, (c * t[:120] / (T - 1)) ** 2),
+                ("A", "C"): ((c * k / (2 * (T - 1))) ** 2, (c * k[:239] / (2 * (T - 1))) ** 2)}
+    for pair, (long_sq, short_sq) in expected.items():
+        row = rows.loc[pair]
+        assert row["frames"] == len(long_sq)
+        # BVH text stores 6 decimals (cm, degrees): ~1e-8 m per joint, 1e-5 relative on |d|² at c = 5 cm
+        np.testing.assert_allclose(row["nmse"], 1e4 * long_sq.mean() / h_cm, rtol=1e-4)
+        np.testing.assert_allclose(row["nmse_short"], 1e4 * short_sq.mean() / h_cm, rtol=1e-4)
+        assert row["nmse_root_relative"] < 1e-6 and row["nmse_short_root_relative"] < 1e-6
+
+
+def test_fixture_folder_tables_and_coverage(fixture_root, tmp_path):
+    table, coverage, _ = run_mixamo_tdcn_evaluation(tmp_path, fixture_root, only=["copy", "copy-rest"])
+    for name in ("table4.md", "table4.csv", "table4_cases.csv"):
+        assert (tmp_path / name).stat().st_size > 0
+    cases = pd.read_csv(tmp_path / "table4_cases.csv")
+    assert tuple(cases.columns[:7]) == CASE_COLUMNS[:7] == ("source", "target", "motion", "method", "frames", "nmse",
+                                                            "nmse_root_relative")
+    assert set(cases["method"]) == {"copy", "copy-rest"} and np.isfinite(cases["nmse"]).all()
+    # Claire is exported at 60 fps: her clips are compared at 60 fps frame times
+    into_claire = cases[(cases["target"] == "Claire") & (cases["motion"] == "Sitting Clap")]
+    assert (into_claire["truth_fps"] == 60).all() and (into_claire["frames"] == 299).all()
+    # the paper's pairs present in the fixture, and the missing ones reported, not an error
+    status = coverage.set_index(["source", "target"])["status"]
+    assert status["Kaya", "Warrok W Kurniawan"] == "present" and status["Claire", "Warrok W Kurniawan"] == "present"
+    assert status["AJ", "Mutant"].startswith("missing")
+    md = (tmp_path / "table4.md").read_text()
+    assert "frame counts differ" in md and "Walking While Texting" in md
+    assert set(table.index.get_level_values("pairs")) == {"paper", "all"}
+
+
+def test_partial_folder_is_a_coverage_report(tmp_path):
+    """One character: no pair at all is still a written report."""
+    cleo = make_character("cleo")
+    write_mixamo_character(tmp_path / "in", cleo, [_named(make_motion("pray", cleo.skeleton, 1).slice(0, 20), "Praying")],
+                           name="Kaya")
+    table, coverage, _ = run_mixamo_tdcn_evaluation(tmp_path / "out", tmp_path / "in",
+                                                    methods={"copy": get_method("copy").retargeter()})
+    assert table.empty and (coverage["status"] != "present").all()
+    assert "(no case)" in (tmp_path / "out" / "table4.md").read_text()
+
+
+def _named(motion, name):
+    motion.name = name
+    return motion
+
+
+def test_cli_evaluate_on_the_folder(fixture_root, tmp_path, capsys):
+    assert main(["evaluate", "--table", "tdcn", "--data", "mixamo-local", "--mixamo", str(fixture_root),
+                 "--methods", "copy", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "present" in out and "table4_cases.csv" in out
+    assert main(["evaluate", "--table", "tdcn", "--data", "mixamo-local", "--mixamo", str(tmp_path / "nowhere"),
+                 "--out", str(tmp_path)]) == 2
+    assert "RETARGET_MIXAMO" in capsys.readouterr().err
+    assert main(["evaluate", "--table", "tdcn", "--methods", "copy", "--out", str(tmp_path)]) == 2
+    assert "--data mixamo-local" in capsys.readouterr().err
+
+
+def test_contact_coverage_without_the_source_mesh(tmp_path):
+    """No Y Bot: every appendix (target, motion) is reported with its reason; no case, no error."""
+    cleo = make_character("cleo")
+    write_mixamo_character(tmp_path / "in", cleo, [_named(make_motion("pray", cleo.skeleton, 1).slice(0, 20), "Praying")],
+                           name="Kaya")
+    cases, coverage = mixamo_contact_cases(load_mixamo_folder(tmp_path / "in"))
+    assert cases == [] and len(coverage) == 30 * 6
+    assert set(coverage["status"]) == {"no Y Bot shape.npz"}
+    tables, _, _ = run_mixamo_contact_evaluation(tmp_path / "out", tmp_path / "in", rows=("copy",))
+    assert tables["table1"].filter(like="ours").isna().all().all()
+    assert (tmp_path / "out" / "contact_coverage.csv").exists() and (tmp_path / "out" / "contact_table5.md").exists()
+
+
+@pytest.mark.slow
+def test_cli_contact_tables_on_the_folder(fixture_root, tmp_path, monkeypatch, capsys):
+    """~50 s: contact detection on the source mesh and the geodesic Eint of each target."""
+    monkeypatch.setenv("RETARGET_CACHE", str(tmp_path / "cache"))
+    assert main(["evaluate", "--table", "contact", "--data", "mixamo-local", "--mixamo", str(fixture_root),
+                 "--methods", "copy", "copy-rest", "--out", str(tmp_path / "out")]) == 0
+    assert "contact_coverage.csv" in capsys.readouterr().out
+    cases = pd.read_csv(tmp_path / "out" / "contact_cases.csv")
+    # Y Bot performs the fixture's three test motions; Kaya lacks "Praying": 5 (motion, target) cases per method
+    assert len(cases) == 2 * 5 and set(cases["body"]) == {"skinny", "bulky"}
+    table1 = pd.read_csv(tmp_path / "out" / "contact_table1.csv", index_col=0)
+    assert np.isfinite(table1.loc["copy", "ours global position MSE"])
+    for name in ("contact_table5.md", "contact_table6.md", "contact_coverage.csv"):
+        assert (tmp_path / "out" / name).exists()
+
+
+def test_training_set_follows_the_papers_split(fixture_root):
+    """Training characters: the manifest's nine that the folder has (Kaya, Warrok); motions: all but
+    the unseen ones ("Praying", performed by the scenario 3/4 source Claire and no 1/2 source)."""
+    skeletons, clips = mixamo_training_set(fixture_root)
+    assert list(skeletons) == ["Kaya", "Warrok W Kurniawan"]
+    assert sorted(ref.name for ref, _ in clips) == ["Sitting Clap", "Walking", "Walking While Texting"]
+    assert all(set(own) == set(skeletons) and ref.fps == 30.0 for ref, own in clips)
+    # Warrok's "Walking" file has 0.2 % longer rest offsets: it is put on his one training skeleton
+    walking = dict((ref.name, own) for ref, own in clips)["Walking"]["Warrok W Kurniawan"]
+    np.testing.assert_array_equal(walking.skeleton.offsets, skeletons["Warrok W Kurniawan"].offsets)
+
+
+def test_cli_trains_a_table4_row_on_the_folder(fixture_root, tmp_path, monkeypatch, capsys):
+    """A two-step smoke run of TDCN "ours" with data.source=mixamo-local."""
+    monkeypatch.setenv("RETARGET_MIXAMO", str(fixture_root))
+    out = tmp_path / "run"
+    assert main(["train", "--config", "configs/tdcn_paper.yaml", "data.source=mixamo-local", "train.steps=2",
+                 "train.batch=2", "train.checkpoint_every=2", "--profile", "fast", "--out", str(out)]) == 0
+    assert (out / "final.pt").exists() and len(pd.read_csv(out / "losses.csv")) == 2
+    assert main(["train", "--config", "configs/tdcn_paper.yaml", "data.source=mixamo", "--out", str(out)]) == 2
+    assert "data.source" in capsys.readouterr().err
+
+
+@pytest.mark.data
+def test_mixed_training_set_has_both_casts(fixture_root):
+    clips = training_clips(False, "mixamo-local+synthetic", str(fixture_root))
+    assert {"Kaya", "Warrok W Kurniawan"} < set(clips.characters) and len(clips.characters) > 2
+    assert {"Sitting Clap", "Walking While Texting"} < set(clips.clip_names) and "Praying" not in clips.clip_names
+
+
+@pytest.mark.slow
+def test_contact_training_runs_on_the_folder(fixture_root, tmp_path, monkeypatch):
+    """~30 s (contact detection on each training clip): a two-step run of the Efull row on the
+    folder's training characters; the appendix's test motions are never among its sources."""
+    monkeypatch.setenv("RETARGET_MIXAMO", str(fixture_root))
+    monkeypatch.setenv("RETARGET_CACHE", str(tmp_path / "cache"))
+    config = load_config("configs/contact_paper.yaml", ["data.source=mixamo-local", "model.hidden=32",
+                                                        "model.geometry=16", "train.batch=2", "train.steps=2"])
+    clips, targets = contact_training_clips(config)
+    assert sorted(targets) == ["Kaya", "Warrok W Kurniawan"]
+    assert sorted(c.name for c in clips) == ["Kaya/Walking", "Warrok W Kurniawan/Walking"]
+    run = ContactTraining(config, clips, targets)
+    losses = [run.step(i) for i in range(2)]
+    assert all(np.isfinite(v) for log in losses for v in log.values())
