@@ -13,6 +13,9 @@ type                      raised for
 :class:`LimitError`       a value beyond a documented bound (frame time, frame count, joints,
                           nesting depth, magnitudes, file size); the message names the limit
 :class:`CheckpointError`  a checkpoint file that is not a valid model of the expected kind
+:class:`DeviceError`      a ``--device``/``--amp`` this machine cannot run (no CUDA, no MPS),
+                          or a distributed launch that does not fit the config (batch size not
+                          divisible by the number of processes)
 ========================  ===================================================================
 
 Also :class:`~retarget_lib.io.bvh.BVHError` (a malformed BVH; names the line),
@@ -24,7 +27,7 @@ file missing or corrupt) is separate: it is not the user's input, but the CLI al
 
 from __future__ import annotations
 
-__all__ = ["RetargetInputError", "InputFileError", "OutputPathError", "LimitError", "CheckpointError"]
+__all__ = ["RetargetInputError", "InputFileError", "OutputPathError", "LimitError", "CheckpointError", "DeviceError"]
 
 
 class RetargetInputError(ValueError):
@@ -46,3 +49,7 @@ class LimitError(RetargetInputError):
 
 class CheckpointError(RetargetInputError):
     """A checkpoint file that cannot be read or is not a valid model of the expected kind."""
+
+
+class DeviceError(RetargetInputError):
+    """A device, precision or process layout that cannot run here (the message says what to use)."""

@@ -109,11 +109,11 @@ def _check_plausible(result: Motion, source: Motion, target_skeleton: Skeleton, 
         raise RetargetInputError(f"--method {method} produced {what} for {source.name}")
 
 
-def _load_retargeter(chosen: Method, checkpoint):
-    """``chosen.retargeter(checkpoint)``, with a checkpoint that does not fit its model (missing
+def _load_retargeter(chosen: Method, checkpoint, device):
+    """``chosen.retargeter(checkpoint, device)``, with a checkpoint that does not fit its model (missing
     keys, wrong shapes or config) reported as :class:`~retarget_lib.errors.CheckpointError`."""
     try:
-        return chosen.retargeter(checkpoint)
+        return chosen.retargeter(checkpoint, device)
     except (KeyError, TypeError, AttributeError, RuntimeError) as e:
         problem = str(e).strip().splitlines()[0][:200] if str(e).strip() else type(e).__name__
         raise CheckpointError(f"{checkpoint or chosen.default_checkpoint()}: not a valid {chosen.name} checkpoint: "
@@ -123,7 +123,7 @@ def _load_retargeter(chosen: Method, checkpoint):
 def retarget_file(source: str | os.PathLike, target: str, method: str, out: str | os.PathLike,
                   checkpoint: str | os.PathLike | None = None, target_mesh: str | os.PathLike | None = None,
                   source_mesh: str | os.PathLike | None = None, fps: float | None = None,
-                  force: bool = False) -> Path:
+                  force: bool = False, device: str | None = None) -> Path:
     """Load ``source``, retarget it to ``target`` with the registry's ``method`` and write ``out``
     (BVH).
 
@@ -138,6 +138,8 @@ def retarget_file(source: str | os.PathLike, target: str, method: str, out: str 
         source_mesh: source shape ``.npz``: its hand self-contacts are preserved by ``contact``.
         fps: output frame rate (default: the source's).
         force: allow ``out`` to be one of the inputs.
+        device: where a learned method's network (and ESO) runs: ``auto``, ``cpu``, ``cuda``,
+            ``mps`` (default the CPU).
 
     Returns:
         the output path.
@@ -146,7 +148,8 @@ def retarget_file(source: str | os.PathLike, target: str, method: str, out: str 
         RetargetInputError: any bad input (its subclasses name the file and the problem):
             :class:`~retarget_lib.errors.OutputPathError`, :class:`~retarget_lib.io.bvh.BVHError`,
             :class:`~retarget_lib.io.shape.ShapeError`, :class:`~retarget_lib.errors.CheckpointError`,
-            :class:`~retarget_lib.errors.LimitError`, :class:`~retarget_lib.errors.InputFileError`.
+            :class:`~retarget_lib.errors.LimitError`, :class:`~retarget_lib.errors.InputFileError`,
+            :class:`~retarget_lib.errors.DeviceError`.
     """
     chosen = get_method(method)
     _check_options(chosen, str(target), target_mesh, source_mesh, checkpoint)
@@ -163,11 +166,11 @@ def retarget_file(source: str | os.PathLike, target: str, method: str, out: str 
             target_skeleton, target_full = resolve_target(str(target))
             _check_mesh_matches(character, target_skeleton, target_mesh, target)
         source_character = load_shape_npz(source_mesh) if source_mesh is not None else None
-        result = _load_retargeter(chosen, checkpoint)(motion, character, source_character=source_character)
+        result = _load_retargeter(chosen, checkpoint, device)(motion, character, source_character=source_character)
         target_skeleton = character.skeleton
     else:
         target_skeleton, target_full = resolve_target(str(target))
-        result = _load_retargeter(chosen, checkpoint)(motion, target_skeleton)
+        result = _load_retargeter(chosen, checkpoint, device)(motion, target_skeleton)
     _check_plausible(result, motion, target_skeleton, method, checkpoint)
     result = result.resample(out_fps)
     if target_full is not None:  # the target's joints, names, channels and unit
