@@ -5,9 +5,10 @@
     retarget data build|list|verify      build the embedded dataset; list/verify data_manifest.yaml
     retarget retarget --source IN.bvh --target TARGET.bvh|CHARACTER [--target-mesh SHAPE.npz]
                       [--source-mesh SHAPE.npz] --method NAME (from retarget_lib.methods.registry)
-                      [--checkpoint ID|PATH] [--fps N] [--force] --out OUT.bvh
+                      [--checkpoint ID|PATH] [--fps N] [--force] [--device auto] --out OUT.bvh
     retarget train    --config configs/NAME.yaml [key=value ...] [--profile fast|paper] [--out DIR]
-                      [--resume] [--export MODEL.pt]
+                      [--resume] [--export MODEL.pt] [--device auto|cpu|cuda|mps] [--amp]
+                                         also under ``torchrun --nproc-per-node N -m retarget_lib train …``
                                          train a TDCN/NKN Table 4 row (retarget_lib.training.tdcn) or,
                                          for configs/contact_*.yaml, a contact-aware Table 3 row
                                          (retarget_lib.training.contact)
@@ -27,9 +28,7 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 
-from .config import load_config
 from .errors import RetargetInputError
 from .files import DataError, atomic_write, exit_on_signals, sha256_file
 
@@ -57,34 +56,27 @@ def _cmd_retarget(args: argparse.Namespace) -> int:
     from .methods.retarget import retarget_file
 
     out = retarget_file(args.source, args.target, args.method, args.out, args.checkpoint, args.target_mesh,
-                        args.source_mesh, fps=args.fps, force=args.force)
+                        args.source_mesh, fps=args.fps, force=args.force, device=args.device)
     print(f"wrote {out}")
     return 0
 
 
 def _cmd_train(args: argparse.Namespace) -> int:
     from .losses import NonFiniteLossError
-    from .training.loop import fit
+    from .training.distributed import from_environment
+    from .training.run import train_config
 
-    config = load_config(args.config, args.overrides, args.profile)
-    out = Path(args.out or Path("runs") / Path(args.config).stem)
-    if config.get("method") == "contact":
-        from .training.contact import ContactTraining, export_model as export
-        run = ContactTraining(config)
-    else:
-        from .training.tdcn import RetargetTraining, export_generator as export
-        run = RetargetTraining(config)
     try:
-        final = fit(run.task(), config, out, int(config["train"]["steps"]),
-                    checkpoint_every=int(config["train"]["checkpoint_every"]), resume=args.resume,
-                    progress=sys.stderr.isatty())
+        result = train_config(args.config, args.overrides, args.profile, args.out, args.resume, args.export,
+                              args.device, args.amp, progress=sys.stderr.isatty())
     except NonFiniteLossError as e:
         print(f"retarget train: stopped: {e}", file=sys.stderr)
         return 1
-    print(f"checkpoint: {final}  (losses: {out / 'losses.csv'})")
-    if args.export:
-        slim = export(final, args.export)
-        print(f"exported model: {slim}  sha256 {sha256_file(slim)}")
+    if not from_environment().is_main:  # torchrun: rank 0 reports
+        return 0
+    print(f"checkpoint: {result.final}  (losses: {result.final.parent / 'losses.csv'})")
+    if result.exported:
+        print(f"exported model: {result.exported}  sha256 {sha256_file(result.exported)}")
     return 0
 
 
@@ -152,6 +144,11 @@ class _RetargetHelp(argparse.HelpFormatter):
                          for m in _registry().REGISTRY.values())
 
 
+def _device_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--device", choices=["auto", "cpu", "cuda", "mps"], default="auto",
+                   help="where networks run (auto: CUDA, else MPS, else CPU; under torchrun, GPU LOCAL_RANK)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``retarget`` argument parser."""
     parser = argparse.ArgumentParser(prog="retarget", description="retarget-notebooks command line")
@@ -179,6 +176,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--fps", type=float, help="output frame rate (default: the source's)")
     p.add_argument("--force", action="store_true", help="allow --out to overwrite an input file")
     p.add_argument("--out", required=True, help="output .bvh (never an input unless --force)")
+    _device_option(p)
     p.set_defaults(func=_cmd_retarget)
 
     p = sub.add_parser("train", help="train a TDCN/NKN (Table 4) or contact-aware (Table 3) model from a YAML config")
@@ -191,6 +189,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--resume", action="store_true", help="continue from <out>/last.pt if it exists")
     p.add_argument("--export", help="also write a slim inference-only model checkpoint here (TDCN weights as "
                                     "float16, NKN and contact-aware ones as float32)")
+    _device_option(p)
+    p.add_argument("--amp", action="store_true", help="mixed precision (bfloat16 autocast; CUDA only)")
     p.set_defaults(func=_cmd_train)
 
     p = sub.add_parser("evaluate", help="regenerate a paper table (CSV + Markdown, paper numbers beside ours)")
