@@ -12,7 +12,10 @@
                                          train a TDCN/NKN Table 4 row (retarget_lib.training.tdcn) or,
                                          for configs/contact_*.yaml, a contact-aware Table 3 row
                                          (retarget_lib.training.contact)
-    retarget evaluate --table tdcn|contact [--profile fast|paper] --out DIR
+    retarget sweep    --table tdcn|contact --out DIR [key=value ...] [--profile fast|paper] [--rows ROW ...]
+                      [--cluster auto|slurm|local] [--gpus-per-row N] [--timeout-min M] [--partition P]
+                      [--wait] [--status]     one submitit job per table row (retarget_lib.training.sweep)
+    retarget evaluate --table tdcn|contact [--profile fast|paper] [--runs SWEEP_DIR] [--device auto] --out DIR
     retarget bench [--quick]             speed table (ratios against references in the same run)
 
 Each command imports what it runs inside its ``_cmd_*`` function: the library below this module
@@ -81,10 +84,16 @@ def _cmd_train(args: argparse.Namespace) -> int:
 
 
 def _cmd_evaluate(args: argparse.Namespace) -> int:
+    runs = None
+    if args.runs:
+        from .training.sweep import finished_rows
+
+        runs = finished_rows(args.runs)
+        print(f"trained rows from {args.runs}: {', '.join(runs) or 'none finished yet'}")
     if args.table == "contact":
         from .evaluation.contact import run_contact_evaluation
 
-        tables, missing = run_contact_evaluation(args.out, args.profile or "fast")
+        tables, missing = run_contact_evaluation(args.out, args.profile or "fast", device=args.device, runs=runs)
         for name, table in tables.items():
             print(f"{name}:\n{table.filter(like='ours').round(3).to_string()}\n")
         if missing:
@@ -94,13 +103,30 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         return 0
     from .evaluation.tdcn import run_tdcn_evaluation
 
-    table, missing = run_tdcn_evaluation(args.out)
+    table, missing = run_tdcn_evaluation(args.out, args.device, runs)
     cols = [c for c in table.columns if c.endswith("avg")]
     print(table[cols].round(2).to_string())
     if missing:
         print(f"no trained checkpoint yet for: {', '.join(missing)}")
     print(f"wrote {args.out}/table4.csv, table4.md, table4_h2.*, table4_cases.csv")
     return 0
+
+
+def _cmd_sweep(args: argparse.Namespace) -> int:
+    from .training import sweep
+
+    if not args.status:
+        jobs = sweep.submit(args.table, args.out, args.overrides, args.profile, args.rows, args.cluster, args.device,
+                            args.amp, args.gpus_per_row, args.timeout_min, args.partition, args.parallel)
+        print(f"submitted {len(jobs)} job(s) to {args.out}/jobs: "
+              + (", ".join(f"{r} ({j.job_id})" for r, j in jobs.items()) or "every row is finished already"))
+        if args.wait:
+            sweep.wait(jobs)
+    statuses = sweep.sweep_status(args.out)
+    width = max(len(s.row) for s in statuses)
+    for s in statuses:
+        print(f"{s.row:<{width}}  {s.state:<8} step {s.step:>6}  job {s.job_id or '-'}  {s.detail}".rstrip())
+    return 1 if any(s.state == "failed" for s in statuses) else 0
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:
@@ -199,7 +225,30 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--profile", choices=["fast", "paper"],
                    help="contact protocol size (fast: 6 clips x 6 targets, 60 frames; paper: 16 clips, whole)")
     p.add_argument("--out", required=True, help="output folder")
+    p.add_argument("--runs", help="a `retarget sweep` folder: its finished rows replace the shipped checkpoints")
+    _device_option(p)
     p.set_defaults(func=_cmd_evaluate)
+
+    p = sub.add_parser("sweep", help="train every row of a paper table, one submitit job per row (Slurm array or "
+                                     "local processes); --status shows progress")
+    p.add_argument("--table", required=True, choices=["tdcn", "contact"],
+                   help="tdcn: Kim et al. 2020, Table 4 rows; contact: Villegas et al. 2021, Table 3 rows")
+    p.add_argument("--out", required=True, help="sweep folder (<out>/<row>/ per row, <out>/jobs/ for submitit)")
+    p.add_argument("overrides", nargs="*", metavar="key=value", help="config overrides applied to every row")
+    p.add_argument("--profile", choices=["fast", "paper"], help="config profile (default $RETARGET_PROFILE or fast)")
+    p.add_argument("--rows", nargs="+", metavar="ROW", help="only these rows (default: every row of the table)")
+    p.add_argument("--cluster", choices=["auto", "slurm", "local"], default="auto",
+                   help="auto: Slurm when sbatch is on PATH, else local subprocesses")
+    p.add_argument("--gpus-per-row", type=int, default=0, help="GPUs (torch processes) per row on Slurm (default 0)")
+    p.add_argument("--timeout-min", type=int, default=24 * 60,
+                   help="wall-time limit per job; a job reaching it is requeued and resumes (default 1440)")
+    p.add_argument("--partition", help="Slurm partition")
+    p.add_argument("--parallel", type=int, help="at most this many rows at once (Slurm array parallelism)")
+    p.add_argument("--wait", action="store_true", help="wait for the submitted jobs, then print the status")
+    p.add_argument("--status", action="store_true", help="only print each row's state (submits nothing)")
+    _device_option(p)
+    p.add_argument("--amp", action="store_true", help="mixed precision (bfloat16 autocast; CUDA only)")
+    p.set_defaults(func=_cmd_sweep)
 
     p = sub.add_parser("bench", help="speed benchmarks (ratios against same-run references)")
     p.add_argument("--quick", action="store_true", help="fewer repeats (CI smoke run)")
