@@ -238,7 +238,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--profile", choices=["fast", "paper"], help="config profile (default $RETARGET_PROFILE or fast)")
     p.add_argument("--rows", nargs="+", metavar="ROW", help="only these rows (default: every row of the table)")
     p.add_argument("--cluster", choices=["auto", "slurm", "local"], default="auto",
-                   help="auto: Slurm when sbatch is on PATH, else local subprocesses")
+                   help="auto: Slurm when srun is on PATH, else local subprocesses")
     p.add_argument("--gpus-per-row", type=int, default=0, help="GPUs (torch processes) per row on Slurm (default 0)")
     p.add_argument("--timeout-min", type=int, default=24 * 60,
                    help="wall-time limit per job; a job reaching it is requeued and resumes (default 1440)")

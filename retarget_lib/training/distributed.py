@@ -185,6 +185,7 @@ class GlobalBatchNorm(nn.BatchNorm1d):
             return super().forward(x)
         from torch.distributed.nn.functional import all_reduce
 
+        dtype, x = x.dtype, x.float()  # statistics in float32 (under bfloat16 autocast too)
         dims = [d for d in range(x.dim()) if d != 1]
         view = [1, -1] + [1] * (x.dim() - 2)
         stats = all_reduce(torch.cat([x.sum(dims), x.new_tensor([x.numel() // x.shape[1]])]))
@@ -199,7 +200,8 @@ class GlobalBatchNorm(nn.BatchNorm1d):
                 self.running_mean.mul_(1 - m).add_(mean.detach(), alpha=m)
                 self.running_var.mul_(1 - m).add_(var.detach() * count / (count - 1).clamp_min(1), alpha=m)
         out = centred / torch.sqrt(var.view(view) + self.eps)
-        return out * self.weight.view(view) + self.bias.view(view) if self.affine else out
+        out = out * self.weight.view(view) + self.bias.view(view) if self.affine else out
+        return out.to(dtype)
 
 
 def _global_batchnorm(module: nn.Module) -> nn.Module:

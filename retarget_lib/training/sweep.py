@@ -103,7 +103,7 @@ def submit(table: str, out: str | os.PathLike, overrides: Sequence[str] = (), pr
         overrides: ``key=value`` config overrides applied to every row.
         profile: ``fast`` or ``paper``.
         rows: only these rows (default: all of the table).
-        cluster: ``auto`` (Slurm when ``sbatch`` is present, else local), ``slurm`` or ``local``.
+        cluster: ``auto`` (Slurm when ``srun`` is on the PATH, else local), ``slurm`` or ``local``.
         device, amp: as ``retarget train``.
         gpus_per_row: GPUs (= processes) per row on Slurm; 0 = a CPU job.
         timeout_min: wall-time limit per job (a job that reaches it is requeued and resumes).
