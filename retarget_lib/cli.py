@@ -5,13 +5,17 @@
     retarget data build|list|verify      build the embedded dataset; list/verify data_manifest.yaml
     retarget retarget --source IN.bvh --target TARGET.bvh|CHARACTER [--target-mesh SHAPE.npz]
                       [--source-mesh SHAPE.npz] --method NAME (from retarget_lib.methods.registry)
-                      [--checkpoint ID|PATH] [--fps N] [--force] --out OUT.bvh
+                      [--checkpoint ID|PATH] [--fps N] [--force] [--device auto] --out OUT.bvh
     retarget train    --config configs/NAME.yaml [key=value ...] [--profile fast|paper] [--out DIR]
-                      [--resume] [--export MODEL.pt]
+                      [--resume] [--export MODEL.pt] [--device auto|cpu|cuda|mps] [--amp]
+                                         also under ``torchrun --nproc-per-node N -m retarget_lib train …``
                                          train a TDCN/NKN Table 4 row (retarget_lib.training.tdcn) or,
                                          for configs/contact_*.yaml, a contact-aware Table 3 row
                                          (retarget_lib.training.contact)
-    retarget evaluate --table tdcn|contact [--profile fast|paper] --out DIR
+    retarget sweep    --table tdcn|contact --out DIR [key=value ...] [--profile fast|paper] [--rows ROW ...]
+                      [--cluster auto|slurm|local] [--gpus-per-row N] [--timeout-min M] [--partition P]
+                      [--wait] [--status]     one submitit job per table row (retarget_lib.training.sweep)
+    retarget evaluate --table tdcn|contact [--profile fast|paper] [--runs SWEEP_DIR] [--device auto] --out DIR
                       [--data synthetic|mixamo-local [--mixamo DIR] [--methods ROW ...] [--checkpoint PATH]]
                                          mixamo-local: the papers' protocols on a reviewer's Mixamo folder
                                          (retarget_lib.evaluation.mixamo, .mixamo_contact)
@@ -30,9 +34,7 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 
-from .config import load_config
 from .errors import RetargetInputError
 from .files import DataError, atomic_write, exit_on_signals, sha256_file
 
@@ -61,38 +63,31 @@ def _cmd_retarget(args: argparse.Namespace) -> int:
 
     out = retarget_file(args.source, args.target, args.method, args.out, args.checkpoint, args.target_mesh,
                         args.source_mesh, fps=args.fps, force=args.force, joint_map=args.joint_map,
-                        source_joint_map=args.source_joint_map)
+                        source_joint_map=args.source_joint_map, device=args.device)
     print(f"wrote {out}")
     return 0
 
 
 def _cmd_train(args: argparse.Namespace) -> int:
     from .losses import NonFiniteLossError
-    from .training.loop import fit
+    from .training.distributed import from_environment
+    from .training.run import train_config
 
-    config = load_config(args.config, args.overrides, args.profile)
-    out = Path(args.out or Path("runs") / Path(args.config).stem)
-    if config.get("method") == "contact":
-        from .training.contact import ContactTraining, export_model as export
-        run = ContactTraining(config)
-    else:
-        from .training.tdcn import RetargetTraining, export_generator as export
-        run = RetargetTraining(config)
     try:
-        final = fit(run.task(), config, out, int(config["train"]["steps"]),
-                    checkpoint_every=int(config["train"]["checkpoint_every"]), resume=args.resume,
-                    progress=sys.stderr.isatty())
+        result = train_config(args.config, args.overrides, args.profile, args.out, args.resume, args.export,
+                              args.device, args.amp, progress=sys.stderr.isatty())
     except NonFiniteLossError as e:
         print(f"retarget train: stopped: {e}", file=sys.stderr)
         return 1
-    print(f"checkpoint: {final}  (losses: {out / 'losses.csv'})")
-    if args.export:
-        slim = export(final, args.export)
-        print(f"exported model: {slim}  sha256 {sha256_file(slim)}")
+    if not from_environment().is_main:  # torchrun: rank 0 reports
+        return 0
+    print(f"checkpoint: {result.final}  (losses: {result.final.parent / 'losses.csv'})")
+    if result.exported:
+        print(f"exported model: {result.exported}  sha256 {sha256_file(result.exported)}")
     return 0
 
 
-def _evaluate_contact(args: argparse.Namespace) -> int:
+def _evaluate_contact(args: argparse.Namespace, runs) -> int:
     if args.data == "mixamo-local":
         from .evaluation.mixamo_contact import run_mixamo_contact_evaluation
 
@@ -103,7 +98,7 @@ def _evaluate_contact(args: argparse.Namespace) -> int:
     else:
         from .evaluation.contact import run_contact_evaluation
 
-        tables, missing = run_contact_evaluation(args.out, args.profile or "fast")
+        tables, missing = run_contact_evaluation(args.out, args.profile or "fast", device=args.device, runs=runs)
     for name, table in tables.items():
         print(f"{name}:\n{table.filter(like='ours').round(3).to_string()}\n")
     if missing:
@@ -118,13 +113,22 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         raise RetargetInputError("--mixamo, --methods and --checkpoint need --data mixamo-local")
     if args.table == "contact" and args.checkpoint:
         raise RetargetInputError("--checkpoint adds a TDCN/NKN row: use it with --table tdcn")
+    if args.data == "mixamo-local" and args.runs:
+        raise RetargetInputError("--runs replaces the shipped checkpoints of the synthetic protocol; "
+                                 "with --data mixamo-local give --checkpoint PATH")
+    runs = None
+    if args.runs:
+        from .training.sweep import finished_rows
+
+        runs = finished_rows(args.runs)
+        print(f"trained rows from {args.runs}: {', '.join(runs) or 'none finished yet'}")
     if args.table == "contact":
-        return _evaluate_contact(args)
+        return _evaluate_contact(args, runs)
     if args.data == "mixamo-local":
         return _evaluate_tdcn_mixamo(args)
     from .evaluation.tdcn import run_tdcn_evaluation
 
-    table, missing = run_tdcn_evaluation(args.out)
+    table, missing = run_tdcn_evaluation(args.out, args.device, runs)
     cols = [c for c in table.columns if c.endswith("avg")]
     print(table[cols].round(2).to_string())
     if missing:
@@ -145,6 +149,23 @@ def _evaluate_tdcn_mixamo(args: argparse.Namespace) -> int:
         print(f"no trained checkpoint yet for: {', '.join(missing)}")
     print(f"wrote {args.out}/table4.md, table4.csv, table4_cases.csv")
     return 0
+
+
+def _cmd_sweep(args: argparse.Namespace) -> int:
+    from .training import sweep
+
+    if not args.status:
+        jobs = sweep.submit(args.table, args.out, args.overrides, args.profile, args.rows, args.cluster, args.device,
+                            args.amp, args.gpus_per_row, args.timeout_min, args.partition, args.parallel)
+        print(f"submitted {len(jobs)} job(s) to {args.out}/jobs: "
+              + (", ".join(f"{r} ({j.job_id})" for r, j in jobs.items()) or "every row is finished already"))
+        if args.wait:
+            sweep.wait(jobs)
+    statuses = sweep.sweep_status(args.out)
+    width = max(len(s.row) for s in statuses)
+    for s in statuses:
+        print(f"{s.row:<{width}}  {s.state:<8} step {s.step:>6}  job {s.job_id or '-'}  {s.detail}".rstrip())
+    return 1 if any(s.state == "failed" for s in statuses) else 0
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:
@@ -188,6 +209,11 @@ class _RetargetHelp(argparse.HelpFormatter):
                          for m in _registry().REGISTRY.values())
 
 
+def _device_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--device", choices=["auto", "cpu", "cuda", "mps"], default="auto",
+                   help="where networks run (auto: CUDA, else MPS, else CPU; under torchrun, GPU LOCAL_RANK)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``retarget`` argument parser."""
     parser = argparse.ArgumentParser(prog="retarget", description="retarget-notebooks command line")
@@ -224,6 +250,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--force", action="store_true", help="allow --out to overwrite an input file")
     p.add_argument("--out", required=True, help="output .bvh, or .glb: the target's skinned mesh performing the "
                                                 "result (never an input unless --force)")
+    _device_option(p)
     p.set_defaults(func=_cmd_retarget)
 
     p = sub.add_parser("train", help="train a TDCN/NKN (Table 4) or contact-aware (Table 3) model from a YAML config")
@@ -236,6 +263,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--resume", action="store_true", help="continue from <out>/last.pt if it exists")
     p.add_argument("--export", help="also write a slim inference-only model checkpoint here (TDCN weights as "
                                     "float16, NKN and contact-aware ones as float32)")
+    _device_option(p)
+    p.add_argument("--amp", action="store_true", help="mixed precision (bfloat16 autocast; CUDA only)")
     p.set_defaults(func=_cmd_train)
 
     p = sub.add_parser("evaluate", help="regenerate a paper table (CSV + Markdown, paper numbers beside ours)")
@@ -253,7 +282,30 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--checkpoint", action="append", metavar="PATH",
                    help="with --table tdcn --data mixamo-local: also evaluate this TDCN/NKN checkpoint (repeatable)")
     p.add_argument("--out", required=True, help="output folder")
+    p.add_argument("--runs", help="a `retarget sweep` folder: its finished rows replace the shipped checkpoints")
+    _device_option(p)
     p.set_defaults(func=_cmd_evaluate)
+
+    p = sub.add_parser("sweep", help="train every row of a paper table, one submitit job per row (Slurm array or "
+                                     "local processes); --status shows progress")
+    p.add_argument("--table", required=True, choices=["tdcn", "contact"],
+                   help="tdcn: Kim et al. 2020, Table 4 rows; contact: Villegas et al. 2021, Table 3 rows")
+    p.add_argument("--out", required=True, help="sweep folder (<out>/<row>/ per row, <out>/jobs/ for submitit)")
+    p.add_argument("overrides", nargs="*", metavar="key=value", help="config overrides applied to every row")
+    p.add_argument("--profile", choices=["fast", "paper"], help="config profile (default $RETARGET_PROFILE or fast)")
+    p.add_argument("--rows", nargs="+", metavar="ROW", help="only these rows (default: every row of the table)")
+    p.add_argument("--cluster", choices=["auto", "slurm", "local"], default="auto",
+                   help="auto: Slurm when srun is on PATH, else local subprocesses")
+    p.add_argument("--gpus-per-row", type=int, default=0, help="GPUs (torch processes) per row on Slurm (default 0)")
+    p.add_argument("--timeout-min", type=int, default=24 * 60,
+                   help="wall-time limit per job; a job reaching it is requeued and resumes (default 1440)")
+    p.add_argument("--partition", help="Slurm partition")
+    p.add_argument("--parallel", type=int, help="at most this many rows at once (Slurm array parallelism)")
+    p.add_argument("--wait", action="store_true", help="wait for the submitted jobs, then print the status")
+    p.add_argument("--status", action="store_true", help="only print each row's state (submits nothing)")
+    _device_option(p)
+    p.add_argument("--amp", action="store_true", help="mixed precision (bfloat16 autocast; CUDA only)")
+    p.set_defaults(func=_cmd_sweep)
 
     p = sub.add_parser("bench", help="speed benchmarks (ratios against same-run references)")
     p.add_argument("--quick", action="store_true", help="fewer repeats (CI smoke run)")

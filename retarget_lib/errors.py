@@ -19,6 +19,9 @@ type                      raised for
                           ``poses``, ``trans``, the frame rate) or has wrong shapes or values
 :class:`FBXError`         an FBX file the optional FBX reader cannot convert, or the reader
                           (the ``fbx`` extra) is not installed
+:class:`DeviceError`      a ``--device``/``--amp`` this machine cannot run (no CUDA, no MPS),
+                          or a distributed launch that does not fit the config (batch size not
+                          divisible by the number of processes)
 ========================  ===================================================================
 
 Also :class:`~retarget_lib.io.bvh.BVHError` (a malformed BVH; names the line),
@@ -33,7 +36,7 @@ file missing or corrupt) is separate: it is not the user's input, but the CLI al
 from __future__ import annotations
 
 __all__ = ["RetargetInputError", "InputFileError", "OutputPathError", "LimitError", "CheckpointError", "GLTFError",
-           "AMASSError", "FBXError"]
+           "AMASSError", "FBXError", "DeviceError"]
 
 
 class RetargetInputError(ValueError):
@@ -67,3 +70,7 @@ class AMASSError(RetargetInputError):
 
 class FBXError(RetargetInputError):
     """An FBX file that cannot be converted, or the optional FBX reader is not installed."""
+
+
+class DeviceError(RetargetInputError):
+    """A device, precision or process layout that cannot run here (the message says what to use)."""

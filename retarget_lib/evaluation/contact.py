@@ -224,9 +224,14 @@ def _skeleton_method(fn) -> ContactMethod:
     return lambda case, eint: fn(case.source, case.target.skeleton)
 
 
-def contact_methods(rows: tuple[str, ...] = TABLE1_ROWS + TABLE3_ROWS) -> tuple[dict[str, ContactMethod], list[str]]:
+def contact_methods(rows: tuple[str, ...] = TABLE1_ROWS + TABLE3_ROWS, device: str | None = None,
+                    runs: Mapping[str, Path] | None = None) -> tuple[dict[str, ContactMethod], list[str]]:
     """The methods of the requested table rows whose checkpoints are shipped, and the rows missing
     one (reported, never faked).
+
+    ``device`` is where the networks and ESO run (a ``--device`` name; default the CPU); ``runs``
+    maps a network row to a checkpoint trained for it (e.g. the finished rows of a ``retarget
+    sweep``), used instead of the shipped one.
 
     Table 3's network rows (the energies of :data:`~retarget_lib.losses.contact.TABLE3_ROWS`) load
     the checkpoint the manifest lists for that row (``table: contact``); :data:`EFULL_ROWS` add IK
@@ -238,7 +243,7 @@ def contact_methods(rows: tuple[str, ...] = TABLE1_ROWS + TABLE3_ROWS) -> tuple[
 
     def model(row: str):
         if row not in models:
-            models[row] = load_contact_model(shipped[row].id)
+            models[row] = load_contact_model((runs or {}).get(row, shipped[row].id), device)
         return models[row]
 
     methods, missing = {}, []
@@ -252,7 +257,7 @@ def contact_methods(rows: tuple[str, ...] = TABLE1_ROWS + TABLE3_ROWS) -> tuple[
             methods[row] = (_eso_method(net, cfg["eso"]) if row in ESO_ROWS
                             else _ik_method(net) if row == "Efull + IK" else _network_method(net))
         elif row in REGISTRY_ROWS:
-            methods[row] = _skeleton_method(get_method(REGISTRY_ROWS[row]).retargeter())
+            methods[row] = _skeleton_method(get_method(REGISTRY_ROWS[row]).retargeter(None, device))
         else:
             raise ValueError(f"unknown contact table row {row!r}")
     return methods, missing
@@ -365,6 +370,7 @@ def rerun_cases(per_case: pd.DataFrame, clips: tuple[str, ...], targets: tuple[s
 
 
 def run_contact_evaluation(out_dir: str | Path, profile: str = "fast", rows: tuple[str, ...] | None = None,
+                           device: str | None = None, runs: Mapping[str, Path] | None = None,
                            ) -> tuple[dict[str, pd.DataFrame], list[str]]:
     """Evaluate every Table 1/3 row with a shipped checkpoint on :func:`contact_cases`; write
     ``contact_table{1,3,5,6}.csv/.md`` and ``contact_cases.csv`` into ``out_dir``.
@@ -374,12 +380,13 @@ def run_contact_evaluation(out_dir: str | Path, profile: str = "fast", rows: tup
         profile: :data:`CONTACT_PROFILES` key.
         rows: evaluate only these rows and merge them into an existing ``contact_cases.csv`` of
             ``out_dir`` (replacing their old results); default every row, from scratch.
+        device, runs: as :func:`contact_methods`.
 
     Returns:
         ``(tables, missing_rows)``.
     """
     out = Path(out_dir)
-    methods, missing = contact_methods(rows or TABLE1_ROWS + TABLE3_ROWS)
+    methods, missing = contact_methods(rows or TABLE1_ROWS + TABLE3_ROWS, device, runs)
     cases = contact_cases(profile)
     per_case = evaluate_contact_methods(methods, cases, CONTACT_PROFILES[profile]["eval_every"],
                                         same={"Efull + ESO": "Ours", "Efull-residual + ESO": "Ours (residual)"})

@@ -303,7 +303,8 @@ def write_table(table: pd.DataFrame, out_dir: str | Path, name: str, note: str =
     return csv_path, md_path
 
 
-def tdcn_methods(only: Sequence[str] | None = None) -> tuple[dict[str, Method], list[str]]:
+def tdcn_methods(only: Sequence[str] | None = None, device: str | None = None,
+                 runs: Mapping[str, Path] | None = None) -> tuple[dict[str, Method], list[str]]:
     """The methods to put in Table 4: the registry's two copy baselines, every Table 4 row whose
     checkpoint is shipped (``table: tdcn`` in the manifest; loaded once, by the registry method its
     entry names), then our shipped variants that are not rows of the paper (e.g. ``ours-residual``,
@@ -311,31 +312,41 @@ def tdcn_methods(only: Sequence[str] | None = None) -> tuple[dict[str, Method], 
 
     Args:
         only: keep only these row names (default: all; a name that is not a row is ignored).
+        device: where the generators run (a ``--device`` name; default the CPU).
+        runs: row -> checkpoint trained for that row (e.g. the finished rows of a ``retarget
+            sweep``, :func:`~retarget_lib.training.sweep.finished_rows`), used instead of the
+            shipped one.
     """
     keep = (lambda row: True) if only is None else (lambda row: row in only)
     methods: dict[str, Method] = {name: get_method(name).retargeter() for name in ("copy", "copy-rest") if keep(name)}
     shipped = table_checkpoints("tdcn")
+    runs = runs or {}
     missing = []
     for row in PAPER_TABLE4:
         entry = shipped.get(row)
         if entry is None:
             missing.append(row)
         elif keep(row):
-            methods[row] = get_method(entry.method).retargeter(entry.id)
+            methods[row] = get_method(entry.method).retargeter(runs.get(row, entry.id), device)
     for row, entry in shipped.items():  # our variants (not rows of the paper), e.g. "ours-residual"
         if row not in PAPER_TABLE4 and keep(row):
-            methods[row] = get_method(entry.method).retargeter(entry.id)
+            methods[row] = get_method(entry.method).retargeter(runs.get(row, entry.id), device)
     return methods, missing
 
 
-def run_tdcn_evaluation(out_dir: str | Path) -> tuple[pd.DataFrame, list[str]]:
+def run_tdcn_evaluation(out_dir: str | Path, device: str | None = None, runs: Mapping[str, Path] | None = None,
+                        ) -> tuple[pd.DataFrame, list[str]]:
     """Evaluate :func:`tdcn_methods` on the four scenarios; write ``table4.csv/.md`` (normalised
     MSE, paper beside ours), ``table4_h2.csv/.md`` (squared-height variant) and the per-case CSV.
+
+    Args:
+        out_dir: output folder.
+        device, runs: as :func:`tdcn_methods`.
 
     Returns:
         ``(table, missing_rows)``.
     """
-    methods, missing = tdcn_methods()
+    methods, missing = tdcn_methods(device=device, runs=runs)
     table, per_case = tdcn_table(methods, tdcn_cases())
     table_h2 = table_from_cases(per_case, squared_height=True)
     note = ("Normalised MSE of global joint positions (cm² / H in cm; NKN/TDCN definition) on the "

@@ -24,6 +24,7 @@ from ..core.quantities import MotionQuantities, forward_root_velocity, leg_ratio
 from ..core.skinning import subsample_mesh
 from ..core.transfer import transfer_rotations
 from ..data.checkpoints import load_state
+from ..devices import module_device, resolve_device
 from ..files import atomic_write, cache_dir
 from ..geometry.contacts import SelfContacts, detect_foot_contacts, detect_self_contacts, transfer_contacts
 from ..geometry.penetration import InterpenetrationEnergy
@@ -105,13 +106,15 @@ def model_from_config(config: dict) -> GeometryConditionedRNN:
                                   dropout=float(m["dropout"]), residual=bool(m.get("residual", False)))
 
 
-def load_contact_model(checkpoint: str | os.PathLike) -> tuple[GeometryConditionedRNN, dict]:
+def load_contact_model(checkpoint: str | os.PathLike, device: str | torch.device | None = None,
+                       ) -> tuple[GeometryConditionedRNN, dict]:
     """``(model in eval mode, config)`` from a training or exported checkpoint: a manifest id (the
-    shipped file, sha256 verified) or a path (:func:`~retarget_lib.data.checkpoints.resolve_checkpoint`)."""
+    shipped file, sha256 verified) or a path (:func:`~retarget_lib.data.checkpoints.resolve_checkpoint`),
+    on ``device`` (a ``--device`` name or ``torch.device``; default the CPU)."""
     state = load_state(checkpoint)
     model = model_from_config(state["config"])
     model.load_state_dict(state["modules"]["model"])
-    return model.eval(), state["config"]
+    return model.eval().to(resolve_device(device or "cpu")), state["config"]
 
 
 def eweak_rotations(model: GeometryConditionedRNN, rotations: np.ndarray, source: Any, target: Any) -> Tensor:
@@ -144,19 +147,21 @@ def retarget_with_network(model: GeometryConditionedRNN, source: Motion, target:
     Eqs. 12-19 over the whole clip, root starting at the source's first root times the leg ratio.
 
     Returns:
-        The motion on ``target.skeleton``.
+        The motion on ``target.skeleton`` (computed on the model's device).
     """
-    rot, root, off = source.torch(torch.float32)
+    f32 = dict(dtype=torch.float32, device=module_device(model))
+    rot, root, off = (x.to(f32["device"]) for x in source.torch(torch.float32))
     feats = motion_features(rot[None], root[None], off, source.skeleton.parents, source.skeleton.height())
-    t_off = torch.as_tensor(target.skeleton.offsets, dtype=torch.float32)
+    t_off = torch.as_tensor(target.skeleton.offsets, **f32)
     ratio = leg_ratio(source.skeleton, target.skeleton)
-    base = ResidualBase(eweak_rotations(model, source.rotations, source.skeleton, target.skeleton)[None],
-                        forward_root_velocity(root[None]) * ratio)
-    out = model(feats, t_off[None], torch.as_tensor(target.rest_vertices, dtype=torch.float32)[None],
-                torch.as_tensor(target.weights, dtype=torch.float32)[None], target.height, base)
+    aligned = eweak_rotations(model, source.rotations, source.skeleton, target.skeleton).to(f32["device"])
+    base = ResidualBase(aligned[None], forward_root_velocity(root[None]) * ratio)
+    out = model(feats, t_off[None], torch.as_tensor(target.rest_vertices, **f32)[None],
+                torch.as_tensor(target.weights, **f32)[None], target.height, base)
     start = ratio * root[0]
     posed = pose_outputs(out.rotations, out.root_velocity, t_off, start=start[None])
-    return Motion(target.skeleton, out.rotations[0].double().numpy(), posed.root_positions[0].double().numpy(),
+    return Motion(target.skeleton, out.rotations[0].double().cpu().numpy(),
+                  posed.root_positions[0].double().cpu().numpy(),
                   source.fps, name=f"{source.name}->{getattr(target, 'name', 'target')}")
 
 
@@ -219,8 +224,9 @@ def retarget_with_eso(model: GeometryConditionedRNN, eso_config: Mapping, source
                   name=source.name if name is None else name)
 
 
-def load(checkpoint: str | os.PathLike) -> Callable[..., Motion]:
+def load(checkpoint: str | os.PathLike, device: str | torch.device | None = None) -> Callable[..., Motion]:
     """The registry's loader: ``retarget(source, target_character, source_character=None,
-    eso=True)`` with the contact model of ``checkpoint`` (:func:`retarget_contact_with`)."""
-    model, config = load_contact_model(checkpoint)
+    eso=True)`` with the contact model of ``checkpoint`` (:func:`retarget_contact_with`) on
+    ``device`` (network and ESO; default the CPU)."""
+    model, config = load_contact_model(checkpoint, device)
     return partial(retarget_contact_with, model, config)

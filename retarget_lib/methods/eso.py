@@ -208,8 +208,8 @@ class _Frame:
         src = p.source
         self.src_positions = torch.stack((src.positions[max(t - 1, 0)], src.positions[t]))[None]
         self.src_rotations = src.rotations[t][None]
-        self.src_prev_velocity = src.root_velocity[t - 1][None] if t > 0 else torch.zeros(1, 3)
-        contact = torch.as_tensor(p.foot_contacts[t])
+        self.src_prev_velocity = src.root_velocity[t - 1][None] if t > 0 else src.root_velocity.new_zeros(1, 3)
+        contact = torch.as_tensor(p.foot_contacts[t], device=p.offsets.device)
         self.foot_contacts = torch.stack((contact, contact))[None]
 
     def detect(self, vertices: Tensor) -> None:
@@ -249,21 +249,22 @@ class _Frame:
 
 
 class _Problem:
-    """Constants shared by every frame: the model, target, source and settings."""
+    """Constants shared by every frame: the model, target, source and settings (on the model's
+    device)."""
 
     def __init__(self, model: GeometryConditionedRNN, target: Any, source: MotionQuantities, leg_ratio: float,
                  foot_contacts: np.ndarray, contacts: Any, interpenetration: InterpenetrationEnergy | None,
                  weights: ContactEnergyWeights, reach: float, blend: float):
-        dtype = model.rotation_head.weight.dtype
+        dtype = dict(dtype=model.rotation_head.weight.dtype, device=model.rotation_head.weight.device)
         self.model, self.weights, self.reach, self.blend = model, weights, float(reach), float(blend)
-        self.offsets = torch.as_tensor(target.skeleton.offsets, dtype=dtype)
-        self.rest_joints = torch.as_tensor(target.skeleton.rest_positions(), dtype=dtype)
-        self.rest_vertices = torch.as_tensor(np.asarray(target.rest_vertices), dtype=dtype)
+        self.offsets = torch.as_tensor(target.skeleton.offsets, **dtype)
+        self.rest_joints = torch.as_tensor(target.skeleton.rest_positions(), **dtype)
+        self.rest_vertices = torch.as_tensor(np.asarray(target.rest_vertices), **dtype)
         self.skin_weights = np.asarray(target.weights)
-        self.skin_weights_t = torch.as_tensor(self.skin_weights, dtype=dtype)
+        self.skin_weights_t = torch.as_tensor(self.skin_weights, **dtype)
         self.height = float(target.height)
-        self.ground_heights = torch.as_tensor(foot_ground_heights(target.skeleton), dtype=dtype)
-        self.source = MotionQuantities(*(torch.as_tensor(x, dtype=dtype) for x in source[:3]), float(source.height))
+        self.ground_heights = torch.as_tensor(foot_ground_heights(target.skeleton), **dtype)
+        self.source = MotionQuantities(*(torch.as_tensor(x, **dtype) for x in source[:3]), float(source.height))
         self.leg_ratio = float(leg_ratio)
         #: what a residual network corrects (Eweak's targets θ^A, o^(A→B)); ignored by the paper's network
         self.base = ResidualBase(self.source.rotations[None], self.leg_ratio * self.source.root_velocity[None])
@@ -330,12 +331,15 @@ def encoder_space_optimization(model: GeometryConditionedRNN, source_features: T
         lr: Adam learning rate ``α`` (0.01).
         reach: optimise a contact only if the initial output has it within this distance (metres).
         blend: fraction of a contact gap targeted per frame (0.3).
-        start: ``(3,)`` frame 0's root position (default ``leg_ratio ×`` the source's first root).
+        start: ``(3,)`` frame 0's root position, on the model's device (default ``leg_ratio ×`` the source's first root).
         redetect_every: re-detect colliding triangles every this many iterations (0 = once per
             frame, on the initial output).
         num_threads: torch intra-op threads while optimising (restored afterwards); ``None``
             keeps the current setting. ESO's tensors are one frame each, so threads only add
             overhead: on the 2-core workshop machine, under load, 2 threads ran 10x slower than 1.
+
+    Runs on the model's device (move the model with ``.to(device)``); the per-frame contact and
+    collision detection stay on the CPU; the result's tensors are on the CPU.
 
     Returns:
         :class:`EsoResult`.
@@ -357,7 +361,7 @@ def encoder_space_optimization(model: GeometryConditionedRNN, source_features: T
     began = time.perf_counter()
     try:
         with torch.no_grad():
-            h_enc = model.encode(features.to(problem.offsets.dtype))[0]
+            h_enc = model.encode(features.to(problem.offsets.device, problem.offsets.dtype))[0]
             context = model.target_context(problem.offsets, problem.rest_vertices[None],
                                            problem.skin_weights_t[None], problem.height)
         state = model.initial_state(context, start)
@@ -373,8 +377,9 @@ def encoder_space_optimization(model: GeometryConditionedRNN, source_features: T
         model.train(was_training)
         for p, flag in zip(model.parameters(), grad_flags):
             p.requires_grad_(flag)
-    return EsoResult(torch.cat([f.rotations for f in frames]), torch.cat([f.state.root_position for f in frames]),
-                     torch.cat([f.positions for f in frames]), log.energies, log.terms,
+    return EsoResult(torch.cat([f.rotations for f in frames]).cpu(),
+                     torch.cat([f.state.root_position for f in frames]).cpu(),
+                     torch.cat([f.positions for f in frames]).cpu(), log.energies, log.terms,
                      torch.as_tensor(log.active), torch.as_tensor(log.collisions), time.perf_counter() - began)
 
 

@@ -6,6 +6,8 @@ from __future__ import annotations
 import os
 from typing import Callable
 
+import torch
+
 from ..core.motion import Motion
 from ..core.skeleton import Skeleton
 from .tdcn import generator_retargeter
@@ -13,7 +15,8 @@ from .tdcn import generator_retargeter
 __all__ = ["load"]
 
 
-def load(checkpoint: str | os.PathLike) -> Callable[[Motion, Skeleton], Motion]:
+def load(checkpoint: str | os.PathLike, device: str | torch.device | None = None,
+         ) -> Callable[[Motion, Skeleton], Motion]:
     """The registry's loader: :func:`~retarget_lib.methods.tdcn.retarget_motion_with` an NKN
-    generator (a Baseline row of Table 4)."""
-    return generator_retargeter(checkpoint, "nkn")
+    generator (a Baseline row of Table 4) on ``device`` (default the CPU)."""
+    return generator_retargeter(checkpoint, "nkn", device)

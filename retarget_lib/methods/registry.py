@@ -34,8 +34,9 @@ class Method:
     Attributes:
         name: the ``--method`` name.
         summary: one line for ``retarget retarget --help``.
-        load: ``load(checkpoint) -> retarget``; ``checkpoint`` is ``None`` for methods without
-            one, else a manifest id or a path.
+        load: ``load(checkpoint) -> retarget`` for methods without a checkpoint (NumPy, no
+            device; ``checkpoint`` is ``None``), ``load(checkpoint, device) -> retarget`` for
+            learned ones (a manifest id or a path; a ``--device`` name, ``None`` = CPU).
         needs_checkpoint: a learned method (``--checkpoint``, default from the manifest).
         needs_mesh: the target must be a skinned ``Character`` (a shape file or a named
             character), not only a skeleton.
@@ -52,12 +53,15 @@ class Method:
         or the method needs none)."""
         return default_checkpoint(self.name) if self.needs_checkpoint else None
 
-    def retargeter(self, checkpoint: str | os.PathLike | None = None) -> Retarget:
+    def retargeter(self, checkpoint: str | os.PathLike | None = None, device: str | None = None) -> Retarget:
         """The ready ``retarget`` function, its checkpoint loaded once.
 
         Args:
             checkpoint: a manifest id or a path; default :meth:`default_checkpoint`. Ignored by
                 methods without a checkpoint.
+            device: where a learned method's network runs (``auto``, ``cpu``, ``cuda``, ``mps``;
+                default the CPU, :func:`~retarget_lib.devices.resolve_device`). Methods without a
+                checkpoint run in NumPy and ignore it.
 
         Raises:
             ValueError: a learned method without a checkpoint.
@@ -68,7 +72,7 @@ class Method:
         if checkpoint is None:
             raise ValueError(f"--method {self.name} needs --checkpoint (a `retarget train` output): no "
                              f"{self.name} checkpoint is shipped yet")
-        return self.load(checkpoint)
+        return self.load(checkpoint, device)
 
 
 #: every method, by name (the order of ``retarget retarget --help``)

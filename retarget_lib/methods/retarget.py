@@ -86,11 +86,11 @@ def _check_plausible(result: Motion, source: Motion, target_skeleton: Skeleton, 
         raise RetargetInputError(f"--method {method} produced {what} for {source.name}")
 
 
-def _load_retargeter(chosen: Method, checkpoint):
-    """``chosen.retargeter(checkpoint)``, with a checkpoint that does not fit its model (missing
+def _load_retargeter(chosen: Method, checkpoint, device):
+    """``chosen.retargeter(checkpoint, device)``, with a checkpoint that does not fit its model (missing
     keys, wrong shapes or config) reported as :class:`~retarget_lib.errors.CheckpointError`."""
     try:
-        return chosen.retargeter(checkpoint)
+        return chosen.retargeter(checkpoint, device)
     except (KeyError, TypeError, AttributeError, RuntimeError) as e:
         problem = str(e).strip().splitlines()[0][:200] if str(e).strip() else type(e).__name__
         raise CheckpointError(f"{checkpoint or chosen.default_checkpoint()}: not a valid {chosen.name} checkpoint: "
@@ -101,7 +101,7 @@ def retarget_file(source: str | os.PathLike, target: str, method: str, out: str 
                   checkpoint: str | os.PathLike | None = None, target_mesh: str | os.PathLike | None = None,
                   source_mesh: str | os.PathLike | None = None, fps: float | None = None,
                   force: bool = False, joint_map: str | os.PathLike | None = None,
-                  source_joint_map: str | os.PathLike | None = None) -> Path:
+                  source_joint_map: str | os.PathLike | None = None, device: str | None = None) -> Path:
     """Load ``source``, retarget it to ``target`` with the registry's ``method`` and write ``out``.
 
     Args:
@@ -119,6 +119,8 @@ def retarget_file(source: str | os.PathLike, target: str, method: str, out: str 
         force: allow ``out`` to be one of the inputs.
         joint_map: mapping file for a GLB/FBX target the rig name maps do not cover.
         source_joint_map: the same for a GLB/FBX source.
+        device: where a learned method's network (and ESO) runs: ``auto``, ``cpu``, ``cuda``,
+            ``mps`` (default the CPU).
 
     Returns:
         the output path.
@@ -129,7 +131,8 @@ def retarget_file(source: str | os.PathLike, target: str, method: str, out: str 
             :class:`~retarget_lib.errors.GLTFError`, :class:`~retarget_lib.errors.AMASSError`,
             :class:`~retarget_lib.errors.FBXError`, :class:`~retarget_lib.core.skeleton.JointSetError`,
             :class:`~retarget_lib.io.shape.ShapeError`, :class:`~retarget_lib.errors.CheckpointError`,
-            :class:`~retarget_lib.errors.LimitError`, :class:`~retarget_lib.errors.InputFileError`.
+            :class:`~retarget_lib.errors.LimitError`, :class:`~retarget_lib.errors.InputFileError`,
+            :class:`~retarget_lib.errors.DeviceError`.
     """
     chosen = get_method(method)
     _check_options(chosen, str(target), target_mesh, source_mesh, checkpoint)
@@ -150,9 +153,9 @@ def retarget_file(source: str | os.PathLike, target: str, method: str, out: str 
             raise RetargetInputError(f"--method contact needs the target's mesh: give a .glb/.fbx/shape .npz target, "
                                      f"--target-mesh SHAPE.npz or a character name; {target} has none")
         source_character = load_shape_npz(source_mesh) if source_mesh is not None else src.character
-        result = _load_retargeter(chosen, checkpoint)(motion, tgt.character, source_character=source_character)
+        result = _load_retargeter(chosen, checkpoint, device)(motion, tgt.character, source_character=source_character)
     else:
-        result = _load_retargeter(chosen, checkpoint)(motion, tgt.skeleton)
+        result = _load_retargeter(chosen, checkpoint, device)(motion, tgt.skeleton)
     _check_plausible(result, motion, tgt.skeleton, method, checkpoint)
     _write(result.resample(out_fps), tgt, src.meta, Path(out))
     return Path(out)

@@ -19,6 +19,7 @@ import torch
 from ..core.motion import Motion
 from ..core.skeleton import Skeleton
 from ..data.checkpoints import load_state
+from ..devices import module_device, resolve_device
 from ..models import TDCNGenerator, build_model
 from ..models.features import skeleton_height
 from ..models.tdcn import edge_pad
@@ -56,7 +57,8 @@ def model_config(config: dict) -> dict[str, Any]:
     return {**config["model"], "profile": config.get("profile", "fast")}
 
 
-def load_generator(checkpoint: str | os.PathLike) -> tuple[torch.nn.Module, dict]:
+def load_generator(checkpoint: str | os.PathLike, device: str | torch.device | None = None,
+                   ) -> tuple[torch.nn.Module, dict]:
     """Rebuild a trained generator from a checkpoint of ``retarget train`` (``last.pt``,
     ``final.pt`` or an ``--export``ed one).
 
@@ -64,15 +66,17 @@ def load_generator(checkpoint: str | os.PathLike) -> tuple[torch.nn.Module, dict
         checkpoint: a manifest checkpoint id (the shipped file, sha256 verified) or a path
             (:func:`~retarget_lib.data.checkpoints.resolve_checkpoint`).
 
+        device: a ``--device`` name or ``torch.device`` (default the CPU).
+
     Returns:
-        ``(generator, config)``: the generator in eval mode with its weights and normaliser
-        statistics; the merged experiment config it was trained with.
+        ``(generator, config)``: the generator in eval mode on ``device`` with its weights and
+        normaliser statistics; the merged experiment config it was trained with.
     """
     state = load_state(checkpoint)
     config = state["config"]
     generator, _ = build_model(model_config(config))
     generator.load_state_dict(state["modules"]["generator"])
-    return generator.eval(), config
+    return generator.eval().to(resolve_device(device or "cpu")), config
 
 
 def _frame_windows(x: Tensor, left: int, right: int) -> Tensor:
@@ -108,15 +112,17 @@ def retarget_motion_with(generator: torch.nn.Module, motion: Motion, target: Ske
         chunk: windows per network call when ``windowed``.
 
     Returns:
-        the target's :class:`~retarget_lib.core.motion.Motion` (``T`` frames, unit quaternions).
+        the target's :class:`~retarget_lib.core.motion.Motion` (``T`` frames, unit quaternions),
+        computed on the generator's device.
     """
-    q, r, off_a = motion.torch()
-    off_b = torch.as_tensor(target.offsets, dtype=torch.float32)
+    device = module_device(generator)
+    q, r, off_a = (x.to(device) for x in motion.torch())
+    off_b = torch.as_tensor(target.offsets, dtype=torch.float32, device=device)
     ratio = skeleton_height(off_b) / skeleton_height(off_a)
     with torch.inference_mode():
         if getattr(generator, "residual", False):  # translation-invariant inputs, analytic root: no centring
             q_b, r_b = (x[0] for x in generator.retarget(q[None], r[None], off_a, off_b))
-            shift = torch.zeros(3)
+            shift = r.new_zeros(3)
         elif not windowed:
             r, shift = centre_root(r)
             q_b, r_b = (x[0] for x in generator.retarget(q[None], r[None], off_a, off_b))
@@ -130,25 +136,28 @@ def retarget_motion_with(generator: torch.nn.Module, motion: Motion, target: Ske
             r_b = torch.cat([o[1][:, left] for o in outs])
         else:
             raise ValueError(f"windowed retargeting needs a TDCNGenerator, got {type(generator).__name__}")
-    return motion.copy(skeleton=target.copy(), rotations=q_b.double().numpy(),
-                       root_positions=(r_b + shift * ratio).double().numpy(),
+    return motion.copy(skeleton=target.copy(), rotations=q_b.double().cpu().numpy(),
+                       root_positions=(r_b + shift * ratio).double().cpu().numpy(),
                        meta=dict(motion.meta, retargeted=generator.config["kind"]))
 
 
-def generator_retargeter(checkpoint: str | os.PathLike, kind: str) -> Callable[[Motion, Skeleton], Motion]:
+def generator_retargeter(checkpoint: str | os.PathLike, kind: str, device: str | torch.device | None = None,
+                         ) -> Callable[[Motion, Skeleton], Motion]:
     """``retarget(motion, target_skeleton)`` with the generator of ``checkpoint``, which must hold
-    a ``kind`` model (``"tdcn"``: a TDCN row; ``"nkn"``: a Baseline row of Table 4).
+    a ``kind`` model (``"tdcn"``: a TDCN row; ``"nkn"``: a Baseline row of Table 4), on ``device``
+    (default the CPU).
 
     Raises:
         ValueError: the checkpoint holds the other kind of model (named in the message).
     """
-    generator, config = load_generator(checkpoint)
+    generator, config = load_generator(checkpoint, device)
     row = config["model"]["row"]
     if row.startswith("Baseline") != (kind == "nkn"):
         raise ValueError(f"checkpoint holds the {row!r} model, not a {kind} one")
     return partial(retarget_motion_with, generator)
 
 
-def load(checkpoint: str | os.PathLike) -> Callable[[Motion, Skeleton], Motion]:
-    """The registry's loader: :func:`retarget_motion_with` a TDCN generator."""
-    return generator_retargeter(checkpoint, "tdcn")
+def load(checkpoint: str | os.PathLike, device: str | torch.device | None = None,
+         ) -> Callable[[Motion, Skeleton], Motion]:
+    """The registry's loader: :func:`retarget_motion_with` a TDCN generator on ``device``."""
+    return generator_retargeter(checkpoint, "tdcn", device)

@@ -158,7 +158,7 @@ def batch_meshes(vertices: Sequence[np.ndarray | Tensor], weights: Sequence[np.n
         v, w = torch.as_tensor(v, dtype=dtype), torch.as_tensor(w, dtype=dtype)
         if len(v) != len(w):
             raise ValueError(f"a mesh has {len(v)} vertices but {len(w)} weight rows")
-        idx = torch.arange(n) % len(v)
+        idx = torch.arange(n, device=v.device) % len(v)
         out_v.append(v[idx])
         out_w.append(w[idx])
     return torch.stack(out_v), torch.stack(out_w)

@@ -50,6 +50,8 @@ from ..geometry.penetration import InterpenetrationEnergy
 from ..losses.contact import ContactEnergyWeights, foot_contact_energy, self_contact_energy, skeleton_energy
 from ..methods.contact import ContactClip, contact_clip, eweak_rotations, model_from_config
 from ..models.georet import ResidualBase, batch_meshes, pose_outputs
+from ..devices import autocast
+from .distributed import SINGLE, Distributed, prepare_module
 from .loop import TrainTask, load_checkpoint, seed_everything
 
 Tensor = torch.Tensor
@@ -104,16 +106,17 @@ def energy_weights(config: dict) -> ContactEnergyWeights:
 
 
 class _Target:
-    """A training character's constant tensors, its Eint and foot ground heights."""
+    """A training character's constant tensors (on ``device``), its Eint and foot ground heights."""
 
-    def __init__(self, character: Character, geodesic_weights: bool, need_int: bool):
+    def __init__(self, character: Character, geodesic_weights: bool, need_int: bool, device: torch.device):
         self.character = character
-        self.offsets = torch.as_tensor(character.skeleton.offsets, dtype=torch.float32)
+        f32 = dict(dtype=torch.float32, device=device)
+        self.offsets = torch.as_tensor(character.skeleton.offsets, **f32)
         self.height = character.height
-        self.rest_joints = torch.as_tensor(character.rest_joint_positions(), dtype=torch.float32)
-        self.vertices = torch.as_tensor(character.rest_vertices, dtype=torch.float32)
-        self.weights = torch.as_tensor(character.weights, dtype=torch.float32)
-        self.ground = torch.as_tensor(foot_ground_heights(character.skeleton), dtype=torch.float32)
+        self.rest_joints = torch.as_tensor(character.rest_joint_positions(), **f32)
+        self.vertices = torch.as_tensor(character.rest_vertices, **f32)
+        self.weights = torch.as_tensor(character.weights, **f32)
+        self.ground = torch.as_tensor(foot_ground_heights(character.skeleton), **f32)
         self.eint = (InterpenetrationEnergy(character.faces, character.rest_vertices, geodesic_weights)
                      if need_int else None)
 
@@ -122,11 +125,24 @@ class ContactTraining:
     """One training run of a Table 3 row (``config["energy"]["row"]``).
 
     Use :meth:`task` with :func:`retarget_lib.training.loop.fit`, as ``retarget train`` does.
+
+    Args:
+        config: merged ``method: contact`` config.
+        clips, targets: training data (default :func:`training_clips`).
+        device: where the network and the energies are computed (default CPU; contact detection
+            and Eint's triangle-pair search stay on the CPU, :mod:`retarget_lib.geometry`).
+        amp: bfloat16 autocast for the network's forward pass (CUDA only).
+        layout: this process's place in a ``torchrun`` job: each step draws the global batch and
+            keeps this rank's shard (:mod:`~retarget_lib.training.distributed`).
     """
 
     def __init__(self, config: dict, clips: list[ContactClip] | None = None,
-                 targets: dict[str, Character] | None = None):
+                 targets: dict[str, Character] | None = None, device: torch.device | None = None,
+                 amp: bool = False, layout: Distributed = SINGLE):
         self.config = config
+        self.device, self.amp, self.layout = device or torch.device("cpu"), amp, layout
+        self.rows = layout.shard(int(config["train"]["batch"]))
+        autocast(self.device, amp)  # refuses --amp off CUDA before any work
         if clips is None or targets is None:
             clips, targets = training_clips(config)
         self.window = int(config["data"]["window"])
@@ -134,11 +150,12 @@ class ContactTraining:
         if not self.clips:
             raise ValueError(f"no clip has the {self.window} frames of data.window")
         self.weights = energy_weights(config)
-        self.targets = [_Target(c, self.weights.geodesic_weights, self.weights.use_int) for c in targets.values()]
+        self.targets = [_Target(c, self.weights.geodesic_weights, self.weights.use_int, self.device)
+                        for c in targets.values()]
         self._correspondence: dict[tuple[str, str], np.ndarray] = {}
         self._aligned: dict[tuple[str, str], Tensor] = {}
         seed_everything(int(config["seed"]))  # the initial weights depend on the config's seed only
-        self.model = model_from_config(config)
+        self.model = prepare_module(model_from_config(config), self.device, layout)
         t = config["train"]
         self.optimizer = torch.optim.Adam(self.model.parameters(), lr=float(t["lr"]), betas=tuple(t["betas"]),
                                           eps=1e-8)
@@ -171,38 +188,42 @@ class ContactTraining:
 
     def _sample(self) -> list[tuple[ContactClip, int, _Target, int]]:
         """``batch`` draws of (clip, window start, target, sampled frame) from NumPy's global RNG
-        (seeded and checkpointed by :func:`~retarget_lib.training.loop.fit`)."""
+        (seeded and checkpointed by :func:`~retarget_lib.training.loop.fit`); in a multi-process
+        run every rank draws them all and keeps its shard."""
         draws = []
         for _ in range(self.batch):
             clip = self.clips[np.random.randint(len(self.clips))]
             start = np.random.randint(clip.motion.num_frames - self.window + 1)
             target = self.targets[np.random.randint(len(self.targets))]
             draws.append((clip, start, target, np.random.randint(self.window)))
-        return draws
+        return draws[self.rows]
 
     def energies(self, draws: list[tuple[ContactClip, int, _Target, int]], weights: ContactEnergyWeights,
                  ) -> dict[str, Tensor]:
         """Weighted ``Efull`` terms of one batch (each ``(B,)``), :data:`LOG_TERMS` keys."""
-        win = slice(0, self.window)
+        win, dev = slice(0, self.window), self.device
         sl = [slice(s, s + self.window) for _, s, _, _ in draws]
-        features = torch.stack([c.features[s] for (c, *_), s in zip(draws, sl)])
-        src = MotionQuantities(torch.stack([self.eweak_rotations(c, t)[s] for (c, _, t, _), s in zip(draws, sl)]),
-                               torch.stack([c.quantities.root_velocity[s] for (c, *_), s in zip(draws, sl)]),
-                               torch.stack([c.quantities.positions[s] for (c, *_), s in zip(draws, sl)]),
-                               torch.tensor([c.quantities.height for c, *_ in draws]))
+        features = torch.stack([c.features[s] for (c, *_), s in zip(draws, sl)]).to(dev)
+        src = MotionQuantities(
+            torch.stack([self.eweak_rotations(c, t)[s] for (c, _, t, _), s in zip(draws, sl)]).to(dev),
+            torch.stack([c.quantities.root_velocity[s] for (c, *_), s in zip(draws, sl)]).to(dev),
+            torch.stack([c.quantities.positions[s] for (c, *_), s in zip(draws, sl)]).to(dev),
+            torch.tensor([c.quantities.height for c, *_ in draws], device=dev))
         targets = [t for _, _, t, _ in draws]
         offsets = torch.stack([t.offsets for t in targets])
-        heights = torch.tensor([t.height for t in targets])
-        ratios = torch.tensor([leg_ratio(c.motion.skeleton, t.character.skeleton) for c, _, t, _ in draws])
+        heights = torch.tensor([t.height for t in targets], device=dev)
+        ratios = torch.tensor([leg_ratio(c.motion.skeleton, t.character.skeleton) for c, _, t, _ in draws],
+                              device=dev)
         verts, skin = batch_meshes([t.vertices for t in targets], [t.weights for t in targets])
-        out = self.model(features, offsets, verts, skin, heights,
-                         ResidualBase(src.rotations, src.root_velocity * ratios[:, None, None]))
+        with autocast(dev, self.amp):
+            out = self.model(features, offsets, verts, skin, heights,
+                             ResidualBase(src.rotations, src.root_velocity * ratios[:, None, None]))
         start = ratios[:, None] * src.positions[:, 0, 0]
         posed = pose_outputs(out.rotations, out.root_velocity, offsets, start=start)
         output = MotionQuantities(out.rotations, out.root_velocity, posed.positions, heights)
         terms = skeleton_energy(output, src, ratios, weights)
         zeros = heights.new_zeros(len(draws))
-        foot = torch.stack([foot_contact_energy(posed.positions[b, win], torch.as_tensor(c.foot_contacts[s]),
+        foot = torch.stack([foot_contact_energy(posed.positions[b, win], torch.as_tensor(c.foot_contacts[s], device=dev),
                                                 t.ground, t.height)
                             for b, ((c, _, t, _), s) in enumerate(zip(draws, sl))])
         terms["foot"] = weights.foot_weight * weights.in_units("foot", foot)
@@ -217,7 +238,7 @@ class ContactTraining:
             if len(pairs):
                 pairs = self.correspondence(clip.character, t)[pairs]
                 pairs = pairs[pairs[:, 0] != pairs[:, 1]]
-            j2j.append(self_contact_energy(mesh, torch.as_tensor(pairs)) if len(pairs) else zeros[0])
+            j2j.append(self_contact_energy(mesh, torch.as_tensor(pairs, device=dev)) if len(pairs) else zeros[0])
             eint.append(t.eint(mesh) if t.eint is not None else zeros[0])
         terms["j2j"] = (weights.j2j_weight * weights.in_units("j2j", torch.stack(j2j))) if j2j else zeros
         terms["int"] = (weights.int_weight * weights.in_units("int", torch.stack(eint))) if eint else zeros
@@ -225,15 +246,20 @@ class ContactTraining:
         return {k: terms[k] for k in LOG_TERMS}
 
     def step(self, index: int) -> dict[str, float]:
+        """One Adam step on ``Efull`` of a batch (this rank's shard in a multi-process run);
+        returns the mean of each :data:`LOG_TERMS` term."""
         epoch = self.epoch(index)
         for group in self.optimizer.param_groups:
             group["lr"] = self.lr * self.decay ** epoch
         weights = self.weights.with_foot_ramp(epoch, self.epochs)
-        terms = self.energies(self._sample(), weights)
-        loss = terms["total"].mean()
-        self.optimizer.zero_grad(set_to_none=True)
-        loss.backward()
-        self.optimizer.step()
+        draws = self._sample()
+        with self.layout.rank_random(int(self.config["seed"]), index, self.device):
+            terms = self.energies(draws, weights)
+            loss = terms["total"].mean()
+            self.optimizer.zero_grad(set_to_none=True)
+            loss.backward()
+            self.layout.average_gradients(self.model)
+            self.optimizer.step()
         return {k: float(v.detach().mean()) for k, v in terms.items()}
 
 

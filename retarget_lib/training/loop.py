@@ -8,6 +8,11 @@ returns a dict of float losses — and :func:`fit` does the rest::
     run_dir/losses.csv       one row per step: step, seconds, every loss term
     run_dir/last.pt          the latest checkpoint (atomic; ``--resume`` continues from it)
     run_dir/final.pt         written when training completes
+
+Under ``torchrun`` every process runs :func:`fit` with its
+:class:`~retarget_lib.training.distributed.Distributed` layout: the losses logged are the means
+over the processes, and rank 0 alone writes the files above
+(:mod:`retarget_lib.training.distributed`).
 """
 
 from __future__ import annotations
@@ -28,6 +33,7 @@ from ..config import dump_config
 from ..data.checkpoints import load_state, save_state
 from ..files import atomic_write
 from ..losses import NonFiniteLossError
+from .distributed import SINGLE, Distributed
 
 
 def seed_everything(seed: int) -> None:
@@ -118,7 +124,7 @@ def _truncate_log(path: Path, upto: int) -> None:
 
 
 def fit(task: TrainTask, config: dict, run_dir: str | Path, steps: int, checkpoint_every: int = 100,
-        resume: bool = False, progress: bool = True) -> Path:
+        resume: bool = False, progress: bool = True, layout: Distributed = SINGLE) -> Path:
     """Run ``steps`` optimisation steps of ``task``; return the final checkpoint's path.
 
     Args:
@@ -128,33 +134,42 @@ def fit(task: TrainTask, config: dict, run_dir: str | Path, steps: int, checkpoi
         steps: total steps (a resumed run continues up to this number).
         checkpoint_every: steps between ``last.pt`` writes.
         resume: continue from ``run_dir/last.pt`` if it exists (modules, optimisers, RNGs, log).
-        progress: show a tqdm progress bar.
+        progress: show a tqdm progress bar (rank 0 only).
+        layout: this process's place in a multi-process run (default: the only process). The task
+            must shard its batches and average its gradients with the same layout.
 
     Raises:
         NonFiniteLossError: as soon as a loss is NaN/inf (nothing after it is saved).
     """
     run_dir = Path(run_dir)
-    run_dir.mkdir(parents=True, exist_ok=True)
-    with atomic_write(run_dir / "config.yaml", "w") as f:
-        f.write(dump_config(config))
+    main = layout.is_main
+    if main:
+        run_dir.mkdir(parents=True, exist_ok=True)
+        with atomic_write(run_dir / "config.yaml", "w") as f:
+            f.write(dump_config(config))
+    layout.barrier()
     seed_everything(int(config["seed"]))
     start = 0
     last = run_dir / "last.pt"
     log_path = run_dir / "losses.csv"
     if resume and last.exists():
         start = int(load_checkpoint(last, task)["step"])
-        _truncate_log(log_path, start)
-    elif log_path.exists():
+        if main:
+            _truncate_log(log_path, start)
+    elif main and log_path.exists():
         log_path.unlink()
+    layout.barrier()
     for m in task.modules.values():
         m.train()
     writer, fh, header = None, None, None
     t0 = time.perf_counter()
-    bar = tqdm(range(start, steps), initial=start, total=steps, disable=not progress, desc=config.get("name", "train"))
+    bar = tqdm(range(start, steps), initial=start, total=steps, disable=not (progress and main), desc=config.get("name", "train"))
     try:
         for i in bar:
-            losses = task.step(i)
+            losses = layout.mean(task.step(i))
             _check_finite(losses, i, run_dir)
+            if not main:
+                continue
             if writer is None:
                 header = ["step", "seconds"] + list(losses)
                 new = not log_path.exists() or log_path.stat().st_size == 0
@@ -172,5 +187,7 @@ def fit(task: TrainTask, config: dict, run_dir: str | Path, steps: int, checkpoi
         if fh is not None:
             fh.close()
     final = run_dir / "final.pt"
-    save_checkpoint(final, task, steps, config)
+    if main:
+        save_checkpoint(final, task, steps, config)
+    layout.barrier()
     return final

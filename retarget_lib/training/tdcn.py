@@ -122,6 +122,8 @@ from ..methods.tdcn import centre_root, model_config
 from ..models import build_model, normalize_quaternions, resolve_config
 from ..models.features import (generator_features, nkn_source_features, residual_generator_features,
                                root_velocities, skeleton_height, source_local_positions)
+from ..devices import autocast
+from .distributed import SINGLE, Distributed, prepare_module
 from .loop import TrainTask, load_checkpoint, seed_everything
 
 Tensor = torch.Tensor
@@ -389,6 +391,11 @@ class RetargetTraining:
             ``loss`` (``gan``, ``twist_alpha_deg``, ``lambda_*``) and ``train`` (``batch``, ``lr``,
             ``betas``).
         clips: training data (default :func:`training_clips`).
+        device: where the networks and each step's batch live (default CPU). Batches are drawn on
+            the CPU either way, so every device sees the same data.
+        amp: bfloat16 autocast for the forward passes (CUDA only, :func:`~retarget_lib.devices.autocast`).
+        layout: this process's place in a ``torchrun`` job: each step draws the global batch
+            ``train.batch`` and keeps this rank's shard (:mod:`~retarget_lib.training.distributed`).
 
     Attributes:
         generator, discriminator: the :class:`~retarget_lib.models.ModelPair`.
@@ -396,8 +403,12 @@ class RetargetTraining:
         weights: the :class:`~retarget_lib.losses.TDCNLossWeights` of Eq. 6.
     """
 
-    def __init__(self, config: dict, clips: TrainingClips | None = None):
+    def __init__(self, config: dict, clips: TrainingClips | None = None, device: torch.device | None = None,
+                 amp: bool = False, layout: Distributed = SINGLE):
         self.config = config
+        self.device, self.amp, self.layout = device or torch.device("cpu"), amp, layout
+        self.rows = layout.shard(int(config["train"]["batch"]))
+        autocast(self.device, amp)  # refuses --amp off CUDA before any work
         seed_everything(int(config["seed"]))
         self.generator, self.discriminator = build_model(model_config(config))
         self.resolved = self.generator.config
@@ -414,6 +425,8 @@ class RetargetTraining:
                                      data["scale_targets"], bool(data.get("random_yaw", False)))
         if self.resolved["normalize_inputs"]:
             self._fit_normalizer()
+        for module in (self.generator, self.discriminator):
+            prepare_module(module, self.device, layout)
         adam = dict(lr=float(train["lr"]), betas=tuple(float(b) for b in train["betas"]))
         self.opt_g = torch.optim.Adam(self.generator.parameters(), **adam)
         self.opt_d = torch.optim.Adam(self.discriminator.parameters(), **adam)
@@ -499,29 +512,38 @@ class RetargetTraining:
     def step(self, index: int) -> dict[str, float]:
         """One generator and one discriminator update (Eq. 6).
 
+        The batch is drawn from the global RNGs on the CPU (in a multi-process run: the global
+        batch, of which this rank keeps its shard) and moved to :attr:`device`.
+
         Args:
-            index: step number (unused: all randomness comes from the global RNGs).
+            index: step number (seeds this rank's dropout in a multi-process run; a single process
+                draws everything from the global RNGs).
 
         Returns:
-            ``{Lc, Lt, Lh, La, Lr, Lo, total, D}`` as floats (terms unweighted).
+            ``{Lc, Lt, Lh, La, Lr, Lo, total, D}`` as floats (terms unweighted; this rank's shard).
 
         Raises:
             NonFiniteLossError: a weighted term, the total or the D loss is NaN/inf (named).
         """
-        batch = self.sampler.sample(self.batch)
-        self.discriminator.requires_grad_(False)  # La's gradient reaches G only
-        try:
-            terms, x_b_hat = self.generator_terms(batch)
-            total, log = total_generator_loss(terms, self.weights)
-            self.opt_g.zero_grad(set_to_none=True)
-            total.backward()
-            self.opt_g.step()
-        finally:
-            self.discriminator.requires_grad_(True)
-        d_loss = check_finite("D", self.discriminator_loss(batch, x_b_hat))
-        self.opt_d.zero_grad(set_to_none=True)
-        d_loss.backward()
-        self.opt_d.step()
+        batch = TrainingBatch(*(t[self.rows].to(self.device) for t in self.sampler.sample(self.batch)))
+        with self.layout.rank_random(int(self.config["seed"]), index, self.device):
+            self.discriminator.requires_grad_(False)  # La's gradient reaches G only
+            try:
+                with autocast(self.device, self.amp):
+                    terms, x_b_hat = self.generator_terms(batch)
+                    total, log = total_generator_loss(terms, self.weights)
+                self.opt_g.zero_grad(set_to_none=True)
+                total.backward()
+                self.layout.average_gradients(self.generator)
+                self.opt_g.step()
+            finally:
+                self.discriminator.requires_grad_(True)
+            with autocast(self.device, self.amp):
+                d_loss = check_finite("D", self.discriminator_loss(batch, x_b_hat))
+            self.opt_d.zero_grad(set_to_none=True)
+            d_loss.backward()
+            self.layout.average_gradients(self.discriminator)
+            self.opt_d.step()
         log["D"] = float(d_loss.detach())
         return log
 
