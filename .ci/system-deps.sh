@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Install the Debian packages the suite uses, if they are missing and we may (root).
-# nodejs + npm: the Khronos glTF validator (.ci/node-deps.sh). Optional, for FBX input: libassimp5.
+# nodejs + npm: the Khronos glTF validator (.ci/node-deps.sh); libassimp5: FBX input (the [fbx] extra, 12.7 MB), so its tests run here.
 set -euo pipefail
-pkgs=(libegl1 libgl1 libgl1-mesa-dri libglx-mesa0 assimp-testmodels)
+pkgs=(libegl1 libgl1 libgl1-mesa-dri libglx-mesa0 assimp-testmodels libassimp5)
 # Node from any source will do (many machines have it outside Debian's packages): only when there is
 # no npm at all do we ask Debian for it
 command -v npm >/dev/null || pkgs+=(nodejs npm)
