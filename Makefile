@@ -12,7 +12,7 @@ NOTEBOOKS := $(sort $(wildcard notebooks/[0-9][0-9]*_*.ipynb))
 export VTK_DEFAULT_OPENGL_WINDOW := vtkEGLRenderWindow
 export RETARGET_PROFILE ?= fast
 
-.PHONY: all setup system-deps data notebooks test unit unit-fast nbval bench clean-build
+.PHONY: all setup system-deps data notebooks test unit unit-fast unit-threads nbval bench clean-build
 
 all: notebooks
 
@@ -54,6 +54,11 @@ nbval: data
 
 test: data
 	$(PYTEST) -q -n 2 --dist loadfile tests --nbval-lax notebooks
+
+# the library tests once more in one process with two OpenMP threads: results must not depend on the
+# thread count (tolerances, never exact equality between kernels); run by CI after `make test`
+unit-threads: $(STAMP)
+	OMP_NUM_THREADS=2 MKL_NUM_THREADS=2 $(BIN)/pytest -q -p no:cacheprovider -m "not data and not slow" tests
 
 bench: data
 	$(BIN)/retarget bench
