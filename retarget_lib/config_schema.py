@@ -43,6 +43,8 @@ NONNEG_INT = Rule("an integer >= 0", lambda v: _is_int(v) and v >= 0)
 POS_NUM = Rule("a finite number > 0", lambda v: _is_num(v) and v > 0)
 NONNEG_NUM = Rule("a finite number >= 0", lambda v: _is_num(v) and v >= 0)
 FRACTION = Rule("a number in [0, 1]", lambda v: _is_num(v) and 0 <= v <= 1)
+DECAY_FROM = Rule("null (constant rate) or a number in [0, 1]",
+                  lambda v: v is None or (_is_num(v) and 0 <= v <= 1))
 DROPOUT = Rule("null or a number in [0, 1)", lambda v: v is None or (_is_num(v) and 0 <= v < 1))
 BOOL = Rule("true or false", lambda v: isinstance(v, bool))
 TEXT = Rule("a string", lambda v: isinstance(v, str) and bool(v))
@@ -99,7 +101,8 @@ TDCN: dict[str, Any] = {
                                    _data_sources)},
     "loss": {"gan": choice("lsgan", "sigmoid_ce"), "twist_alpha_deg": NONNEG_NUM, "twist_exclude_root": BOOL,
              **{f"lambda_{k}": NONNEG_NUM for k in "ctharogd"}},
-    "train": {"steps": POS_INT, "batch": POS_INT, "lr": POS_NUM, "betas": BETAS, "checkpoint_every": POS_INT},
+    "train": {"steps": POS_INT, "batch": POS_INT, "lr": POS_NUM, "betas": BETAS, "checkpoint_every": POS_INT,
+              "decay_from": DECAY_FROM},
 }
 
 #: ``method: contact``: the contact-aware rows of Villegas et al. 2021, Table 3

@@ -379,6 +379,29 @@ def _check_row(resolved: dict, config: dict, weights: TDCNLossWeights) -> None:
 
 
 # ---------------------------------------------------------------------------- training
+def learning_rate(lr: float, index: int, steps: int, decay_from: float | None) -> float:
+    """Adam's learning rate at step ``index`` of ``steps``: constant, or constant up to the fraction
+    ``decay_from`` of the run and then linear towards 0 (the GAN schedule of CycleGAN, Zhu et al.
+    2017, Sec. 7: same Adam betas (0.5, 0.999) as here). A function of the step alone, so a resumed
+    run continues the same schedule.
+
+    Args:
+        lr: the base rate (``train.lr``).
+        index: 0-based step.
+        steps: the run's total steps (``train.steps``).
+        decay_from: ``None`` for the paper's constant rate, else a fraction in [0, 1].
+
+    Returns:
+        the rate; the last step of a decayed run uses ``lr / (decayed steps)``, never 0.
+    """
+    if decay_from is None:
+        return lr
+    start = int(round(float(decay_from) * steps))
+    if index < start:
+        return lr
+    return lr * (steps - index) / max(steps - start, 1)
+
+
 class RetargetTraining:
     """Generator, discriminator, optimisers, sampler and the training step of one Table 4 row.
 
@@ -430,6 +453,8 @@ class RetargetTraining:
         adam = dict(lr=float(train["lr"]), betas=tuple(float(b) for b in train["betas"]))
         self.opt_g = torch.optim.Adam(self.generator.parameters(), **adam)
         self.opt_d = torch.optim.Adam(self.discriminator.parameters(), **adam)
+        self.lr, self.steps = adam["lr"], int(train["steps"])
+        self.decay_from = train.get("decay_from")
 
     def task(self) -> TrainTask:
         """The :class:`~retarget_lib.training.loop.TrainTask` for :func:`~retarget_lib.training.loop.fit`."""
@@ -525,6 +550,10 @@ class RetargetTraining:
         Raises:
             NonFiniteLossError: a weighted term, the total or the D loss is NaN/inf (named).
         """
+        lr = learning_rate(self.lr, index, self.steps, self.decay_from)
+        for opt in (self.opt_g, self.opt_d):
+            for group in opt.param_groups:
+                group["lr"] = lr
         batch = TrainingBatch(*(t[self.rows].to(self.device) for t in self.sampler.sample(self.batch)))
         with self.layout.rank_random(int(self.config["seed"]), index, self.device):
             self.discriminator.requires_grad_(False)  # La's gradient reaches G only
