@@ -5,7 +5,7 @@ Run by ``tests/test_fbx.py`` with the Python of a virtual environment that has B
 library (``bpy`` pins ``numpy<2``). Usage: ``PYTHON probe.py FILE.fbx`` -> JSON on stdout's last line:
 bones (names, parents), the mesh's vertex count and vertex groups (name -> {vertex: weight}), the
 scene's frame rate, the action's frame range, and every bone's head in world space at every frame
-of that range, converted back to +Y up (Blender is +Z up: ``(x, y, z)_blender = (x, -z, y)``).
+of that range and the skinned mesh's vertices at the last frame, converted back to +Y up (Blender is +Z up: ``(x, y, z)_blender = (x, -z, y)``).
 """
 
 import json
@@ -32,6 +32,10 @@ for frame in range(start, end + 1):
     scene.frame_set(frame)
     heads.append([list((arm.matrix_world @ arm.pose.bones[n].head)) for n in names])
 heads = [[[x, z, -y] for x, y, z in frame] for frame in heads]
+# the skinned mesh as Blender deforms it at the last frame (world space, +Y up)
+scene.frame_set(end)
+evaluated = mesh.evaluated_get(bpy.context.evaluated_depsgraph_get())
+deformed = [[w.x, w.z, -w.y] for w in (evaluated.matrix_world @ v.co for v in evaluated.data.vertices)]
 out = {
     "import": sorted(result),
     "armatures": len(armatures), "meshes": len(meshes),
@@ -43,5 +47,6 @@ out = {
     "frame_range": [start, end],
     "action": action.name if action else None,
     "heads": heads,
+    "deformed_last_frame": deformed,
 }
 print(json.dumps(out))

@@ -276,6 +276,9 @@ def test_blender_imports_the_armature_mesh_weights_and_action(tmp_path):
         for v, w in group.items():
             weights[int(v), names.index(name)] = w
     np.testing.assert_allclose(weights, rig.weights[idx], atol=1e-6)  # Blender stores float32
+    # Blender's skinning of the last frame is the library's: the bind matrices mean what we meant
+    expected = rig.posed_vertices(motion)[-1][idx]
+    np.testing.assert_allclose(np.array(out["deformed_last_frame"]), expected, atol=FK_TOL)
 
 
 @pytest.mark.skipif(FBX2GLTF is None, reason="no FBX2glTF (the Autodesk FBX SDK's converter): run .ci/node-deps.sh or set RETARGET_FBX2GLTF")
