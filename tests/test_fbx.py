@@ -81,7 +81,9 @@ def test_fbx_without_a_skin_and_not_fbx(tmp_path):
 @needs_assimp
 def test_an_ascii_fbx_character_with_animation_reads_like_its_glb(tmp_path):
     """A character converted to FBX by assimp itself reads back with the same skeleton, mesh and
-    key count (assimp's own FBX export is used only here, to make an FBX with a humanoid rig)."""
+    key count (assimp's own FBX export is used only here, to make an FBX with a humanoid rig).
+    assimp's exporter labels its lengths centimetres (``UnitScaleFactor`` 1) without converting
+    the GLB's metres, so the reader, which honours the label, sees a character 1/100 the size."""
     import impasse
 
     character = make_character("hana")
@@ -91,8 +93,10 @@ def test_an_ascii_fbx_character_with_animation_reads_like_its_glb(tmp_path):
     rig = load_fbx_rig(fbx)
     assert rig.meta["rig"] == "mixamo" and rig.meta["source"] == str(fbx)
     got = rig.character()
-    np.testing.assert_allclose(got.skeleton.offsets, character.skeleton.offsets, atol=1e-5)
-    np.testing.assert_allclose(np.sort(got.rest_vertices, axis=0), np.sort(character.rest_vertices, axis=0), atol=1e-5)
+    assert rig.meta["unit_scale"] == 0.01
+    np.testing.assert_allclose(got.skeleton.offsets * 100, character.skeleton.offsets, atol=1e-5)
+    np.testing.assert_allclose(np.sort(got.rest_vertices, axis=0) * 100, np.sort(character.rest_vertices, axis=0),
+                               atol=1e-5)
     motion, _ = load_fbx_motion(fbx)
     assert motion.skeleton.num_joints == 22
 
@@ -135,6 +139,20 @@ def test_extra_joints_and_frame_rates_round_trip(tmp_path, fps):
     save_fbx(rig, path, motion)
     assert load_fbx_rig(path).meta["rig"] == "unreal"
     _assert_round_trip(rig, motion, path)
+
+
+@needs_assimp
+def test_centimetre_files_read_in_metres(tmp_path):
+    """``UnitScaleFactor`` 1 (centimetres, as Mixamo and Maya write) reads back in metres."""
+    character = make_character("kato")
+    rig, _ = _unreal_rig(character)
+    motion = rig.motion_from_canonical(random_motion(character.skeleton, frames=10))
+    path = tmp_path / "manny_cm.fbx"
+    save_fbx(rig, path, motion, unit_scale_factor=1.0)
+    assert load_fbx_rig(path).meta["unit_scale"] == 0.01  # the file is in centimetres
+    _assert_round_trip(rig, motion, path)
+    with pytest.raises(FBXError, match="unit_scale_factor 0.0 must be a positive"):
+        save_fbx(rig, tmp_path / "bad.fbx", motion, unit_scale_factor=0.0)
 
 
 @needs_assimp

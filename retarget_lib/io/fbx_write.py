@@ -21,8 +21,9 @@ on its content.
 rotations with world-axis offsets):
 
 * ``GlobalSettings``: Y up, Z front, X right (right-handed), ``UnitScaleFactor`` 100 (one unit is
-  a metre, the value Blender writes), ``TimeMode`` the motion's frame rate (a standard mode when
-  one matches, else ``eCustom`` with ``CustomFrameRate``).
+  a metre, the value Blender writes; ``unit_scale_factor=1`` writes centimetres), ``TimeMode``
+  the motion's frame rate (a standard mode when one matches, else ``eCustom`` with
+  ``CustomFrameRate``).
 * One ``Model`` ``LimbNode`` per joint (with its ``NodeAttribute`` ``LimbNode``), parented as the
   skeleton, ``Lcl Translation`` = the joint's rest offset, ``Lcl Rotation`` 0 (rest).
 * One ``Model`` ``Mesh`` at the origin with its ``Geometry``: ``Vertices`` (rest, metres),
@@ -264,7 +265,8 @@ class _Scene:
             self.connections.add("C", "OP", child, parent, prop)
 
 
-def save_fbx(rig: Rig, path: str | os.PathLike, motion: Motion | None = None) -> None:
+def save_fbx(rig: Rig, path: str | os.PathLike, motion: Motion | None = None,
+             unit_scale_factor: float = 100.0) -> None:
     """Write ``rig`` (mesh, skin, all its joints) and optionally ``motion`` as a binary ``.fbx``
     (atomically; see the module docstring for what the file holds).
 
@@ -274,14 +276,24 @@ def save_fbx(rig: Rig, path: str | os.PathLike, motion: Motion | None = None) ->
         motion: a motion on ``rig.skeleton`` (same joint names), e.g.
             ``rig.motion_from_canonical(result)``, keyed at its own frame rate; ``None`` writes the
             character in its rest pose without animation.
+        unit_scale_factor: centimetres per file unit, FBX's ``UnitScaleFactor``: 100 (default)
+            writes metres, 1 centimetres (what Mixamo and Maya write); importers convert either.
 
     Raises:
-        FBXError: ``motion`` is on another joint set, or the file would exceed FBX 7.4's 4 GiB.
+        FBXError: ``motion`` is on another joint set, ``unit_scale_factor`` is not positive, or
+            the file would exceed FBX 7.4's 4 GiB.
         OutputPathError: ``path`` cannot be created (from :func:`~retarget_lib.files.atomic_write`).
     """
     sk = rig.skeleton
     if motion is not None and motion.skeleton.joint_names != sk.joint_names:
         raise FBXError(f"{path}: the motion's joints are not the rig {rig.name!r}'s joints")
+    if not (np.isfinite(unit_scale_factor) and unit_scale_factor > 0):
+        raise FBXError(f"{path}: unit_scale_factor {unit_scale_factor} must be a positive number of centimetres")
+    to_file = 100.0 / float(unit_scale_factor)  # file units per metre
+    if to_file != 1.0:
+        rig = Rig(rig.name, sk.scaled(to_file), rig.rest_vertices * to_file, rig.faces, rig.weights, rig.joint_map)
+        if motion is not None:
+            motion = motion.copy(skeleton=rig.skeleton, root_positions=motion.root_positions * to_file)
     fps = float(motion.fps) if motion is not None else 30.0
     scene = _Scene()
     joint_ids = _add_skeleton(scene, rig)
@@ -291,7 +303,8 @@ def save_fbx(rig: Rig, path: str | os.PathLike, motion: Motion | None = None) ->
     frames = motion.num_frames if motion is not None else 1
     stop = round((frames - 1) * KTIME_PER_SECOND / fps)
     top = [_header(), _Node("FileId", _Typed("R", _FILE_ID)), _Node("CreationTime", _CREATION_TIME),
-           _Node("Creator", "retarget-notebooks"), _global_settings(fps, stop), _documents(),
+           _Node("Creator", "retarget-notebooks"), _global_settings(fps, stop, float(unit_scale_factor)),
+           _documents(),
            _Node("References"), _definitions(scene.counts), scene.objects, scene.connections,
            _takes(motion, stop)]
     data = _file_bytes(top)
@@ -426,7 +439,7 @@ def _header() -> _Node:
     return header
 
 
-def _global_settings(fps: float, stop: int) -> _Node:
+def _global_settings(fps: float, stop: int, unit_scale_factor: float) -> _Node:
     settings = _Node("GlobalSettings")
     settings.add("Version", _i32(1000))
     axes = [(name, "int", "Integer", "", _i32(v)) for name, v in
@@ -434,8 +447,8 @@ def _global_settings(fps: float, stop: int) -> _Node:
              ("CoordAxisSign", 1), ("OriginalUpAxis", 1), ("OriginalUpAxisSign", 1))]
     settings.children.append(_properties(
         *axes,
-        ("UnitScaleFactor", "double", "Number", "", 100.0),
-        ("OriginalUnitScaleFactor", "double", "Number", "", 100.0),
+        ("UnitScaleFactor", "double", "Number", "", unit_scale_factor),
+        ("OriginalUnitScaleFactor", "double", "Number", "", unit_scale_factor),
         ("TimeMode", "enum", "", "", _i32(fbx_time_mode(fps))),
         ("TimeSpanStart", "KTime", "Time", "", 0),
         ("TimeSpanStop", "KTime", "Time", "", int(stop)),
