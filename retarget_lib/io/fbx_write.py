@@ -94,8 +94,8 @@ class _Node:
 
     __slots__ = ("name", "props", "children")
 
-    def __init__(self, name: str, *props, children: list[_Node] | None = None) -> None:
-        self.name, self.props, self.children = name, [_typed(p) for p in props], children or []
+    def __init__(self, name: str, *props) -> None:
+        self.name, self.props, self.children = name, [_typed(p) for p in props], []
 
     def add(self, name: str, *props) -> "_Node":
         """Append a child record and return it."""
@@ -304,7 +304,7 @@ def save_fbx(rig: Rig, path: str | os.PathLike, motion: Motion | None = None,
     stop = round((frames - 1) * KTIME_PER_SECOND / fps)
     top = [_header(), _Node("FileId", _Typed("R", _FILE_ID)), _Node("CreationTime", _CREATION_TIME),
            _Node("Creator", "retarget-notebooks"), _global_settings(fps, stop, float(unit_scale_factor)),
-           _documents(),
+           _documents(_take_name(motion) if motion is not None else ""),
            _Node("References"), _definitions(scene.counts), scene.objects, scene.connections,
            _takes(motion, stop)]
     data = _file_bytes(top)
@@ -395,10 +395,15 @@ def _add_mesh(scene: _Scene, rig: Rig, joint_ids: list[int]) -> None:
         entry.add("Matrix", _matrix(None, rest[j]))
 
 
+def _take_name(motion: Motion) -> str:
+    """The animation stack's (take's) name: the motion's, else ``motion``."""
+    return motion.name or "motion"
+
+
 def _add_animation(scene: _Scene, motion: Motion, joint_ids: list[int]) -> None:
     """One stack and layer; a rotation curve node per joint and the root's translation."""
     times = np.round(np.arange(motion.num_frames) * (KTIME_PER_SECOND / motion.fps)).astype(np.int64)
-    stack_id, stack = scene.new("AnimationStack", motion.name or "motion", "AnimStack", "")
+    stack_id, stack = scene.new("AnimationStack", _take_name(motion), "AnimStack", "")
     stack.children.append(_properties(*[(name, "KTime", "Time", "", int(t)) for name, t in
                                         (("LocalStart", 0), ("LocalStop", times[-1]),
                                          ("ReferenceStart", 0), ("ReferenceStop", times[-1]))]))
@@ -456,12 +461,12 @@ def _global_settings(fps: float, stop: int, unit_scale_factor: float) -> _Node:
     return settings
 
 
-def _documents() -> _Node:
+def _documents(active_stack: str) -> _Node:
     docs = _Node("Documents")
     docs.add("Count", _i32(1))
     doc = docs.add("Document", 999_999, "Scene", "Scene")
     doc.children.append(_properties(("SourceObject", "object", "", ""),
-                                    ("ActiveAnimStackName", "KString", "", "", "")))
+                                    ("ActiveAnimStackName", "KString", "", "", active_stack)))
     doc.add("RootNode", 0)
     return docs
 
@@ -479,8 +484,8 @@ def _takes(motion: Motion | None, stop: int) -> _Node:
     takes = _Node("Takes")
     takes.add("Current", "")
     if motion is not None:
-        take = takes.add("Take", motion.name or "motion")
-        take.add("FileName", f"{motion.name or 'motion'}.tak")
+        take = takes.add("Take", _take_name(motion))
+        take.add("FileName", f"{_take_name(motion)}.tak")
         take.add("LocalTime", 0, int(stop))
         take.add("ReferenceTime", 0, int(stop))
     return takes
