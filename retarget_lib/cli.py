@@ -248,8 +248,8 @@ def build_parser() -> argparse.ArgumentParser:
                                         "the method's default in data_manifest.yaml)")
     p.add_argument("--fps", type=float, help="output frame rate (default: the source's)")
     p.add_argument("--force", action="store_true", help="allow --out to overwrite an input file")
-    p.add_argument("--out", required=True, help="output .bvh, or .glb: the target's skinned mesh performing the "
-                                                "result (never an input unless --force)")
+    p.add_argument("--out", required=True, help="output .bvh, or .glb/.fbx: the target's skinned mesh performing "
+                                                "the result (never an input unless --force)")
     _device_option(p)
     p.set_defaults(func=_cmd_retarget)
 
