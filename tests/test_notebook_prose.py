@@ -30,6 +30,7 @@ def kinds(text):
     ("Its benefit shows (1.65 -> 0.06).", [("decimal", "1.65"), ("decimal", "0.06")]),
     ("An 81-frame window sees every frame.", [("unit", "81-frame")]),
     ("The residual is 2.6e-4 relative.", [("decimal", "2.6e-4")]),
+    ("A weight of 0.5 and 10.2 as well.", [("decimal", "0.5"), ("decimal", "10.2")]),
 ])
 def test_hand_typed_numbers_are_found(text, expected):
     assert kinds(text) == expected
@@ -38,6 +39,7 @@ def test_hand_typed_numbers_are_found(text, expected):
 @pytest.mark.parametrize("text", [
     "Eq. 8 and Eqs. 4-8 define it; see Sec. 3.4, Table 4, Fig. 3, Appendix F and notebook 04.",
     "**Exercise 05.2** Compute the height of `ada`.",
+    "Convert your 08.1 number, then check 08b.2.",                  # exercise labels (leading zero)
     "Kim et al. 2020 and Villegas et al. (ICCV 2021) use 22 joints and 16 characters.",
     "The twist loss uses α = 100° (Sec. 4.2).",                      # parenthesised paper location
     "The paper's Table 4 reports 0.58 for copy.",                    # 'paper' + a location

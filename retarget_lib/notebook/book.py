@@ -14,6 +14,12 @@ file with every TeX extension and SVG output, so no web fonts and nothing loaded
 (the motion player's still image or offline scrubber), and GIFs become inline ``<img>`` tags
 (nbconvert would otherwise show their ``text/plain``). Images are embedded as ``data:`` URIs.
 
+Why nbconvert and not Jupyter Book: Jupyter Book 2 (mystmd) downloads its site theme from
+api.mystmd.org at build time and fails offline; Jupyter Book 1 builds offline but is the legacy
+line, its pages also load MathJax, require.js and the widget manager from CDNs unless reconfigured,
+and it would add about 90 packages (Sphinx 7, myst-nb, and markdown-it-py held below 4) for what
+nbconvert, already a dependency, does with one template and an index page.
+
 Usage::
 
     python -m retarget_lib.notebook.book --out build/book            # after `make` executed them
@@ -206,7 +212,8 @@ def index_html(path: LearningPath, sources: dict[str, str], timings: dict[str, d
         needs = ", ".join(f'<a href="{Path(n).stem}.html">{html.escape(n.split("_", 1)[0])}</a>'
                           for n in les.needs) or "—"
         t = timings.get(les.file)
-        run = _fmt_seconds(t["seconds"]) if t else "not executed here"
+        run = (f'{_fmt_seconds(t["seconds"])}<br><span class="note">{_fmt_seconds(t["cpu_seconds"])} CPU</span>'
+               if t else "not executed here")
         workshop = "yes" if les.workshop else f'no <span class="note">({html.escape(les.workshop_note)})</span>'
         rows.append(
             f'<tr><td class="num">{html.escape(les.number)}</td>'
@@ -240,7 +247,8 @@ notebook itself: <code>.venv/bin/jupyter lab notebooks/</code>.</p>
 <p><b>Study time</b> is an estimate for a student who reads, runs and does the exercises
 (the whole path: {total} min; the workshop notebooks: {total_ws} min).
 <b>Run time</b> is measured: how long the notebook took to execute headless on this machine
-when this book was built (<code>build/notebooks/{TIMINGS_FILE}</code>).</p>
+(wall clock, and the CPU time of the kernel) the last time <code>make</code> or
+<code>make workshop</code> executed it (<code>build/notebooks/{TIMINGS_FILE}</code>).</p>
 <table>
 <tr><th>#</th><th>notebook: what it teaches</th><th>needs</th><th>study time</th><th>run time</th>
 <th>workshop</th><th>outputs</th></tr>

@@ -17,7 +17,9 @@ Bare integers (``22 joints``, ``16 characters``), years and version-like names a
 **What is allowed**, removed before the scan:
 
 1. *References*: ``Eq. 8``, ``Eqs. 4-8``, ``Sec. 3.4``, ``Section 5``, ``Table 4``, ``Fig. 3``,
-   ``Figure 5b``, ``App. F``, ``Appendix B.2``, ``Alg. 1``, ``notebook 04``, ``Exercise 05.2``.
+   ``Figure 5b``, ``App. F``, ``Appendix B.2``, ``Alg. 1``, ``notebook 04``, ``Exercise 05.2``; and an
+   exercise label on its own when written with the notebook number's leading zero (``your 08.1
+   answer``, ``08b.2``): a measured decimal is never written so.
 2. *Code*: inline code in backticks (config constants such as ```lambda_h = 10```,
    ```train.steps=2000```) and fenced code blocks; HTML comments and tags; link targets and URLs.
 3. *Versions* after a known name: ``glTF 2.0``, ``Python 3.11``, ``assimp 5.2.5``, ``MathJax 3.2``.
@@ -67,6 +69,8 @@ PAREN_CITATION = re.compile(r"\([^()]*\b(?:Eqs?|Equations?|Secs?|Sections?|§|Fi
 PAPER_WORD = re.compile(r"\bpapers?(?:'s|’s)?\b", re.IGNORECASE)
 PAPER_LOCATION = re.compile(rf"\b(?i:{_REF_WORDS.replace('|[Nn]otebooks?|Exercises?|Rows?|Scenarios?', '')})"
                             rf"\.?\s*{_REF_ITEM}")
+#: "08.1", "08b.2": exercise labels of notebooks 00-09 (leading zero), never a measured value
+EXERCISE_LABEL = re.compile(r"(?<![\w.])0\d[a-z]?\.\d+(?![\w.])")
 VERSION = re.compile(r"\b(?:glTF|GLTF|Python|python|torch|PyTorch|assimp|MathJax|Blender|OpenGL|CUDA|numpy|NumPy|"
                      r"FBX|VRM|v|version)\s*\d+(?:\.\d+)+\b")
 ALLOWLIST = re.compile(r"<!--\s*constants\s*:(.*?)-->", re.IGNORECASE | re.DOTALL)
@@ -145,7 +149,7 @@ def scan_markdown(source: str, cell: int = 0) -> list[Violation]:
     for sentence in _sentences(_strip_code_and_markup(source)):
         if is_citation(sentence):
             continue
-        rest = VERSION.sub(" ", REFERENCE.sub(" REF ", sentence))
+        rest = EXERCISE_LABEL.sub(" REF ", VERSION.sub(" ", REFERENCE.sub(" REF ", sentence)))
         for kind, pattern in PATTERNS.items():
             for m in pattern.finditer(rest):
                 token = m.group(0).strip()
@@ -169,7 +173,7 @@ def notebook_violations(nb) -> list[Violation]:
 
 # -------------------------------------------------------------------------------------- closing sections
 _H2 = re.compile(r"^##\s+(.+?)\s*$", re.MULTILINE)
-_EXERCISE = re.compile(r"\*\*Exercise\s+(\d+[a-z]?\.\d+)\*\*")
+_EXERCISE = re.compile(r"\*\*Exercise\s+(\d+[a-z]?\.\d+)\.?\*\*")   # "**Exercise 05.2**" or "**Exercise 05.2.**"
 
 
 def section_problems(nb, number: str) -> list[str]:
