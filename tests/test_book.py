@@ -47,6 +47,17 @@ def test_learning_path_rejects_a_need_that_comes_later(tmp_path):
         load_learning_path(bad)
 
 
+def test_workshop_runs_the_marked_notebooks_and_names_the_others():
+    from retarget_lib.notebook.runner import workshop_notebooks
+
+    path = load_learning_path()
+    run, left_out = workshop_notebooks()
+    assert [p.name for p in run] == [les.file for les in path.lessons if les.workshop]
+    assert all(p.exists() for p in run)
+    assert {name for name, _ in left_out} == {les.file for les in path.lessons if not les.workshop}
+    assert all(why for _, why in left_out)
+
+
 # ------------------------------------------------------------------------------------ offline pages
 def test_remote_reference_pattern_catches_cdn_loads_and_spares_links():
     assert remote_references('<script src="https://cdn.example/x.js"></script>')

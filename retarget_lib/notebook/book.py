@@ -266,7 +266,7 @@ def _source_for(lesson: Lesson, executed: Path | None, committed: Path) -> tuple
         run = executed / lesson.file
         if run.exists():
             stamp = dt.datetime.fromtimestamp(run.stat().st_mtime, dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-            return run, f"executed by make, {stamp}"
+            return run, f"executed headless {stamp}"
     return committed / lesson.file, "outputs as committed in notebooks/ (not re-executed)"
 
 
