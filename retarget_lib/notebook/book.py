@@ -174,9 +174,9 @@ def export_page(nb, lesson: Lesson | None, path: LearningPath | None, source_not
             prev_link = f"{stems[i - 1]}.html"
         if i + 1 < len(stems):
             next_link = f"{stems[i + 1]}.html"
-    resources = {"book": {"prev": prev_link, "next": next_link, "note": source_note,
-                          "title": lesson.title if lesson else "",
-                          "number": lesson.number if lesson else ""}}
+    needs = [(Path(n).stem + ".html", n.split("_", 1)[0]) for n in (lesson.needs if lesson else ())]
+    resources = {"book": {"prev": prev_link, "next": next_link, "note": source_note, "needs": needs,
+                          "minutes": lesson.minutes if lesson else None}}
     body, _ = exporter.from_notebook_node(offline_outputs(nb), resources=resources)
     return body
 
