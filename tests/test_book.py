@@ -79,6 +79,7 @@ def test_widget_view_is_dropped_where_a_picture_or_html_is_there():
                                                      "text/plain": "player"}),
         nbformat.v4.new_output("display_data", data={book.WIDGET_VIEW: {"model_id": "y"}, "text/plain": "w"}),
         nbformat.v4.new_output("display_data", data={"image/gif": png, "text/plain": "gif"})])]
+    assert book.widget_only_outputs(nb) == [0]
     offline_outputs(nb)
     with_png, widget_only, gif = (o["data"] for o in nb.cells[0].outputs)
     assert book.WIDGET_VIEW not in with_png and with_png["image/png"] == png

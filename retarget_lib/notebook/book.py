@@ -145,6 +145,13 @@ def offline_outputs(nb):
     return nb
 
 
+def widget_only_outputs(nb) -> list[int]:
+    """Indices of code cells with an output that is a widget view and nothing else to show: such an
+    output is blank in the book (give it a picture, like the player and the knobs)."""
+    return [i for i, cell in enumerate(nb.cells) for out in cell.get("outputs", [])
+            if WIDGET_VIEW in out.get("data", {}) and not set(out["data"]) - {WIDGET_VIEW, "text/plain"}]
+
+
 def _exporter():
     from nbconvert import HTMLExporter
     from traitlets.config import Config
@@ -305,6 +312,10 @@ def build_book(out: Path, executed: Path | None = REPO_ROOT / "build" / "noteboo
     for lesson, src, note in todo:
         t0 = time.perf_counter()
         nb = nbformat.read(src, as_version=4)
+        blank = widget_only_outputs(nb)
+        if blank:
+            print(f"book: WARNING {src.name}: cells {blank} show a widget with no picture; blank in the book",
+                  file=sys.stderr)
         page = out / f"{src.stem}.html"
         with atomic_write(page, "w") as f:
             f.write(export_page(nb, lesson, path if lesson else None, note, exporter))

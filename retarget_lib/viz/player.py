@@ -5,9 +5,9 @@ How it degrades: the player's display bundle carries the widget view, an offline
 PNG of the current frame. A live front end (JupyterLab, Notebook, VS Code) renders the widget. The
 HTML book (``retarget_lib.notebook.book``) drops the widget view, whose script would load from a
 CDN, and shows the scrubber: a handful of frames behind a slider made of inline HTML and JavaScript
-(the same mechanism as :mod:`retarget_lib.viz.knobs`), nothing fetched from the network. Front ends
-that run no scripts (GitHub's viewer, an untrusted notebook) show the scrubber's first picture or
-the PNG. ``mode="static"`` forces the still image and scrubber (no widget is created),
+(the same mechanism as :mod:`retarget_lib.viz.knobs`), nothing fetched from the network. Where no
+script runs, the scrubber's ``<img>`` still shows the current frame, and viewers that prefer images
+to HTML show the PNG. ``mode="static"`` forces the still image and scrubber (no widget is created),
 ``mode="widget"`` the widget; ``offline_frames=0`` leaves the scrubber out.
 """
 
