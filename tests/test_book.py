@@ -168,3 +168,30 @@ def test_book_from_the_committed_notebooks_is_offline_and_keeps_every_picture(tm
                     if mime in data and "text/html" not in data:
                         head = "".join(data[mime].split())[:200]
                         assert head in page, f"{page_path.name}: a {mime} output is missing"
+
+
+def test_player_bundle_carries_an_offline_scrubber():
+    """The player's display bundle: widget view + offline scrubber (text/html, inline pictures, no
+    remote reference) + PNG; ``offline_frames=0`` leaves the scrubber out."""
+    import numpy as np
+
+    from retarget_lib import viz
+    from retarget_lib.core.motion import Motion
+    from retarget_lib.core.skeleton import canonical22_skeleton
+
+    sk = canonical22_skeleton(np.zeros((22, 3)) + 0.1)
+    rot = np.zeros((10, 22, 4))
+    rot[..., 0] = 1
+    root = np.zeros((10, 3))
+    root[:, 0] = np.linspace(0, 0.5, 10)
+    motions = {"slide": Motion(sk, rot, root, 30.0)}
+    live = viz.player(motions, window_size=(120, 90), offline_frames=4)
+    bundle = live._repr_mimebundle_()
+    assert {book.WIDGET_VIEW, "text/html", "image/png"} <= set(bundle)
+    frames = set(re.findall(r"data:image/png;base64,([A-Za-z0-9+/=]+)", bundle["text/html"]))
+    assert len(frames) == 4 + 1   # 0, 3, 6, 9 and the current frame 5: the root slides, so all differ
+    assert remote_references(bundle["text/html"]) == []
+    live.close()
+    still = viz.player(motions, mode="static", window_size=(120, 90), offline_frames=0)
+    assert set(still._repr_mimebundle_()) == {"image/png", "text/plain"}
+    still.close()
