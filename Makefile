@@ -1,6 +1,9 @@
 # retarget-notebooks — two commands do everything (see README):
-#   make        set up .venv, build the embedded dataset, execute every notebook into build/
+#   make        set up .venv, build the embedded dataset, execute every notebook into build/notebooks/
+#               and write the offline HTML book build/book/index.html
 #   make test   unit tests + every notebook executed by nbval
+#   make workshop   the workshop notebooks (notebooks/learning_path.yaml) two at a time, then the book
+#   make book   the HTML book alone, from what is executed (build/notebooks/) or committed (notebooks/)
 #   make unit-fast   the library tests that need neither the built data nor minutes (a bare checkout)
 # Both are idempotent: stamps and the data cache make a second run reuse what is built.
 
@@ -12,7 +15,7 @@ NOTEBOOKS := $(sort $(wildcard notebooks/[0-9][0-9]*_*.ipynb))
 export VTK_DEFAULT_OPENGL_WINDOW := vtkEGLRenderWindow
 export RETARGET_PROFILE ?= fast
 
-.PHONY: all setup system-deps data notebooks test unit unit-fast unit-threads nbval bench clean-build
+.PHONY: all setup system-deps data notebooks book workshop test unit unit-fast unit-threads nbval bench clean-build
 
 all: notebooks
 
@@ -38,6 +41,21 @@ data: $(STAMP)
 notebooks: data
 	@mkdir -p build/notebooks
 	$(BIN)/python -m retarget_lib.notebook.runner --out build/notebooks $(NOTEBOOKS)
+	$(BIN)/python -m retarget_lib.notebook.book --executed build/notebooks --out build/book
+
+# no execution: pages from build/notebooks/ where `make` or `make workshop` executed them, else the
+# outputs committed in notebooks/ (each page says which)
+book: $(STAMP)
+	$(BIN)/python -m retarget_lib.notebook.book --executed build/notebooks --out build/book
+
+# the workshop path (README "Workshop", docs/teachers_guide.md): the notebooks marked `workshop: yes`
+# in notebooks/learning_path.yaml, fast profile, two at a time with one thread each on a 2-core laptop;
+# the runner prints every notebook it leaves out and why. Add WORKSHOP_FLAGS=--force to time a re-run.
+workshop: data
+	@mkdir -p build/notebooks
+	OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 $(BIN)/python -m retarget_lib.notebook.runner --out build/notebooks \
+		--workshop --jobs 2 $(WORKSHOP_FLAGS)
+	$(BIN)/python -m retarget_lib.notebook.book --executed build/notebooks --out build/book
 
 # two xdist workers on two cores: one torch/OpenMP thread each (more oversubscribes and spins)
 PYTEST := OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 $(BIN)/pytest

@@ -1,21 +1,34 @@
-"""Execute notebooks headless into ``build/``: executed ``.ipynb`` plus HTML (used by ``make``).
+"""Execute notebooks headless into ``build/notebooks/`` (used by ``make`` and ``make workshop``).
 
-A notebook is re-run only when it, the library, the configs or the data manifest changed since its
-last successful run, so ``make`` is cheap the second time.
+Each notebook is executed into ``<out>/<name>.ipynb``; the HTML pages are written from those by the
+book builder (:mod:`retarget_lib.notebook.book`, ``build/book/``). A notebook is re-run only when
+it, the library, the configs or the data manifest changed since its last successful run, so
+``make`` is cheap the second time. The wall-clock and CPU seconds of every run (the kernel's CPU
+time included) go to ``<out>/timings.json``, which the book's index and the teacher's guide quote.
 
 Usage::
 
     python -m retarget_lib.notebook.runner --out build/notebooks notebooks/00_overview.ipynb ...
+    python -m retarget_lib.notebook.runner --out build/notebooks --workshop --jobs 2
 """
 
 from __future__ import annotations
 
 import argparse
+import concurrent.futures
+import datetime as dt
+import json
+import os
+import resource
+import subprocess
 import sys
 import time
 from pathlib import Path
 
 from ..files import REPO_ROOT, atomic_write
+
+TIMINGS_FILE = "timings.json"
+_TIMING_PREFIX = "RUNNER-TIMING "
 
 
 def _newest_input(notebook: Path) -> float:
@@ -25,52 +38,129 @@ def _newest_input(notebook: Path) -> float:
     return max(p.stat().st_mtime for p in inputs if p.exists())
 
 
-def run_notebook(notebook: Path, out_dir: Path, timeout: int = 900, force: bool = False) -> bool:
-    """Execute one notebook; write ``out_dir/<name>.ipynb`` and ``out_dir/<name>.html``.
+def _cpu_seconds() -> float:
+    """CPU seconds (user + system) of this process and of its finished children (the kernels)."""
+    own, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
+
+
+def is_up_to_date(notebook: Path, out_dir: Path) -> bool:
+    out_nb = out_dir / notebook.name
+    return out_nb.exists() and out_nb.stat().st_mtime >= _newest_input(notebook)
+
+
+def run_notebook(notebook: Path, out_dir: Path, timeout: int = 900, force: bool = False) -> dict | None:
+    """Execute one notebook; write ``out_dir/<name>.ipynb``.
 
     Args:
         notebook: path of the source notebook.
         out_dir: destination folder.
         timeout: per-cell timeout in seconds.
-        force: run even if the outputs are up to date.
+        force: run even if the output is up to date.
 
     Returns:
-        ``True`` if it was executed, ``False`` if the outputs were already up to date.
+        ``{"seconds": wall, "cpu_seconds": cpu, "finished": iso time}`` if it was executed, ``None``
+        if the output was already up to date.
     """
-    # here, not at the top: these three take ~3 s to import, which the up-to-date check and
-    # --help should not pay
+    if not force and is_up_to_date(notebook, out_dir):
+        return None
+    # here, not at the top: these take ~3 s to import, which the up-to-date check and --help should not pay
     import nbformat
     from nbclient import NotebookClient
-    from nbconvert import HTMLExporter
 
-    out_nb = out_dir / notebook.name
-    out_html = out_nb.with_suffix(".html")
-    if not force and out_html.exists() and out_html.stat().st_mtime >= _newest_input(notebook):
-        return False
+    t0, c0 = time.perf_counter(), _cpu_seconds()
     nb = nbformat.read(notebook, as_version=4)
     client = NotebookClient(nb, timeout=timeout, kernel_name="python3",
                             resources={"metadata": {"path": str(notebook.parent)}})
     client.execute()
-    with atomic_write(out_nb, "w") as f:
+    with atomic_write(out_dir / notebook.name, "w") as f:
         nbformat.write(nb, f)
-    html, _ = HTMLExporter().from_notebook_node(nb)
-    with atomic_write(out_html, "w") as f:
-        f.write(html)
-    return True
+    return {"seconds": round(time.perf_counter() - t0, 1), "cpu_seconds": round(_cpu_seconds() - c0, 1),
+            "finished": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
+            "profile": os.environ.get("RETARGET_PROFILE", "fast")}
+
+
+def _run_in_subprocess(notebook: Path, out_dir: Path, force: bool) -> dict | None:
+    """:func:`run_notebook` in a fresh process (for ``--jobs``); its CPU time is that process's."""
+    cmd = [sys.executable, "-m", "retarget_lib.notebook.runner", "--out", str(out_dir), "--jobs", "1",
+           "--no-timings", str(notebook)] + (["--force"] if force else [])
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    if proc.returncode != 0:
+        raise RuntimeError(f"{notebook.name} failed:\n{proc.stdout[-4000:]}\n{proc.stderr[-4000:]}")
+    for line in proc.stdout.splitlines():
+        if line.startswith(_TIMING_PREFIX):
+            return json.loads(line[len(_TIMING_PREFIX):])
+    return None
+
+
+def record_timings(out_dir: Path, timings: dict[str, dict]) -> None:
+    """Merge ``{notebook file name: timing}`` into ``out_dir/timings.json``."""
+    path = out_dir / TIMINGS_FILE
+    merged = json.loads(path.read_text()) if path.exists() else {}
+    merged.update(timings)
+    with atomic_write(path, "w") as f:
+        json.dump(dict(sorted(merged.items())), f, indent=1)
+
+
+def workshop_notebooks(notebooks_dir: Path = REPO_ROOT / "notebooks") -> tuple[list[Path], list[tuple[str, str]]]:
+    """The notebooks ``make workshop`` executes, and the ones it leaves out with the reason."""
+    from .book import load_learning_path
+
+    path = load_learning_path(notebooks_dir / "learning_path.yaml")
+    run = [notebooks_dir / les.file for les in path.lessons if les.workshop]
+    left_out = [(les.file, les.workshop_note) for les in path.lessons if not les.workshop]
+    return run, left_out
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("notebooks", nargs="+", type=Path)
+    parser.add_argument("notebooks", nargs="*", type=Path)
     parser.add_argument("--out", type=Path, default=REPO_ROOT / "build" / "notebooks")
     parser.add_argument("--force", action="store_true")
+    parser.add_argument("--workshop", action="store_true",
+                        help="execute the notebooks marked `workshop: yes` in notebooks/learning_path.yaml")
+    parser.add_argument("--jobs", type=int, default=1, help="notebooks executed at the same time")
+    parser.add_argument("--no-timings", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
-    for nb in args.notebooks:
-        t0 = time.perf_counter()
-        ran = run_notebook(nb, args.out, force=args.force)
-        status = f"executed in {time.perf_counter() - t0:.0f} s" if ran else "up to date"
-        print(f"{nb.name}: {status} -> {args.out / nb.with_suffix('.html').name}", flush=True)
+    notebooks = list(args.notebooks)
+    if args.workshop:
+        run, left_out = workshop_notebooks()
+        notebooks += [nb for nb in run if nb not in notebooks]
+        for name, why in left_out:
+            print(f"{name}: NOT executed in the workshop run ({why}); the book shows its committed outputs",
+                  flush=True)
+    if not notebooks:
+        parser.error("no notebooks given (and no --workshop)")
+
+    t0, c0 = time.perf_counter(), _cpu_seconds()
+    timings: dict[str, dict] = {}
+
+    def report(nb: Path, timing: dict | None) -> None:
+        if timing is None:
+            print(f"{nb.name}: up to date -> {args.out / nb.name}", flush=True)
+            return
+        timings[nb.name] = timing
+        print(f"{nb.name}: executed in {timing['seconds']:.0f} s ({timing['cpu_seconds']:.0f} CPU s)"
+              f" -> {args.out / nb.name}", flush=True)
+        if args.no_timings:
+            print(_TIMING_PREFIX + json.dumps(timing), flush=True)
+
+    try:
+        if args.jobs <= 1:
+            for nb in notebooks:
+                report(nb, run_notebook(nb, args.out, force=args.force))
+        else:
+            with concurrent.futures.ThreadPoolExecutor(args.jobs) as pool:
+                futures = {pool.submit(_run_in_subprocess, nb, args.out, args.force): nb for nb in notebooks}
+                for fut in concurrent.futures.as_completed(futures):
+                    report(futures[fut], fut.result())
+    finally:
+        if timings and not args.no_timings:
+            record_timings(args.out, timings)
+    if len(notebooks) > 1:
+        print(f"runner: {len(notebooks)} notebooks in {time.perf_counter() - t0:.0f} s wall, "
+              f"{_cpu_seconds() - c0:.0f} CPU s (kernels included), {args.jobs} at a time", flush=True)
     return 0
 
 

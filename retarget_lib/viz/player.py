@@ -1,10 +1,14 @@
 """An ipywidgets motion player (frame slider + play button + motion picker + character picker) that
 degrades to a still image when no Jupyter front end is attached.
 
-How it degrades: the player's display bundle carries *both* the widget view and a PNG of the
-current frame. A live front end (JupyterLab, Notebook, VS Code) renders the widget; anything that
-cannot — a headless run under nbclient/nbval, the HTML export, GitHub's viewer — falls back to the
-PNG. ``mode="static"`` forces the still image (no widget is created), ``mode="widget"`` the widget.
+How it degrades: the player's display bundle carries the widget view, an offline scrubber and a
+PNG of the current frame. A live front end (JupyterLab, Notebook, VS Code) renders the widget. The
+HTML book (``retarget_lib.notebook.book``) drops the widget view, whose script would load from a
+CDN, and shows the scrubber: a handful of frames behind a slider made of inline HTML and JavaScript
+(the same mechanism as :mod:`retarget_lib.viz.knobs`), nothing fetched from the network. Where no
+script runs, the scrubber's ``<img>`` still shows the current frame, and viewers that prefer images
+to HTML show the PNG. ``mode="static"`` forces the still image and scrubber (no widget is created),
+``mode="widget"`` the widget; ``offline_frames=0`` leaves the scrubber out.
 """
 
 from __future__ import annotations
@@ -16,6 +20,7 @@ import numpy as np
 
 from ..core.transfer import retarget_ground_truth
 from .display import png_bytes
+from .knobs import Knob
 from .render import Scene, SceneRenderer
 
 
@@ -34,12 +39,16 @@ class Player:
         mode: ``"auto"`` (widget plus still-image fallback), ``"widget"`` or ``"static"``.
         window_size: ``(width, height)`` of the picture.
         view: camera preset.
+        offline_frames: frames of the current motion in the offline scrubber (evenly spaced, the
+            current frame among them); 0 for none. Each is a small PNG stored in the notebook.
+        offline_max_kb: size budget of each scrubber frame.
     """
 
     PERFORMER = "performer"
 
     def __init__(self, motions: Mapping, characters: Mapping | None = None, mode: str = "auto",
-                 window_size=(480, 320), view="front_side", transfer=None):
+                 window_size=(480, 320), view="front_side", transfer=None, offline_frames: int = 6,
+                 offline_max_kb: float = 30):
         if not motions:
             raise ValueError("Player needs at least one motion")
         if mode not in ("auto", "widget", "static"):
@@ -48,6 +57,7 @@ class Player:
         self.characters = dict(characters or {})
         self.mode, self.window_size, self.view = mode, window_size, view
         self.transfer = transfer
+        self.offline_frames, self.offline_max_kb = int(offline_frames), offline_max_kb
         self.name = next(iter(self.motions))
         self.character = self.PERFORMER
         self._shown: dict[tuple[str, str], object] = {}
@@ -97,6 +107,18 @@ class Player:
         self._renderer.frame(lo, hi, size)
         return self._renderer.screenshot()
 
+    def scrubber(self) -> Knob | None:
+        """The offline scrubber: ``offline_frames`` frames of the current motion on the current
+        character behind an inline HTML slider (``None`` when ``offline_frames`` is 0)."""
+        if self.offline_frames <= 0:
+            return None
+        n = self.shown_motion(self.name, self.character).num_frames
+        frames = np.linspace(0, n - 1, max(self.offline_frames, 1)).round().astype(int).tolist()
+        frames = sorted(set(frames) | {int(np.clip(self.frame, 0, n - 1))})
+        images = [self.render(frame=f) for f in frames]
+        return Knob(f"{self.name} on {self.character}, frame", frames, images,
+                    frames.index(int(np.clip(self.frame, 0, n - 1))), self.offline_max_kb)
+
     def close(self) -> None:
         if self._renderer is not None:
             self._renderer.close()
@@ -139,11 +161,15 @@ class Player:
     def _repr_mimebundle_(self, include=None, exclude=None):
         still = png_bytes(self.render())
         text = f"Player: {self.name} on {self.character}, frame {self.frame} ({len(self.motions)} motions)"
-        if self.widget is None:
-            return {"image/png": still, "text/plain": text}
-        bundle = self.widget._repr_mimebundle_(include=include, exclude=exclude) or {}
-        bundle = dict(bundle)
+        offline = self.scrubber()
+        bundle = {} if self.widget is None else dict(
+            self.widget._repr_mimebundle_(include=include, exclude=exclude) or {})
+        if offline is not None:
+            bundle["text/html"] = offline.html()
         bundle["image/png"] = still
+        if self.widget is None:
+            bundle["text/plain"] = text
+            return bundle
         bundle["text/plain"] = text + " — still image shown where widgets cannot run"
         return bundle
 
