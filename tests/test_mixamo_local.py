@@ -1,14 +1,22 @@
-"""mixamo-local: a fixture written in the exact Mixamo download layout loads back correctly."""
+"""mixamo-local: a fixture written in the exact Mixamo download layout loads back correctly, in every
+format of a download (BVH, GLB and FBX clips; shape.npz, GLB and FBX character files)."""
 
 import numpy as np
 import pytest
 
 from retarget_lib.data import manifest
-from retarget_lib.data.sources.mixamo_local import load_mixamo_motion, scan_mixamo_folder
+from retarget_lib.cli import main
+from retarget_lib.core.rig import Rig
+from retarget_lib.data.sources.mixamo_local import load_mixamo_folder, load_mixamo_motion, scan_mixamo_folder
 from retarget_lib.data.status import check_sources
+from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.data.synthetic.dataset import load_synthetic
+from retarget_lib.data.synthetic.motions import make_motion
+from retarget_lib.errors import GLTFError, MixamoFolderError
 from retarget_lib.files import DataError
 from retarget_lib.io import load_bvh, load_shape_npz
+from retarget_lib.io.fbx import fbx_missing
+from retarget_lib.io.gltf_write import save_glb
 from retarget_lib.data.sources.mixamo_fixture import write_mixamo_character
 
 
@@ -78,3 +86,113 @@ def test_manifest_lists_both_papers_test_lists():
     assert lists["contact"]["skinny_targets"] == ["Kaya", "Malcolm", "Liam"]
     assert set(lists["tdcn"]["scenarios"]) == {"1_seen_motion_seen_character", "2_seen_motion_unseen_character",
                                                "3_unseen_motion_seen_character", "4_unseen_motion_unseen_character"}
+
+
+# --- the folder in the formats of a real download: FBX/GLB clips, FBX/GLB character files -----------
+
+def _clip(character, family="walk", frames=20, name="Walking", seed=3):
+    motion = make_motion(family, character.skeleton, seed, duration=(frames + 1) / 30.0).slice(0, frames)
+    motion.name = name
+    return motion
+
+
+@pytest.fixture(scope="module")
+def formats_dir(tmp_path_factory):
+    """One character written three ways: BVH + shape.npz (the reference), GLB clips without a skin
+    + a T-pose ``<Character>.glb``, GLB clips that carry the skin and no other mesh file."""
+    cleo = make_character("cleo")
+    clips = [_clip(cleo), _clip(cleo, "clap", 30, "Sitting Clap", seed=8)]
+    root = tmp_path_factory.mktemp("formats")
+    for name, clip_format, mesh in (("Ref", "bvh", "shape"), ("Glb", "glb", "glb"), ("Skinned", "glb-skinned", "none")):
+        write_mixamo_character(root, cleo.copy(), clips, name=name, clip_format=clip_format, mesh=mesh)
+    return root, cleo
+
+
+def test_glb_clips_and_character_files_read_like_bvh_and_shape(formats_dir):
+    root, cleo = formats_dir
+    found = {f.name: f for f in scan_mixamo_folder(root)}
+    assert set(found["Glb"].motions) == set(found["Ref"].motions) == {"Walking", "Sitting Clap"}
+    # the T-pose character file is the mesh, not a motion
+    assert found["Glb"].character_file.name == "Glb.glb" and found["Glb"].shape is None
+    assert found["Skinned"].character_file is None and found["Skinned"].shape is None
+    folder = load_mixamo_folder(root)
+    for name in ("Glb", "Skinned"):
+        for motion in ("Walking", "Sitting Clap"):
+            got, ref = folder.clips[name, motion], folder.clips["Ref", motion]
+            assert got.skeleton.is_canonical22() and got.num_frames == ref.num_frames and got.fps == ref.fps
+            # GLB stores float32 metres, the BVH 6 decimals of cm: both ~1e-7 m
+            np.testing.assert_allclose(got.global_positions(), ref.global_positions(), atol=1e-6)
+        character, reference = folder.character(name), folder.character("Ref")
+        assert character.name == name
+        np.testing.assert_allclose(character.skeleton.offsets, reference.skeleton.offsets, atol=1e-6)
+        np.testing.assert_allclose(character.rest_vertices, reference.rest_vertices, atol=1e-6)  # float32 metres
+        np.testing.assert_allclose(character.weights, reference.weights, atol=1e-6)  # float32 weights
+        np.testing.assert_array_equal(character.faces, cleo.faces)
+    # mesh files: the character file, else the first clip (by motion name) that carries a skin
+    assert folder.mesh_file("Glb").name == "Glb.glb"
+    assert folder.mesh_file("Skinned").name == "Sitting Clap.glb"
+    assert folder.mesh_file("Ref").name == "shape.npz"
+
+
+def test_a_character_without_any_mesh(tmp_path):
+    """Skinless GLB clips and no mesh file: the clips load, the character has no mesh."""
+    cleo = make_character("cleo")
+    write_mixamo_character(tmp_path, cleo, [_clip(cleo)], name="Kaya", clip_format="glb", mesh="none")
+    folder = load_mixamo_folder(tmp_path)
+    assert folder.clips["Kaya", "Walking"].num_frames == 20
+    assert folder.character("Kaya") is None and folder.mesh_file("Kaya") is None
+
+
+def test_layout_errors_name_the_files(tmp_path, capsys):
+    cleo = make_character("cleo")
+    write_mixamo_character(tmp_path, cleo, [_clip(cleo)], name="Kaya")
+    write_mixamo_character(tmp_path, cleo, [_clip(cleo)], name="Kaya", clip_format="glb", mesh="glb")
+    with pytest.raises(MixamoFolderError, match=r"Kaya/Walking.glb: motion 'Walking' is also in Walking.bvh"):
+        scan_mixamo_folder(tmp_path)
+    (tmp_path / "Kaya" / "Walking.glb").unlink()
+    (tmp_path / "Kaya" / "T-Pose.glb").write_bytes((tmp_path / "Kaya" / "Kaya.glb").read_bytes())
+    with pytest.raises(MixamoFolderError, match=r"Kaya: 2 character files \(Kaya.glb, T-Pose.glb\); keep one"):
+        scan_mixamo_folder(tmp_path)
+    (tmp_path / "Kaya" / "T-Pose.glb").unlink()
+    # a malformed clip: the reader's error names it, and the command line says so on one line, status 2
+    (tmp_path / "Kaya" / "Broken.glb").write_bytes(b"glTF\x02\x00\x00\x00\xff\xff\x00\x00")
+    with pytest.raises(GLTFError, match=r"Kaya/Broken.glb: truncated GLB"):
+        load_mixamo_folder(tmp_path)
+    assert main(["evaluate", "--table", "tdcn", "--data", "mixamo-local", "--mixamo", str(tmp_path),
+                 "--methods", "copy", "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Broken.glb: truncated GLB" in err
+
+
+@pytest.mark.skipif(fbx_missing() is not None, reason=f"fbx extra not installed: {fbx_missing()}")
+def test_fbx_clips_and_character_files(tmp_path):
+    """FBX made from the library's GLBs by assimp (the repository has no humanoid FBX and the
+    library no FBX writer): a T-pose ``<Character>.fbx`` with every Mixamo joint, and a skinned
+    FBX clip. assimp's ASCII FBX export stores key times 1000 times too late
+    (retarget_lib/io/fbx.py), so the clip's GLB is written at 1000 × 30 fps: the FBX then holds
+    keys 1/30 s apart, as a Mixamo download does, and reads back at 30 fps."""
+    import impasse
+
+    cleo = make_character("cleo")
+    walk = _clip(cleo)
+    write_mixamo_character(tmp_path / "in", cleo, [walk], name="Kaya", clip_format="bvh", mesh="glb")
+    kaya = tmp_path / "in" / "Kaya"
+    impasse.export(impasse.load(str(kaya / "Kaya.glb")), str(kaya / "Kaya.fbx"), "fbxa")
+    (kaya / "Kaya.glb").unlink()
+    fast = walk.copy()
+    fast.fps = 1000 * walk.fps
+    (tmp_path / "in" / "Claire").mkdir()
+    save_glb(Rig.from_character(cleo), tmp_path / "fast.glb", fast)
+    impasse.export(impasse.load(str(tmp_path / "fast.glb")), str(tmp_path / "in" / "Claire" / "Walking.fbx"), "fbxa")
+    folder = load_mixamo_folder(tmp_path / "in")
+    assert folder.mesh_file("Kaya").name == "Kaya.fbx" and folder.mesh_file("Claire").name == "Walking.fbx"
+    got = folder.clips["Claire", "Walking"]
+    assert got.num_frames == walk.num_frames and got.fps == walk.fps
+    # float32 metres through assimp: a few 1e-6 m
+    np.testing.assert_allclose(got.global_positions(), walk.global_positions(), atol=2e-5)
+    for name in ("Kaya", "Claire"):
+        character = folder.character(name)
+        np.testing.assert_allclose(character.skeleton.offsets, cleo.skeleton.offsets, atol=2e-5)
+        # assimp may reorder vertices: compare them sorted
+        np.testing.assert_allclose(np.sort(character.rest_vertices, axis=0), np.sort(cleo.rest_vertices, axis=0),
+                                   atol=2e-5)

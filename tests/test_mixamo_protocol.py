@@ -137,7 +137,7 @@ def test_contact_coverage_without_the_source_mesh(tmp_path):
                            name="Kaya")
     cases, coverage = mixamo_contact_cases(load_mixamo_folder(tmp_path / "in"))
     assert cases == [] and len(coverage) == 30 * 6
-    assert set(coverage["status"]) == {"no Y Bot shape.npz"}
+    assert set(coverage["status"]) == {"no Y Bot mesh"}
     tables, _, _ = run_mixamo_contact_evaluation(tmp_path / "out", tmp_path / "in", rows=("copy",))
     assert tables["table1"].filter(like="ours").isna().all().all()
     assert (tmp_path / "out" / "contact_coverage.csv").exists() and (tmp_path / "out" / "contact_table5.md").exists()

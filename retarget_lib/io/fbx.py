@@ -29,9 +29,9 @@ from ..core.motion import Motion
 from ..core.rig import Rig
 from ..errors import FBXError, RetargetInputError
 from ..files import readable_file
-from .gltf import MAX_FILE_BYTES, load_gltf_motion, load_gltf_rig
+from .gltf import MAX_FILE_BYTES, load_gltf_animation, load_gltf_motion, load_gltf_rig
 
-__all__ = ["FBXError", "fbx_missing", "load_fbx_rig", "load_fbx_motion"]
+__all__ = ["FBXError", "fbx_missing", "load_fbx_rig", "load_fbx_motion", "load_fbx_animation"]
 
 _INSTALL = "install the fbx extra: `sudo apt-get install libassimp5` and `pip install -e .[fbx]`"
 
@@ -92,3 +92,19 @@ def load_fbx_motion(path: str | os.PathLike, fps: float | None = None,
         motion, rig = load_gltf_motion(glb, fps=fps, mapping=mapping)
     rig.name, rig.meta["source"], motion.meta["source"] = Path(path).stem, str(path), str(path)
     return motion, rig
+
+
+def load_fbx_animation(path: str | os.PathLike, fps: float | None = None,
+                       mapping: str | os.PathLike | dict | None = None) -> tuple[Motion, dict[int, int]]:
+    """Sample the first animation of an FBX file with or without a skin (a Mixamo clip downloaded
+    "With Skin" or "Without Skin"; see :func:`~retarget_lib.io.gltf.load_gltf_animation`).
+
+    Returns:
+        ``(motion on the file's joints, {file joint index: canonical index})``.
+    """
+    with _as_glb(path) as glb:
+        motion, joint_map = load_gltf_animation(glb, fps=fps, mapping=mapping)
+    motion.meta["source"] = str(path)
+    if motion.name == glb.stem:
+        motion.name = Path(path).stem
+    return motion, joint_map
