@@ -18,7 +18,7 @@ from retarget_lib.core.skeleton import CANONICAL22, JointSetError, Skeleton
 from retarget_lib.data.sources.mannequin import load_mannequin
 from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.errors import GLTFError, RetargetInputError
-from retarget_lib.io.gltf import NoSkinError, load_gltf_animation, load_gltf_motion, load_gltf_rig
+from retarget_lib.io.gltf import NoSkinError, key_rate, load_gltf_animation, load_gltf_motion, load_gltf_rig
 from retarget_lib.io.gltf_validator import validate_gltf, validator_missing
 from retarget_lib.io.gltf_write import _Builder, save_glb
 from retarget_lib.io.rig_maps import RIG_MAPS, map_joints
@@ -300,3 +300,31 @@ def test_a_motion_without_a_skin_round_trips(tmp_path):
     gltf.save(str(tmp_path / "still.glb"))
     with pytest.raises(GLTFError, match="still.glb: has no skin and 0 animations"):
         load_gltf_animation(tmp_path / "still.glb")
+
+
+def test_a_blender_style_clip_without_a_skin_at_60_fps(tmp_path):
+    """The Blender/Mixamo layout (rotated joint frames under a 0.01-scaled, turned ``Armature``)
+    with the mesh node removed, keyed at 60 fps without the library's ``extras``: the joints are
+    the animated nodes (the ``Armature`` stays a non-joint ancestor), the rate is the keys'."""
+    rig = Rig.from_character(make_character("hana"))
+    motion = random_motion(rig.skeleton, frames=10, fps=60.0)
+    path = tmp_path / "blender_style.glb"
+    _armature_file(rig, motion, path)
+    gltf = pygltflib.GLTF2().load(str(path))
+    body = next(n for n, node in enumerate(gltf.nodes) if node.mesh is not None)
+    gltf.scenes[0].nodes = [n for n in gltf.scenes[0].nodes if n != body]
+    gltf.nodes[body].mesh = gltf.nodes[body].skin = None
+    gltf.save(str(path))
+    read, joint_map = load_gltf_animation(path)
+    assert read.fps == 60.0 and read.num_frames == 10 and read.skeleton.joint_names[0] == "mixamorig:Hips"
+    assert joint_map == {c: c for c in range(22)}
+    np.testing.assert_allclose(read.global_positions(), motion.global_positions(), atol=1e-4)  # as the skinned file
+
+
+def test_key_rate_of_baked_keys():
+    frames = np.arange(50)
+    assert key_rate([frames / 30.0]) == 30.0 and key_rate([(frames / 60.0).astype(np.float32)]) == 60.0
+    assert key_rate([frames / 29.97]) == pytest.approx(29.97)
+    assert key_rate([np.array([0.0, 1.0])]) is None                  # two keys: no grid
+    assert key_rate([np.array([0.0, 0.1, 0.25, 0.3])]) is None        # keys off any one grid
+    assert key_rate([frames * 33.3]) is None                         # 0.03 fps: not a frame rate

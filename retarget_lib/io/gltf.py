@@ -19,9 +19,11 @@ What is read (:func:`load_gltf_rig`):
   names, a VRM file's humanoid bones (``VRM`` / ``VRMC_vrm`` extension), then a mapping file.
 
 :func:`load_gltf_motion` samples an animation of the same file at a frame rate (the ``fps`` the
-library wrote into the animation's ``extras``, else 30): rotations and the root's translation
-(LINEAR = slerp / lerp, STEP, CUBICSPLINE = its key values); other joints' translation and scale
-channels are not representable in a :class:`~retarget_lib.core.motion.Motion` and are ignored.
+library wrote into the animation's ``extras``, else the rate of the keys when they lie on one
+regular grid (:func:`key_rate`: an export with a key on every frame, as Mixamo's), else 30):
+rotations and the root's translation (LINEAR = slerp / lerp, STEP, CUBICSPLINE = its key values);
+other joints' translation and scale channels are not representable in a
+:class:`~retarget_lib.core.motion.Motion` and are ignored.
 Library rotations are relative to the rest pose: ``Q_j(t) = G_j(t) R_j^T`` with ``G_j`` the
 animated and ``R_j`` the rest world rotation of joint ``j``.
 
@@ -56,7 +58,7 @@ from ..files import readable_file
 from .rig_maps import RIG_MAPS, joint_key, load_mapping_file, map_joints
 
 __all__ = ["GLTFError", "NoSkinError", "MAX_FILE_BYTES", "MAX_JOINTS", "MAX_VERTICES", "MAX_FRAMES", "DEFAULT_FPS",
-           "load_gltf_rig", "load_gltf_motion", "load_gltf_animation"]
+           "key_rate", "load_gltf_rig", "load_gltf_motion", "load_gltf_animation"]
 
 MAX_FILE_BYTES = 256 * 2**20
 MAX_JOINTS = 1000
@@ -464,8 +466,8 @@ def load_gltf_motion(path: str | os.PathLike, fps: float | None = None, animatio
 
     Args:
         path: ``.glb`` or ``.gltf`` with a skin and an animation.
-        fps: sampling rate (default: the ``fps`` in the animation's ``extras``, else
-            :data:`DEFAULT_FPS`).
+        fps: sampling rate (default: the ``fps`` in the animation's ``extras``, else the keys'
+            rate (:func:`key_rate`), else :data:`DEFAULT_FPS`).
         animation: which animation.
         mapping: as in :func:`load_gltf_rig`.
 
@@ -515,9 +517,6 @@ def _sample_motion(doc: _Document, tree: _Skeleton, skeleton: Skeleton, rest_rot
     if not 0 <= animation < len(g.animations):
         raise doc.error(f"has {len(g.animations)} animations; animation {animation} does not exist")
     anim = g.animations[animation]
-    rate = float(fps or (anim.extras or {}).get("fps") or DEFAULT_FPS)
-    if not (np.isfinite(rate) and 1.0 <= rate <= 1000.0):
-        raise doc.error(f"frame rate {rate} is outside 1-1000")
     channels = []
     for c in anim.channels:
         if c.target.node is None or c.target.path not in ("rotation", "translation", "scale") \
@@ -534,6 +533,9 @@ def _sample_motion(doc: _Document, tree: _Skeleton, skeleton: Skeleton, rest_rot
         channels.append((c.target.node, c.target.path, times, values, s.interpolation or "LINEAR"))
     if not channels:
         raise doc.error(f"animation {animation} has no rotation or translation channels")
+    rate = float(fps or (anim.extras or {}).get("fps") or key_rate([ch[2] for ch in channels]) or DEFAULT_FPS)
+    if not (np.isfinite(rate) and 1.0 <= rate <= 1000.0):
+        raise doc.error(f"frame rate {rate} is outside 1-1000")
     start, end = min(ch[2][0] for ch in channels), max(ch[2][-1] for ch in channels)
     count = int(np.floor((end - start) * rate + 0.01)) + 1  # float32 key times: within 1 % of a frame
     if count > MAX_FRAMES:
@@ -559,6 +561,31 @@ def _sample_motion(doc: _Document, tree: _Skeleton, skeleton: Skeleton, rest_rot
     root = world[tree.nodes[0]][:, :3, 3]
     return Motion(skeleton.copy(), rotations, root, rate, name=anim.name or doc.path.stem,
                   meta=dict(source=str(doc.path), animation=animation))
+
+
+def key_rate(key_times: list[np.ndarray], tol: float = 0.01) -> float | None:
+    """The frame rate of baked keyframes (an FBX/GLB exported with a key on every frame, as Mixamo's).
+
+    Args:
+        key_times: each channel's ``(K,)`` increasing key times in seconds.
+        tol: how far (in frames) a key may lie off the grid (float32 times).
+
+    Returns:
+        ``1 / spacing`` of the channel with the most keys when it has at least 3 keys, all on one
+        regular grid (within ``tol`` of a frame), and the rate is 1-1000 fps (within 1e-4 of an
+        integer it is rounded to it); else ``None`` (the caller's default).
+    """
+    times = max(key_times, key=len)
+    if len(times) < 3:
+        return None
+    dt = float(np.median(np.diff(times)))
+    if not dt > 0:
+        return None
+    steps = (times - times[0]) / dt
+    rate = 1.0 / dt
+    if np.abs(steps - np.round(steps)).max() > tol or not 1.0 <= rate <= 1000.0:
+        return None
+    return float(round(rate)) if abs(rate - round(rate)) <= 1e-4 * rate else rate
 
 
 def _ancestors(n: int, node_parent: list[int]) -> list[int]:

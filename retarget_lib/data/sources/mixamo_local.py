@@ -16,8 +16,9 @@ Layout (``$RETARGET_MIXAMO``, default ``data/mixamo``; see ``data_manifest.yaml`
 **Clips**: BVH as Blender exports Mixamo (``mixamorig:`` prefix, fingers, ``*_End`` sites, cm);
 FBX through the optional ``fbx`` extra (:mod:`retarget_lib.io.fbx`, assimp); GLB/glTF with
 :func:`~retarget_lib.io.gltf.load_gltf_animation`, with or without a skin. Every clip is folded onto
-the canonical 22 joints; FBX/GLB clips are sampled at the rate stored in the file by this library,
-else 30 fps (Mixamo's download default).
+the canonical 22 joints; FBX/GLB clips are sampled at the rate this library stores in its GLB
+files, else at the keys' rate when they are baked on every frame (as Mixamo's are;
+:func:`~retarget_lib.io.gltf.key_rate`), else at 30 fps (Mixamo's download default).
 
 **The character's mesh** (:meth:`MixamoFolder.character`, used by the contact tables and contact
 training), first found of: ``shape.npz``; the character file; the first clip (by motion name)
