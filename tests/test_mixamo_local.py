@@ -6,7 +6,9 @@ import pytest
 
 from retarget_lib.data import manifest
 from retarget_lib.cli import main
+from retarget_lib.core.character import Character
 from retarget_lib.core.rig import Rig
+from retarget_lib.core.skeleton import canonical22_skeleton
 from retarget_lib.data.sources.mixamo_local import load_mixamo_folder, load_mixamo_motion, scan_mixamo_folder
 from retarget_lib.data.status import check_sources
 from retarget_lib.data.synthetic.characters import make_character
@@ -196,3 +198,20 @@ def test_fbx_clips_and_character_files(tmp_path):
         # assimp may reorder vertices: compare them sorted
         np.testing.assert_allclose(np.sort(character.rest_vertices, axis=0), np.sort(cleo.rest_vertices, axis=0),
                                    atol=2e-5)
+
+
+def test_a_glb_in_centimetres_is_read_in_metres(tmp_path):
+    """An FBX/GLB whose skeleton is 100 times too tall (assimp keeps an FBX's centimetres) is scaled
+    to metres, as shape.npz files are: no character is 5 m tall."""
+    cleo = make_character("cleo")
+    walk = _clip(cleo)
+    cm = Character("Cm", canonical22_skeleton(cleo.skeleton.offsets * 100), cleo.rest_vertices * 100, cleo.faces,
+                   cleo.weights)
+    walk_cm = walk.copy(skeleton=cm.skeleton, root_positions=walk.root_positions * 100)
+    write_mixamo_character(tmp_path, cm, [walk_cm], clip_format="glb", mesh="glb")
+    folder = load_mixamo_folder(tmp_path)
+    got = folder.clips["Cm", "Walking"]
+    np.testing.assert_allclose(got.global_positions(), walk.global_positions(), atol=1e-5)  # float32 of ~100 units
+    character = folder.character("Cm")
+    np.testing.assert_allclose(character.rest_vertices, cleo.rest_vertices, atol=1e-5)
+    np.testing.assert_allclose(character.skeleton.offsets, cleo.skeleton.offsets, atol=1e-5)

@@ -18,7 +18,10 @@ FBX through the optional ``fbx`` extra (:mod:`retarget_lib.io.fbx`, assimp); GLB
 :func:`~retarget_lib.io.gltf.load_gltf_animation`, with or without a skin. Every clip is folded onto
 the canonical 22 joints; FBX/GLB clips are sampled at the rate this library stores in its GLB
 files, else at the keys' rate when they are baked on every frame (as Mixamo's are;
-:func:`~retarget_lib.io.gltf.key_rate`), else at 30 fps (Mixamo's download default).
+:func:`~retarget_lib.io.gltf.key_rate`), else at 30 fps (Mixamo's download default). An FBX/GLB
+clip or mesh whose canonical skeleton is taller than 5 units (NKN height ``H``) is taken to be in
+centimetres and scaled to metres (the rule :mod:`retarget_lib.io.shape` applies to ``shape.npz``:
+no character is 5 m tall), for FBX files whose unit assimp leaves as the file's centimetres.
 
 **The character's mesh** (:meth:`MixamoFolder.character`, used by the contact tables and contact
 training), first found of: ``shape.npz``; the character file; the first clip (by motion name)
@@ -53,6 +56,7 @@ import yaml
 from ...core.canonical import to_canonical22
 from ...core.character import Character
 from ...core.motion import Motion
+from ...core.skeleton import canonical22_skeleton
 from ...errors import MixamoFolderError
 from ...files import DataError, sha256_file
 from ...io.bvh import load_bvh
@@ -72,6 +76,28 @@ CLIP_SUFFIXES = (".bvh", ".fbx", ".glb", ".gltf")
 CHARACTER_FILE_STEMS = ("character", "tpose")
 _SKINNED_SUFFIXES = (".fbx", ".glb", ".gltf")
 _SPLIT_KEYS = ("seen_motions", "unseen_motions", "seen_characters", "unseen_characters")
+
+
+#: an FBX/GLB whose canonical skeleton's height exceeds this many file units is in centimetres
+_CM_ABOVE_HEIGHT = 5.0
+
+
+def _motion_in_metres(motion: Motion) -> Motion:
+    """A canonical-22 motion read from FBX/GLB, scaled from centimetres when it is taller than
+    :data:`_CM_ABOVE_HEIGHT` units."""
+    if motion.skeleton.height() <= _CM_ABOVE_HEIGHT:
+        return motion
+    return motion.copy(skeleton=canonical22_skeleton(motion.skeleton.offsets * 0.01),
+                       root_positions=motion.root_positions * 0.01, meta={**motion.meta, "unit": "cm"})
+
+
+def _character_in_metres(character: Character) -> Character:
+    """:func:`_motion_in_metres` for a character (skeleton and mesh)."""
+    if character.skeleton.height() <= _CM_ABOVE_HEIGHT:
+        return character
+    return Character(character.name, canonical22_skeleton(character.skeleton.offsets * 0.01),
+                     character.rest_vertices * 0.01, character.faces, character.weights, character.bulk,
+                     {**character.style, "unit_scale": 0.01})
 
 
 def _key(stem: str) -> str:
@@ -235,12 +261,12 @@ def load_mixamo_motion(path: str | Path, fps: float | None = 30.0) -> Motion:
         motion = to_canonical22(load_bvh(path), "mixamo")
     elif suffix in (".glb", ".gltf"):
         raw, joint_map = load_gltf_animation(path)
-        motion = to_canonical22(raw, joint_map=joint_map)
+        motion = _motion_in_metres(to_canonical22(raw, joint_map=joint_map))
     elif suffix == ".fbx":
         from ...io.fbx import load_fbx_animation  # noqa: PLC0415 (the optional extra, checked when used)
 
         raw, joint_map = load_fbx_animation(path)
-        motion = to_canonical22(raw, joint_map=joint_map)
+        motion = _motion_in_metres(to_canonical22(raw, joint_map=joint_map))
     else:
         raise MixamoFolderError(f"{path}: not a motion clip (a clip is {', '.join(CLIP_SUFFIXES)})")
     motion.name = path.stem
@@ -261,9 +287,9 @@ def load_mixamo_rig(path: str | Path) -> Character:
     if suffix == ".fbx":
         from ...io.fbx import load_fbx_rig  # noqa: PLC0415 (the optional extra, checked when used)
 
-        return load_fbx_rig(path).character()
+        return _character_in_metres(load_fbx_rig(path).character())
     if suffix in (".glb", ".gltf"):
-        return load_gltf_rig(path).character()
+        return _character_in_metres(load_gltf_rig(path).character())
     raise MixamoFolderError(f"{path}: not a character mesh file (shape.npz, .fbx, .glb, .gltf)")
 
 
