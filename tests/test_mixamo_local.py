@@ -14,7 +14,7 @@ from retarget_lib.data.status import check_sources
 from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.data.synthetic.dataset import load_synthetic
 from retarget_lib.data.synthetic.motions import make_motion
-from retarget_lib.errors import GLTFError, MixamoFolderError
+from retarget_lib.errors import FBXError, GLTFError, MixamoFolderError
 from retarget_lib.files import DataError
 from retarget_lib.io import load_bvh, load_shape_npz
 from retarget_lib.io.fbx import fbx_missing
@@ -215,3 +215,16 @@ def test_a_glb_in_centimetres_is_read_in_metres(tmp_path):
     character = folder.character("Cm")
     np.testing.assert_allclose(character.rest_vertices, cleo.rest_vertices, atol=1e-5)
     np.testing.assert_allclose(character.skeleton.offsets, cleo.skeleton.offsets, atol=1e-5)
+
+
+def test_fbx_clips_without_the_fbx_extra_name_the_file(tmp_path, monkeypatch):
+    import retarget_lib.io.fbx as fbx
+
+    def missing():
+        raise FBXError("FBX needs the Open Asset Import Library (ImportError: no impasse); install the fbx extra")
+
+    monkeypatch.setattr(fbx, "_impasse", missing)
+    (tmp_path / "Kaya").mkdir()
+    (tmp_path / "Kaya" / "Walking.fbx").write_bytes(b"Kaydara FBX Binary  \x00")
+    with pytest.raises(FBXError, match=r"Kaya/Walking.fbx: FBX needs the Open Asset Import Library .*fbx extra"):
+        load_mixamo_folder(tmp_path)

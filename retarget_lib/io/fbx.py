@@ -59,7 +59,10 @@ def _as_glb(path: str | os.PathLike) -> Iterator[Path]:
     """The FBX ``path`` converted to a temporary ``.glb``; errors of the glTF reader inside are
     re-raised naming ``path``."""
     path = readable_file(path, "FBX file", MAX_FILE_BYTES)
-    impasse = _impasse()
+    try:
+        impasse = _impasse()
+    except FBXError as e:
+        raise FBXError(f"{path}: {e}") from None
     with tempfile.TemporaryDirectory(prefix="retarget-fbx-") as tmp:
         glb = Path(tmp) / f"{path.stem}.glb"
         try:
