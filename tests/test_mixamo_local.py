@@ -228,3 +228,18 @@ def test_fbx_clips_without_the_fbx_extra_name_the_file(tmp_path, monkeypatch):
     (tmp_path / "Kaya" / "Walking.fbx").write_bytes(b"Kaydara FBX Binary  \x00")
     with pytest.raises(FBXError, match=r"Kaya/Walking.fbx: FBX needs the Open Asset Import Library .*fbx extra"):
         load_mixamo_folder(tmp_path)
+
+
+def test_a_character_with_a_mesh_and_no_clip_is_listed(tmp_path):
+    """A target whose mesh is there but none of whose clips is: it is a character of the folder
+    (its mesh loads), and the coverage can say "no clip" rather than "no mesh"."""
+    cleo = make_character("cleo")
+    write_mixamo_character(tmp_path, cleo, [_clip(cleo)], name="Kaya")
+    write_mixamo_character(tmp_path, cleo, [], name="Ortiz", mesh="glb")
+    (tmp_path / "Empty").mkdir()
+    found = {f.name: f for f in scan_mixamo_folder(tmp_path)}
+    assert set(found) == {"Kaya", "Ortiz"} and found["Ortiz"].motions == {}
+    assert load_mixamo_folder(tmp_path).character("Ortiz") is not None
+    (tmp_path / "Kaya" / "Walking.bvh").unlink()
+    with pytest.raises(DataError, match="no <Character>/<Motion>.bvh"):
+        scan_mixamo_folder(tmp_path)

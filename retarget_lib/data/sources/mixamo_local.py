@@ -126,7 +126,7 @@ class MixamoCharacterFolder:
 
 def scan_mixamo_folder(root: str | Path) -> list[MixamoCharacterFolder]:
     """List the characters, their motion clips and mesh files in a ``mixamo-local`` folder
-    (module docstring); folders without a clip are skipped.
+    (module docstring); folders with neither a clip nor a mesh file are skipped.
 
     Raises:
         DataError: if ``root`` is missing or holds no character folder with a clip.
@@ -154,14 +154,14 @@ def scan_mixamo_folder(root: str | Path) -> list[MixamoCharacterFolder]:
                 raise MixamoFolderError(f"{p}: motion {p.stem!r} is also in {motions[p.stem].name}; keep one file "
                                         "per motion")
             motions[p.stem] = p
-        if not motions:
-            continue
         shape = folder / SHAPE_FILE
+        if not motions and not character_files and not shape.exists():
+            continue
         dae = sorted(folder.glob("*.dae"))
         found.append(MixamoCharacterFolder(folder.name, shape if shape.exists() else None, motions,
                                            dae[0] if dae else None,
                                            character_files[0] if character_files else None))
-    if not found:
+    if not any(c.motions for c in found):
         raise DataError(f"no <Character>/<Motion>.bvh|.fbx|.glb|.gltf found under {root}")
     return found
 
