@@ -134,6 +134,10 @@ def test_glb_clips_and_character_files_read_like_bvh_and_shape(formats_dir):
     assert folder.mesh_file("Glb").name == "Glb.glb"
     assert folder.mesh_file("Skinned").name == "Sitting Clap.glb"
     assert folder.mesh_file("Ref").name == "shape.npz"
+    assert folder.clip_path("Glb", "Walking").name == "Walking.glb"
+    assert folder.clip_path("Ref", "Walking").name == "Walking.bvh"
+    with pytest.raises(KeyError, match="no clip of 'Jumping' by 'Ref'"):
+        folder.clip_path("Ref", "Jumping")
 
 
 def test_a_character_without_any_mesh(tmp_path):

@@ -318,6 +318,17 @@ class MixamoFolder:
             out.setdefault(motion, set()).add(character)
         return out
 
+    def clip_path(self, character: str, motion: str) -> Path:
+        """The file of a character's clip of a motion (``.bvh``, ``.fbx``, ``.glb`` or ``.gltf``).
+
+        Raises:
+            KeyError: the folder has no such clip.
+        """
+        entry = next((c for c in self.characters if c.name == character), None)
+        if entry is None or motion not in entry.motions:
+            raise KeyError(f"{self.root}: no clip of {motion!r} by {character!r}")
+        return entry.motions[motion]
+
     def _mesh(self, name: str) -> tuple[Path | None, Character | None]:
         """``(file, character)`` of a character's mesh (module docstring's order), loaded once."""
         if name not in self._meshes:
@@ -349,9 +360,8 @@ class MixamoFolder:
 
     def fingerprint(self, character: str, motion: str) -> str:
         """16 hex digits of the sha256 of a clip's file and its character's mesh file (cache keys)."""
-        entry = next(c for c in self.characters if c.name == character)
         mesh = self.mesh_file(character)
-        parts = [sha256_file(entry.motions[motion])] + ([sha256_file(mesh)] if mesh is not None else [])
+        parts = [sha256_file(self.clip_path(character, motion))] + ([sha256_file(mesh)] if mesh is not None else [])
         return hashlib.sha256("".join(parts).encode()).hexdigest()[:16]
 
     def character(self, name: str) -> Character | None:
