@@ -129,11 +129,17 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     from .evaluation.tdcn import run_tdcn_evaluation
 
     table, missing = run_tdcn_evaluation(args.out, args.device, runs)
-    cols = [c for c in table.columns if c.endswith("avg")]
-    print(table[cols].round(2).to_string())
+    return _report_table4(table, missing, f"{args.out}/table4.csv, table4.md, table4_h2.*, table4_cases.csv")
+
+
+def _report_table4(table, missing, written: str) -> int:
+    """Print a Table 4's average columns, the rows without a checkpoint and the files written."""
+    if len(table):
+        cols = [c for c in table.columns if c.endswith("avg")]
+        print(table[cols].round(3).to_string())
     if missing:
         print(f"no trained checkpoint yet for: {', '.join(missing)}")
-    print(f"wrote {args.out}/table4.csv, table4.md, table4_h2.*, table4_cases.csv")
+    print(f"wrote {written}")
     return 0
 
 
@@ -142,13 +148,7 @@ def _evaluate_tdcn_mixamo(args: argparse.Namespace) -> int:
 
     table, coverage, missing = run_mixamo_tdcn_evaluation(args.out, args.mixamo, args.methods, args.checkpoint or ())
     print("paper's pairs (Table 3):\n" + coverage.to_string(index=False))
-    if len(table):
-        cols = [c for c in table.columns if c.endswith("avg")]
-        print(table[cols].round(3).to_string())
-    if missing:
-        print(f"no trained checkpoint yet for: {', '.join(missing)}")
-    print(f"wrote {args.out}/table4.md, table4.csv, table4_cases.csv")
-    return 0
+    return _report_table4(table, missing, f"{args.out}/table4.md, table4.csv, table4_cases.csv")
 
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
@@ -248,8 +248,8 @@ def build_parser() -> argparse.ArgumentParser:
                                         "the method's default in data_manifest.yaml)")
     p.add_argument("--fps", type=float, help="output frame rate (default: the source's)")
     p.add_argument("--force", action="store_true", help="allow --out to overwrite an input file")
-    p.add_argument("--out", required=True, help="output .bvh, or .glb: the target's skinned mesh performing the "
-                                                "result (never an input unless --force)")
+    p.add_argument("--out", required=True, help="output .bvh, or .glb/.fbx: the target's skinned mesh performing "
+                                                "the result (never an input unless --force)")
     _device_option(p)
     p.set_defaults(func=_cmd_retarget)
 

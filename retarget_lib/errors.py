@@ -18,7 +18,8 @@ type                       raised for
 :class:`AMASSError`        an SMPL-X / AMASS ``.npz`` motion that lacks a key (``betas``,
                            ``poses``, ``trans``, the frame rate) or has wrong shapes or values
 :class:`FBXError`          an FBX file the optional FBX reader cannot convert, or the reader
-                           (the ``fbx`` extra) is not installed
+                           (the ``fbx`` extra) is not installed; an FBX that cannot be written
+                           (a motion on other joints than the rig's, a bad unit)
 :class:`DeviceError`       a ``--device``/``--amp`` this machine cannot run (no CUDA, no MPS),
                            or a distributed launch that does not fit the config (batch size not
                            divisible by the number of processes)
@@ -71,7 +72,7 @@ class AMASSError(RetargetInputError):
 
 
 class FBXError(RetargetInputError):
-    """An FBX file that cannot be converted, or the optional FBX reader is not installed."""
+    """An FBX file that cannot be converted or written, or the optional FBX reader is not installed."""
 
 
 class DeviceError(RetargetInputError):

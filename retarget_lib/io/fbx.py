@@ -11,10 +11,19 @@ the rest (:func:`~retarget_lib.io.gltf.load_gltf_rig`, :func:`~retarget_lib.io.g
 world rest pose including the FBX's armature scale, rig maps, skin). Errors name the FBX file, not
 the temporary one.
 
-Writing FBX is not offered: assimp 5.2.5's FBX exporter writes binary files that assimp itself
-cannot read back, and its ASCII files (which it can) come back with every keyframe time 1000 times
-too late (its glTF importer counts ticks in milliseconds, the FBX exporter ignores the tick rate).
-Write ``.glb``; Blender, Unity, Unreal and three.js all import it.
+Units: FBX lengths are in units of ``UnitScaleFactor`` centimetres (``GlobalSettings``; 1 = cm,
+what Mixamo and Maya write; 100 = m, what Blender and :mod:`~retarget_lib.io.fbx_write` write), and
+assimp passes them through unconverted, so rigs and motions are scaled to metres here by
+``UnitScaleFactor / 100`` (a file without the setting is taken as centimetres, FBX's default).
+
+Animations are sampled at the file's own frame rate (its ``GlobalSettings`` ``TimeMode`` /
+``CustomFrameRate``, which assimp reports as the animation's ticks per second) unless ``fps`` is
+given.
+
+Writing FBX is :mod:`~retarget_lib.io.fbx_write` (pure Python, no extra needed): assimp 5.2.5's
+own FBX exporter writes binary files that assimp itself cannot read back, and ASCII files (which
+it can) come back with every keyframe time 1000 times too late (its glTF importer counts ticks in
+milliseconds, the FBX exporter ignores the tick rate).
 """
 
 from __future__ import annotations
@@ -24,6 +33,8 @@ import tempfile
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Iterator
+
+import numpy as np
 
 from ..core.motion import Motion
 from ..core.rig import Rig
@@ -55,9 +66,9 @@ def fbx_missing() -> str | None:
 
 
 @contextmanager
-def _as_glb(path: str | os.PathLike) -> Iterator[Path]:
-    """The FBX ``path`` converted to a temporary ``.glb``; errors of the glTF reader inside are
-    re-raised naming ``path``."""
+def _as_glb(path: str | os.PathLike) -> Iterator[tuple[Path, float | None, float]]:
+    """``(the FBX path converted to a temporary .glb, the first animation's frame rate or None,
+    metres per file unit)``; errors of the glTF reader inside are re-raised naming ``path``."""
     path = readable_file(path, "FBX file", MAX_FILE_BYTES)
     try:
         impasse = _impasse()
@@ -66,13 +77,29 @@ def _as_glb(path: str | os.PathLike) -> Iterator[Path]:
     with tempfile.TemporaryDirectory(prefix="retarget-fbx-") as tmp:
         glb = Path(tmp) / f"{path.stem}.glb"
         try:
-            impasse.export(impasse.load(str(path)), str(glb), "glb2")
+            scene = impasse.load(str(path))
+            impasse.export(scene, str(glb), "glb2")
         except impasse.errors.AssimpError as e:
             raise FBXError(f"{path}: the Open Asset Import Library cannot read it as FBX ({e})") from None
+        # assimp keeps the rate in single precision (29.97 -> 29.969999...): rounded to 1/1000 fps,
+        # which every rate in use (23.976, 29.97, 59.94 ...) is exact in
+        rate = round(float(scene.animations[0].ticks_per_second), 3) if len(scene.animations) else None
+        settings = dict(scene.metadata) if scene.metadata is not None else {}
+        metres = float(settings.get("UnitScaleFactor", 1.0)) / 100.0
+        if not (np.isfinite(metres) and 1e-6 <= metres <= 1e6):
+            raise FBXError(f"{path}: UnitScaleFactor {settings['UnitScaleFactor']} is not a length unit")
         try:
-            yield glb
+            yield glb, (rate if rate is not None and 1.0 <= rate <= 1000.0 else None), metres
         except RetargetInputError as e:
             raise type(e)(str(e).replace(str(glb), str(path))) from None
+
+
+def _in_metres(rig: Rig, metres: float) -> Rig:
+    """``rig`` with every length multiplied by ``metres`` (metres per file unit)."""
+    if metres == 1.0:
+        return rig
+    return Rig(rig.name, rig.skeleton.scaled(metres), rig.rest_vertices * metres, rig.faces, rig.weights,
+               rig.joint_map, dict(rig.meta, unit_scale=metres))
 
 
 def load_fbx_rig(path: str | os.PathLike, mapping: str | os.PathLike | dict | None = None) -> Rig:
@@ -82,17 +109,20 @@ def load_fbx_rig(path: str | os.PathLike, mapping: str | os.PathLike | dict | No
         FBXError: the extra is missing or assimp cannot read the file; the glTF reader's errors
             (no skin, unmappable joints ...) naming the FBX file.
     """
-    with _as_glb(path) as glb:
-        rig = load_gltf_rig(glb, mapping)
+    with _as_glb(path) as (glb, _, metres):
+        rig = _in_metres(load_gltf_rig(glb, mapping), metres)
     rig.name, rig.meta["source"] = Path(path).stem, str(path)
     return rig
 
 
 def load_fbx_motion(path: str | os.PathLike, fps: float | None = None,
                     mapping: str | os.PathLike | dict | None = None) -> tuple[Motion, Rig]:
-    """Sample the first animation of a skinned FBX file (see :func:`~retarget_lib.io.gltf.load_gltf_motion`)."""
-    with _as_glb(path) as glb:
-        motion, rig = load_gltf_motion(glb, fps=fps, mapping=mapping)
+    """Sample the first animation of a skinned FBX file (see :func:`~retarget_lib.io.gltf.load_gltf_motion`)
+    at ``fps``, by default the file's own frame rate (else 30)."""
+    with _as_glb(path) as (glb, rate, metres):
+        motion, rig = load_gltf_motion(glb, fps=fps or rate, mapping=mapping)
+    rig = _in_metres(rig, metres)
+    motion = motion.copy(skeleton=rig.skeleton, root_positions=motion.root_positions * metres)
     rig.name, rig.meta["source"], motion.meta["source"] = Path(path).stem, str(path), str(path)
     return motion, rig
 
@@ -102,12 +132,14 @@ def load_fbx_animation(path: str | os.PathLike, fps: float | None = None,
     """Sample the first animation of an FBX file with or without a skin (a Mixamo clip downloaded
     "With Skin" or "Without Skin"; see :func:`~retarget_lib.io.gltf.load_gltf_animation`).
 
+    Sampled at ``fps``, by default the file's own frame rate (else the keys' rate, else 30); lengths
+    in metres (``UnitScaleFactor``, as :func:`load_fbx_motion`).
+
     Returns:
         ``(motion on the file's joints, {file joint index: canonical index})``.
     """
-    with _as_glb(path) as glb:
-        motion, joint_map = load_gltf_animation(glb, fps=fps, mapping=mapping)
+    with _as_glb(path) as (glb, rate, metres):
+        motion, joint_map = load_gltf_animation(glb, fps=fps or rate, mapping=mapping)
+    motion = motion.copy(skeleton=motion.skeleton.scaled(metres), root_positions=motion.root_positions * metres)
     motion.meta["source"] = str(path)
-    if motion.name == glb.stem:
-        motion.name = Path(path).stem
     return motion, joint_map

@@ -10,6 +10,8 @@ Source contacts are detected once per clip and cached (``.cache/contact_training
 
 from __future__ import annotations
 
+import hashlib
+
 import os
 from dataclasses import dataclass
 from functools import partial
@@ -66,9 +68,19 @@ class ContactClip:
     self_contacts: SelfContacts
 
 
+def _motion_digest(motion: Motion) -> str:
+    """12 hex digits of sha256 over the clip's rotations and root path rounded to 1e-5 (float noise
+    across CPUs does not change it)."""
+    h = hashlib.sha256()
+    for a in (motion.rotations, motion.root_positions):
+        h.update(np.round(np.asarray(a, dtype=np.float64), 5).tobytes())
+    return h.hexdigest()[:12]
+
+
 def _detected_contacts(motion: Motion, character: Character, cache_key: str | None) -> tuple[np.ndarray, SelfContacts]:
-    """Foot and hand contacts of a clip on its performer, cached under ``cache_key``."""
-    path = cache_dir("contact_training") / f"{cache_key}.npz" if cache_key else None
+    """Foot and hand contacts of a clip on its performer, cached under ``cache_key`` plus a digest of
+    the motion's values (a clip that changes, e.g. after a dataset rebuild, never reads a stale entry)."""
+    path = cache_dir("contact_training") / f"{cache_key}_{_motion_digest(motion)}.npz" if cache_key else None
     if path is not None and path.exists():
         z = np.load(path)
         return z["foot"], SelfContacts(int(z["num_frames"]), z["frames"], z["pairs"], z["groups"])

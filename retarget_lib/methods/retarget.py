@@ -12,7 +12,9 @@ source's frame rate (or ``fps``) and written by the output's suffix:
 * ``.glb``: the target's mesh, skin and all its joints (fingers and extra joints follow their
   parents) performing the result: a skinned, animated glTF 2.0 file (:func:`~retarget_lib.io.gltf_write.save_glb`);
   needs a target with a mesh (a GLB/FBX/shape file, a character name, or ``--target-mesh``);
-* FBX is read (the optional extra) but not written (:mod:`~retarget_lib.io.fbx` says why).
+* ``.fbx``: the same skinned, animated character as a binary FBX 7.4 file
+  (:func:`~retarget_lib.io.fbx_write.save_fbx`, pure Python: writing needs no optional extra),
+  keyed at the output frame rate.
 
 ``--method contact`` uses the target file's own mesh (a GLB/FBX/shape file or a name) unless
 ``--target-mesh`` is given, and a GLB/FBX source's mesh as the source character.
@@ -36,6 +38,7 @@ from ..core.skeleton import Skeleton
 from ..errors import CheckpointError, OutputPathError, RetargetInputError
 from ..files import check_output
 from ..io.bvh import save_bvh
+from ..io.fbx_write import save_fbx
 from ..io.gltf_write import save_glb
 from ..io.shape import load_shape_npz
 from .inputs import MESH_TOLERANCE, Target, load_source, load_target
@@ -46,7 +49,7 @@ __all__ = ["METHOD_FPS", "OUTPUT_SUFFIXES", "MESH_TOLERANCE", "resolve_target", 
 #: the frame rate every method works at (the models were trained on 30 fps windows)
 METHOD_FPS = 30.0
 #: what ``out`` can be
-OUTPUT_SUFFIXES = (".bvh", ".glb")
+OUTPUT_SUFFIXES = (".bvh", ".glb", ".fbx")
 #: a result whose root goes further from the origin than this many times the source's range
 #: (scaled to the target's size) plus the target's height is refused: no retargeting moves a root
 #: that far; a corrupt checkpoint does
@@ -109,7 +112,7 @@ def retarget_file(source: str | os.PathLike, target: str, method: str, out: str 
         target: target: ``.bvh``, ``.glb``/``.gltf``, ``.fbx``, shape or AMASS ``.npz``, or a
             character name (:mod:`.inputs`).
         method: a name of :data:`~retarget_lib.methods.registry.REGISTRY`.
-        out: output ``.bvh`` or ``.glb`` (module docstring).
+        out: output ``.bvh``, ``.glb`` or ``.fbx`` (module docstring).
         checkpoint: manifest id or path for a learned method (default: the method's default in the
             manifest).
         target_mesh: target shape ``.npz``, for a method that needs the target's mesh when the
@@ -164,8 +167,9 @@ def retarget_file(source: str | os.PathLike, target: str, method: str, out: str 
 def _write(result: Motion, tgt: Target, source_layout: dict, out: Path) -> None:
     """Write a canonical result by ``out``'s suffix on the target's own joints (module docstring)."""
     suffix = out.suffix.lower()
-    if suffix == ".glb":
-        save_glb(tgt.rig, out, tgt.rig.motion_from_canonical(result))
+    if suffix in (".glb", ".fbx"):
+        save = save_glb if suffix == ".glb" else save_fbx
+        save(tgt.rig, out, tgt.rig.motion_from_canonical(result))
     elif tgt.bvh is not None:  # the target's joints, names, channels and unit
         full = from_canonical22(result, tgt.bvh.skeleton)
         full.meta.update({k: tgt.bvh.meta[k] for k in ("unit_scale", "unit", "channels", "file_joint_names")

@@ -14,10 +14,11 @@ How a clip is made (so that it is physically consistent *for the given character
    Conventions for the angles (degrees): ``fwd`` swings a limb to the front, ``down`` lowers an
    arm from the T-pose, ``bend`` flexes the spine/head forward, ``twist``/``yaw`` turn towards
    the character's left (+X).
-2. **Plant the feet.** Footsteps are planned on the ground (``y = 0`` is the lowest foot joint of
-   the rest pose, :meth:`Skeleton.leg_length`): a planted foot is flat, still, and keeps its rest
-   height; between plants the ankle follows a minimum-jerk path with a lift, toe-off and
-   heel-strike pitch, never letting the toe under the floor. The root is lowered wherever a leg
+2. **Plant the feet.** Footsteps are planned on the ground of the rest pose
+   (:func:`~retarget_lib.geometry.contacts.rest_ground_height`: ``y = 0`` under a character that
+   stands on the floor, so its soles, not its toe joints, touch it): a planted foot is flat, still,
+   and keeps its rest height above that ground; between plants the ankle follows a minimum-jerk path
+   with a lift, toe-off and heel-strike pitch, never letting the toe joint under its rest height. The root is lowered wherever a leg
    could not reach, and both legs are solved with :func:`~retarget_lib.geometry.ik.two_bone_ik` (knees
    towards the toes).
 3. **Make the hand contacts real.** Targets are computed from *this* character's joints plus a
@@ -179,6 +180,7 @@ class Rig:
     stand: float = field(init=False)  # root height with straight vertical legs, feet flat
     hip_w: float = field(init=False)  # half distance between the hip joints
     ankle_h: np.ndarray = field(init=False)  # (2,) rest ankle heights above the ground
+    toe_h: np.ndarray = field(init=False)  # (2,) rest toe-joint heights above the ground
     toe: np.ndarray = field(init=False)  # (2, 3) toe offsets from the ankles (rest = flat foot)
     leg_reach: np.ndarray = field(init=False)  # (2,) thigh + shin
     arm_reach: float = field(init=False)
@@ -191,7 +193,9 @@ class Rig:
         self.ref = canonical_rest_skeleton(sk)
         rest, ref_rest = sk.rest_positions(), self.ref.rest_positions()
         feet = [J[n] for n in ("LeftFoot", "RightFoot", "LeftToeBase", "RightToeBase")]
-        self.ankle_h = rest[feet[:2], 1] - rest[feet, 1].min()  # floor: lowest rest foot joint
+        ground = min(0.0, float(rest[feet, 1].min()))  # as rest_ground_height and Efoot's ḡ (Eq. 6)
+        self.ankle_h = rest[feet[:2], 1] - ground
+        self.toe_h = rest[feet[2:], 1] - ground
         self.toe = sk.offsets[feet[2:]]
         lens = sk.bone_lengths()
         self.leg_reach = np.array([lens[J[f"{s}Leg"]] + lens[J[f"{s}Foot"]] for s, _ in SIDES])
@@ -534,10 +538,11 @@ def _lower_root_to_reach(rig: Rig, q: np.ndarray, root: np.ndarray,
 
 
 def _lift_toes_above_floor(rig: Rig, feet: Feet) -> None:
-    """Raise swinging feet (in place) wherever a pitched toe would dip under ``y = 0``."""
+    """Raise swinging feet (in place) wherever a pitched toe joint would dip under its rest height
+    (the sole under the floor)."""
     for f in (0, 1):
         toe_y = feet.ankle[:, f, 1] + _rotate(torch.from_numpy(feet.rot[:, f]), rig.toe[f])[:, 1]
-        feet.ankle[:, f, 1] -= np.minimum(toe_y, 0.0)
+        feet.ankle[:, f, 1] -= np.minimum(toe_y - rig.toe_h[f], 0.0)
 
 
 def assemble(rig: Rig, plan: Plan, name: str, meta: dict) -> Motion:
