@@ -7,7 +7,6 @@ import pytest
 from retarget_lib.data import manifest
 from retarget_lib.cli import main
 from retarget_lib.core.character import Character
-from retarget_lib.core.rig import Rig
 from retarget_lib.core.skeleton import canonical22_skeleton
 from retarget_lib.data.sources.mixamo_local import load_mixamo_folder, load_mixamo_motion, scan_mixamo_folder
 from retarget_lib.data.status import check_sources
@@ -18,7 +17,6 @@ from retarget_lib.errors import FBXError, GLTFError, MixamoFolderError
 from retarget_lib.files import DataError
 from retarget_lib.io import load_bvh, load_shape_npz
 from retarget_lib.io.fbx import fbx_missing
-from retarget_lib.io.gltf_write import save_glb
 from retarget_lib.data.sources.mixamo_fixture import write_mixamo_character
 
 
@@ -172,36 +170,29 @@ def test_layout_errors_name_the_files(tmp_path, capsys):
 
 @pytest.mark.skipif(fbx_missing() is not None, reason=f"fbx extra not installed: {fbx_missing()}")
 def test_fbx_clips_and_character_files(tmp_path):
-    """FBX made from the library's GLBs by assimp (the repository has no humanoid FBX and the
-    library no FBX writer): a T-pose ``<Character>.fbx`` with every Mixamo joint, and a skinned
-    FBX clip. assimp's ASCII FBX export stores key times 1000 times too late
-    (retarget_lib/io/fbx.py), so the clip's GLB is written at 1000 × 30 fps: the FBX then holds
-    keys 1/30 s apart, as a Mixamo download does, and reads back at 30 fps."""
-    import impasse
-
+    """The fixture's FBX variant (binary FBX in centimetres, written by ``save_fbx``, read through
+    assimp): a T-pose ``<Character>.fbx`` beside BVH clips, and skinned FBX clips (at 60 fps, read
+    at the file's rate) whose first clip gives the mesh; both read like BVH + shape.npz."""
     cleo = make_character("cleo")
-    walk = _clip(cleo)
-    write_mixamo_character(tmp_path / "in", cleo, [walk], name="Kaya", clip_format="bvh", mesh="glb")
-    kaya = tmp_path / "in" / "Kaya"
-    impasse.export(impasse.load(str(kaya / "Kaya.glb")), str(kaya / "Kaya.fbx"), "fbxa")
-    (kaya / "Kaya.glb").unlink()
-    fast = walk.copy()
-    fast.fps = 1000 * walk.fps
-    (tmp_path / "in" / "Claire").mkdir()
-    save_glb(Rig.from_character(cleo), tmp_path / "fast.glb", fast)
-    impasse.export(impasse.load(str(tmp_path / "fast.glb")), str(tmp_path / "in" / "Claire" / "Walking.fbx"), "fbxa")
-    folder = load_mixamo_folder(tmp_path / "in")
-    assert folder.mesh_file("Kaya").name == "Kaya.fbx" and folder.mesh_file("Claire").name == "Walking.fbx"
-    got = folder.clips["Claire", "Walking"]
-    assert got.num_frames == walk.num_frames and got.fps == walk.fps
-    # float32 metres through assimp: a few 1e-6 m
-    np.testing.assert_allclose(got.global_positions(), walk.global_positions(), atol=2e-5)
+    walk, clap = _clip(cleo), _clip(cleo, "clap", 30, "Sitting Clap", seed=8)
+    write_mixamo_character(tmp_path, cleo.copy(), [walk, clap], name="Ref")
+    write_mixamo_character(tmp_path, cleo.copy(), [walk, clap], name="Kaya", mesh="fbx")
+    write_mixamo_character(tmp_path, cleo.copy(), [walk, clap], name="Claire", clip_format="fbx", mesh="none", fps=60.0)
+    folder = load_mixamo_folder(tmp_path)
+    assert folder.mesh_file("Kaya").name == "Kaya.fbx" and folder.mesh_file("Claire").name == "Sitting Clap.fbx"
+    for motion in ("Walking", "Sitting Clap"):
+        got, ref = folder.clips["Claire", motion], folder.clips["Ref", motion]
+        assert got.fps == 60.0 and got.num_frames == 2 * ref.num_frames - 1
+        # 60 fps frames 2k are the 30 fps frames k; float32 centimetres: ~1e-6 m
+        np.testing.assert_allclose(got.global_positions()[::2], ref.global_positions(), atol=1e-5)
+    reference = folder.character("Ref")
     for name in ("Kaya", "Claire"):
         character = folder.character(name)
-        np.testing.assert_allclose(character.skeleton.offsets, cleo.skeleton.offsets, atol=2e-5)
+        assert character.name == name
+        np.testing.assert_allclose(character.skeleton.offsets, reference.skeleton.offsets, atol=1e-5)
         # assimp may reorder vertices: compare them sorted
-        np.testing.assert_allclose(np.sort(character.rest_vertices, axis=0), np.sort(cleo.rest_vertices, axis=0),
-                                   atol=2e-5)
+        np.testing.assert_allclose(np.sort(character.rest_vertices, axis=0), np.sort(reference.rest_vertices, axis=0),
+                                   atol=1e-5)
 
 
 def test_a_glb_in_centimetres_is_read_in_metres(tmp_path):

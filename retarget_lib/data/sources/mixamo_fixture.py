@@ -11,11 +11,11 @@ character missing a motion and one clip with a different frame count (so the cov
 something to report).
 
 The same fixture comes in the other formats of a download (``clip_format``, ``mesh`` of
-:func:`write_mixamo_fixture`): clips as ``.glb`` without a skin (Mixamo's "Without Skin"
-downloads, converted) or with one, and the mesh as ``shape.npz`` or as a T-pose character file
-``<Character>/<Character>.glb`` holding every Mixamo joint (fingers included), written with
-:func:`~retarget_lib.io.gltf_write.save_glb`. FBX is not written (the library has no FBX writer;
-``tests/test_mixamo_local.py`` converts a fixture GLB to FBX with assimp to test FBX input).
+:func:`write_mixamo_fixture`): clips as ``.fbx`` (binary FBX in centimetres, as Mixamo serves
+them, with the skin: :func:`~retarget_lib.io.fbx_write.save_fbx` always writes the mesh) or as
+``.glb`` without a skin (Mixamo's "Without Skin" downloads, converted) or with one; the mesh as
+``shape.npz`` or as a T-pose character file ``<Character>/<Character>.fbx`` / ``.glb`` holding every
+Mixamo joint (fingers included). Reading the FBX variant needs the ``fbx`` extra.
 
 Each character performs its *own* version of a motion, authored on its skeleton and mesh
 (:func:`~retarget_lib.data.synthetic.motions.make_motion` with the same family and seed), as
@@ -34,6 +34,7 @@ from ...core.rig import Rig
 from ...core.rotations import quat_from_axis_angle
 from ...core.skeleton import CANONICAL22, Skeleton, canonical22_skeleton
 from ...io.bvh import save_bvh
+from ...io.fbx_write import save_fbx
 from ...io.gltf_write import save_glb
 from ...io.shape import save_shape_npz
 from ..synthetic.characters import make_character
@@ -44,10 +45,12 @@ __all__ = ["FINGERS", "FIXTURE_CAST", "FIXTURE_MOTIONS", "FixtureMotion", "CLIP_
            "mixamo_skeleton", "extend_motion_to_mixamo", "mixamo_rig", "write_mixamo_character",
            "write_mixamo_fixture"]
 
-#: how :func:`write_mixamo_character` writes clips: BVH, GLB without a skin, GLB with the skin
-CLIP_FORMATS = ("bvh", "glb", "glb-skinned")
-#: how it writes the character's mesh: ``shape.npz``, a T-pose ``<Character>.glb``, or not at all
-MESH_FORMATS = ("shape", "glb", "none")
+#: how :func:`write_mixamo_character` writes clips: BVH, FBX (with the skin), GLB without a skin,
+#: GLB with the skin
+CLIP_FORMATS = ("bvh", "fbx", "glb", "glb-skinned")
+#: how it writes the character's mesh: ``shape.npz``, a T-pose ``<Character>.fbx`` or ``.glb``, or
+#: not at all
+MESH_FORMATS = ("shape", "fbx", "glb", "none")
 
 FINGERS = ("Thumb", "Index", "Middle", "Ring", "Pinky")
 
@@ -179,12 +182,13 @@ def write_mixamo_character(root: str | Path, character: Character, motions: list
         unit: length unit of the files (Mixamo via Blender: centimetres).
         fps: write the clips at this frame rate (resampled; default each motion's own).
         clip_format: one of :data:`CLIP_FORMATS`: ``"bvh"`` (``<Motion>.bvh`` in ``unit``),
-            ``"glb"`` (``<Motion>.glb``, joints and animation, no skin: a "Without Skin" download),
-            ``"glb-skinned"`` (``<Motion>.glb`` with the character's mesh and skin). GLB is in metres
-            and stores the frame rate.
-        mesh: one of :data:`MESH_FORMATS`: ``"shape"`` (``shape.npz`` in ``unit``), ``"glb"``
-            (``<name>.glb``: the T-pose character with skin, all Mixamo joints, no animation),
-            ``"none"``.
+            ``"fbx"`` (``<Motion>.fbx``, binary, centimetres, with the mesh and skin: a "With Skin"
+            download), ``"glb"`` (``<Motion>.glb``, joints and animation, no skin: a "Without
+            Skin" download), ``"glb-skinned"`` (``<Motion>.glb`` with the mesh and skin). GLB is
+            in metres; FBX and GLB store the frame rate.
+        mesh: one of :data:`MESH_FORMATS`: ``"shape"`` (``shape.npz`` in ``unit``), ``"fbx"`` /
+            ``"glb"`` (``<name>.fbx`` / ``.glb``: the T-pose character with skin, all Mixamo joints,
+            no animation; FBX in centimetres), ``"none"``.
 
     Returns:
         the character's folder.
@@ -199,11 +203,16 @@ def write_mixamo_character(root: str | Path, character: Character, motions: list
         save_shape_npz(character, folder / SHAPE_FILE, unit=unit, prefix=prefix)
     elif mesh == "glb":
         save_glb(mixamo_rig(character, prefix), folder / f"{name}.glb")
+    elif mesh == "fbx":
+        save_fbx(mixamo_rig(character, prefix), folder / f"{name}.fbx", unit_scale_factor=1.0)
     for m in motions:
         m = m.resample(fps) if fps else m
         full = extend_motion_to_mixamo(m, prefix)
         if clip_format == "bvh":
             save_bvh(full, folder / f"{m.name}.bvh", unit=unit)
+        elif clip_format == "fbx":
+            save_fbx(mixamo_rig(character, prefix, skeleton=m.skeleton), folder / f"{m.name}.fbx", full,
+                     unit_scale_factor=1.0)
         else:
             rig = mixamo_rig(character, prefix, skeleton=m.skeleton)
             save_glb(rig, folder / f"{m.name}.glb", full, skin=clip_format == "glb-skinned")

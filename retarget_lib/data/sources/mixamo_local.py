@@ -16,12 +16,14 @@ Layout (``$RETARGET_MIXAMO``, default ``data/mixamo``; see ``data_manifest.yaml`
 **Clips**: BVH as Blender exports Mixamo (``mixamorig:`` prefix, fingers, ``*_End`` sites, cm);
 FBX through the optional ``fbx`` extra (:mod:`retarget_lib.io.fbx`, assimp); GLB/glTF with
 :func:`~retarget_lib.io.gltf.load_gltf_animation`, with or without a skin. Every clip is folded onto
-the canonical 22 joints; FBX/GLB clips are sampled at the rate this library stores in its GLB
-files, else at the keys' rate when they are baked on every frame (as Mixamo's are;
-:func:`~retarget_lib.io.gltf.key_rate`), else at 30 fps (Mixamo's download default). An FBX/GLB
-clip or mesh whose canonical skeleton is taller than 5 units (NKN height ``H``) is taken to be in
-centimetres and scaled to metres (the rule :mod:`retarget_lib.io.shape` applies to ``shape.npz``:
-no character is 5 m tall), for FBX files whose unit assimp leaves as the file's centimetres.
+the canonical 22 joints. FBX clips are sampled at the file's own frame rate and scaled to metres
+by its ``UnitScaleFactor`` (:mod:`retarget_lib.io.fbx`); GLB clips at the rate this library stores
+in its GLB files, else at the keys' rate when they are baked on every frame
+(:func:`~retarget_lib.io.gltf.key_rate`), else at 30 fps (Mixamo's download default). As a last
+guard, an FBX/GLB clip or mesh whose canonical skeleton is still taller than 5 units (NKN height
+``H``) is taken to be in centimetres and scaled to metres (the rule :mod:`retarget_lib.io.shape`
+applies to ``shape.npz``: no character is 5 m tall), e.g. a GLB exported without its armature's
+0.01 scale.
 
 **The character's mesh** (:meth:`MixamoFolder.character`, used by the contact tables and contact
 training), first found of: ``shape.npz``; the character file; the first clip (by motion name)
@@ -41,7 +43,7 @@ Each key is optional; at most one of ``seen_motions``/``unseen_motions`` and of
 file (the command line prints it on one line and exits with 2).
 
 :mod:`retarget_lib.data.sources.mixamo_fixture` writes synthetic characters in this layout (BVH or
-GLB clips, ``shape.npz`` or a GLB character file).
+FBX or GLB clips, ``shape.npz`` or an FBX/GLB character file).
 """
 
 from __future__ import annotations
