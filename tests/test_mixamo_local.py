@@ -7,6 +7,7 @@ import pytest
 from retarget_lib.data import manifest
 from retarget_lib.cli import main
 from retarget_lib.core.character import Character
+from retarget_lib.core.rig import Rig
 from retarget_lib.core.skeleton import canonical22_skeleton
 from retarget_lib.data.sources.mixamo_local import load_mixamo_folder, load_mixamo_motion, scan_mixamo_folder
 from retarget_lib.data.status import check_sources
@@ -17,7 +18,8 @@ from retarget_lib.errors import FBXError, GLTFError, MixamoFolderError
 from retarget_lib.files import DataError
 from retarget_lib.io import load_bvh, load_shape_npz
 from retarget_lib.io.fbx import fbx_missing
-from retarget_lib.data.sources.mixamo_fixture import write_mixamo_character
+from retarget_lib.data.sources.mixamo_fixture import extend_motion_to_mixamo, mixamo_rig, write_mixamo_character
+from retarget_lib.io.fbx_write import save_fbx
 
 
 @pytest.fixture(scope="module")
@@ -238,3 +240,21 @@ def test_a_character_with_a_mesh_and_no_clip_is_listed(tmp_path):
     (tmp_path / "Kaya" / "Walking.bvh").unlink()
     with pytest.raises(DataError, match="no <Character>/<Motion>.bvh"):
         scan_mixamo_folder(tmp_path)
+
+
+@pytest.mark.skipif(fbx_missing() is not None, reason=f"fbx extra not installed: {fbx_missing()}")
+def test_an_fbx_clip_without_a_skin(tmp_path):
+    """A "Without Skin" FBX: written with an empty mesh, which assimp drops, so the file holds the
+    armature and its animation only. Its joints are the animated nodes; it gives no mesh."""
+    cleo = make_character("cleo")
+    walk = _clip(cleo)
+    rig = mixamo_rig(cleo)
+    bare = Rig("bare", rig.skeleton, np.zeros((0, 3)), np.zeros((0, 3), int), np.zeros((0, rig.skeleton.num_joints)),
+               rig.joint_map)
+    (tmp_path / "Kaya").mkdir()
+    save_fbx(bare, tmp_path / "Kaya" / "Walking.fbx", extend_motion_to_mixamo(walk), unit_scale_factor=1.0)
+    folder = load_mixamo_folder(tmp_path)
+    got = folder.clips["Kaya", "Walking"]
+    assert got.num_frames == walk.num_frames and got.fps == walk.fps
+    np.testing.assert_allclose(got.global_positions(), walk.global_positions(), atol=1e-6)  # float32 cm
+    assert folder.character("Kaya") is None
