@@ -28,6 +28,8 @@ type                       raised for
 =========================  ==================================================================
 
 Also :class:`~retarget_lib.io.bvh.BVHError` (a malformed BVH; names the line),
+:class:`~retarget_lib.io.gltf.NoSkinError` (a :class:`GLTFError`: a glTF/GLB/FBX file without a
+skinned mesh where a character is needed),
 :class:`~retarget_lib.core.skeleton.JointSetError` (joints that cannot be mapped onto the canonical
 22; names them),
 :class:`~retarget_lib.io.shape.ShapeError` (a malformed shape ``.npz``) and
