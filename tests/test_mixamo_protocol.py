@@ -16,7 +16,8 @@ from retarget_lib.data.sources.mixamo_fixture import write_mixamo_character, wri
 from retarget_lib.data.sources.mixamo_local import load_mixamo_folder
 from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.data.synthetic.motions import make_motion
-from retarget_lib.data.mixamo_splits import folder_split, mixamo_training_set, paper_pairs, scenario_of, unseen_motions
+from retarget_lib.data.mixamo_splits import (folder_split, mixamo_contact_training_set, mixamo_training_set, paper_pairs,
+                                             scenario_of, unseen_motions)
 from retarget_lib.data.status import check_sources
 from retarget_lib.errors import MixamoFolderError
 from retarget_lib.io.fbx import fbx_missing
@@ -232,6 +233,9 @@ def test_splits_yaml_replaces_the_default_rule(fixture_root, tmp_path):
     skeletons, clips = mixamo_training_set(root)
     assert list(skeletons) == ["Kaya", "Claire"]
     assert sorted(ref.name for ref, _ in clips) == ["Praying", "Sitting Clap", "Walking"]
+    # contact training: the declared seen characters with a mesh, outside the appendix's test motions
+    characters, contact_clips = mixamo_contact_training_set(root)
+    assert list(characters) == ["Kaya", "Claire"] and [m.name for _, _, m in contact_clips] == ["Kaya/Walking"]
 
 
 def test_splits_yaml_lists_of_the_other_kind(fixture_root, tmp_path):
