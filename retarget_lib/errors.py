@@ -4,28 +4,32 @@ Every error a user can cause with a file, a path, a config or an option is a
 :class:`RetargetInputError` (a ``ValueError``) whose message names the file or key and the problem
 in one line; the command line prints it and exits with status 2, without a traceback.
 
-========================  ===================================================================
-type                      raised for
-========================  ===================================================================
-:class:`InputFileError`   a path that is missing, a directory, unreadable, empty or truncated
-:class:`OutputPathError`  an ``--out`` that would overwrite an input, has an unsupported
-                          extension, or cannot be created (its parent is a file)
-:class:`LimitError`       a value beyond a documented bound (frame time, frame count, joints,
-                          nesting depth, magnitudes, file size); the message names the limit
-:class:`CheckpointError`  a checkpoint file that is not a valid model of the expected kind
-:class:`GLTFError`        a glTF/GLB file that is malformed, out of bounds, or not a skinned
-                          character (no skin, several skeleton roots, sparse accessors ...)
-:class:`AMASSError`       an SMPL-X / AMASS ``.npz`` motion that lacks a key (``betas``,
-                          ``poses``, ``trans``, the frame rate) or has wrong shapes or values
-:class:`FBXError`         an FBX file the optional FBX reader cannot convert, or the reader
-                          (the ``fbx`` extra) is not installed; an FBX that cannot be written
-                          (a motion on other joints than the rig's, a bad unit)
-:class:`DeviceError`      a ``--device``/``--amp`` this machine cannot run (no CUDA, no MPS),
-                          or a distributed launch that does not fit the config (batch size not
-                          divisible by the number of processes)
-========================  ===================================================================
+=========================  ==================================================================
+type                       raised for
+=========================  ==================================================================
+:class:`InputFileError`    a path that is missing, a directory, unreadable, empty or truncated
+:class:`OutputPathError`   an ``--out`` that would overwrite an input, has an unsupported
+                           extension, or cannot be created (its parent is a file)
+:class:`LimitError`        a value beyond a documented bound (frame time, frame count, joints,
+                           nesting depth, magnitudes, file size); the message names the limit
+:class:`CheckpointError`   a checkpoint file that is not a valid model of the expected kind
+:class:`GLTFError`         a glTF/GLB file that is malformed, out of bounds, or not a skinned
+                           character (no skin, several skeleton roots, sparse accessors ...)
+:class:`AMASSError`        an SMPL-X / AMASS ``.npz`` motion that lacks a key (``betas``,
+                           ``poses``, ``trans``, the frame rate) or has wrong shapes or values
+:class:`FBXError`          an FBX file the optional FBX reader cannot convert, or the reader
+                           (the ``fbx`` extra) is not installed; an FBX that cannot be written
+                           (a motion on other joints than the rig's, a bad unit)
+:class:`DeviceError`       a ``--device``/``--amp`` this machine cannot run (no CUDA, no MPS),
+                           or a distributed launch that does not fit the config (batch size not
+                           divisible by the number of processes)
+:class:`MixamoFolderError` a ``mixamo-local`` folder whose layout is ambiguous (two files of one
+                           motion, two character files) or whose ``splits.yaml`` is invalid
+=========================  ==================================================================
 
 Also :class:`~retarget_lib.io.bvh.BVHError` (a malformed BVH; names the line),
+:class:`~retarget_lib.io.gltf.NoSkinError` (a :class:`GLTFError`: a glTF/GLB/FBX file without a
+skinned mesh where a character is needed),
 :class:`~retarget_lib.core.skeleton.JointSetError` (joints that cannot be mapped onto the canonical
 22; names them),
 :class:`~retarget_lib.io.shape.ShapeError` (a malformed shape ``.npz``) and
@@ -37,7 +41,7 @@ file missing or corrupt) is separate: it is not the user's input, but the CLI al
 from __future__ import annotations
 
 __all__ = ["RetargetInputError", "InputFileError", "OutputPathError", "LimitError", "CheckpointError", "GLTFError",
-           "AMASSError", "FBXError", "DeviceError"]
+           "AMASSError", "FBXError", "DeviceError", "MixamoFolderError"]
 
 
 class RetargetInputError(ValueError):
@@ -75,3 +79,8 @@ class FBXError(RetargetInputError):
 
 class DeviceError(RetargetInputError):
     """A device, precision or process layout that cannot run here (the message says what to use)."""
+
+
+
+class MixamoFolderError(RetargetInputError):
+    """A ``mixamo-local`` folder whose layout is ambiguous or whose ``splits.yaml`` is invalid."""

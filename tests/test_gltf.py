@@ -18,7 +18,7 @@ from retarget_lib.core.skeleton import CANONICAL22, JointSetError, Skeleton
 from retarget_lib.data.sources.mannequin import load_mannequin
 from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.errors import GLTFError, RetargetInputError
-from retarget_lib.io.gltf import load_gltf_motion, load_gltf_rig
+from retarget_lib.io.gltf import NoSkinError, key_rate, load_gltf_animation, load_gltf_motion, load_gltf_rig
 from retarget_lib.io.gltf_validator import validate_gltf, validator_missing
 from retarget_lib.io.gltf_write import _Builder, save_glb
 from retarget_lib.io.rig_maps import RIG_MAPS, map_joints
@@ -272,3 +272,59 @@ def test_corrupted_glb_loads_or_raises_an_input_error(tmp_path_factory, data):
         load_gltf_motion(bad)
     except RetargetInputError:
         pass
+
+
+def test_a_motion_without_a_skin_round_trips(tmp_path):
+    """``save_glb(..., skin=False)`` writes joints and animation only (a Mixamo "Without Skin"
+    clip); :func:`load_gltf_animation` reads it like the skinned file, the rig readers refuse it
+    with :class:`NoSkinError`, and a file with neither skin nor animation is refused by name."""
+    character = make_character("hana")
+    rig = Rig.from_character(character)
+    motion = random_motion(rig.skeleton, frames=9)
+    bare, skinned = tmp_path / "bare.glb", tmp_path / "skinned.glb"
+    save_glb(rig, bare, motion, skin=False)
+    save_glb(rig, skinned, motion)
+    assert_valid(bare)
+    got, joint_map = load_gltf_animation(bare)
+    ref, _ = load_gltf_motion(skinned)
+    assert joint_map == {c: c for c in range(22)} and got.skeleton.joint_names == ref.skeleton.joint_names
+    np.testing.assert_allclose(got.skeleton.offsets, ref.skeleton.offsets, atol=0)
+    np.testing.assert_allclose(got.global_positions(), ref.global_positions(), atol=0)
+    np.testing.assert_allclose(got.global_positions(), motion.global_positions(), atol=F32_FK)
+    with pytest.raises(NoSkinError, match="bare.glb: no skin"):
+        load_gltf_rig(bare)
+    with pytest.raises(RetargetInputError, match="needs a motion"):
+        save_glb(rig, tmp_path / "nothing.glb", skin=False)
+    gltf = pygltflib.GLTF2().load(str(bare))
+    gltf.animations = []
+    gltf.save(str(tmp_path / "still.glb"))
+    with pytest.raises(GLTFError, match="still.glb: has no skin and 0 animations"):
+        load_gltf_animation(tmp_path / "still.glb")
+
+
+def test_a_blender_style_clip_without_a_skin_at_60_fps(tmp_path):
+    """The Blender/Mixamo layout (rotated joint frames under a 0.01-scaled, turned ``Armature``)
+    with the mesh node removed, keyed at 60 fps without the library's ``extras``: the joints are
+    the animated nodes (the ``Armature`` stays a non-joint ancestor), the rate is the keys'."""
+    rig = Rig.from_character(make_character("hana"))
+    motion = random_motion(rig.skeleton, frames=10, fps=60.0)
+    path = tmp_path / "blender_style.glb"
+    _armature_file(rig, motion, path)
+    gltf = pygltflib.GLTF2().load(str(path))
+    body = next(n for n, node in enumerate(gltf.nodes) if node.mesh is not None)
+    gltf.scenes[0].nodes = [n for n in gltf.scenes[0].nodes if n != body]
+    gltf.nodes[body].mesh = gltf.nodes[body].skin = None
+    gltf.save(str(path))
+    read, joint_map = load_gltf_animation(path)
+    assert read.fps == 60.0 and read.num_frames == 10 and read.skeleton.joint_names[0] == "mixamorig:Hips"
+    assert joint_map == {c: c for c in range(22)}
+    np.testing.assert_allclose(read.global_positions(), motion.global_positions(), atol=1e-4)  # as the skinned file
+
+
+def test_key_rate_of_baked_keys():
+    frames = np.arange(50)
+    assert key_rate([frames / 30.0]) == 30.0 and key_rate([(frames / 60.0).astype(np.float32)]) == 60.0
+    assert key_rate([frames / 29.97]) == pytest.approx(29.97)
+    assert key_rate([np.array([0.0, 1.0])]) is None                  # two keys: no grid
+    assert key_rate([np.array([0.0, 0.1, 0.25, 0.3])]) is None        # keys off any one grid
+    assert key_rate([frames * 33.3]) is None                         # 0.03 fps: not a frame rate

@@ -2,6 +2,8 @@
 (retarget_lib.evaluation.mixamo, .mixamo_contact), checked on the library's fixture folder and on a
 tiny case computed by hand."""
 
+import shutil
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -14,7 +16,11 @@ from retarget_lib.data.sources.mixamo_fixture import write_mixamo_character, wri
 from retarget_lib.data.sources.mixamo_local import load_mixamo_folder
 from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.data.synthetic.motions import make_motion
-from retarget_lib.data.mixamo_splits import mixamo_training_set, paper_pairs, scenario_of, unseen_motions
+from retarget_lib.data.mixamo_splits import (folder_split, mixamo_contact_training_set, mixamo_training_set, paper_pairs,
+                                             scenario_of, unseen_motions)
+from retarget_lib.data.status import check_sources
+from retarget_lib.errors import MixamoFolderError
+from retarget_lib.io.fbx import fbx_missing
 from retarget_lib.evaluation.mixamo import CASE_COLUMNS, run_mixamo_tdcn_evaluation
 from retarget_lib.evaluation.mixamo_contact import mixamo_contact_cases, run_mixamo_contact_evaluation
 from retarget_lib.methods.registry import get_method
@@ -137,7 +143,7 @@ def test_contact_coverage_without_the_source_mesh(tmp_path):
                            name="Kaya")
     cases, coverage = mixamo_contact_cases(load_mixamo_folder(tmp_path / "in"))
     assert cases == [] and len(coverage) == 30 * 6
-    assert set(coverage["status"]) == {"no Y Bot shape.npz"}
+    assert set(coverage["status"]) == {"no Y Bot mesh"}
     tables, _, _ = run_mixamo_contact_evaluation(tmp_path / "out", tmp_path / "in", rows=("copy",))
     assert tables["table1"].filter(like="ours").isna().all().all()
     assert (tmp_path / "out" / "contact_coverage.csv").exists() and (tmp_path / "out" / "contact_table5.md").exists()
@@ -203,3 +209,103 @@ def test_contact_training_runs_on_the_folder(fixture_root, tmp_path, monkeypatch
     run = ContactTraining(config, clips, targets)
     losses = [run.step(i) for i in range(2)]
     assert all(np.isfinite(v) for log in losses for v in log.values())
+
+
+# --- splits.yaml: the folder declares its own seen/unseen motions and characters ----------------------
+
+def test_splits_yaml_replaces_the_default_rule(fixture_root, tmp_path):
+    """With ``unseen_motions: [Walking While Texting]`` and ``seen_characters: [Kaya, Claire]``
+    the scenarios, the report and the training set follow the file: "Praying" becomes seen,
+    Warrok becomes an unseen (test) character and Claire a training one."""
+    root = tmp_path / "folder"
+    shutil.copytree(fixture_root, root)
+    (root / "splits.yaml").write_text("unseen_motions: [Walking While Texting]\nseen_characters: [Kaya, Claire]\n")
+    split = folder_split(load_mixamo_folder(root))
+    assert split.unseen_motions == {"Walking While Texting"} and split.train_characters == ("Kaya", "Claire")
+    assert split.motion_rule == split.character_rule == str(root / "splits.yaml")
+    run_mixamo_tdcn_evaluation(tmp_path / "out", root, methods={"copy": get_method("copy").retargeter()})
+    cases = pd.read_csv(tmp_path / "out" / "table4_cases.csv").set_index(["source", "target", "motion"])["scenario"]
+    assert cases["Y Bot", "Kaya", "Walking While Texting"] == 3      # unseen motion, seen character
+    assert cases["Y Bot", "Warrok W Kurniawan", "Walking While Texting"] == 4
+    assert cases["Y Bot", "Claire", "Praying"] == 1                  # by default: unseen motion, unseen character
+    assert cases["Y Bot", "Warrok W Kurniawan", "Praying"] == 2
+    assert "splits.yaml): Walking While Texting" in (tmp_path / "out" / "table4.md").read_text()
+    skeletons, clips = mixamo_training_set(root)
+    assert list(skeletons) == ["Kaya", "Claire"]
+    assert sorted(ref.name for ref, _ in clips) == ["Praying", "Sitting Clap", "Walking"]
+    # contact training: the declared seen characters with a mesh, outside the appendix's test motions
+    characters, contact_clips = mixamo_contact_training_set(root)
+    assert list(characters) == ["Kaya", "Claire"] and [m.name for _, _, m in contact_clips] == ["Kaya/Walking"]
+
+
+def test_splits_yaml_lists_of_the_other_kind(fixture_root, tmp_path):
+    """``seen_motions`` makes every other motion unseen; ``unseen_characters`` makes every other
+    character of the folder a training character; without the file the default rule holds."""
+    root = tmp_path / "folder"
+    shutil.copytree(fixture_root, root)
+    default = folder_split(load_mixamo_folder(root))
+    assert default.unseen_motions == {"Praying"} and default.motion_rule.startswith("default")
+    (root / "splits.yaml").write_text("seen_motions: [Walking]\nunseen_characters: [Claire, Y Bot]\n")
+    split = folder_split(load_mixamo_folder(root))
+    assert split.unseen_motions == {"Praying", "Sitting Clap", "Walking While Texting"}
+    assert split.train_characters == ("Kaya", "Warrok W Kurniawan")
+    (root / "splits.yaml").write_text("# nothing declared\n")
+    assert folder_split(load_mixamo_folder(root)) == default
+
+
+@pytest.mark.parametrize("text, message", [
+    ("unseen_motions: [Walkin]\n", r"unseen_motions names \['Walkin'\], which are not motions \(file stems\)"),
+    ("seen_characters: [Kay]\n", r"seen_characters names \['Kay'\], which are not characters"),
+    ("seen_motions: [Walking]\nunseen_motions: [Praying]\n", "give seen_motions or unseen_motions, not both"),
+    ("unseen: [Walking]\n", r"unknown keys \['unseen'\]"),
+    ("unseen_motions: Walking\n", "unseen_motions must be a list of names"),
+    ("unseen_motions: [Walking, Walking]\n", r"unseen_motions lists \['Walking'\] more than once"),
+    ("unseen_motions: [Walking\n", r"not valid YAML \(line 2\)"),
+    ("- Walking\n", "must be a mapping"),
+])
+def test_an_invalid_splits_yaml_is_refused_before_any_clip_loads(tmp_path, capsys, monkeypatch, text, message):
+    """The folder also holds a malformed clip: the splits.yaml error comes first (it is checked
+    before any clip is read), names the file, and the command line prints it on one line (exit 2)."""
+    cleo = make_character("cleo")
+    write_mixamo_character(tmp_path / "in", cleo, [_named(make_motion("walk", cleo.skeleton, 1).slice(0, 20), "Walking")],
+                           name="Kaya")
+    (tmp_path / "in" / "Kaya" / "Praying.bvh").write_text("HIERARCHY\nnot a bvh\n")
+    (tmp_path / "in" / "splits.yaml").write_text(text)
+    with pytest.raises(MixamoFolderError, match=message) as e:
+        load_mixamo_folder(tmp_path / "in")
+    assert str(e.value).startswith(str(tmp_path / "in" / "splits.yaml"))
+    assert main(["evaluate", "--table", "tdcn", "--data", "mixamo-local", "--mixamo", str(tmp_path / "in"),
+                 "--methods", "copy", "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "splits.yaml" in err
+    monkeypatch.setenv("RETARGET_MIXAMO", str(tmp_path / "in"))
+    status = {s.id: s for s in check_sources()}["mixamo-local"]
+    assert status.state == "BAD" and "splits.yaml" in status.detail
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("clip_format, mesh", [("glb", "glb"), ("fbx", "fbx")])
+def test_the_glb_and_fbx_fixtures_give_the_bvh_fixtures_table(fixture_root, tmp_path, clip_format, mesh):
+    """~25 s (GLB) / ~60 s (FBX, converted by assimp) writing and reading 13 clips: the fixture written as a GLB download (clips
+    without a skin, a T-pose ``<Character>.glb`` per character) or an FBX download (skinned FBX
+    clips in centimetres, a T-pose ``<Character>.fbx``) gives the same ``copy`` cases as the BVH +
+    shape.npz fixture."""
+    if clip_format == "fbx" and fbx_missing():
+        pytest.skip(f"fbx extra not installed: {fbx_missing()}")
+    root = write_mixamo_fixture(tmp_path / clip_format, clip_format=clip_format, mesh=mesh)
+    assert not list(root.glob("*/*.bvh")) and not list(root.glob("*/shape.npz"))
+    methods = {"copy": get_method("copy").retargeter()}
+    run_mixamo_tdcn_evaluation(tmp_path / "out_new", root, methods=methods)
+    run_mixamo_tdcn_evaluation(tmp_path / "out_bvh", fixture_root, methods=methods)
+    key = ["source", "target", "motion"]
+    new = pd.read_csv(tmp_path / "out_new" / "table4_cases.csv").set_index(key).sort_index()
+    bvh = pd.read_csv(tmp_path / "out_bvh" / "table4_cases.csv").set_index(key).sort_index()
+    assert new.index.equals(bvh.index) and (new["scenario"] == bvh["scenario"]).all()
+    assert (new["frames"] == bvh["frames"]).all() and (new["truth_fps"] == bvh["truth_fps"]).all()
+    # float32 (GLB metres, FBX centimetres) vs 6 decimals of cm (BVH): positions agree to ~1e-6 m,
+    # nMSE to ~1e-4 cm²/cm
+    np.testing.assert_allclose(new["nmse"], bvh["nmse"], rtol=1e-3, atol=1e-4)
+    # assimp may reorder an FBX's vertices: compare them sorted
+    got = np.sort(load_mixamo_folder(root).character("Y Bot").rest_vertices, axis=0)
+    np.testing.assert_allclose(got, np.sort(load_mixamo_folder(fixture_root).character("Y Bot").rest_vertices, axis=0),
+                               atol=1e-5)

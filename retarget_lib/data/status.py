@@ -15,10 +15,11 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import RetargetInputError
 from ..files import DataError, cache_dir, sha256_file, sweep_stale_temps
 from .manifest import checkpoint, load_manifest, mixamo_local_dir, source
 from .sources.cmu import cmu_clip_path
-from .sources.mixamo_local import scan_mixamo_folder
+from .sources.mixamo_local import read_splits_file, scan_mixamo_folder
 from .synthetic.dataset import dataset_path, fingerprint_of
 
 
@@ -94,11 +95,13 @@ def _check_mixamo_local() -> SourceStatus:
                             f"optional; not present at {root} (set RETARGET_MIXAMO)")
     try:
         found = scan_mixamo_folder(root)
-    except DataError as e:
+        splits = read_splits_file(root, found)
+    except (DataError, RetargetInputError) as e:
         return SourceStatus("mixamo-local", src["kind"], True, False, str(e))
     n_motions = sum(len(c.motions) for c in found)
     return SourceStatus("mixamo-local", src["kind"], True, True,
-                        f"{len(found)} characters, {n_motions} motions in {root}")
+                        f"{len(found)} characters, {n_motions} motions in {root}"
+                        + (f" (split: {splits.path.name})" if splits is not None else ""))
 
 
 def _npz_problem(path: Path) -> str | None:

@@ -7,11 +7,14 @@ characters that perform the same motion (same file name) with the same frame cou
 are expressed at the ground truth's frame rate (:func:`same_length`); the rest of the folder is
 reported as coverage, never as an error.
 
-**Scenarios** (Tables 2-3, :mod:`retarget_lib.data.mixamo_splits`): a target is *seen* if it is
-one of the manifest's TDCN training characters; a motion is *unseen* if it is performed by a
-source of scenario 3 or 4 (Sporty Granny, Claire, Mutant) and by no source of scenario 1 or 2 —
-the rule that gives exactly the paper's eight pairs their scenarios (pages 45, 51, 52 unseen; 18,
-23, 28, 33 seen), and the rule training follows.
+**Scenarios** (Tables 2-3, :mod:`retarget_lib.data.mixamo_splits`): by default a target is *seen*
+if it is one of the manifest's TDCN training characters, and a motion is *unseen* if it is performed
+by a source of scenario 3 or 4 (Sporty Granny, Claire, Mutant) and by no source of scenario 1 or 2 —
+our rule (the paper names its test motions by Mixamo page, which file names do not carry), which
+gives exactly the paper's eight pairs their scenarios (pages 45, 51, 52 unseen; 18, 23, 28, 33
+seen). A folder's ``splits.yaml`` replaces either list
+(:func:`~retarget_lib.data.mixamo_splits.folder_split`); training follows the same split, and
+``table4.md`` states the split in force.
 Table 4 is reported twice: over the paper's eight (source, target) pairs, on every motion they
 share, and over every pair of the folder by the same rule.
 
@@ -36,7 +39,7 @@ import pandas as pd
 
 from ..core.motion import Motion
 from ..data.manifest import mixamo_local_dir
-from ..data.mixamo_splits import paper_pairs, scenario_of, unseen_motions
+from ..data.mixamo_splits import folder_split, paper_pairs
 from ..data.sources.mixamo_local import MixamoFolder, load_mixamo_folder
 from ..files import atomic_write
 from ..methods.tdcn import load_generator, retarget_motion_with
@@ -77,7 +80,7 @@ def mixamo_tdcn_cases(folder: MixamoFolder) -> tuple[list[EvalCase], pd.DataFram
         status``); ``skipped``, the ordered pairs sharing a motion whose frame counts differ.
     """
     performers = folder.performers()
-    unseen = unseen_motions(performers)
+    split = folder_split(folder)
     cases, skipped = [], []
     for motion, who in performers.items():
         for src in sorted(who):
@@ -87,7 +90,7 @@ def mixamo_tdcn_cases(folder: MixamoFolder) -> tuple[list[EvalCase], pd.DataFram
                     skipped.append({"source": src, "target": tgt, "motion": motion,
                                     "why": f"{a.num_frames} frames at {a.fps:g} fps vs {b.num_frames} at {b.fps:g} fps"})
                     continue
-                cases.append(EvalCase(scenario_of(tgt, motion, unseen), src, tgt, motion,
+                cases.append(EvalCase(split.scenario(tgt, motion), src, tgt, motion,
                                       a.resample(METHOD_FPS), b.skeleton, b))
     present = {c.name for c in folder.characters}
     rows = []
@@ -185,6 +188,7 @@ def _report(folder: MixamoFolder, cases: list[EvalCase], tables: dict[str, pd.Da
              "2020, Table 4 (their data, not this folder).", "",
              f"Folder: {len(folder.characters)} characters, {len(folder.clips)} clips; {len(cases)} ordered "
              f"(source, target, motion) cases; cases per scenario 1-4: {', '.join(map(str, per_scenario.values))}.", "",
+             f"Split: {folder_split(folder).describe()}.", "",
              "## Coverage of the paper's pairs (Table 3)", "", markdown_table(coverage.set_index("scenario")), ""]
     if len(skipped):
         lines += ["## Pairs not evaluated (frame counts differ)", "", markdown_table(skipped.set_index("source")), ""]

@@ -3,12 +3,13 @@
 
 **Cases**: the source character (Y Bot) performing each motion of the appendix's list, retargeted
 to each skinny and bulky target that performs the same motion with the same frame count
-(:func:`~retarget_lib.evaluation.mixamo.same_length`). Every character involved needs its
-``shape.npz`` (the real mesh: Eint, contacts and the vertex metrics use it). Whatever is absent
-is listed in the coverage (``contact_coverage.csv``), not raised.
+(:func:`~retarget_lib.evaluation.mixamo.same_length`). Every character involved needs its real
+mesh (Eint, contacts and the vertex metrics use it): its ``shape.npz``, else its FBX/GLB character
+file, else a clip that carries the skin (:meth:`~retarget_lib.data.sources.mixamo_local.MixamoFolder.character`).
+Whatever is absent is listed in the coverage (``contact_coverage.csv``), not raised.
 
 **Per case**: the source clip, resampled to 30 fps, is put on the source mesh's skeleton (the
-shape file's rest offsets, which can differ slightly from the BVH's); its foot and hand contacts
+mesh file's rest offsets, which can differ slightly from the clip's); its foot and hand contacts
 are detected on the source mesh (Sec. 3.4) and carried to the target mesh (App. F); the ground
 truth is the target's own clip, resampled to 30 fps. The metrics are those of
 :func:`~retarget_lib.evaluation.contact.evaluate_contact_case`. The evaluation profile
@@ -55,8 +56,8 @@ def mixamo_contact_cases(folder: MixamoFolder, profile: str = "fast") -> tuple[l
         prepared = {}  # frames -> the source's ContactClip (frame counts agree up to resampling rounding)
         for name, body in groups.items():
             truth = folder.clips.get((name, motion))
-            why = (f"no {src_name} shape.npz" if src_char is None else f"no {src_name}/{motion}.bvh" if src_clip is None
-                   else f"no {name} shape.npz" if targets[name] is None else f"no {name}/{motion}.bvh" if truth is None
+            why = (f"no {src_name} mesh" if src_char is None else f"no {src_name}/{motion} clip" if src_clip is None
+                   else f"no {name} mesh" if targets[name] is None else f"no {name}/{motion} clip" if truth is None
                    else "frame counts differ" if not same_length(src_clip, truth) else "evaluated")
             rows.append({"body": body, "target": name, "motion": motion, "status": why})
             if why != "evaluated":

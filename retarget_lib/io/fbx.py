@@ -40,9 +40,9 @@ from ..core.motion import Motion
 from ..core.rig import Rig
 from ..errors import FBXError, RetargetInputError
 from ..files import readable_file
-from .gltf import MAX_FILE_BYTES, load_gltf_motion, load_gltf_rig
+from .gltf import MAX_FILE_BYTES, load_gltf_animation, load_gltf_motion, load_gltf_rig
 
-__all__ = ["FBXError", "fbx_missing", "load_fbx_rig", "load_fbx_motion"]
+__all__ = ["FBXError", "fbx_missing", "load_fbx_rig", "load_fbx_motion", "load_fbx_animation"]
 
 _INSTALL = "install the fbx extra: `sudo apt-get install libassimp5` and `pip install -e .[fbx]`"
 
@@ -70,7 +70,10 @@ def _as_glb(path: str | os.PathLike) -> Iterator[tuple[Path, float | None, float
     """``(the FBX path converted to a temporary .glb, the first animation's frame rate or None,
     metres per file unit)``; errors of the glTF reader inside are re-raised naming ``path``."""
     path = readable_file(path, "FBX file", MAX_FILE_BYTES)
-    impasse = _impasse()
+    try:
+        impasse = _impasse()
+    except FBXError as e:
+        raise FBXError(f"{path}: {e}") from None
     with tempfile.TemporaryDirectory(prefix="retarget-fbx-") as tmp:
         glb = Path(tmp) / f"{path.stem}.glb"
         try:
@@ -122,3 +125,21 @@ def load_fbx_motion(path: str | os.PathLike, fps: float | None = None,
     motion = motion.copy(skeleton=rig.skeleton, root_positions=motion.root_positions * metres)
     rig.name, rig.meta["source"], motion.meta["source"] = Path(path).stem, str(path), str(path)
     return motion, rig
+
+
+def load_fbx_animation(path: str | os.PathLike, fps: float | None = None,
+                       mapping: str | os.PathLike | dict | None = None) -> tuple[Motion, dict[int, int]]:
+    """Sample the first animation of an FBX file with or without a skin (a Mixamo clip downloaded
+    "With Skin" or "Without Skin"; see :func:`~retarget_lib.io.gltf.load_gltf_animation`).
+
+    Sampled at ``fps``, by default the file's own frame rate (else the keys' rate, else 30); lengths
+    in metres (``UnitScaleFactor``, as :func:`load_fbx_motion`).
+
+    Returns:
+        ``(motion on the file's joints, {file joint index: canonical index})``.
+    """
+    with _as_glb(path) as (glb, rate, metres):
+        motion, joint_map = load_gltf_animation(glb, fps=fps or rate, mapping=mapping)
+    motion = motion.copy(skeleton=motion.skeleton.scaled(metres), root_positions=motion.root_positions * metres)
+    motion.meta["source"] = str(path)
+    return motion, joint_map

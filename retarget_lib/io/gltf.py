@@ -19,11 +19,19 @@ What is read (:func:`load_gltf_rig`):
   names, a VRM file's humanoid bones (``VRM`` / ``VRMC_vrm`` extension), then a mapping file.
 
 :func:`load_gltf_motion` samples an animation of the same file at a frame rate (the ``fps`` the
-library wrote into the animation's ``extras``, else 30): rotations and the root's translation
-(LINEAR = slerp / lerp, STEP, CUBICSPLINE = its key values); other joints' translation and scale
-channels are not representable in a :class:`~retarget_lib.core.motion.Motion` and are ignored.
+library wrote into the animation's ``extras``, else the rate of the keys when they lie on one
+regular grid (:func:`key_rate`: an export with a key on every frame, as Mixamo's), else 30):
+rotations and the root's translation (LINEAR = slerp / lerp, STEP, CUBICSPLINE = its key values);
+other joints' translation and scale channels are not representable in a
+:class:`~retarget_lib.core.motion.Motion` and are ignored.
 Library rotations are relative to the rest pose: ``Q_j(t) = G_j(t) R_j^T`` with ``G_j`` the
 animated and ``R_j`` the rest world rotation of joint ``j``.
+
+:func:`load_gltf_animation` samples the same way from a file **with or without a skin** (a motion
+exported "Without Skin": an armature and its animation): without a skinned mesh the joints are the
+nodes the animation moves and every node below them (end sites), except mesh nodes and the pivot
+helpers assimp inserts when it converts an FBX (``..._$AssimpFbx$_...``), whose transforms are
+applied as those of any non-joint ancestor.
 
 Bounds: file size 256 MiB, 1000 joints, 2,000,000 vertices, 1,000,000 frames; external buffers only
 next to the ``.gltf`` file (no ``..``, no absolute paths, no URLs).
@@ -49,8 +57,8 @@ from ..errors import GLTFError, LimitError
 from ..files import readable_file
 from .rig_maps import RIG_MAPS, joint_key, load_mapping_file, map_joints
 
-__all__ = ["GLTFError", "MAX_FILE_BYTES", "MAX_JOINTS", "MAX_VERTICES", "MAX_FRAMES", "DEFAULT_FPS",
-           "load_gltf_rig", "load_gltf_motion"]
+__all__ = ["GLTFError", "NoSkinError", "MAX_FILE_BYTES", "MAX_JOINTS", "MAX_VERTICES", "MAX_FRAMES", "DEFAULT_FPS",
+           "key_rate", "load_gltf_rig", "load_gltf_motion", "load_gltf_animation"]
 
 MAX_FILE_BYTES = 256 * 2**20
 MAX_JOINTS = 1000
@@ -62,6 +70,12 @@ _SCALE_TOL = 1e-3
 _DTYPES = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}
 _WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT4": 16}
 _TRIANGLES = 4
+#: the name part of the pivot helper nodes assimp adds when it converts an FBX
+_ASSIMP_HELPER = "$AssimpFbx$"
+
+
+class NoSkinError(GLTFError):
+    """A file without a skinned mesh where a character (mesh and skin) is needed."""
 
 
 @dataclass
@@ -223,6 +237,7 @@ class _Skeleton:
 
 
 def _joint_tree(doc: _Document, skinned: list[int]) -> _Skeleton:
+    """The joint tree of the skins used by the ``skinned`` mesh nodes."""
     g = doc.gltf
     joint_set: set[int] = set()
     for n in skinned:
@@ -230,6 +245,40 @@ def _joint_tree(doc: _Document, skinned: list[int]) -> _Skeleton:
         if not skin.joints or any(not 0 <= j < len(g.nodes) for j in skin.joints):
             raise doc.error(f"skin {g.nodes[n].skin} has no joints or names nodes that do not exist")
         joint_set.update(skin.joints)
+    order = list(dict.fromkeys(j for n in skinned for j in g.skins[g.nodes[n].skin].joints))
+    return _tree_of(doc, joint_set, order, "the skin's joints")
+
+
+def _animated_tree(doc: _Document, animation: int) -> _Skeleton:
+    """The joint tree of a file without a skin (an armature and its animation, e.g. a Mixamo clip
+    downloaded "Without Skin"): every node an animation channel of ``animation`` moves, and every
+    node below one, except mesh nodes and assimp's FBX pivot helpers (``..._$AssimpFbx$_...``),
+    which stay non-joint ancestors (their transforms are still applied)."""
+    g = doc.gltf
+    if not 0 <= animation < len(g.animations):
+        raise doc.error(f"has no skin and {len(g.animations)} animations; a motion file without a skin needs "
+                        f"animation {animation} to find its joints")
+    node_parent = _parents_of_nodes(g, doc)
+    animated = {c.target.node for c in g.animations[animation].channels
+                if c.target.node is not None and 0 <= c.target.node < len(g.nodes)}
+
+    def is_joint(n: int) -> bool:
+        if g.nodes[n].mesh is not None or _ASSIMP_HELPER in (g.nodes[n].name or ""):
+            return False
+        while n >= 0 and n not in animated:
+            n = node_parent[n]
+        return n >= 0
+
+    joint_set = {n for n in range(len(g.nodes)) if is_joint(n)}
+    if not joint_set:
+        raise doc.error(f"has no skin and animation {animation} moves no node; it is not a character's motion")
+    return _tree_of(doc, joint_set, sorted(joint_set), f"the joints animation {animation} moves")
+
+
+def _tree_of(doc: _Document, joint_set: set[int], order_hint: list[int], what: str) -> _Skeleton:
+    """``joint_set`` as one tree, parents first, otherwise in ``order_hint`` order; ``what`` names
+    the joint set in messages."""
+    g = doc.gltf
     if len(joint_set) > MAX_JOINTS:
         raise LimitError(f"{doc.path}: {len(joint_set)} joints exceed the limit of {MAX_JOINTS}")
     node_parent = _parents_of_nodes(g, doc)
@@ -243,9 +292,9 @@ def _joint_tree(doc: _Document, skinned: list[int]) -> _Skeleton:
     roots = sorted(j for j in joint_set if joint_parent(j) < 0)
     if len(roots) != 1:
         names = [g.nodes[r].name or f"node{r}" for r in roots]
-        raise doc.error(f"the skin's joints form {len(roots)} trees (roots {names}); a character needs one skeleton")
-    # parents first, otherwise in the skins' joint order (so a file's own order survives a round trip)
-    rank = {j: k for k, j in enumerate(dict.fromkeys(j for n in skinned for j in g.skins[g.nodes[n].skin].joints))}
+        raise doc.error(f"{what} form {len(roots)} trees (roots {names}); a character needs one skeleton")
+    # parents first, otherwise in the hint's order (the skins' joint order: a file's own order survives a round trip)
+    rank = {j: k for k, j in enumerate(order_hint)}
     kids: dict[int, list[int]] = {}
     for j in joint_set:
         kids.setdefault(joint_parent(j), []).append(j)
@@ -281,8 +330,8 @@ def _skinned_nodes(doc: _Document) -> list[int]:
     g = doc.gltf
     nodes = [n for n, node in enumerate(g.nodes) if node.mesh is not None and node.skin is not None]
     if not nodes:
-        raise doc.error("no skin: the file has no mesh node with a skin, so it is not a rigged character "
-                        "(export it with its armature / skinning)")
+        raise NoSkinError(f"{doc.path}: no skin: the file has no mesh node with a skin, so it is not a rigged "
+                          "character (export it with its armature / skinning)")
     for n in nodes:
         if not 0 <= g.nodes[n].mesh < len(g.meshes) or not 0 <= g.nodes[n].skin < len(g.skins):
             raise doc.error(f"node {n} names a mesh or skin that does not exist")
@@ -356,12 +405,9 @@ def _vrm_mapping(doc: _Document, tree: _Skeleton) -> dict[str, str]:
             if b and joint_key(b) in canon and n in name_of}
 
 
-def _load(path, mapping) -> tuple[_Document, _Skeleton, Rig, np.ndarray]:
-    """Everything :func:`load_gltf_rig` and :func:`load_gltf_motion` share; the last item is the
-    ``(J, 3, 3)`` rest world rotations of the joints."""
-    doc = _read(path)
-    skinned = _skinned_nodes(doc)
-    tree = _joint_tree(doc, skinned)
+def _armature(doc: _Document, tree: _Skeleton, mapping) -> tuple[Skeleton, dict[int, int], str, np.ndarray, dict]:
+    """The rest skeleton of ``tree``, its map onto the canonical 22 (and the rig naming that
+    matched), the ``(J, 3, 3)`` rest world rotations of the joints and the rest world transforms."""
     g = doc.gltf
     local = {n: _local_matrix(node) for n, node in enumerate(g.nodes)}
     world = _world(tree.node_parent, local, tree.nodes)
@@ -374,9 +420,19 @@ def _load(path, mapping) -> tuple[_Document, _Skeleton, Rig, np.ndarray]:
     offsets = rest.copy()
     offsets[1:] -= rest[tree.parents[1:]]
     skeleton = Skeleton(tree.names, tree.parents, offsets)
-    vertices, faces, weights = _mesh(doc, skinned, tree, world)
     user = load_mapping_file(mapping) if isinstance(mapping, (str, os.PathLike)) else dict(mapping or {})
     joint_map, rig_name = map_joints(tree.names, tree.parents, _vrm_mapping(doc, tree) | user, what=str(doc.path))
+    return skeleton, joint_map, rig_name, rest_rot, world
+
+
+def _load(path, mapping) -> tuple[_Document, _Skeleton, Rig, np.ndarray]:
+    """Everything :func:`load_gltf_rig` and :func:`load_gltf_motion` share; the last item is the
+    ``(J, 3, 3)`` rest world rotations of the joints."""
+    doc = _read(path)
+    skinned = _skinned_nodes(doc)
+    tree = _joint_tree(doc, skinned)
+    skeleton, joint_map, rig_name, rest_rot, world = _armature(doc, tree, mapping)
+    vertices, faces, weights = _mesh(doc, skinned, tree, world)
     rig = Rig(doc.path.stem, skeleton, vertices, faces, weights, joint_map,
               meta=dict(source=str(doc.path), rig=rig_name))
     return doc, tree, rig, rest_rot
@@ -395,7 +451,8 @@ def load_gltf_rig(path: str | os.PathLike, mapping: str | os.PathLike | dict | N
         ``rig.character()`` is the canonical-22 character.
 
     Raises:
-        GLTFError: a malformed or truncated file, no skin, several skeleton roots, scaled joints,
+        NoSkinError: the file has no skinned mesh (a :class:`~retarget_lib.errors.GLTFError`).
+        GLTFError: a malformed or truncated file, several skeleton roots, scaled joints,
             unsupported accessors. JointSetError: joints that cannot be mapped (named).
         LimitError: beyond :data:`MAX_JOINTS` / :data:`MAX_VERTICES`. InputFileError: missing,
             empty or larger than :data:`MAX_FILE_BYTES`.
@@ -409,8 +466,8 @@ def load_gltf_motion(path: str | os.PathLike, fps: float | None = None, animatio
 
     Args:
         path: ``.glb`` or ``.gltf`` with a skin and an animation.
-        fps: sampling rate (default: the ``fps`` in the animation's ``extras``, else
-            :data:`DEFAULT_FPS`).
+        fps: sampling rate (default: the ``fps`` in the animation's ``extras``, else the keys'
+            rate (:func:`key_rate`), else :data:`DEFAULT_FPS`).
         animation: which animation.
         mapping: as in :func:`load_gltf_rig`.
 
@@ -422,13 +479,44 @@ def load_gltf_motion(path: str | os.PathLike, fps: float | None = None, animatio
             :func:`load_gltf_rig` raises.
     """
     doc, tree, rig, rest_rot = _load(path, mapping)
+    motion = _sample_motion(doc, tree, rig.skeleton, rest_rot, fps, animation)
+    return motion, rig
+
+
+def load_gltf_animation(path: str | os.PathLike, fps: float | None = None, animation: int = 0,
+                        mapping: str | os.PathLike | dict | None = None) -> tuple[Motion, dict[int, int]]:
+    """Sample an animation of a glTF/GLB file **with or without a skin** (e.g. a Mixamo clip
+    downloaded "Without Skin" and converted): the joints are the skin's when the file has a skinned
+    mesh, else every node the animation moves and the nodes below them (see the module docstring
+    for the rest pose and sampling; no mesh is read).
+
+    Args:
+        path: ``.glb`` or ``.gltf`` with an animation.
+        fps, animation, mapping: as in :func:`load_gltf_motion`.
+
+    Returns:
+        ``(motion on the file's joints, joint_map)``: ``joint_map`` is ``{file joint index:
+        canonical index}``, so ``to_canonical22(motion, joint_map=joint_map)`` folds it.
+
+    Raises:
+        GLTFError: no animation, an animation that moves no node, several skeleton roots,
+            malformed samplers. JointSetError: joints that cannot be mapped (named).
+    """
+    doc = _read(path)
+    g = doc.gltf
+    skinned = [n for n, node in enumerate(g.nodes) if node.mesh is not None and node.skin is not None]
+    tree = _joint_tree(doc, _skinned_nodes(doc)) if skinned else _animated_tree(doc, animation)
+    skeleton, joint_map, _, rest_rot, _ = _armature(doc, tree, mapping)
+    return _sample_motion(doc, tree, skeleton, rest_rot, fps, animation), joint_map
+
+
+def _sample_motion(doc: _Document, tree: _Skeleton, skeleton: Skeleton, rest_rot: np.ndarray, fps: float | None,
+                   animation: int) -> Motion:
+    """Animation ``animation`` of ``doc`` sampled as a motion on ``skeleton`` (the joints of ``tree``)."""
     g = doc.gltf
     if not 0 <= animation < len(g.animations):
         raise doc.error(f"has {len(g.animations)} animations; animation {animation} does not exist")
     anim = g.animations[animation]
-    rate = float(fps or (anim.extras or {}).get("fps") or DEFAULT_FPS)
-    if not (np.isfinite(rate) and 1.0 <= rate <= 1000.0):
-        raise doc.error(f"frame rate {rate} is outside 1-1000")
     channels = []
     for c in anim.channels:
         if c.target.node is None or c.target.path not in ("rotation", "translation", "scale") \
@@ -445,6 +533,9 @@ def load_gltf_motion(path: str | os.PathLike, fps: float | None = None, animatio
         channels.append((c.target.node, c.target.path, times, values, s.interpolation or "LINEAR"))
     if not channels:
         raise doc.error(f"animation {animation} has no rotation or translation channels")
+    rate = float(fps or (anim.extras or {}).get("fps") or key_rate([ch[2] for ch in channels]) or DEFAULT_FPS)
+    if not (np.isfinite(rate) and 1.0 <= rate <= 1000.0):
+        raise doc.error(f"frame rate {rate} is outside 1-1000")
     start, end = min(ch[2][0] for ch in channels), max(ch[2][-1] for ch in channels)
     count = int(np.floor((end - start) * rate + 0.01)) + 1  # float32 key times: within 1 % of a frame
     if count > MAX_FRAMES:
@@ -468,9 +559,33 @@ def load_gltf_motion(path: str | os.PathLike, fps: float | None = None, animatio
     q_local[:, 1:] = np.swapaxes(q_glob[:, par], -1, -2) @ q_glob[:, 1:]
     rotations = matrix_to_quat(torch.from_numpy(q_local)).numpy()
     root = world[tree.nodes[0]][:, :3, 3]
-    motion = Motion(rig.skeleton.copy(), rotations, root, rate, name=anim.name or doc.path.stem,
-                    meta=dict(source=str(doc.path), animation=animation))
-    return motion, rig
+    return Motion(skeleton.copy(), rotations, root, rate, name=anim.name or doc.path.stem,
+                  meta=dict(source=str(doc.path), animation=animation))
+
+
+def key_rate(key_times: list[np.ndarray], tol: float = 0.01) -> float | None:
+    """The frame rate of baked keyframes (an FBX/GLB exported with a key on every frame, as Mixamo's).
+
+    Args:
+        key_times: each channel's ``(K,)`` increasing key times in seconds.
+        tol: how far (in frames) a key may lie off the grid (float32 times).
+
+    Returns:
+        ``1 / spacing`` of the channel with the most keys when it has at least 3 keys, all on one
+        regular grid (within ``tol`` of a frame), and the rate is 1-1000 fps (within 1e-4 of an
+        integer it is rounded to it); else ``None`` (the caller's default).
+    """
+    times = max(key_times, key=len)
+    if len(times) < 3:
+        return None
+    dt = float(np.median(np.diff(times)))
+    if not dt > 0:
+        return None
+    steps = (times - times[0]) / dt
+    rate = 1.0 / dt
+    if np.abs(steps - np.round(steps)).max() > tol or not 1.0 <= rate <= 1000.0:
+        return None
+    return float(round(rate)) if abs(rate - round(rate)) <= 1e-4 * rate else rate
 
 
 def _ancestors(n: int, node_parent: list[int]) -> list[int]:

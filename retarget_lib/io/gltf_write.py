@@ -75,7 +75,7 @@ def _weight_sets(weights: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
     return [(idx[:, k:k + 4], w[:, k:k + 4]) for k in range(0, width, 4)]
 
 
-def save_glb(rig: Rig, path: str | os.PathLike, motion: Motion | None = None) -> None:
+def save_glb(rig: Rig, path: str | os.PathLike, motion: Motion | None = None, skin: bool = True) -> None:
     """Write ``rig`` (mesh, skin, all its joints) and optionally ``motion`` as a ``.glb`` (atomically).
 
     Args:
@@ -83,10 +83,15 @@ def save_glb(rig: Rig, path: str | os.PathLike, motion: Motion | None = None) ->
         path: destination ``.glb``.
         motion: a motion on ``rig.skeleton`` (same joint names), e.g.
             ``rig.motion_from_canonical(result)``; ``None`` writes the character in its rest pose.
+        skin: ``False`` writes the joints and the motion only, no mesh or skin (like a Mixamo clip
+            downloaded "Without Skin"; :func:`~retarget_lib.io.gltf.load_gltf_animation` reads it).
 
     Raises:
-        RetargetInputError: ``motion`` is on another joint set or has more than 65536 joints.
+        RetargetInputError: ``motion`` is on another joint set or has more than 65536 joints, or
+            ``skin=False`` without a motion.
     """
+    if not skin and motion is None:
+        raise RetargetInputError(f"{path}: a file without a skin needs a motion (it would hold only joints)")
     sk = rig.skeleton
     if motion is not None and motion.skeleton.joint_names != sk.joint_names:
         raise RetargetInputError(f"{path}: the motion's joints are not the rig {rig.name!r}'s joints")
@@ -98,6 +103,13 @@ def save_glb(rig: Rig, path: str | os.PathLike, motion: Motion | None = None) ->
     for j, name in enumerate(sk.joint_names):
         g.nodes.append(pygltflib.Node(name=name, translation=sk.offsets[j].astype(np.float32).tolist(),
                                       children=sk.children(j) or None))
+    if not skin:
+        g.scenes.append(pygltflib.Scene(nodes=[0]))
+        g.scene = 0
+        _add_animation(b, motion)
+        with atomic_write(path) as f:
+            f.write(b.to_bytes())
+        return
     attributes = pygltflib.Attributes(POSITION=b.add(rig.rest_vertices.astype(np.float32), _FLOAT, _ARRAY_BUFFER, True))
     for k, (joints, weights) in enumerate(_weight_sets(rig.weights)):
         setattr(attributes, f"JOINTS_{k}", b.add(joints, _USHORT, _ARRAY_BUFFER))

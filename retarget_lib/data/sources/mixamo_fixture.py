@@ -10,6 +10,13 @@ downloads hold: a character exported at 60 fps, skinning weights whose rows sum 
 character missing a motion and one clip with a different frame count (so the coverage report has
 something to report).
 
+The same fixture comes in the other formats of a download (``clip_format``, ``mesh`` of
+:func:`write_mixamo_fixture`): clips as ``.fbx`` (binary FBX in centimetres, as Mixamo serves
+them, with the skin: :func:`~retarget_lib.io.fbx_write.save_fbx` always writes the mesh) or as
+``.glb`` without a skin (Mixamo's "Without Skin" downloads, converted) or with one; the mesh as
+``shape.npz`` or as a T-pose character file ``<Character>/<Character>.fbx`` / ``.glb`` holding every
+Mixamo joint (fingers included). Reading the FBX variant needs the ``fbx`` extra.
+
 Each character performs its *own* version of a motion, authored on its skeleton and mesh
 (:func:`~retarget_lib.data.synthetic.motions.make_motion` with the same family and seed), as
 Mixamo gives every character its own version of a clip; these versions are the ground truth.
@@ -23,16 +30,27 @@ import torch
 
 from ...core.character import Character
 from ...core.motion import Motion
+from ...core.rig import Rig
 from ...core.rotations import quat_from_axis_angle
 from ...core.skeleton import CANONICAL22, Skeleton, canonical22_skeleton
 from ...io.bvh import save_bvh
+from ...io.fbx_write import save_fbx
+from ...io.gltf_write import save_glb
 from ...io.shape import save_shape_npz
 from ..synthetic.characters import make_character
 from ..synthetic.motions import body_radii_from_mesh, make_motion
 from .mixamo_local import SHAPE_FILE
 
-__all__ = ["FINGERS", "FIXTURE_CAST", "FIXTURE_MOTIONS", "FixtureMotion", "mixamo_skeleton",
-           "extend_motion_to_mixamo", "write_mixamo_character", "write_mixamo_fixture"]
+__all__ = ["FINGERS", "FIXTURE_CAST", "FIXTURE_MOTIONS", "FixtureMotion", "CLIP_FORMATS", "MESH_FORMATS",
+           "mixamo_skeleton", "extend_motion_to_mixamo", "mixamo_rig", "write_mixamo_character",
+           "write_mixamo_fixture"]
+
+#: how :func:`write_mixamo_character` writes clips: BVH, FBX (with the skin), GLB without a skin,
+#: GLB with the skin
+CLIP_FORMATS = ("bvh", "fbx", "glb", "glb-skinned")
+#: how it writes the character's mesh: ``shape.npz``, a T-pose ``<Character>.fbx`` or ``.glb``, or
+#: not at all
+MESH_FORMATS = ("shape", "fbx", "glb", "none")
 
 FINGERS = ("Thumb", "Index", "Middle", "Ring", "Pinky")
 
@@ -134,9 +152,26 @@ def extend_motion_to_mixamo(motion: Motion, prefix: str = "mixamorig:", curl: fl
     return Motion(sk, rot, motion.root_positions.copy(), motion.fps, name=motion.name)
 
 
+def mixamo_rig(character: Character, prefix: str = "mixamorig:", skeleton: Skeleton | None = None) -> Rig:
+    """A canonical-22 character on Mixamo's full joint set (:func:`mixamo_skeleton`: fingers, end
+    joints, prefix), as in a Mixamo FBX; the extra joints carry no skinning weight.
+
+    Args:
+        character: canonical-22 character (its mesh and weights).
+        prefix: joint-name prefix.
+        skeleton: canonical-22 rest skeleton to extend instead of ``character.skeleton`` (a clip's).
+    """
+    sk, kept = mixamo_skeleton(skeleton if skeleton is not None else character.skeleton, prefix)
+    weights = np.zeros((len(character.rest_vertices), sk.num_joints))
+    weights[:, kept] = character.weights
+    return Rig(character.name, sk, character.rest_vertices, character.faces, weights, {j: j for j in kept})
+
+
 def write_mixamo_character(root: str | Path, character: Character, motions: list[Motion], name: str | None = None,
-                           prefix: str = "mixamorig:", unit: str = "cm", fps: float | None = None) -> Path:
-    """Write ``<root>/<name>/shape.npz`` and one BVH per motion, Mixamo style.
+                           prefix: str = "mixamorig:", unit: str = "cm", fps: float | None = None,
+                           clip_format: str = "bvh", mesh: str = "shape") -> Path:
+    """Write ``<root>/<name>/shape.npz`` and one BVH per motion, Mixamo style (or the other formats
+    of a download: ``clip_format``, ``mesh``).
 
     Args:
         root: the ``mixamo-local`` folder.
@@ -145,24 +180,53 @@ def write_mixamo_character(root: str | Path, character: Character, motions: list
         name: folder name (default ``character.name``).
         prefix: joint-name prefix.
         unit: length unit of the files (Mixamo via Blender: centimetres).
-        fps: write the BVH files at this frame rate (resampled; default each motion's own).
+        fps: write the clips at this frame rate (resampled; default each motion's own).
+        clip_format: one of :data:`CLIP_FORMATS`: ``"bvh"`` (``<Motion>.bvh`` in ``unit``),
+            ``"fbx"`` (``<Motion>.fbx``, binary, centimetres, with the mesh and skin: a "With Skin"
+            download), ``"glb"`` (``<Motion>.glb``, joints and animation, no skin: a "Without
+            Skin" download), ``"glb-skinned"`` (``<Motion>.glb`` with the mesh and skin). GLB is
+            in metres; FBX and GLB store the frame rate.
+        mesh: one of :data:`MESH_FORMATS`: ``"shape"`` (``shape.npz`` in ``unit``), ``"fbx"`` /
+            ``"glb"`` (``<name>.fbx`` / ``.glb``: the T-pose character with skin, all Mixamo joints,
+            no animation; FBX in centimetres), ``"none"``.
 
     Returns:
         the character's folder.
     """
-    folder = Path(root) / (name or character.name)
+    if clip_format not in CLIP_FORMATS or mesh not in MESH_FORMATS:
+        raise ValueError(f"clip_format must be one of {CLIP_FORMATS} and mesh one of {MESH_FORMATS}, "
+                         f"got {clip_format!r}, {mesh!r}")
+    name = name or character.name
+    folder = Path(root) / name
     folder.mkdir(parents=True, exist_ok=True)
-    save_shape_npz(character, folder / SHAPE_FILE, unit=unit, prefix=prefix)
+    if mesh == "shape":
+        save_shape_npz(character, folder / SHAPE_FILE, unit=unit, prefix=prefix)
+    elif mesh == "glb":
+        save_glb(mixamo_rig(character, prefix), folder / f"{name}.glb")
+    elif mesh == "fbx":
+        save_fbx(mixamo_rig(character, prefix), folder / f"{name}.fbx", unit_scale_factor=1.0)
     for m in motions:
         m = m.resample(fps) if fps else m
-        save_bvh(extend_motion_to_mixamo(m, prefix), folder / f"{m.name}.bvh", unit=unit)
+        full = extend_motion_to_mixamo(m, prefix)
+        if clip_format == "bvh":
+            save_bvh(full, folder / f"{m.name}.bvh", unit=unit)
+        elif clip_format == "fbx":
+            save_fbx(mixamo_rig(character, prefix, skeleton=m.skeleton), folder / f"{m.name}.fbx", full,
+                     unit_scale_factor=1.0)
+        else:
+            rig = mixamo_rig(character, prefix, skeleton=m.skeleton)
+            save_glb(rig, folder / f"{m.name}.glb", full, skin=clip_format == "glb-skinned")
     return folder
 
 
-def write_mixamo_fixture(root: str | Path) -> Path:
+def write_mixamo_fixture(root: str | Path, clip_format: str = "bvh", mesh: str = "shape") -> Path:
     """Write the fixture folder (:data:`FIXTURE_CAST` x :data:`FIXTURE_MOTIONS`) under ``root``.
 
     Takes about a second; write it under a temporary or cache folder, never into the repository.
+
+    Args:
+        root: the folder.
+        clip_format, mesh: the files' formats (:func:`write_mixamo_character`).
 
     Returns:
         ``root``.
@@ -185,5 +249,6 @@ def write_mixamo_fixture(root: str | Path) -> Path:
             clip.name = m.name
             rest_scale = FIXTURE_REST_SCALE.get((mixamo_name, m.name), 1.0)
             clips.append(clip.with_skeleton(canonical22_skeleton(clip.skeleton.offsets * rest_scale)))
-        write_mixamo_character(root, character, clips, name=mixamo_name, fps=FIXTURE_FPS.get(mixamo_name))
+        write_mixamo_character(root, character, clips, name=mixamo_name, fps=FIXTURE_FPS.get(mixamo_name),
+                               clip_format=clip_format, mesh=mesh)
     return root
