@@ -65,6 +65,19 @@ def test_glb_source_and_bvh_output_on_the_glb_targets_joints(files, tmp_path):
     np.testing.assert_allclose(got.global_positions(), expected.global_positions(), atol=2e-4)  # BVH text
 
 
+def test_a_source_without_a_skin_is_read_as_motion_only(files, tmp_path):
+    """A clip downloaded "Without Skin" (joints and animation, no mesh) is a valid source."""
+    hana = make_character("hana")
+    motion = make_motion("wave", hana.skeleton, 0, 1.5)
+    bare = tmp_path / "hana_wave_bare.glb"
+    save_glb(Rig.from_character(hana), bare, motion, skin=False)
+    a, b = tmp_path / "bare.bvh", tmp_path / "skinned.bvh"
+    for src, out in ((bare, a), (files / "hana_wave.glb", b)):
+        assert main(["retarget", "--source", str(src), "--target", "kato", "--method", "copy-rest",
+                     "--out", str(out)]) == 0
+    np.testing.assert_allclose(load_bvh(a).global_positions(), load_bvh(b).global_positions(), atol=1e-6)
+
+
 @pytest.mark.slow
 def test_contact_uses_the_target_files_own_mesh(files, tmp_path):
     out = tmp_path / "walk_kato.glb"

@@ -42,7 +42,7 @@ from ..errors import InputFileError, RetargetInputError
 from ..io import fbx
 from ..io.amass import load_amass, smplx_skeleton
 from ..io.bvh import load_bvh
-from ..io.gltf import load_gltf_motion, load_gltf_rig
+from ..io.gltf import NoSkinError, load_gltf_animation, load_gltf_motion, load_gltf_rig
 from ..io.shape import SHAPE_KEYS, load_shape_npz
 
 __all__ = ["SOURCE_SUFFIXES", "TARGET_SUFFIXES", "Source", "Target", "load_source", "load_target"]
@@ -109,8 +109,13 @@ def load_source(path: str | os.PathLike, joint_map: str | os.PathLike | None = N
         motion = load_amass(path)
         return Source(motion, {}, None)
     if suffix in _GLTF or suffix == ".fbx":
-        motion, rig = (load_gltf_motion(path, mapping=joint_map) if suffix in _GLTF
-                       else fbx.load_fbx_motion(path, mapping=joint_map))
+        try:
+            motion, rig = (load_gltf_motion(path, mapping=joint_map) if suffix in _GLTF
+                           else fbx.load_fbx_motion(path, mapping=joint_map))
+        except NoSkinError:  # a clip downloaded "Without Skin": joints and animation only
+            motion, ids = (load_gltf_animation(path, mapping=joint_map) if suffix in _GLTF
+                           else fbx.load_fbx_animation(path, mapping=joint_map))
+            return Source(to_canonical22(motion, joint_map=ids), {}, None)
         return Source(rig.motion_to_canonical(motion), {}, rig.character())
     raise InputFileError(f"{path}: cannot read a {suffix or 'suffix-less'} source; supported: "
                          f"{', '.join(SOURCE_SUFFIXES)}")
