@@ -58,6 +58,17 @@ COLORS = {"io": "#eeeeee", "data": "#e3ecf7", "conv": "#fbe7a1", "rnn": "#d9ead3
 _EDGE = "#555555"
 
 
+class DiagramFigure(Figure):
+    """A figure that shows itself as a PNG in a notebook even before pyplot is imported."""
+
+    def _repr_png_(self) -> bytes:
+        import io
+
+        buf = io.BytesIO()
+        self.savefig(buf, format="png", dpi=100, bbox_inches="tight")
+        return buf.getvalue()
+
+
 class Box(NamedTuple):
     """A drawn box (inches from the figure's lower left corner)."""
 
@@ -91,7 +102,7 @@ class _Canvas:
     """A figure whose main axes span it in inches: ``(0, 0)`` lower left, ``(width, height)`` upper right."""
 
     def __init__(self, width: float = 9.0, height: float = 4.0, title: str | None = None):
-        self.fig = Figure(figsize=(width, height), dpi=100)
+        self.fig = DiagramFigure(figsize=(width, height), dpi=100)
         FigureCanvasAgg(self.fig)
         self.ax = self.fig.add_axes([0, 0, 1, 1])
         self.ax.set_xlim(0, width)
