@@ -257,7 +257,8 @@ def tdcn_generator_diagram(config: Mapping[str, Any] | None = None) -> Figure:
     profile = gen.config.get("profile", "")
     variant = gen.config.get("variant", "ours")
 
-    cv = _Canvas(9.0, 4.3, f"TDCN generator ({variant}, {profile} profile: C = {c})  ·  Kim et al. 2020, Sec. 3.2, Fig. 2b")
+    cv = _Canvas(9.0, 4.3, f"TDCN generator ({variant}, {profile} profile: C = {c})"
+                 "  ·  Kim et al. 2020, Sec. 3.2, Fig. 2b")
     x0, w = 0.15, 4.05
     h, gap = 0.28, 0.15
     y = cv.height - 0.45 - h
@@ -301,7 +302,8 @@ def tdcn_generator_diagram(config: Mapping[str, Any] | None = None) -> Figure:
 
     # the dilation pyramid
     ax = cv.fig.add_axes([0.655, 0.17, 0.33, 0.68])
-    names = ["input"] + [f"3d1 (d={first[2]})"] + [f"block {i + 1} (d={d})" for i, (_, _, d, _, _) in enumerate(temporal)]
+    names = (["input", f"3d1 (d={first[2]})"]
+             + [f"block {i + 1} (d={d})" for i, (_, _, d, _, _) in enumerate(temporal)])
     names[-1] = f"output (d={temporal[-1][2]})" if temporal else names[-1]
     temporal_all = [(k, d) for _, k, d, _, _ in convs if k > 1]
     lo, hi = int(levels[0].min()), int(levels[0].max())
@@ -451,7 +453,8 @@ def nkn_diagram(config: Mapping[str, Any] | None = None) -> Figure:
         b = {
             "fk": cv.box(x, rows["fk"], bw, bh, f"FK layer → p̂_{sub}", f"f_FK(q̂_{sub}, s̄B)", role="fk"),
             "lin": cv.box(x, rows["lin"], bw, bh, "linear", f"q̂_{sub} ({j}x4), v̂_{sub} (3)", role="head"),
-            "dec": cv.box(x, rows["dec"], bw, bh, "decoder GRU", f"+ s̄B, p̂_{['t-2', 't-1', 't'][i]}, v̂", role="rnn"),
+            "dec": cv.box(x, rows["dec"], bw, bh, "decoder GRU", f"+ s̄B, p̂_{['t-2', 't-1', 't'][i]}, v̂",
+                          role="rnn"),
             "enc": cv.box(x, rows["enc"], bw, bh, "encoder GRU", f"x_{sub} = [p_{sub}, v_{sub}]  ({3 * j + 3})",
                           role="rnn"),
         }
