@@ -207,3 +207,22 @@ def test_eso_source_and_throughput_on_a_synthetic_character():
     assert row["frames_per_second"] > 0
     with pytest.raises(ValueError, match="frames"):
         eso_throughput(_model(), motion, character, frames=motion.num_frames + 1)
+
+
+def test_eso_keeps_every_iterate_on_request():
+    character = _point_character()
+    model = _model(rotation_std=0.1)
+    feats, source = _rest_source(character.skeleton, 2)
+    out, posed, verts = _initial_vertices(model, character, feats)
+    pairs, _ = _pair_at(verts[0], character, 0.05)
+    kwargs = dict(contacts=[pairs, pairs], weights=ONLY_J2J, iterations=6)
+    plain = encoder_space_optimization(model, feats, character, source, np.zeros((2, 4), bool), 1.0, **kwargs)
+    assert plain.iterate_rotations is None and plain.iterate_roots is None
+    result = encoder_space_optimization(model, feats, character, source, np.zeros((2, 4), bool), 1.0,
+                                        keep_iterates=True, **kwargs)
+    assert result.iterate_rotations.shape == (2, 7, 22, 4) and result.iterate_roots.shape == (2, 7, 3)
+    torch.testing.assert_close(result.iterate_rotations[:, -1], result.rotations)   # n = N is the kept pose
+    torch.testing.assert_close(result.iterate_roots[:, -1], result.root_positions)
+    torch.testing.assert_close(result.iterate_rotations[0, 0], out.rotations[0, 0])  # frame 0 before any step
+    torch.testing.assert_close(result.rotations, plain.rotations)                   # keeping them changes nothing
+    assert (result.iterate_rotations[0, 1:] - result.iterate_rotations[0, :1]).abs().max() > 0  # it moved

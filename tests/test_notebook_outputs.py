@@ -1,5 +1,7 @@
 """Committed notebooks stay small and clean: every embedded image <= 150 KB, no error outputs, each
-notebook opens with one setup_notebook() call and ends with a "What to try" cell."""
+notebook opens with one setup_notebook() call and ends with a "What to try" cell or, once it has
+been given them (issue 11), with the sections "## Summary", "## Exercises" and "## References" in
+this order."""
 
 import base64
 from pathlib import Path
@@ -17,7 +19,14 @@ def test_images_small_no_errors_setup_and_what_to_try(path):
     code = [c for c in nb.cells if c.cell_type == "code"]
     assert "setup_notebook(" in code[0].source
     assert sum("setup_notebook(" in c.source for c in code) == 1
-    assert "What to try" in nb.cells[-1].source
+    headings = [c.source.lstrip().split("\n")[0].strip() for c in nb.cells if c.cell_type == "markdown"]
+    if "## Summary" in headings:
+        assert headings[-1] == "## References", f"{path.name} must end with ## References"
+        tail = [h for h in headings if h in ("## Summary", "## Exercises", "## References")]
+        assert tail == ["## Summary", "## Exercises", "## References"]
+        assert headings.index("## Summary") < headings.index("## Exercises") < headings.index("## References")
+    else:
+        assert "What to try" in nb.cells[-1].source
     for i, cell in enumerate(code):
         assert "!pip" not in cell.source and "!wget" not in cell.source
         for out in cell.get("outputs", []):

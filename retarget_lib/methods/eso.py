@@ -78,6 +78,7 @@ __all__ = ["EsoResult", "EsoSource", "TERMS", "encoder_space_optimization", "eso
 #: energy terms logged per frame and iteration (``j2j_distance`` is a diagnostic, not in the total)
 TERMS: tuple[str, ...] = ("j2j", "hold", "int", "foot", "ee", "weak", "j2j_distance")
 HAND_JOINTS: tuple[int, ...] = (J["LeftHand"], J["RightHand"])
+J_COUNT = len(J)
 
 
 class EsoResult(NamedTuple):
@@ -92,6 +93,9 @@ class EsoResult(NamedTuple):
         active_contacts: ``(T,)`` reachable contact pairs per frame.
         colliding_pairs: ``(T,)`` triangle pairs detected on each initial output.
         seconds: wall time of the optimisation.
+        iterate_rotations: ``(T, N + 1, 22, 4)`` frame ``t``'s local rotations after ``n`` of its
+            steps (``n = N``: the kept pose), or ``None`` unless ``keep_iterates``.
+        iterate_roots: ``(T, N + 1, 3)`` the same for the root position, or ``None``.
     """
 
     rotations: Tensor
@@ -102,6 +106,8 @@ class EsoResult(NamedTuple):
     active_contacts: Tensor
     colliding_pairs: Tensor
     seconds: float
+    iterate_rotations: Tensor | None = None
+    iterate_roots: Tensor | None = None
 
     @property
     def frames_per_second(self) -> float:
@@ -308,7 +314,7 @@ def encoder_space_optimization(model: GeometryConditionedRNN, source_features: T
                                weights: ContactEnergyWeights | None = None, iterations: int = 30,
                                lr: float = 0.01, reach: float = 0.15, blend: float = 0.3,
                                start: Tensor | None = None, redetect_every: int = 0,
-                               num_threads: int | None = 1) -> EsoResult:
+                               num_threads: int | None = 1, keep_iterates: bool = False) -> EsoResult:
     """Retarget with the RNN and refine every frame by ESO (Sec. 3.3, Eqs. 10-11, App. B.1).
 
     Args:
@@ -337,6 +343,8 @@ def encoder_space_optimization(model: GeometryConditionedRNN, source_features: T
         num_threads: torch intra-op threads while optimising (restored afterwards); ``None``
             keeps the current setting. ESO's tensors are one frame each, so threads only add
             overhead: on the 2-core workshop machine, under load, 2 threads ran 10x slower than 1.
+        keep_iterates: also return every frame's pose after each of its steps
+            (``EsoResult.iterate_rotations`` / ``iterate_roots``; e.g. to show ESO's progress).
 
     Runs on the model's device (move the model with ``.to(device)``); the per-frame contact and
     collision detection stay on the CPU; the result's tensors are on the CPU.
@@ -365,7 +373,7 @@ def encoder_space_optimization(model: GeometryConditionedRNN, source_features: T
             context = model.target_context(problem.offsets, problem.rest_vertices[None],
                                            problem.skin_weights_t[None], problem.height)
         state = model.initial_state(context, start)
-        log = _Log(num_frames, iterations)
+        log = _Log(num_frames, iterations, keep_iterates)
         frames: list[_Pose] = []
         for t in range(num_frames):
             pose = _optimise_frame(t, problem, h_enc[t:t + 1], state, context, frames, iterations, lr,
@@ -380,20 +388,26 @@ def encoder_space_optimization(model: GeometryConditionedRNN, source_features: T
     return EsoResult(torch.cat([f.rotations for f in frames]).cpu(),
                      torch.cat([f.state.root_position for f in frames]).cpu(),
                      torch.cat([f.positions for f in frames]).cpu(), log.energies, log.terms,
-                     torch.as_tensor(log.active), torch.as_tensor(log.collisions), time.perf_counter() - began)
+                     torch.as_tensor(log.active), torch.as_tensor(log.collisions), time.perf_counter() - began,
+                     log.rotations, log.roots)
 
 
 class _Log:
-    def __init__(self, frames: int, iterations: int):
+    def __init__(self, frames: int, iterations: int, keep_iterates: bool = False):
         self.energies = torch.zeros(frames, iterations + 1)
         self.terms = {k: torch.zeros(frames, iterations + 1) for k in TERMS}
         self.active = [0] * frames
         self.collisions = [0] * frames
+        self.rotations = torch.zeros(frames, iterations + 1, J_COUNT, 4) if keep_iterates else None
+        self.roots = torch.zeros(frames, iterations + 1, 3) if keep_iterates else None
 
-    def record(self, t: int, n: int, terms: dict[str, Tensor]) -> None:
+    def record(self, t: int, n: int, terms: dict[str, Tensor], pose: "_Pose | None" = None) -> None:
         self.energies[t, n] = float(terms["total"].detach())
         for k in TERMS:
             self.terms[k][t, n] = float(terms[k].detach())
+        if self.rotations is not None and pose is not None:
+            self.rotations[t, n] = pose.rotations[0].detach().cpu()
+            self.roots[t, n] = pose.state.root_position[0].detach().cpu()
 
 
 def _optimise_frame(t: int, problem: _Problem, h_enc: Tensor, state: DecoderState, context: TargetContext,
@@ -416,10 +430,10 @@ def _optimise_frame(t: int, problem: _Problem, h_enc: Tensor, state: DecoderStat
         terms = frame.energy(pose, o_prev)
         terms["total"].backward()
         optimiser.step()
-        log.record(t, n, terms)
+        log.record(t, n, terms, pose)
     with torch.no_grad():
         final = problem.pose(t, h, o_prev, state, context, mesh)
-        log.record(t, iterations, frame.energy(final, o_prev))
+        log.record(t, iterations, frame.energy(final, o_prev), final)
     return final._replace(vertices=None)
 
 

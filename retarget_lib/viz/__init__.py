@@ -1,7 +1,10 @@
 """Pictures: offscreen PyVista renders of skeletons and skinned meshes (PNG, GIF/MP4), side-by-side
-lineups, matplotlib trajectory and timeline plots, and a notebook motion player."""
+lineups, matplotlib trajectory and timeline plots, a notebook motion player, and schematic diagrams of
+the networks and pipelines drawn from the models themselves (:mod:`.diagrams`)."""
 
 from .animate import animate, animate_mesh, animate_motion, render_frames, write_animation
+from .diagrams import (eso_loop_diagram, georet_diagram, layout_problems, method_dataflow_diagram, nkn_diagram,
+                       patch_discriminator_diagram, tdcn_generator_diagram)
 from .display import png_bytes, show, show_gif
 from .knobs import Knob, figure_image, knob
 from .player import Player, player
@@ -13,5 +16,7 @@ __all__ = [
     "PALETTE", "VIEWS", "Scene", "SceneRenderer", "configure_offscreen", "render_mesh", "render_scenes", "render_filmstrip",
     "render_side_by_side", "render_skeleton", "save_png", "animate", "animate_mesh", "animate_motion",
     "render_frames", "write_animation", "Knob", "knob", "figure_image", "png_bytes", "show", "show_gif", "Player", "player",
-    "plot_root_trajectories", "plot_skeleton_mpl", "plot_timeline",
+    "plot_root_trajectories", "plot_skeleton_mpl", "plot_timeline", "tdcn_generator_diagram",
+    "patch_discriminator_diagram", "nkn_diagram", "georet_diagram", "eso_loop_diagram", "method_dataflow_diagram",
+    "layout_problems",
 ]
