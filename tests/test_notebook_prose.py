@@ -111,3 +111,14 @@ def test_no_hand_typed_numbers_in_markdown(path):
 def test_summary_exercises_references(path):
     problems = section_problems(nbformat.read(path, as_version=4), path.name.split("_", 1)[0])
     assert not problems, f"{path.name}: " + "; ".join(problems)
+
+
+def test_library_constants_typed_in_prose_match_the_library():
+    import importlib
+
+    from retarget_lib.notebook.prose_lint import LIBRARY_CONSTANTS
+
+    for token, (value, where) in LIBRARY_CONSTANTS.items():
+        module, name = where.rsplit(".", 1)
+        assert getattr(importlib.import_module(module), name) == value, (token, where)
+        assert str(int(value)) in token

@@ -34,7 +34,10 @@ Bare integers (``22 joints``, ``16 characters``), years and version-like names a
    - the word *paper* (``paper``, ``papers``, ``paper's``) together with a location reference
      anywhere in the sentence: ``the paper's Table 4 reports 0.58``.
 
-5. *An explicit allowlist* for constants of the papers that need none of the above: an HTML comment
+5. *Library conventions* (:data:`LIBRARY_CONSTANTS`), allowed in every notebook: the canonical
+   frame rate ``30 fps``. Each is a token beside the code that defines it, and a test checks the
+   two agree, so the prose cannot drift from the library.
+6. *An explicit allowlist* for constants of the papers that need none of the above: an HTML comment
    in the cell, ``<!-- constants: 100k, 0.5, 15 cm -->``; each listed token (compared without
    spaces) is allowed in that cell only.
 
@@ -73,6 +76,10 @@ PAPER_LOCATION = re.compile(rf"\b(?i:{_REF_WORDS.replace('|[Nn]otebooks?|Exercis
 EXERCISE_LABEL = re.compile(r"(?<![\w.])0\d[a-z]?\.\d+(?![\w.])")
 VERSION = re.compile(r"\b(?:glTF|GLTF|Python|python|torch|PyTorch|assimp|MathJax|Blender|OpenGL|CUDA|numpy|NumPy|"
                      r"FBX|VRM|v|version)\s*\d+(?:\.\d+)+\b")
+#: conventions of the library typed in prose everywhere: token -> the library value it states
+LIBRARY_CONSTANTS: dict[str, tuple[float, str]] = {
+    "30 fps": (30.0, "retarget_lib.geometry.contacts.REFERENCE_FPS"),
+}
 ALLOWLIST = re.compile(r"<!--\s*constants\s*:(.*?)-->", re.IGNORECASE | re.DOTALL)
 
 _UNITS = (r"mm|cm|km|m|ms|s|secs?|seconds?|mins?|minutes?|h|hrs?|hours?|deg|degrees?|fps|Hz|kHz|"
@@ -145,6 +152,7 @@ def _norm(token: str) -> str:
 def scan_markdown(source: str, cell: int = 0) -> list[Violation]:
     """The hand-typed numbers in one Markdown cell's source (see the module docstring for the rule)."""
     allowed = {_norm(tok) for block in ALLOWLIST.findall(source) for tok in block.split(",") if tok.strip()}
+    allowed |= {_norm(tok) for tok in LIBRARY_CONSTANTS}
     found: list[Violation] = []
     for sentence in _sentences(_strip_code_and_markup(source)):
         if is_citation(sentence):
