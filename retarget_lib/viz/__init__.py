@@ -8,10 +8,12 @@ from .player import Player, player
 from .plots import plot_root_trajectories, plot_skeleton_mpl, plot_timeline
 from .render import (PALETTE, VIEWS, Scene, SceneRenderer, configure_offscreen, render_filmstrip,
                      render_mesh, render_scenes, render_side_by_side, render_skeleton, save_png)
+from .render import add_colorbar, add_legend, categorical_colors, fit_camera, stand_on_floor
 
 __all__ = [
     "PALETTE", "VIEWS", "Scene", "SceneRenderer", "configure_offscreen", "render_mesh", "render_scenes", "render_filmstrip",
     "render_side_by_side", "render_skeleton", "save_png", "animate", "animate_mesh", "animate_motion",
     "render_frames", "write_animation", "Knob", "knob", "figure_image", "png_bytes", "show", "show_gif", "Player", "player",
     "plot_root_trajectories", "plot_skeleton_mpl", "plot_timeline",
+    "add_colorbar", "add_legend", "categorical_colors", "fit_camera", "stand_on_floor",
 ]

@@ -100,9 +100,12 @@ class Scene:
         vertices: ``(V, 3)`` mesh vertices or ``None``.
         faces: ``(F, 3)`` int triangle indices.
         scalars: ``(V,)`` per-vertex values coloured with ``cmap`` (e.g. a contact energy).
+        vertex_colors: ``(V, 3)`` RGB per vertex (floats in [0, 1]), e.g. one colour per body
+            part; used instead of ``scalars`` and ``mesh_color``.
         highlight_faces: ``(K,)`` face indices or ``(F,)`` bool mask drawn in ``highlight_color``.
         point_pairs: ``(P, 2)`` int vertex index pairs or ``(P, 2, 3)`` positions (contact pairs),
             drawn as two spheres joined by a tube, one colour per pair.
+        pair_radius: sphere radius of the pairs in metres (default ``0.012 * size``).
         color: skeleton tint; ``None`` = blue left / red right / grey centre.
         mesh_color, mesh_opacity, cmap, clim, highlight_color: mesh appearance (``mesh_opacity``
             ``None`` = 0.45 when a skeleton is drawn too, else opaque).
@@ -115,6 +118,8 @@ class Scene:
     vertices: np.ndarray | None = None
     faces: np.ndarray | None = None
     scalars: np.ndarray | None = None
+    vertex_colors: np.ndarray | None = None
+    pair_radius: float | None = None
     highlight_faces: np.ndarray | None = None
     point_pairs: np.ndarray | None = None
     color: Any = None
@@ -460,7 +465,7 @@ class SceneRenderer:
     def _structure(scenes: Sequence[Scene]):
         return tuple((None if s.positions is None else tuple(s.parents),
                       None if s.vertices is None else (len(s.vertices), len(s.faces)),
-                      s.scalars is not None, s.highlight_faces is not None,
+                      s.scalars is not None, s.vertex_colors is not None, s.highlight_faces is not None,
                       None if s.point_pairs is None else np.shape(s.point_pairs)) for s in scenes)
 
     def _build(self, scenes: Sequence[Scene], size: float) -> None:
@@ -485,9 +490,13 @@ class SceneRenderer:
                 m.point_data.active_normals_name = "Normals"
                 op = s.mesh_opacity if s.mesh_opacity is not None else (0.45 if s.positions is not None else 1.0)
                 kw = dict(opacity=op, specular=0.15, smooth_shading=False, show_scalar_bar=False)
-                if s.scalars is not None:
+                if s.vertex_colors is not None:
+                    rgb = np.asarray(s.vertex_colors, dtype=np.float64).reshape(-1, 3)
+                    m.point_data["rgb"] = (np.clip(rgb, 0, 1) * 255).astype(np.uint8)
+                    self.pl.add_mesh(m, render=False, scalars="rgb", rgb=True, **kw)
+                elif s.scalars is not None:
                     m.point_data["values"] = np.asarray(s.scalars, dtype=np.float64).reshape(-1)
-                    clim = s.clim or (float(np.min(s.scalars)), float(np.max(s.scalars)) + 1e-12)
+                    clim = s.clim or (float(np.nanmin(s.scalars)), float(np.nanmax(s.scalars)) + 1e-12)
                     self.pl.add_mesh(m, render=False, scalars="values", cmap=s.cmap, clim=clim, **kw)
                 else:
                     self.pl.add_mesh(m, render=False, color=s.mesh_color, **kw)
@@ -537,7 +546,8 @@ class SceneRenderer:
         ends = (s.vertices[pp.astype(int)] if pp.ndim == 2 else pp.astype(np.float64)).reshape(-1, 3)
         n = len(ends) // 2
         parents = [(-1 if j % 2 == 0 else j - 1) for j in range(2 * n)]
-        g = _Geometry(Scene(positions=ends, parents=parents, joint_names=[""] * (2 * n)), 0.012 * size)
+        radius = s.pair_radius if s.pair_radius is not None else 0.012 * size
+        g = _Geometry(Scene(positions=ends, parents=parents, joint_names=[""] * (2 * n)), radius)
         cols = colormaps["tab10"](np.arange(n) % 10)[:, :3]
         rgb = np.concatenate([np.repeat(np.repeat(cols, 2, 0), g.ns, 0), np.repeat(cols, 2 * g.sides, 0)])
         pts, nrm = g.skeleton(ends)
@@ -586,7 +596,7 @@ class SceneRenderer:
                 if "hl" in it:
                     # the highlight mesh keeps all V vertices, only its faces are a subset
                     _set_points(it["hl"], s.vertices + nrm * 0.002 * size)
-                if s.scalars is not None:
+                if s.scalars is not None and s.vertex_colors is None:
                     it["mesh"].point_data["values"][:] = np.asarray(s.scalars).reshape(-1)
                     it["mesh"].GetPointData().GetArray("values").Modified()
             if "pairs" in it:
@@ -816,7 +826,8 @@ def render_skeleton(positions, parents: Sequence[int], joint_names: Sequence[str
 def render_mesh(vertices, faces, scalars=None, highlight_faces=None, point_pairs=None,
                 skeleton: tuple | None = None, cmap: str = "viridis", clim=None, color=MESH_COLOR,
                 opacity: float | None = None, view="front_side", window_size=(640, 400),
-                title: str | None = None, ground: bool = True, shadow: bool = True) -> np.ndarray:
+                title: str | None = None, ground: bool = True, shadow: bool = True,
+                vertex_colors=None, pair_radius: float | None = None) -> np.ndarray:
     """Render a triangle mesh, optionally coloured per vertex, with highlighted faces, contact
     pairs and a skeleton overlay.
 
@@ -830,6 +841,9 @@ def render_mesh(vertices, faces, scalars=None, highlight_faces=None, point_pairs
             the mesh then turns translucent unless ``opacity`` is given.
         color: mesh colour when ``scalars`` is None.
         view, window_size, title: as in :func:`render_skeleton`.
+        vertex_colors: ``(V, 3)`` RGB per vertex (instead of ``scalars`` / ``color``).
+        pair_radius: radius of the contact-pair spheres in metres (default: 1.2 % of the
+            mesh's size; make it larger for close-ups, where the pairs are few millimetres long).
 
     Returns:
         ``(H, W, 3)`` uint8 image.
@@ -837,7 +851,7 @@ def render_mesh(vertices, faces, scalars=None, highlight_faces=None, point_pairs
     sk = dict(zip(("positions", "parents", "joint_names"), skeleton)) if skeleton is not None else {}
     s = Scene(vertices=vertices, faces=faces, scalars=scalars, highlight_faces=highlight_faces,
               point_pairs=point_pairs, cmap=cmap, clim=clim, mesh_color=color, mesh_opacity=opacity,
-              **sk)
+              vertex_colors=vertex_colors, pair_radius=pair_radius, **sk)
     return render_scenes([s], [title or ""], view, window_size, ground=ground, shadow=shadow)
 
 
@@ -954,3 +968,85 @@ def save_png(image: np.ndarray, path, max_kb: float | None = 150) -> Path:
     if max_kb is not None and path.stat().st_size > max_kb * 1024:
         im.quantize(colors=256, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE).save(path, optimize=True)
     return path
+
+
+# ------------------------------------------------------------------- colour keys for renders
+def _strip(fig) -> np.ndarray:
+    from .knobs import figure_image
+
+    return figure_image(fig)
+
+
+def _beside(image: np.ndarray, strip: np.ndarray) -> np.ndarray:
+    """``image`` with ``strip`` pasted on its right (white-padded to the same height)."""
+    h = max(image.shape[0], strip.shape[0])
+    pad = lambda im: np.concatenate([im, np.full((h - im.shape[0], im.shape[1], 3), 255, np.uint8)], 0)
+    return np.concatenate([pad(np.asarray(image, np.uint8)), pad(strip)], axis=1)
+
+
+def add_colorbar(image: np.ndarray, cmap, clim: tuple[float, float], label: str, width_px: int = 110,
+                 extend: str = "neither") -> np.ndarray:
+    """A render with a vertical colorbar on its right (for meshes coloured by ``scalars``).
+
+    Args:
+        image: ``(H, W, 3)`` uint8 render.
+        cmap: the colormap name (or object) the render used.
+        clim: ``(low, high)`` the render's colour range.
+        label: what the colour means, with its unit.
+        width_px: width of the added strip.
+        extend: ``"max"`` etc. when values beyond ``clim`` were clipped (drawn as an arrow).
+
+    Returns:
+        ``(H, W + width_px, 3)`` uint8.
+    """
+    import matplotlib.pyplot as plt
+    from matplotlib.cm import ScalarMappable
+    from matplotlib.colors import Normalize
+
+    h = image.shape[0]
+    dpi = 100
+    fig = plt.figure(figsize=(width_px / dpi, h / dpi), dpi=dpi)
+    ax = fig.add_axes([0.12, 0.08, 0.16, 0.84])
+    bar = fig.colorbar(ScalarMappable(Normalize(*clim), cmap), cax=ax, extend=extend)
+    bar.set_label(label, fontsize=10)
+    bar.ax.tick_params(labelsize=9)
+    return _beside(image, _strip(fig))
+
+
+def add_legend(image: np.ndarray, labels: Sequence[str], colors: Sequence, title: str | None = None,
+               ncol: int = 1, width_px: int = 150) -> np.ndarray:
+    """A render with a legend of coloured patches on its right (for categorical colours).
+
+    Args:
+        image: ``(H, W, 3)`` uint8 render.
+        labels: one name per colour.
+        colors: matplotlib colours, same order.
+        title: legend title.
+        ncol: legend columns.
+        width_px: width of the added strip.
+
+    Returns:
+        ``(H, W + width_px, 3)`` uint8.
+    """
+    import matplotlib.pyplot as plt
+    from matplotlib.patches import Patch
+
+    h = image.shape[0]
+    dpi = 100
+    fig = plt.figure(figsize=(width_px / dpi, h / dpi), dpi=dpi)
+    fig.legend([Patch(color=c) for c in colors], labels, loc="center left", bbox_to_anchor=(0.0, 0.5),
+               ncol=ncol, fontsize=9, title=title, title_fontsize=9, frameon=False, handlelength=1.0,
+               columnspacing=0.8, labelspacing=0.25)
+    return _beside(image, _strip(fig))
+
+
+def categorical_colors(n: int) -> np.ndarray:
+    """``(n, 3)`` RGB colours that stay distinct for up to 30 categories (tab10, then the
+    darker/lighter pairs of tab20b and tab20c), in a fixed order."""
+    base = [colormaps["tab10"](i)[:3] for i in range(10)]
+    extra = [colormaps["tab20b"](i)[:3] for i in (0, 4, 8, 12, 16, 2, 6, 10, 14, 18)]
+    extra += [colormaps["tab20c"](i)[:3] for i in (0, 4, 8, 12, 16, 2, 6, 10, 14, 18)]
+    table = np.array(base + extra)
+    if n > len(table):
+        raise ValueError(f"categorical_colors: at most {len(table)} categories, got {n}")
+    return table[:n]
