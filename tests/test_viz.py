@@ -232,3 +232,44 @@ def test_animation_fills_the_canvas(tmp_path, tpose):
     content = np.abs(frames.astype(int) - 255).sum(-1) > 300
     wide, tall = _subject_box(content.any(0))
     assert max(wide, tall) >= 0.6
+
+
+def test_a_title_wider_than_the_window_shrinks_to_fit(tpose):
+    from retarget_lib.viz.render import Scene, SceneRenderer
+
+    r = SceneRenderer((160, 160), "front")
+    try:
+        r.update([Scene(positions=tpose, parents=CANONICAL22_PARENTS)], 1.8)
+        r.frame(tpose.min(0), tpose.max(0), 1.8, top_px=r.title_band(1))
+        r.set_titles(["a label far too long for a window this narrow"], [[0.0, 1.9, 0.0]])
+        bb = [0.0] * 4
+        r._texts[0].GetBoundingBox(r.pl.renderer, bb)
+        x = r._texts[0].GetPosition()[0]
+        half = 0.5 * (bb[1] - bb[0])
+        assert 0 <= x - half and x + half <= 160
+    finally:
+        r.close()
+
+
+def test_colorbar_and_legend_strips_and_categorical_colors():
+    img = np.full((200, 300, 3), 255, np.uint8)
+    with_bar = viz.add_colorbar(img, "magma", (0.0, 10.0), "error (cm)", width_px=110)
+    assert with_bar.shape == (200, 410, 3) and np.array_equal(with_bar[:, :300], img)
+    assert (with_bar[:, 300:].astype(int).sum(-1) < 300).any()  # the dark end of magma is drawn
+    with_legend = viz.add_legend(img, ["a", "b"], ["red", "blue"], width_px=120)
+    assert with_legend.shape == (200, 420, 3)
+    colors = viz.categorical_colors(22)
+    assert colors.shape == (22, 3)
+    gaps = np.linalg.norm(colors[:, None] - colors[None], axis=-1) + np.eye(22)
+    assert gaps.min() > 0.08  # no two categories share (nearly) one colour
+    with pytest.raises(ValueError):
+        viz.categorical_colors(40)
+
+
+def test_vertex_colors_are_drawn():
+    import pyvista as pv
+
+    box = pv.Box(bounds=(-0.2, 0.2, 0.0, 1.0, -0.1, 0.1)).triangulate()
+    v, f = np.asarray(box.points), np.asarray(box.faces).reshape(-1, 4)[:, 1:]
+    img = viz.render_mesh(v, f, vertex_colors=np.tile([1.0, 0.0, 0.0], (len(v), 1)), view="front")
+    assert _red(img).mean() > 0.05

@@ -685,6 +685,8 @@ class SceneRenderer:
                              in zip(items, items[1:], widths, widths[1:])])
         base = actors[0].GetTextProperty().GetFontSize()  # pyvista's units: 2x font_size
         fs = max(8, int(round(base * max(scale, 0.65))))
+        # a label wider than the window shrinks until it fits (never cut off at the edges)
+        fs = max(6, min(fs, int(base * (w - 12) / (1.12 * max(widths) + 1e-9))))
         line = 0.95 * fs  # one line of text in pixels (measured: 22 px at size 24)
         right: list[float] = []  # right edge of the last label on each line (base line first)
         placed = []
@@ -1041,11 +1043,12 @@ def add_legend(image: np.ndarray, labels: Sequence[str], colors: Sequence, title
 
 
 def categorical_colors(n: int) -> np.ndarray:
-    """``(n, 3)`` RGB colours that stay distinct for up to 30 categories (tab10, then the
-    darker/lighter pairs of tab20b and tab20c), in a fixed order."""
+    """``(n, 3)`` RGB colours that stay distinct for up to 24 categories (tab10, then the dark
+    and the light shades of tab20b, then two of tab20c that differ from all of those), in a
+    fixed order."""
     base = [colormaps["tab10"](i)[:3] for i in range(10)]
     extra = [colormaps["tab20b"](i)[:3] for i in (0, 4, 8, 12, 16, 2, 6, 10, 14, 18)]
-    extra += [colormaps["tab20c"](i)[:3] for i in (0, 4, 8, 12, 16, 2, 6, 10, 14, 18)]
+    extra += [colormaps["tab20c"](i)[:3] for i in (12, 2, 9, 17)]
     table = np.array(base + extra)
     if n > len(table):
         raise ValueError(f"categorical_colors: at most {len(table)} categories, got {n}")
