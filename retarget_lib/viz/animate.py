@@ -46,7 +46,7 @@ def render_frames(frames: Sequence[Sequence[Scene]], view="front_side", window_s
         # gap from the characters' own size (not the clip box, which grows with walking distance),
         # widened for long labels so neighbouring titles do not run into each other
         longest = max((len(str(t)) for t in titles or ()), default=0)
-        gap = size * (0.35 + 0.06 * longest)
+        gap = size * (0.35 + 0.03 * longest)  # labels that still collide shrink or stagger
         placed = layout_row(boxes, gap)
         shifts = [p.positions[0] - b.positions[0] for p, b in zip(placed, boxes)]
         if stand:
