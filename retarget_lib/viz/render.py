@@ -7,7 +7,7 @@ How a picture is built: each character is a :class:`Scene` (a pose ``(J, 3)`` an
 Joint spheres and bone tubes are generated in NumPy with a fixed topology, so animating only
 overwrites point coordinates and normals of existing VTK arrays; one plotter is reused for all
 frames (:func:`~retarget_lib.viz.animate.animate`, :class:`~retarget_lib.viz.player.Player`). A flat
-"shadow" (the geometry projected onto ``y = 0``) on a checkerboard floor makes foot contact and
+"shadow" (the geometry projected onto the floor) on a checkerboard floor makes foot contact and
 sliding readable.
 
 Framing: the camera is fitted to what is drawn (the convex hull of the spheres, tubes and mesh
@@ -421,12 +421,6 @@ def fit_camera(points: np.ndarray, view, window_size: tuple[int, int], parallel:
         dist = mid + (dist - mid) * s
     scale = dist * tv
     return dict(position=f + back * dist, focal_point=f, up=up, scale=scale, dist=dist)
-
-
-def _camera_params(lo, hi, view, aspect: float, view_angle: float = 30.0, margin: float = 1.1):
-    """Camera that frames the box ``lo..hi`` (``(3,)`` each): :func:`fit_camera` on its corners."""
-    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
-    return fit_camera(corners, view, (aspect * 400, 400), view_angle=view_angle, margin=0.5 * (margin - 1))
 
 
 class SceneRenderer:
