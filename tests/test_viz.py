@@ -273,3 +273,17 @@ def test_vertex_colors_are_drawn():
     v, f = np.asarray(box.points), np.asarray(box.faces).reshape(-1, 4)[:, 1:]
     img = viz.render_mesh(v, f, vertex_colors=np.tile([1.0, 0.0, 0.0], (len(v), 1)), view="front")
     assert _red(img).mean() > 0.05
+
+
+def test_gif_keeps_its_size_budget(tmp_path, tpose):
+    import imageio.v3 as iio
+
+    T = 16
+    pos = np.repeat(tpose[None], T, 0) + np.linspace(0, 0.6, T)[:, None, None] * [0, 0, 1]
+    pos[:, 17, 1] += np.linspace(0, 0.4, T)
+    free = viz.animate_motion(pos, CANONICAL22_PARENTS, tmp_path / "free.gif", every=1, window_size=(320, 200))
+    budget = 0.6 * free.stat().st_size / 1024  # a budget the full-quality file does not meet
+    path = viz.animate_motion(pos, CANONICAL22_PARENTS, tmp_path / "b.gif", every=1, window_size=(320, 200),
+                              max_kb=budget)
+    assert path.stat().st_size <= budget * 1024
+    assert iio.imread(path, index=None).shape[0] >= 4  # still an animation

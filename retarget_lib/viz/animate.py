@@ -85,13 +85,24 @@ def render_frames(frames: Sequence[Sequence[Scene]], view="front_side", window_s
         r.close()
 
 
-def write_animation(images: Sequence[np.ndarray], path: str | Path, fps: float = 10.0) -> Path:
-    """Write frames as ``.gif`` (looping, 256-colour palette shared by all frames) or ``.mp4``.
+def _write_gif(images: Sequence[np.ndarray], path: Path, fps: float, colors: int) -> None:
+    strip = Image.fromarray(np.concatenate(list(images[:: max(1, len(images) // 8)]), axis=0))
+    palette = strip.quantize(colors=colors, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE)
+    frames = [Image.fromarray(im).quantize(palette=palette, dither=Image.Dither.NONE) for im in images]
+    frames[0].save(path, save_all=True, append_images=frames[1:], duration=int(round(1000 / fps)),
+                   loop=0, optimize=True, disposal=1)
+
+
+def write_animation(images: Sequence[np.ndarray], path: str | Path, fps: float = 10.0,
+                    max_kb: float | None = None) -> Path:
+    """Write frames as ``.gif`` (looping, one palette shared by all frames) or ``.mp4``.
 
     Args:
         images: ``(H, W, 3)`` uint8 frames.
         path: output path; the suffix picks the format.
         fps: playback rate.
+        max_kb: size budget of a GIF: the palette shrinks (128 down to 32 colours), then every
+            other frame is dropped (the playback keeps its duration), until the file fits.
 
     Returns:
         the path.
@@ -99,20 +110,25 @@ def write_animation(images: Sequence[np.ndarray], path: str | Path, fps: float =
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     if path.suffix.lower() == ".gif":
-        strip = Image.fromarray(np.concatenate(list(images[:: max(1, len(images) // 8)]), axis=0))
-        palette = strip.quantize(colors=128, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE)
-        frames = [Image.fromarray(im).quantize(palette=palette, dither=Image.Dither.NONE) for im in images]
-        frames[0].save(path, save_all=True, append_images=frames[1:], duration=int(round(1000 / fps)),
-                       loop=0, optimize=True, disposal=1)
-    else:
-        # yuv420p needs even sizes only; 8/16 would resize (and warn about) e.g. 480x300
-        iio.imwrite(path, np.stack(images), fps=fps, codec="libx264", macro_block_size=2)
+        images = list(images)
+        while True:
+            for colors in (128, 96, 64, 48, 32):
+                _write_gif(images, path, fps, colors)
+                if max_kb is None or path.stat().st_size <= max_kb * 1024:
+                    return path
+            if len(images) < 4:
+                return path
+            images, fps = images[::2], fps / 2
+    # yuv420p needs even sizes only; 8/16 would resize (and warn about) e.g. 480x300
+    iio.imwrite(path, np.stack(images), fps=fps, codec="libx264", macro_block_size=2)
     return path
 
 
-def animate(frames: Sequence[Sequence[Scene]], path: str | Path, fps: float = 10.0, **kw) -> Path:
-    """Render scene frames (:func:`render_frames`, same keywords) and write them (:func:`write_animation`)."""
-    return write_animation(render_frames(frames, **kw), path, fps)
+def animate(frames: Sequence[Sequence[Scene]], path: str | Path, fps: float = 10.0, max_kb: float | None = None,
+            **kw) -> Path:
+    """Render scene frames (:func:`render_frames`, same keywords) and write them
+    (:func:`write_animation`, with its GIF size budget ``max_kb``)."""
+    return write_animation(render_frames(frames, **kw), path, fps, max_kb)
 
 
 def animate_motion(positions: np.ndarray | Sequence[np.ndarray], parents: Sequence[int], path: str | Path,
