@@ -14,7 +14,7 @@ from PIL import Image
 from .render import _JOINT_RADIUS, Scene, SceneRenderer, _frame_and_title, hull_points, layout_row
 
 
-def render_frames(frames: Sequence[Sequence[Scene]], view="front_side", window_size=(560, 360),
+def render_frames(frames: Sequence[Sequence[Scene]], view="front_side", window_size=(480, 300),
                   titles: Sequence[str] | None = None, side_by_side: bool = False,
                   stand: bool = True) -> list[np.ndarray]:
     """Render a sequence of frames, each a list of scenes with the same structure.
