@@ -287,3 +287,25 @@ def test_gif_keeps_its_size_budget(tmp_path, tpose):
                               max_kb=budget)
     assert path.stat().st_size <= budget * 1024
     assert iio.imread(path, index=None).shape[0] >= 4  # still an animation
+
+
+def test_updating_a_smooth_mesh_in_place_matches_a_fresh_render():
+    import pyvista as pv
+
+    from retarget_lib.viz.render import Scene, SceneRenderer
+
+    sphere = pv.Sphere(theta_resolution=24, phi_resolution=24).triangulate()
+    v, f = np.asarray(sphere.points) + [0, 1, 0], np.asarray(sphere.faces).reshape(-1, 4)[:, 1:]
+    bent = v * [1.6, 0.7, 1.0]  # squashed: new normals everywhere
+    box = np.r_[v, bent]
+    shots = []
+    for steps in ([v, bent], [bent]):
+        r = SceneRenderer((160, 160), "front_side")
+        try:
+            for verts in steps:
+                r.update([Scene(vertices=verts, faces=f)], 1.0)
+            r.frame(box.min(0), box.max(0), 1.0, points=box, floor=0.0)
+            shots.append(r.screenshot().astype(int))
+        finally:
+            r.close()
+    assert np.abs(shots[0] - shots[1]).mean() < 1.0  # same picture: normals follow the new vertices

@@ -106,6 +106,8 @@ class Scene:
         point_pairs: ``(P, 2)`` int vertex index pairs or ``(P, 2, 3)`` positions (contact pairs),
             drawn as two spheres joined by a tube, one colour per pair.
         pair_radius: sphere radius of the pairs in metres (default ``0.012 * size``).
+        smooth_shading: interpolate the mesh's normals across its triangles (a ~3000-vertex body
+            then reads as a smooth surface); ``False`` shows every facet.
         color: skeleton tint; ``None`` = blue left / red right / grey centre.
         mesh_color, mesh_opacity, cmap, clim, highlight_color: mesh appearance (``mesh_opacity``
             ``None`` = 0.45 when a skeleton is drawn too, else opaque).
@@ -120,6 +122,7 @@ class Scene:
     scalars: np.ndarray | None = None
     vertex_colors: np.ndarray | None = None
     pair_radius: float | None = None
+    smooth_shading: bool = True
     highlight_faces: np.ndarray | None = None
     point_pairs: np.ndarray | None = None
     color: Any = None
@@ -483,7 +486,7 @@ class SceneRenderer:
                 m.point_data["Normals"] = _vertex_normals(s.vertices, s.faces)
                 m.point_data.active_normals_name = "Normals"
                 op = s.mesh_opacity if s.mesh_opacity is not None else (0.45 if s.positions is not None else 1.0)
-                kw = dict(opacity=op, specular=0.15, smooth_shading=False, show_scalar_bar=False)
+                kw = dict(opacity=op, specular=0.15, smooth_shading=s.smooth_shading, show_scalar_bar=False)
                 if s.vertex_colors is not None:
                     rgb = np.asarray(s.vertex_colors, dtype=np.float64).reshape(-1, 3)
                     m.point_data["rgb"] = (np.clip(rgb, 0, 1) * 255).astype(np.uint8)
