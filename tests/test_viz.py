@@ -162,3 +162,150 @@ def test_animate_meshes_with_different_vertex_counts(tmp_path):
     assert verts[0].shape[1] != verts[1].shape[1]
     path = viz.animate_mesh(verts, faces, tmp_path / "two.gif", every=1, window_size=(160, 100), titles=["a", "b"])
     assert iio.imread(path, index=None).shape[0] == 4
+
+
+def _subject_box(mask):
+    """Fractions of the image's width and height covered by the ``True`` pixels' bounding box."""
+    rows, cols = np.flatnonzero(mask.any(1)), np.flatnonzero(mask.any(0))
+    return (cols[-1] - cols[0] + 1) / mask.shape[1], (rows[-1] - rows[0] + 1) / mask.shape[0]
+
+
+def _red(img):
+    """Pixels of a red-painted subject (shaded: red clearly above green and blue)."""
+    i = img.astype(int)
+    return (i[..., 0] - i[..., 1] > 60) & (i[..., 0] - i[..., 2] > 60)
+
+
+def test_mesh_fills_the_canvas_with_its_title_on_top():
+    import pyvista as pv
+
+    box = pv.Box(bounds=(-0.2, 0.2, 0.3, 1.9, -0.1, 0.1)).triangulate()  # a body-sized slab
+    v, f = np.asarray(box.points), np.asarray(box.faces).reshape(-1, 4)[:, 1:]
+    img = viz.render_mesh(v, f, color="red", view="front", title="a title")
+    wide, tall = _subject_box(_red(img))
+    assert max(wide, tall) >= 0.6  # the subject fills the canvas in at least one dimension
+    rows = np.flatnonzero(_red(img).any(1))
+    assert rows[0] > 0.05 * img.shape[0]  # the title band above the subject stays free of it
+    dark = (img.astype(int).sum(-1) < 200)[: rows[0]]  # black title text above the subject
+    assert dark.any()
+
+
+def test_floor_is_at_the_lowest_drawn_point(tpose):
+    from retarget_lib.viz.render import Scene, SceneRenderer
+
+    lifted = tpose + [0.0, 0.37, 0.0]  # a skeleton hanging 37 cm above y = 0
+    r = SceneRenderer((240, 160), "front")
+    try:
+        r.update([Scene(positions=lifted, parents=CANONICAL22_PARENTS)], 1.8)
+        r.frame(lifted.min(0), lifted.max(0), 1.8)
+        lowest = r.drawn_points()[:, 1].min()  # the toe spheres' bottoms
+        assert abs(r.floor_y - lowest) < 1e-9  # no float arithmetic: the same number is copied
+        floor = r.pl.actors["floor"].GetMapper().GetInput().GetPoints()
+        assert abs(floor.GetBounds()[2] - lowest) < 1e-9 and abs(floor.GetBounds()[3] - lowest) < 1e-9
+    finally:
+        r.close()
+
+
+def test_side_by_side_stands_every_character_on_the_floor(tpose):
+    from retarget_lib.viz.render import Scene, stand_on_floor
+
+    high = Scene(positions=tpose + [0, 0.5, 0], parents=CANONICAL22_PARENTS)
+    low = Scene(positions=tpose - [0, 0.2, 0], parents=CANONICAL22_PARENTS)
+    for s in (high, low):
+        # 1e-12: a translation of metre-scale coordinates
+        assert abs(stand_on_floor(s).points()[:, 1].min()) < 1e-12
+    img = viz.render_side_by_side([high, low], window_size=(320, 200))
+    # both characters' feet reach the same image row (within 3 px of anti-aliasing and perspective)
+    h, w = img.shape[:2]
+    dark = np.abs(img.astype(int) - 255).sum(-1) > 300  # joints and bones, not the pale floor
+    feet = [np.flatnonzero(dark[:, half].any(1))[-1] for half in (slice(0, w // 2), slice(w // 2, w))]
+    assert abs(feet[0] - feet[1]) <= 3
+
+
+def test_animation_fills_the_canvas(tmp_path, tpose):
+    import imageio.v3 as iio
+
+    pos = np.repeat(tpose[None], 6, 0) + np.linspace(0, 0.6, 6)[:, None, None] * [0, 0, 1]  # walks 60 cm forward
+    path = viz.animate_motion([pos, pos], CANONICAL22_PARENTS, tmp_path / "a.gif", every=1,
+                              titles=["mannequin-x", "a long title"])
+    frames = iio.imread(path, index=None)[..., :3]
+    content = np.abs(frames.astype(int) - 255).sum(-1) > 300
+    wide, tall = _subject_box(content.any(0))
+    assert max(wide, tall) >= 0.6
+
+
+def test_a_title_wider_than_the_window_shrinks_to_fit(tpose):
+    from retarget_lib.viz.render import Scene, SceneRenderer
+
+    r = SceneRenderer((160, 160), "front")
+    try:
+        r.update([Scene(positions=tpose, parents=CANONICAL22_PARENTS)], 1.8)
+        r.frame(tpose.min(0), tpose.max(0), 1.8, top_px=r.title_band(1))
+        r.set_titles(["a label far too long for a window this narrow"], [[0.0, 1.9, 0.0]])
+        bb = [0.0] * 4
+        r._texts[0].GetBoundingBox(r.pl.renderer, bb)
+        x = r._texts[0].GetPosition()[0]
+        half = 0.5 * (bb[1] - bb[0])
+        assert 0 <= x - half and x + half <= 160
+    finally:
+        r.close()
+
+
+def test_colorbar_and_legend_strips_and_categorical_colors():
+    img = np.full((200, 300, 3), 255, np.uint8)
+    with_bar = viz.add_colorbar(img, "magma", (0.0, 10.0), "error (cm)", width_px=110)
+    assert with_bar.shape == (200, 410, 3) and np.array_equal(with_bar[:, :300], img)
+    assert (with_bar[:, 300:].astype(int).sum(-1) < 300).any()  # the dark end of magma is drawn
+    with_legend = viz.add_legend(img, ["a", "b"], ["red", "blue"], width_px=120)
+    assert with_legend.shape == (200, 420, 3)
+    colors = viz.categorical_colors(22)
+    assert colors.shape == (22, 3)
+    gaps = np.linalg.norm(colors[:, None] - colors[None], axis=-1) + np.eye(22)
+    assert gaps.min() > 0.08  # no two categories share (nearly) one colour
+    with pytest.raises(ValueError):
+        viz.categorical_colors(40)
+
+
+def test_vertex_colors_are_drawn():
+    import pyvista as pv
+
+    box = pv.Box(bounds=(-0.2, 0.2, 0.0, 1.0, -0.1, 0.1)).triangulate()
+    v, f = np.asarray(box.points), np.asarray(box.faces).reshape(-1, 4)[:, 1:]
+    img = viz.render_mesh(v, f, vertex_colors=np.tile([1.0, 0.0, 0.0], (len(v), 1)), view="front")
+    assert _red(img).mean() > 0.05
+
+
+def test_gif_keeps_its_size_budget(tmp_path, tpose):
+    import imageio.v3 as iio
+
+    T = 16
+    pos = np.repeat(tpose[None], T, 0) + np.linspace(0, 0.6, T)[:, None, None] * [0, 0, 1]
+    pos[:, 17, 1] += np.linspace(0, 0.4, T)
+    free = viz.animate_motion(pos, CANONICAL22_PARENTS, tmp_path / "free.gif", every=1, window_size=(320, 200))
+    budget = 0.6 * free.stat().st_size / 1024  # a budget the full-quality file does not meet
+    path = viz.animate_motion(pos, CANONICAL22_PARENTS, tmp_path / "b.gif", every=1, window_size=(320, 200),
+                              max_kb=budget)
+    assert path.stat().st_size <= budget * 1024
+    assert iio.imread(path, index=None).shape[0] >= 4  # still an animation
+
+
+def test_updating_a_smooth_mesh_in_place_matches_a_fresh_render():
+    import pyvista as pv
+
+    from retarget_lib.viz.render import Scene, SceneRenderer
+
+    sphere = pv.Sphere(theta_resolution=24, phi_resolution=24).triangulate()
+    v, f = np.asarray(sphere.points) + [0, 1, 0], np.asarray(sphere.faces).reshape(-1, 4)[:, 1:]
+    bent = v * [1.6, 0.7, 1.0]  # squashed: new normals everywhere
+    box = np.r_[v, bent]
+    shots = []
+    for steps in ([v, bent], [bent]):
+        r = SceneRenderer((160, 160), "front_side")
+        try:
+            for verts in steps:
+                r.update([Scene(vertices=verts, faces=f)], 1.0)
+            r.frame(box.min(0), box.max(0), 1.0, points=box, floor=0.0)
+            shots.append(r.screenshot().astype(int))
+        finally:
+            r.close()
+    assert np.abs(shots[0] - shots[1]).mean() < 1.0  # same picture: normals follow the new vertices

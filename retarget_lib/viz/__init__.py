@@ -11,6 +11,7 @@ from .player import Player, player
 from .plots import plot_root_trajectories, plot_skeleton_mpl, plot_timeline
 from .render import (PALETTE, VIEWS, Scene, SceneRenderer, configure_offscreen, render_filmstrip,
                      render_mesh, render_scenes, render_side_by_side, render_skeleton, save_png)
+from .render import add_colorbar, add_legend, categorical_colors, fit_camera, stand_on_floor
 
 __all__ = [
     "PALETTE", "VIEWS", "Scene", "SceneRenderer", "configure_offscreen", "render_mesh", "render_scenes", "render_filmstrip",
@@ -19,4 +20,5 @@ __all__ = [
     "plot_root_trajectories", "plot_skeleton_mpl", "plot_timeline", "tdcn_generator_diagram",
     "patch_discriminator_diagram", "nkn_diagram", "georet_diagram", "eso_loop_diagram", "method_dataflow_diagram",
     "layout_problems",
+    "add_colorbar", "add_legend", "categorical_colors", "fit_camera", "stand_on_floor",
 ]

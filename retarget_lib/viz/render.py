@@ -7,8 +7,13 @@ How a picture is built: each character is a :class:`Scene` (a pose ``(J, 3)`` an
 Joint spheres and bone tubes are generated in NumPy with a fixed topology, so animating only
 overwrites point coordinates and normals of existing VTK arrays; one plotter is reused for all
 frames (:func:`~retarget_lib.viz.animate.animate`, :class:`~retarget_lib.viz.player.Player`). A flat
-"shadow" (the geometry projected onto ``y = 0``) on a checkerboard floor makes foot contact and
+"shadow" (the geometry projected onto the floor) on a checkerboard floor makes foot contact and
 sliding readable.
+
+Framing: the camera is fitted to what is drawn (the convex hull of the spheres, tubes and mesh
+vertices, over the whole clip for animations) so the subject fills the canvas up to a small
+margin, with a band kept free at the top for the titles; the floor sits at the lowest drawn point
+(side-by-side lineups first stand every character on it), so feet touch the floor.
 """
 
 from __future__ import annotations
@@ -37,6 +42,8 @@ MESH_COLOR = "#d9c6b0"
 _GROUND = ("#f3f3f3", "#e4e4e4")
 _SHADOW = "#c9c9c9"
 _state: dict[str, Any] = {"configured": False}
+#: joint sphere radius as a share of the character size
+_JOINT_RADIUS = 0.018
 
 
 def configure_offscreen(window_size: tuple[int, int] = (640, 400), anti_aliasing: str | None = "msaa"):
@@ -93,9 +100,14 @@ class Scene:
         vertices: ``(V, 3)`` mesh vertices or ``None``.
         faces: ``(F, 3)`` int triangle indices.
         scalars: ``(V,)`` per-vertex values coloured with ``cmap`` (e.g. a contact energy).
+        vertex_colors: ``(V, 3)`` RGB per vertex (floats in [0, 1]), e.g. one colour per body
+            part; used instead of ``scalars`` and ``mesh_color``.
         highlight_faces: ``(K,)`` face indices or ``(F,)`` bool mask drawn in ``highlight_color``.
         point_pairs: ``(P, 2)`` int vertex index pairs or ``(P, 2, 3)`` positions (contact pairs),
             drawn as two spheres joined by a tube, one colour per pair.
+        pair_radius: sphere radius of the pairs in metres (default ``0.012 * size``).
+        smooth_shading: interpolate the mesh's normals across its triangles (a ~3000-vertex body
+            then reads as a smooth surface); ``False`` shows every facet.
         color: skeleton tint; ``None`` = blue left / red right / grey centre.
         mesh_color, mesh_opacity, cmap, clim, highlight_color: mesh appearance (``mesh_opacity``
             ``None`` = 0.45 when a skeleton is drawn too, else opaque).
@@ -108,6 +120,9 @@ class Scene:
     vertices: np.ndarray | None = None
     faces: np.ndarray | None = None
     scalars: np.ndarray | None = None
+    vertex_colors: np.ndarray | None = None
+    pair_radius: float | None = None
+    smooth_shading: bool = True
     highlight_faces: np.ndarray | None = None
     point_pairs: np.ndarray | None = None
     color: Any = None
@@ -298,12 +313,12 @@ def _set_points(mesh, points: np.ndarray, normals: np.ndarray | None = None) -> 
     mesh.Modified()
 
 
-def _checkerboard(x0: float, x1: float, z0: float, z1: float, step: float):
-    """A floor at ``y = 0`` over ``[x0, x1] x [z0, z1]``: one quad per ``step`` square, two greys."""
+def _checkerboard(x0: float, x1: float, z0: float, z1: float, step: float, y: float = 0.0):
+    """A floor at height ``y`` over ``[x0, x1] x [z0, z1]``: one quad per ``step`` square, two greys."""
     xs = np.arange(x0, x1 + 0.5 * step, step)
     zs = np.arange(z0, z1 + 0.5 * step, step)
     gx, gz = np.meshgrid(xs, zs, indexing="ij")
-    pts = np.stack([gx.ravel(), np.zeros(gx.size), gz.ravel()], -1)
+    pts = np.stack([gx.ravel(), np.full(gx.size, float(y)), gz.ravel()], -1)
     nx, nz = len(xs), len(zs)
     i, k = np.meshgrid(np.arange(nx - 1), np.arange(nz - 1), indexing="ij")
     a = (i * nz + k).ravel()
@@ -322,24 +337,93 @@ def _nice_step(x: float) -> float:
     return float(steps[np.argmin(np.abs(np.log(steps / x)))])
 
 
-def _camera_params(lo, hi, view, aspect: float, view_angle: float = 30.0, margin: float = 1.1):
-    """Position/focal point/up/parallel scale that frame the box ``lo..hi`` (``(3,)`` each)."""
+def _view_axes(view) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Unit ``(back, up, right)`` of a camera preset or ``(azimuth, elevation)`` in degrees."""
     az, el = VIEWS[view] if isinstance(view, str) else view
     az, el = np.radians(az), np.radians(el)
     back = np.array([np.sin(az) * np.cos(el), np.sin(el), np.cos(az) * np.cos(el)])
     up = np.array([0.0, 1.0, 0.0]) if abs(np.degrees(el)) < 80 else np.array([-np.sin(az), 0, -np.cos(az)])
     right = np.cross(-back, up)
     right /= np.linalg.norm(right)
-    up = np.cross(right, -back)
-    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
-    c = 0.5 * (lo + hi)
-    rel = corners - c
-    px, py, pz = rel @ right, rel @ up, rel @ back
-    c = c + right * 0.5 * (px.max() + px.min()) + up * 0.5 * (py.max() + py.min())
-    hw, hh = 0.5 * np.ptp(px) * margin, 0.5 * np.ptp(py) * margin
+    return back, np.cross(right, -back), right
+
+
+def hull_points(points: np.ndarray) -> np.ndarray:
+    """``(K, 3)`` the vertices of the convex hull of ``points (N, 3)`` (all points if degenerate).
+
+    A (perspective or parallel) projection maps a convex set onto a convex set, so the hull's
+    vertices are all a camera fit needs.
+    """
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    if len(points) < 5:
+        return points
+    from scipy.spatial import ConvexHull, QhullError
+
+    try:
+        return points[ConvexHull(points).vertices]
+    except (QhullError, ValueError):
+        return points
+
+
+def fit_camera(points: np.ndarray, view, window_size: tuple[int, int], parallel: bool = False,
+               view_angle: float = 30.0, margin: float = 0.04, top_px: float = 0.0) -> dict:
+    """Camera that shows all ``points`` as large as the canvas allows.
+
+    The points' projection fills the window up to ``margin`` (a fraction of the window's smaller
+    side, on every edge) and leaves a free band of ``top_px`` pixels at the top (for titles).
+    Perspective: the distance and the focal point are found by a fixed-point iteration on the
+    projected extents (a few steps; exact for parallel projection).
+
+    Args:
+        points: ``(N, 3)`` world points that must be visible (e.g. :func:`hull_points`).
+        view: a key of :data:`VIEWS` or ``(azimuth, elevation)`` degrees.
+        window_size: ``(width, height)`` pixels.
+        parallel: orthographic projection.
+        view_angle: vertical field of view in degrees (perspective).
+        margin: free border, fraction of ``min(width, height)``.
+        top_px: free band at the top in pixels.
+
+    Returns:
+        dict with ``position``, ``focal_point``, ``up`` (``(3,)`` each), ``scale`` (parallel
+        half-height in metres) and ``dist`` (camera to focal point, metres).
+    """
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    back, up, right = _view_axes(view)
+    w, h = window_size
+    aspect = w / h
+    mx, my = 2 * margin * min(w, h) / w, 2 * margin * min(w, h) / h
+    x_lo, x_hi = -1 + mx, 1 - mx
+    y_lo, y_hi = -1 + my, 1 - my - 2 * top_px / h
+    if y_hi - y_lo < 0.2:  # a title band taller than the window: keep a fifth for the subject
+        y_hi = y_lo + 0.2
+    tx, ty, wt, ht = 0.5 * (x_lo + x_hi), 0.5 * (y_lo + y_hi), x_hi - x_lo, y_hi - y_lo
+    lo, hi = pts.min(0), pts.max(0)
+    size = max(float(np.linalg.norm(hi - lo)), 1e-3)
+    f = 0.5 * (lo + hi)
     tv = np.tan(np.radians(view_angle) / 2)
-    dist = max(hw / (tv * aspect), hh / tv) + pz.max()
-    return dict(position=c + back * dist, focal_point=c, up=up, scale=max(hh, hw / aspect), dist=dist)
+    if parallel:
+        rel = pts - f
+        a, b = rel @ right, rel @ up
+        scale = max(np.ptp(a) / (aspect * wt), np.ptp(b) / ht, 1e-3)
+        f = f + right * (0.5 * (a.max() + a.min()) - tx * scale * aspect) + up * (0.5 * (b.max() + b.min()) - ty * scale)
+        dist = float(((pts - f) @ back).max()) + size
+        return dict(position=f + back * dist, focal_point=f, up=up, scale=scale, dist=dist)
+    dist = 1.2 * size / tv
+    for _ in range(60):
+        rel = pts - f
+        depth_off = rel @ back
+        dist = max(dist, float(depth_off.max()) + 0.05 * size)
+        z = dist - depth_off
+        x, y = rel @ right / (z * tv * aspect), rel @ up / (z * tv)
+        s = max(np.ptp(x) / wt, np.ptp(y) / ht, 1e-6)
+        cx, cy = 0.5 * (x.max() + x.min()), 0.5 * (y.max() + y.min())
+        if abs(s - 1) < 1e-4 and abs(cx - tx) < 1e-4 and abs(cy - ty) < 1e-4:
+            break
+        f = f + right * (cx - tx) * dist * tv * aspect + up * (cy - ty) * dist * tv
+        mid = float(np.median(depth_off))
+        dist = mid + (dist - mid) * s
+    scale = dist * tv
+    return dict(position=f + back * dist, focal_point=f, up=up, scale=scale, dist=dist)
 
 
 class SceneRenderer:
@@ -353,7 +437,8 @@ class SceneRenderer:
         window_size: ``(width, height)`` pixels.
         view: a key of :data:`VIEWS` or ``(azimuth, elevation)`` degrees.
         parallel: orthographic projection (good for comparing heights in a lineup).
-        ground: draw the checkerboard floor at ``y = 0``; shadow: draw flat shadows on it.
+        ground: draw the checkerboard floor (at the lowest drawn point unless :meth:`frame` is
+            given a height); shadow: draw flat shadows on it.
         font_size: title size in points.
     """
 
@@ -366,6 +451,7 @@ class SceneRenderer:
         self._items: list[dict] = []
         self._key = None
         self._floor = None
+        self.floor_y = 0.0
         self._texts: list = []
 
     def close(self) -> None:
@@ -376,13 +462,13 @@ class SceneRenderer:
     def _structure(scenes: Sequence[Scene]):
         return tuple((None if s.positions is None else tuple(s.parents),
                       None if s.vertices is None else (len(s.vertices), len(s.faces)),
-                      s.scalars is not None, s.highlight_faces is not None,
+                      s.scalars is not None, s.vertex_colors is not None, s.highlight_faces is not None,
                       None if s.point_pairs is None else np.shape(s.point_pairs)) for s in scenes)
 
     def _build(self, scenes: Sequence[Scene], size: float) -> None:
         self.pl.clear_actors()
         self._items, self._floor = [], None
-        radius = 0.018 * size
+        radius = _JOINT_RADIUS * size
         for i, s in enumerate(scenes):
             g = _Geometry(s, radius)
             it: dict[str, Any] = {"geom": g}
@@ -400,10 +486,14 @@ class SceneRenderer:
                 m.point_data["Normals"] = _vertex_normals(s.vertices, s.faces)
                 m.point_data.active_normals_name = "Normals"
                 op = s.mesh_opacity if s.mesh_opacity is not None else (0.45 if s.positions is not None else 1.0)
-                kw = dict(opacity=op, specular=0.15, smooth_shading=False, show_scalar_bar=False)
-                if s.scalars is not None:
+                kw = dict(opacity=op, specular=0.15, smooth_shading=s.smooth_shading, show_scalar_bar=False)
+                if s.vertex_colors is not None:
+                    rgb = np.asarray(s.vertex_colors, dtype=np.float64).reshape(-1, 3)
+                    m.point_data["rgb"] = (np.clip(rgb, 0, 1) * 255).astype(np.uint8)
+                    self.pl.add_mesh(m, render=False, scalars="rgb", rgb=True, **kw)
+                elif s.scalars is not None:
                     m.point_data["values"] = np.asarray(s.scalars, dtype=np.float64).reshape(-1)
-                    clim = s.clim or (float(np.min(s.scalars)), float(np.max(s.scalars)) + 1e-12)
+                    clim = s.clim or (float(np.nanmin(s.scalars)), float(np.nanmax(s.scalars)) + 1e-12)
                     self.pl.add_mesh(m, render=False, scalars="values", cmap=s.cmap, clim=clim, **kw)
                 else:
                     self.pl.add_mesh(m, render=False, color=s.mesh_color, **kw)
@@ -434,11 +524,16 @@ class SceneRenderer:
     def _lifted(self, verts, mesh, size):
         return verts + mesh.point_data["Normals"] * 0.002 * size
 
-    @staticmethod
-    def _flat(points: np.ndarray) -> np.ndarray:
+    def _flat(self, points: np.ndarray) -> np.ndarray:
         p = points.copy()
-        p[:, 1] = 0.002
+        p[:, 1] = self.floor_y + 0.002
         return p
+
+    def drawn_points(self) -> np.ndarray:
+        """``(N, 3)`` every point currently drawn (joint spheres, bone tubes, meshes, contact pairs),
+        without floor and shadows."""
+        parts = [np.asarray(it[k].points) for it in self._items for k in ("skel", "mesh", "pairs") if k in it]
+        return np.concatenate(parts) if parts else np.zeros((1, 3))
 
     def _pairs_mesh(self, s: Scene, size: float):
         """Contact pairs as a 'skeleton' of ``P`` two-joint chains: sphere, tube, sphere."""
@@ -448,7 +543,8 @@ class SceneRenderer:
         ends = (s.vertices[pp.astype(int)] if pp.ndim == 2 else pp.astype(np.float64)).reshape(-1, 3)
         n = len(ends) // 2
         parents = [(-1 if j % 2 == 0 else j - 1) for j in range(2 * n)]
-        g = _Geometry(Scene(positions=ends, parents=parents, joint_names=[""] * (2 * n)), 0.012 * size)
+        radius = s.pair_radius if s.pair_radius is not None else 0.012 * size
+        g = _Geometry(Scene(positions=ends, parents=parents, joint_names=[""] * (2 * n)), radius)
         cols = colormaps["tab10"](np.arange(n) % 10)[:, :3]
         rgb = np.concatenate([np.repeat(np.repeat(cols, 2, 0), g.ns, 0), np.repeat(cols, 2 * g.sides, 0)])
         pts, nrm = g.skeleton(ends)
@@ -465,12 +561,12 @@ class SceneRenderer:
         pad = max(0.9 * size, 2 * step)
         x0, x1 = np.floor((lo[0] - pad) / step) * step, np.ceil((hi[0] + pad) / step) * step
         z0, z1 = np.floor((lo[2] - pad) / step) * step, np.ceil((hi[2] + pad) / step) * step
-        key = (x0, x1, z0, z1, step)
+        key = (x0, x1, z0, z1, step, self.floor_y)
         if self._floor == key:
             return
         if self._floor is not None:
             self.pl.remove_actor("floor", render=False)
-        plane = _checkerboard(x0, x1, z0, z1, step)
+        plane = _checkerboard(x0, x1, z0, z1, step, self.floor_y)
         self.pl.add_mesh(plane, render=False, scalars="rgb", rgb=True, lighting=False, name="floor", show_scalar_bar=False)
         self._floor = key
 
@@ -497,7 +593,7 @@ class SceneRenderer:
                 if "hl" in it:
                     # the highlight mesh keeps all V vertices, only its faces are a subset
                     _set_points(it["hl"], s.vertices + nrm * 0.002 * size)
-                if s.scalars is not None:
+                if s.scalars is not None and s.vertex_colors is None:
                     it["mesh"].point_data["values"][:] = np.asarray(s.scalars).reshape(-1)
                     it["mesh"].GetPointData().GetArray("values").Modified()
             if "pairs" in it:
@@ -508,12 +604,30 @@ class SceneRenderer:
             if "shadow" in it:
                 _set_points(it["shadow"], self._flat(np.concatenate(parts)))
 
-    def frame(self, lo, hi, size: float) -> None:
-        """Place the floor under ``lo..hi`` (``(3,)`` world box) and point the camera at it."""
+    def frame(self, lo, hi, size: float, points: np.ndarray | None = None, floor: float | None = None,
+              top_px: float = 0.0, margin: float = 0.04) -> None:
+        """Place the floor and point the camera so the drawn subject fills the window.
+
+        Args:
+            lo, hi: ``(3,)`` world box of the subject (the floor is laid out under it).
+            size: characteristic size (metres) of one character.
+            points: ``(N, 3)`` points the camera must show (default: everything drawn now, see
+                :meth:`drawn_points`; pass a whole clip's points to keep an animation in view).
+            floor: floor height (default: the lowest of ``points``, so feet rest on the floor).
+            top_px: pixels kept free at the top for titles.
+            margin: free border, fraction of the window's smaller side.
+        """
         lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+        pts = hull_points(self.drawn_points() if points is None else points)
+        self.floor_y = float(pts[:, 1].min()) if floor is None else float(floor)
+        for it in self._items:
+            if "shadow" in it:
+                sh = it["shadow"]
+                sh.points[:, 1] = self.floor_y + 0.002
+                sh.GetPoints().Modified()
+                sh.Modified()
         self._set_floor(lo, hi, size)
-        w, h = self.window_size
-        cam = _camera_params(np.minimum(lo, [np.inf, 0, np.inf]), hi, self.view, w / h)
+        cam = fit_camera(pts, self.view, self.window_size, self.parallel, margin=margin, top_px=top_px)
         c = self.pl.camera
         c.position, c.focal_point, c.up = cam["position"], cam["focal_point"], cam["up"]
         c.view_angle = 30.0
@@ -521,6 +635,10 @@ class SceneRenderer:
             self.pl.enable_parallel_projection()
             c.parallel_scale = cam["scale"]
         c.clipping_range = (max(cam["dist"] * 0.02, 1e-3), cam["dist"] * 20 + 100 * size)
+
+    def title_band(self, rows: int = 1) -> float:
+        """Pixels to keep free at the top for ``rows`` lines of titles."""
+        return (rows + 0.35) * 0.95 * 2 * self.font_size + 2
 
     def to_display(self, point) -> tuple[float, float]:
         """Pixel coordinates ``(x, y)`` (origin bottom-left) of a world point ``(3,)``."""
@@ -530,11 +648,14 @@ class SceneRenderer:
         x, y, _ = r.GetDisplayPoint()
         return x, y
 
-    def set_titles(self, titles: Sequence[str], anchors: Sequence[np.ndarray]) -> None:
+    def set_titles(self, titles: Sequence[str], anchors: Sequence[np.ndarray]) -> int:
         """Centred text labels just above the projected world ``anchors`` (one ``(3,)`` each).
 
         Labels are kept inside the image. When neighbours would overlap, the font shrinks (down to
         65 %), then a label that still collides moves up a line (at most three lines).
+
+        Returns:
+            the number of text lines used (0 without titles).
         """
         for t in self._texts:
             self.pl.remove_actor(t, render=False)
@@ -543,7 +664,7 @@ class SceneRenderer:
         items = sorted((self.to_display(a)[0], self.to_display(a)[1], str(t))
                        for t, a in zip(titles, anchors) if t)
         if not items:
-            return
+            return 0
         actors = []
         for x, y, text in items:
             actor = self.pl.add_text(text, position=(x, y), font_size=self.font_size, color="black",
@@ -561,13 +682,16 @@ class SceneRenderer:
                              in zip(items, items[1:], widths, widths[1:])])
         base = actors[0].GetTextProperty().GetFontSize()  # pyvista's units: 2x font_size
         fs = max(8, int(round(base * max(scale, 0.65))))
+        # a label wider than the window shrinks until it fits (never cut off at the edges)
+        fs = max(6, min(fs, int(base * (w - 12) / (1.12 * max(widths) + 1e-9))))
         line = 0.95 * fs  # one line of text in pixels (measured: 22 px at size 24)
         right: list[float] = []  # right edge of the last label on each line (base line first)
         placed = []
         for (x, y, _), actor in zip(items, actors):
             actor.GetTextProperty().SetFontSize(fs)
             tw = width(actor)
-            x = float(np.clip(x, 0.5 * tw + 2, w - 0.5 * tw - 2))
+            half = 0.55 * tw + 4  # the measured box is a little narrower than the drawn glyphs
+            x = float(np.clip(x, half, w - half))
             free = [k for k, edge in enumerate(right) if x - 0.5 * tw > edge + max(8.0, 0.5 * line)]
             row = free[0] if free else (len(right) if len(right) < 3 else int(np.argmin(right)))
             right[row:row + 1] = [x + 0.5 * tw]
@@ -576,6 +700,7 @@ class SceneRenderer:
         for (x, y, row), actor in zip(placed, actors):
             actor.SetPosition(x, min(y + 4, top) + row * line)
             self._texts.append(actor)
+        return 1 + max(row for _, _, row in placed)
 
     def screenshot(self) -> np.ndarray:
         """``(H, W, 3)`` uint8 image of the current scene."""
@@ -624,16 +749,33 @@ def layout_row(scenes: Sequence[Scene], gap: float | None = None, extents=None) 
     return [s.translated([shift, 0, 0]) for s in out]
 
 
+def _frame_and_title(r: "SceneRenderer", lo, hi, size: float, titles: Sequence[str], anchors,
+                     points: np.ndarray | None = None, floor: float | None = None) -> None:
+    """Fit the camera to the drawn subject, leaving a top band for the titles (re-fitted once if
+    the labels need more than one line)."""
+    rows = 1 if any(titles) else 0
+    r.frame(lo, hi, size, points=points, floor=floor, top_px=r.title_band(rows) if rows else 0.0)
+    if rows:
+        used = r.set_titles(titles, anchors)
+        if used > rows:
+            r.frame(lo, hi, size, points=points, floor=floor, top_px=r.title_band(used))
+            r.set_titles(titles, anchors)
+
+
 def render_scenes(scenes: Sequence[Scene], titles: Sequence[str] | None = None, view="front_side",
                   window_size=(640, 400), parallel: bool = False, ground: bool = True,
-                  shadow: bool = True, font_size: int = 12) -> np.ndarray:
+                  shadow: bool = True, font_size: int = 12, floor: float | None = None) -> np.ndarray:
     """Render scenes already placed in world space (no re-layout) into one image.
+
+    The camera is fitted to the drawn geometry (the subject fills the canvas up to a small
+    margin, titles get a band at the top) and the floor lies at the lowest drawn point.
 
     Args:
         scenes: :class:`Scene` objects.
         titles: one label per scene (``None``: each scene's ``title``), drawn above it.
         view: a key of :data:`VIEWS` or ``(azimuth, elevation)`` in degrees.
         window_size: ``(width, height)``.
+        floor: floor height in metres (default: the lowest drawn point).
 
     Returns:
         ``(H, W, 3)`` uint8 image.
@@ -644,10 +786,7 @@ def render_scenes(scenes: Sequence[Scene], titles: Sequence[str] | None = None, 
         r.update(scenes, size)
         lo, hi = scene_bounds(scenes, size)
         titles = [s.title for s in scenes] if titles is None else titles
-        if any(titles):
-            hi = hi + [0, 0.14 * size, 0]
-        r.frame(lo, hi, size)
-        r.set_titles(titles, [_title_anchor(s, size) for s in scenes])
+        _frame_and_title(r, lo, hi, size, titles, [_title_anchor(s, size) for s in scenes], floor=floor)
         return r.screenshot()
     finally:
         r.close()
@@ -686,7 +825,8 @@ def render_skeleton(positions, parents: Sequence[int], joint_names: Sequence[str
 def render_mesh(vertices, faces, scalars=None, highlight_faces=None, point_pairs=None,
                 skeleton: tuple | None = None, cmap: str = "viridis", clim=None, color=MESH_COLOR,
                 opacity: float | None = None, view="front_side", window_size=(640, 400),
-                title: str | None = None, ground: bool = True, shadow: bool = True) -> np.ndarray:
+                title: str | None = None, ground: bool = True, shadow: bool = True,
+                vertex_colors=None, pair_radius: float | None = None) -> np.ndarray:
     """Render a triangle mesh, optionally coloured per vertex, with highlighted faces, contact
     pairs and a skeleton overlay.
 
@@ -700,6 +840,9 @@ def render_mesh(vertices, faces, scalars=None, highlight_faces=None, point_pairs
             the mesh then turns translucent unless ``opacity`` is given.
         color: mesh colour when ``scalars`` is None.
         view, window_size, title: as in :func:`render_skeleton`.
+        vertex_colors: ``(V, 3)`` RGB per vertex (instead of ``scalars`` / ``color``).
+        pair_radius: radius of the contact-pair spheres in metres (default: 1.2 % of the
+            mesh's size; make it larger for close-ups, where the pairs are few millimetres long).
 
     Returns:
         ``(H, W, 3)`` uint8 image.
@@ -707,18 +850,34 @@ def render_mesh(vertices, faces, scalars=None, highlight_faces=None, point_pairs
     sk = dict(zip(("positions", "parents", "joint_names"), skeleton)) if skeleton is not None else {}
     s = Scene(vertices=vertices, faces=faces, scalars=scalars, highlight_faces=highlight_faces,
               point_pairs=point_pairs, cmap=cmap, clim=clim, mesh_color=color, mesh_opacity=opacity,
-              **sk)
+              vertex_colors=vertex_colors, pair_radius=pair_radius, **sk)
     return render_scenes([s], [title or ""], view, window_size, ground=ground, shadow=shadow)
+
+
+def stand_on_floor(scene: Scene, size: float | None = None) -> Scene:
+    """The scene moved up or down so its lowest drawn point is at ``y = 0``.
+
+    Args:
+        scene: the scene.
+        size: the renderer's character size; a skeleton's lowest joint sphere (radius
+            ``0.018 * size``, see :class:`SceneRenderer`) then rests on the floor too.
+    """
+    lowest = float(scene.points()[:, 1].min())
+    if scene.vertices is None and scene.positions is not None and size is not None:
+        lowest -= _JOINT_RADIUS * size
+    return scene.translated([0.0, -lowest, 0.0])
 
 
 def render_side_by_side(scenes: Sequence, titles: Sequence[str] | None = None, parents=None,
                         view="front", window_size=None, ncols: int | None = None,
-                        parallel: bool = False, gap: float | None = None, font_size: int = 12) -> np.ndarray:
+                        parallel: bool = False, gap: float | None = None, font_size: int = 12,
+                        stand: bool = True) -> np.ndarray:
     """Several characters next to each other (a lineup or a source / retargeted / truth comparison).
 
-    Each scene is translated along x by its own width plus a gap (35 % of the median character
-    size), so relative sizes stay true. With ``ncols`` the lineup wraps into rows rendered with the
-    same camera scale and stacked vertically.
+    Each scene is stood on the floor (its lowest point at ``y = 0``, unless ``stand=False``) and
+    translated along x by its own width plus a gap (35 % of the median character size), so
+    relative sizes stay true. The camera is fitted to the drawn characters. With ``ncols`` the
+    lineup wraps into rows rendered with one camera (same scale) and stacked vertically.
 
     Args:
         scenes: :class:`Scene` objects, ``(J, 3)`` arrays (with ``parents``), ``(positions, parents)``
@@ -729,37 +888,43 @@ def render_side_by_side(scenes: Sequence, titles: Sequence[str] | None = None, p
         window_size: ``(width, height)`` of one row (default: 640x400 up to 3 characters, wider after).
         ncols: characters per row (default all in one row).
         parallel: orthographic projection.
+        stand: put every character's lowest point on the floor.
 
     Returns:
         ``(H, W, 3)`` uint8 image (``rows * height`` tall).
     """
     sc = [as_scene(s, parents) for s in scenes]
+    size = float(np.median([s.size() for s in sc]))
+    if stand:
+        sc = [stand_on_floor(s, size) for s in sc]
     titles = list(titles) if titles is not None else [s.title for s in sc]
     n = len(sc)
     ncols = min(ncols or n, n)
     if window_size is None:
         window_size = (int(min(max(640, 210 * ncols), 1600)), 400 if ncols <= 6 else 360)
     rows = [list(range(i, min(i + ncols, n))) for i in range(0, n, ncols)]
-    # all rows share one box size (the widest row), so sizes stay comparable across rows
     placed = [layout_row([sc[i] for i in row], gap) for row in rows]
-    widths = [np.ptp(np.concatenate([s.points() for s in p])[:, 0]) for p in placed]
-    span = placed[int(np.argmax(widths))]
-    size = float(np.median([s.size() for s in sc]))
-    lo_all, hi_all = scene_bounds(span, size)
-    if any(titles):  # room for labels wider than the outer characters
-        lo_all, hi_all = lo_all - [0.3 * size, 0, 0], hi_all + [0.3 * size, 0, 0]
-    images = []
-    for row, p in zip(rows, placed):
-        lo, hi = scene_bounds(p, size)
-        lo = np.array([lo_all[0], min(lo[1], lo_all[1]), lo[2]])
-        hi = np.array([hi_all[0], max(hi[1], hi_all[1]) + (0.14 * size if any(titles) else 0), hi[2]])
-        r = SceneRenderer(window_size, view, parallel, True, True, font_size)
-        try:
+    renderers = [SceneRenderer(window_size, view, parallel, True, True, font_size) for _ in rows]
+    try:
+        for r, p in zip(renderers, placed):
             r.update(p, size)
-            r.frame(lo, hi, size)
-            r.set_titles([titles[i] for i in row], [_title_anchor(s, size) for s in p])
+        # one camera for all rows (fitted to their overlaid geometry), so sizes stay comparable
+        points = np.concatenate([hull_points(r.drawn_points()) for r in renderers])
+        floor = 0.0 if stand else None
+        lo, hi = scene_bounds([s for p in placed for s in p], size)
+        band = 0
+        for r, row, p in zip(renderers, rows, placed):
+            if any(titles[i] for i in row):
+                r.frame(lo, hi, size, points=points, floor=floor, top_px=r.title_band(1))
+                band = max(band, r.set_titles([titles[i] for i in row], [_title_anchor(s, size) for s in p]))
+        images = []
+        for r, row, p in zip(renderers, rows, placed):
+            r.frame(lo, hi, size, points=points, floor=floor, top_px=r.title_band(band) if band else 0.0)
+            if band:
+                r.set_titles([titles[i] for i in row], [_title_anchor(s, size) for s in p])
             images.append(r.screenshot())
-        finally:
+    finally:
+        for r in renderers:
             r.close()
     return np.concatenate(images, axis=0)
 
@@ -802,3 +967,86 @@ def save_png(image: np.ndarray, path, max_kb: float | None = 150) -> Path:
     if max_kb is not None and path.stat().st_size > max_kb * 1024:
         im.quantize(colors=256, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE).save(path, optimize=True)
     return path
+
+
+# ------------------------------------------------------------------- colour keys for renders
+def _strip(fig) -> np.ndarray:
+    from .knobs import figure_image
+
+    return figure_image(fig)
+
+
+def _beside(image: np.ndarray, strip: np.ndarray) -> np.ndarray:
+    """``image`` with ``strip`` pasted on its right (white-padded to the same height)."""
+    h = max(image.shape[0], strip.shape[0])
+    pad = lambda im: np.concatenate([im, np.full((h - im.shape[0], im.shape[1], 3), 255, np.uint8)], 0)
+    return np.concatenate([pad(np.asarray(image, np.uint8)), pad(strip)], axis=1)
+
+
+def add_colorbar(image: np.ndarray, cmap, clim: tuple[float, float], label: str, width_px: int = 110,
+                 extend: str = "neither") -> np.ndarray:
+    """A render with a vertical colorbar on its right (for meshes coloured by ``scalars``).
+
+    Args:
+        image: ``(H, W, 3)`` uint8 render.
+        cmap: the colormap name (or object) the render used.
+        clim: ``(low, high)`` the render's colour range.
+        label: what the colour means, with its unit.
+        width_px: width of the added strip.
+        extend: ``"max"`` etc. when values beyond ``clim`` were clipped (drawn as an arrow).
+
+    Returns:
+        ``(H, W + width_px, 3)`` uint8.
+    """
+    import matplotlib.pyplot as plt
+    from matplotlib.cm import ScalarMappable
+    from matplotlib.colors import Normalize
+
+    h = image.shape[0]
+    dpi = 100
+    fig = plt.figure(figsize=(width_px / dpi, h / dpi), dpi=dpi)
+    ax = fig.add_axes([0.12, 0.08, 0.16, 0.84])
+    bar = fig.colorbar(ScalarMappable(Normalize(*clim), cmap), cax=ax, extend=extend)
+    bar.set_label(label, fontsize=10)
+    bar.ax.tick_params(labelsize=9)
+    return _beside(image, _strip(fig))
+
+
+def add_legend(image: np.ndarray, labels: Sequence[str], colors: Sequence, title: str | None = None,
+               ncol: int = 1, width_px: int = 150) -> np.ndarray:
+    """A render with a legend of coloured patches on its right (for categorical colours).
+
+    Args:
+        image: ``(H, W, 3)`` uint8 render.
+        labels: one name per colour.
+        colors: matplotlib colours, same order.
+        title: legend title.
+        ncol: legend columns.
+        width_px: width of the added strip.
+
+    Returns:
+        ``(H, W + width_px, 3)`` uint8.
+    """
+    import matplotlib.pyplot as plt
+    from matplotlib.patches import Patch
+
+    h = image.shape[0]
+    dpi = 100
+    fig = plt.figure(figsize=(width_px / dpi, h / dpi), dpi=dpi)
+    fig.legend([Patch(color=c) for c in colors], labels, loc="center left", bbox_to_anchor=(0.0, 0.5),
+               ncol=ncol, fontsize=9, title=title, title_fontsize=9, frameon=False, handlelength=1.0,
+               columnspacing=0.8, labelspacing=0.25)
+    return _beside(image, _strip(fig))
+
+
+def categorical_colors(n: int) -> np.ndarray:
+    """``(n, 3)`` RGB colours that stay distinct for up to 24 categories (tab10, then the dark
+    and the light shades of tab20b, then two of tab20c that differ from all of those), in a
+    fixed order."""
+    base = [colormaps["tab10"](i)[:3] for i in range(10)]
+    extra = [colormaps["tab20b"](i)[:3] for i in (0, 4, 8, 12, 16, 2, 6, 10, 14, 18)]
+    extra += [colormaps["tab20c"](i)[:3] for i in (12, 2, 9, 17)]
+    table = np.array(base + extra)
+    if n > len(table):
+        raise ValueError(f"categorical_colors: at most {len(table)} categories, got {n}")
+    return table[:n]

@@ -474,6 +474,10 @@ def _sample_sdf(parts: list[list[_Primitive]], spacing: float,
     return values, lo
 
 
+#: smallest |signed distance| kept at a grid point, in grid cells (see :func:`_extract_mesh`)
+_SURFACE_CLEARANCE = 0.02
+
+
 def _extract_mesh(parts: list[list[_Primitive]], spacing: float, blend: float,
                   target_vertices: int) -> tuple[np.ndarray, np.ndarray]:
     """Marching cubes of the smooth union, largest component, decimated to ~``target_vertices``.
@@ -482,8 +486,13 @@ def _extract_mesh(parts: list[list[_Primitive]], spacing: float, blend: float,
         ``(vertices (V, 3), faces (F, 3))``, outward-facing triangles.
     """
     values, origin = _sample_sdf(parts, spacing, blend)
-    # keep the surface >= 5% of a cell away from grid points: no sliver triangles
-    values[np.abs(values) < 0.05 * spacing] = 0.05 * spacing
+    # keep the surface >= 2% of a cell away from grid points (no sliver triangles), *keeping each
+    # value's sign*: the former clamp set every |value| < 5% of a cell to +5%, which flipped the
+    # grid points just inside the surface to outside, moved the surface in steps of whole grid
+    # layers where it runs nearly parallel to them, and left stair-step terraces on the broad,
+    # gently curved torsos (bram, ivo, gus) that decimation kept
+    near = np.abs(values) < _SURFACE_CLEARANCE * spacing
+    values[near] = np.where(values[near] < 0.0, -_SURFACE_CLEARANCE, _SURFACE_CLEARANCE) * spacing
     verts, faces, _, _ = marching_cubes(values, level=0.0, spacing=(spacing,) * 3)
     mesh = trimesh.Trimesh(verts + origin, faces, process=True)
     mesh = max(mesh.split(only_watertight=False), key=lambda m: len(m.vertices))
