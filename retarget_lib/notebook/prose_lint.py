@@ -161,10 +161,11 @@ def scan_markdown(source: str, cell: int = 0) -> list[Violation]:
         for kind, pattern in PATTERNS.items():
             for m in pattern.finditer(rest):
                 token = m.group(0).strip()
+                # one report per place (a ratio or unit also contains its decimal), and an allowed
+                # "0.3 m" allows its "0.3"
+                rest = rest[:m.start()] + " " * (m.end() - m.start()) + rest[m.end():]
                 if _norm(token) in allowed:
                     continue
-                # one report per place: a ratio or unit also contains its decimal
-                rest = rest[:m.start()] + " " * (m.end() - m.start()) + rest[m.end():]
                 context = " ".join(sentence.split())
                 found.append(Violation(cell, kind, token, context if len(context) < 160 else context[:157] + "..."))
     return found
