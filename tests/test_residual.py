@@ -84,10 +84,8 @@ def test_untrained_residual_tdcn_is_copy_and_same_skeleton_is_identity():
 def test_residual_georet_starts_at_the_source_rotations():
     from retarget_lib.models.georet import GeometryConditionedRNN, ResidualBase, motion_features
 
-    model = GeometryConditionedRNN(hidden=32, geometry=16, residual=True).eval()
-    with torch.no_grad():
-        model.rotation_head.weight.zero_()
-        model.velocity_head.weight.zero_()
+    model = GeometryConditionedRNN(hidden=32, geometry=16, residual=True).eval()  # as initialised
+    assert not model.rotation_head.weight.any() and not model.velocity_head.weight.any()
     q = random_quats(1, 8, 22, seed=4).float()
     root = torch.cumsum(torch.randn(1, 8, 3) * 0.01, 1)
     off = torch.randn(22, 3) * 0.1

@@ -318,9 +318,10 @@ class GeometryConditionedRNN(nn.Module):
         residual: our variant (not the paper's): the rotation head predicts per-joint alignments
             ``C_j`` and the output is ``θ^B_j = C_p⁻¹ θ^A_j C_j``
             (:func:`~retarget_lib.core.kinematics.align_local_rotations`), the velocity head a
-            correction of ``o^(A→B)``; both start close to no change (biases at the identity,
-            head weights scaled by 0.01), so the untrained network is close to its base, the
-            rest-compensated copy (Eweak ≈ 0). Needs a :class:`ResidualBase` in every call.
+            correction of ``o^(A→B)``; both start at exactly no change (biases at the identity,
+            head weights zero, as the last layer of a residual branch is usually initialised), so
+            the untrained network *is* its base, the rest-compensated copy (Eweak = 0). The
+            paper-form heads start small (weights scaled by 0.01). Needs a :class:`ResidualBase` in every call.
     """
 
     def __init__(self, joints: int = NUM_JOINTS, hidden: int = 512, layers: int = 2, geometry: int = 256,
@@ -340,10 +341,10 @@ class GeometryConditionedRNN(nn.Module):
         self.dropout = nn.Dropout(dropout)
         self.rotation_head = nn.Linear(hidden, 6 * joints)  # f_θ, 6D per joint
         self.velocity_head = nn.Linear(hidden, 3)  # f_o, o^B / h_B
-        with torch.no_grad():
-            self.rotation_head.weight.mul_(0.01)
+        with torch.no_grad():  # residual: heads at exactly zero, so the untrained network is its base
+            for head in (self.rotation_head, self.velocity_head):
+                head.weight.mul_(0.0 if self.residual else 0.01)
             self.rotation_head.bias.copy_(torch.tensor([1.0, 0, 0, 0, 1.0, 0]).repeat(joints))
-            self.velocity_head.weight.mul_(0.01)
             self.velocity_head.bias.zero_()
 
     # ------------------------------------------------------------------ step API (ESO)
