@@ -40,6 +40,18 @@ def test_grouped_barh_linear_draws_every_finite_value_from_zero():
     plt.close(ax.figure)
 
 
+def test_grouped_barh_ratio_bars_start_at_the_base():
+    ratios = pd.DataFrame({"here": [2.0, 0.5]}, index=["A1", "A3"])
+    ax = plot_grouped_barh(ratios, log=True, base=1.0)
+    assert [p.get_x() for p in ax.patches] == [1.0, 1.0]
+    assert [p.get_width() for p in ax.patches] == [1.0, -0.5]  # right when worse, left when better
+    lo, hi = ax.get_xlim()
+    assert lo < 0.5 and hi > 2.0
+    ax.figure.canvas.draw()
+    assert len([t for t in ax.get_xticklabels() if t.get_text()]) >= 3  # 1-2-5 labels on a short log axis
+    plt.close(ax.figure)
+
+
 def test_training_budget_reads_each_checkpoint():
     from retarget_lib.data.checkpoints import load_state
     from retarget_lib.data.manifest import table_checkpoints

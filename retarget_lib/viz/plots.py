@@ -94,22 +94,30 @@ def plot_skeleton_mpl(positions: np.ndarray, parents: Sequence[int], ax=None, vi
     return ax
 
 
-def plain_log_ticks(axis) -> None:
+def plain_log_ticks(axis, subs: Sequence[float] | None = None) -> None:
     """Label a log axis with plain numbers (``0.01, 0.1, 1, 10``) instead of ``10^k`` and ``4×10^0``.
+
+    Call it after the data are drawn (the automatic choice reads the axis' current limits).
 
     Args:
         axis: ``ax.xaxis`` or ``ax.yaxis`` of a log-scaled Axes.
+        subs: labelled multiples of each power of ten; default ``(1, 2, 5)`` when the axis spans
+            less than about two and a half decades (so it has several labels), else ``(1,)``.
     """
     from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
-    axis.set_major_locator(LogLocator(base=10.0, numticks=12))
+    if subs is None:
+        lo, hi = sorted(axis.get_view_interval())
+        subs = (1.0, 2.0, 5.0) if lo > 0 and hi / lo < 300 else (1.0,)
+    axis.set_major_locator(LogLocator(base=10.0, subs=tuple(subs), numticks=12))
     axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
     axis.set_minor_formatter(NullFormatter())
 
 
 def plot_grouped_barh(values, ax=None, log: bool = False, xlabel: str = "", title: str = "",
                       colors: Sequence | None = None, reference: float | None = None,
-                      reference_label: str | None = None, legend: bool = True, fontsize: float = 10):
+                      reference_label: str | None = None, legend: bool = True, fontsize: float = 10,
+                      base: float | None = None):
     """Horizontal grouped bars: one group per row of ``values`` (top to bottom, labels read
     horizontally), one colour per column, named in a legend.
 
@@ -130,6 +138,9 @@ def plot_grouped_barh(values, ax=None, log: bool = False, xlabel: str = "", titl
         reference_label: legend entry of the reference line.
         legend: draw the legend.
         fontsize: tick-label size in points (>= 9 for a readable figure).
+        base: where the bars start (default: 0 on a linear axis, below the smallest value on a log
+            axis); e.g. ``1`` for ratios, so a bar points right when the ratio is above 1 and left
+            when below.
 
     Returns:
         the Axes.
@@ -144,14 +155,18 @@ def plot_grouped_barh(values, ax=None, log: bool = False, xlabel: str = "", titl
     height = 0.8 / max(n_cols, 1)
     y = np.arange(n_rows)
     positive = frame.to_numpy()[np.isfinite(frame.to_numpy()) & (frame.to_numpy() > 0)]
-    floor = positive.min() / 3 if log and positive.size else 0.0
+    lowest = positive.min() if positive.size else 1.0
+    if base is not None:
+        lowest = min(lowest, base)
+    floor = lowest / 3 if log else 0.0
+    start = base if base is not None else floor
     handles = []
     for k, column in enumerate(frame.columns):
         offset = (k - (n_cols - 1) / 2) * height
         v = frame[column].to_numpy()
         drawn = np.isfinite(v) & ((v > 0) if log else True)
-        handles.append(ax.barh(y[drawn] + offset, v[drawn] - floor, height, left=floor, color=colors[k % len(colors)],
-                label=str(column)))
+        handles.append(ax.barh(y[drawn] + offset, v[drawn] - start, height, left=start,
+                               color=colors[k % len(colors)], label=str(column)))
         for row in np.flatnonzero(np.isfinite(v) & ~drawn):  # zero or negative on a log axis
             ax.text(floor, y[row] + offset, " 0", va="center", ha="left", fontsize=fontsize - 1,
                     color=colors[k % len(colors)])
@@ -164,8 +179,8 @@ def plot_grouped_barh(values, ax=None, log: bool = False, xlabel: str = "", titl
     ax.set_ylim(n_rows - 0.5, -0.5)  # first row on top
     if log:
         ax.set_xscale("log")
-        if positive.size:
-            ax.set_xlim(floor, positive.max() * 2)
+        top = max(positive.max(), base or 0.0) * 2 if positive.size else 10.0
+        ax.set_xlim(floor, top)
         plain_log_ticks(ax.xaxis)
     ax.grid(True, axis="x", which="major", alpha=0.3)
     ax.grid(False, axis="y")
