@@ -8,7 +8,8 @@ from .diagrams import (eso_loop_diagram, georet_diagram, layout_problems, method
 from .display import png_bytes, show, show_gif
 from .knobs import Knob, figure_image, knob
 from .player import Player, player
-from .plots import plot_root_trajectories, plot_skeleton_mpl, plot_timeline
+from .plots import (plain_log_ticks, plot_grouped_barh, plot_root_trajectories, plot_skeleton_mpl,
+                    plot_timeline)
 from .render import (PALETTE, VIEWS, Scene, SceneRenderer, configure_offscreen, render_filmstrip,
                      render_mesh, render_scenes, render_side_by_side, render_skeleton, save_png)
 from .render import add_colorbar, add_legend, categorical_colors, fit_camera, stand_on_floor
@@ -21,4 +22,5 @@ __all__ = [
     "patch_discriminator_diagram", "nkn_diagram", "georet_diagram", "eso_loop_diagram", "method_dataflow_diagram",
     "layout_problems",
     "add_colorbar", "add_legend", "categorical_colors", "fit_camera", "stand_on_floor",
+    "plot_grouped_barh", "plain_log_ticks",
 ]
