@@ -72,8 +72,11 @@ def _table4_rows():
     return TABLE4_ROWS
 
 
+#: ``data.source`` values: the embedded synthetic split, a reviewer's Mixamo folder, or both
+DATA_SOURCES = ("synthetic", "mixamo-local", "mixamo-local+synthetic")
+
+
 def _data_sources():
-    from .training.tdcn import DATA_SOURCES
     return DATA_SOURCES
 
 

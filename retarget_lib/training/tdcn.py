@@ -106,6 +106,7 @@ from typing import Mapping, NamedTuple, Sequence
 
 import torch
 
+from ..config_schema import DATA_SOURCES
 from ..core.motion import Motion
 from ..core.rotations import quat_from_axis_angle, quat_mul, quat_rotate
 from ..core.skeleton import Skeleton
@@ -189,10 +190,6 @@ class TrainingClips:
         if starts.numel() == 0:
             raise ValueError(f"no training clip has {window} frames")
         return starts
-
-
-#: ``data.source`` values: the embedded synthetic split, a reviewer's Mixamo folder, or both
-DATA_SOURCES = ("synthetic", "mixamo-local", "mixamo-local+synthetic")
 
 
 def stack_clips(skeletons: Mapping[str, Skeleton], clips: Sequence[tuple[Motion, Mapping[str, Motion]]]) -> TrainingClips:
