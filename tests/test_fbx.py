@@ -261,17 +261,25 @@ def _tool(env: str, default: str | None) -> str | None:
     return path if path and Path(path).exists() else None
 
 
+def _manny_fbx(tmp_path, fps: float):
+    """An Unreal-named rig (extra and weightless joints) on kato's body, one second of random motion
+    at ``fps``, written to ``tmp_path/manny.fbx``: what the external readers are given."""
+    character = make_character("kato")
+    rig, _ = _unreal_rig(character)
+    frames = int(fps)
+    motion = rig.motion_from_canonical(random_motion(character.skeleton, frames=frames, deg=40.0, fps=fps))
+    path = tmp_path / "manny.fbx"
+    save_fbx(rig, path, motion)
+    return rig, motion, path
+
+
 BPY_PYTHON = _tool("RETARGET_BPY_PYTHON", "/work/bpy-venv/bin/python")
 FBX2GLTF = _tool("RETARGET_FBX2GLTF", str(Path(sys.prefix) / "node" / "node_modules" / "fbx2gltf" / "bin" / "Linux" / "FBX2glTF"))
 
 
 @pytest.mark.skipif(BPY_PYTHON is None, reason="no Python with Blender's bpy (set RETARGET_BPY_PYTHON)")
 def test_blender_imports_the_armature_mesh_weights_and_action(tmp_path):
-    character = make_character("kato")
-    rig, _ = _unreal_rig(character)
-    motion = rig.motion_from_canonical(random_motion(character.skeleton, frames=24, deg=40.0, fps=24.0))
-    path = tmp_path / "manny.fbx"
-    save_fbx(rig, path, motion)
+    rig, motion, path = _manny_fbx(tmp_path, fps=24.0)
     probe = Path(__file__).with_name("blender_fbx_probe.py")
     run = subprocess.run([BPY_PYTHON, str(probe), str(path)], capture_output=True, text=True, timeout=300,
                          env={**os.environ, "OMP_NUM_THREADS": "1"})
@@ -301,11 +309,7 @@ def test_blender_imports_the_armature_mesh_weights_and_action(tmp_path):
 
 @pytest.mark.skipif(FBX2GLTF is None, reason="no FBX2glTF (the Autodesk FBX SDK's converter): run .ci/node-deps.sh or set RETARGET_FBX2GLTF")
 def test_the_autodesk_fbx_sdk_reads_it(tmp_path):
-    character = make_character("kato")
-    rig, _ = _unreal_rig(character)
-    motion = rig.motion_from_canonical(random_motion(character.skeleton, frames=30, deg=40.0, fps=30.0))
-    path = tmp_path / "manny.fbx"
-    save_fbx(rig, path, motion)
+    rig, motion, path = _manny_fbx(tmp_path, fps=30.0)
     run = subprocess.run([FBX2GLTF, "--binary", "--anim-framerate", "bake30", "--input", str(path), "--output",
                           str(tmp_path / "sdk")], capture_output=True, text=True, timeout=300)
     assert run.returncode == 0 and "Warning" not in run.stdout + run.stderr, run.stdout + run.stderr
