@@ -20,7 +20,9 @@ import tempfile
 import time
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Iterator
+from typing import Iterable, Iterator
+
+import numpy as np
 
 from .errors import InputFileError, OutputPathError
 
@@ -52,6 +54,24 @@ def sha256_file(path: str | os.PathLike) -> str:
     with open(path, "rb") as f:
         for chunk in iter(lambda: f.read(1 << 20), b""):
             h.update(chunk)
+    return h.hexdigest()
+
+
+def quantised_sha256(arrays: Iterable[tuple[str, np.ndarray]], per_unit: float) -> str:
+    """Hex SHA-256 of named arrays, floats rounded to ``1 / per_unit`` first, so that last-bit float
+    differences between CPUs do not change it while any real change does.
+
+    Args:
+        arrays: ``(name, array)`` pairs, hashed in the order given (names too).
+        per_unit: quantisation steps per unit (``1e4``: 0.1 mm for metres).
+    """
+    h = hashlib.sha256()
+    for name, a in arrays:
+        a = np.asarray(a)
+        if a.dtype.kind == "f":
+            a = np.round(a.astype(np.float64) * per_unit).astype(np.int64)
+        h.update(name.encode())
+        h.update(np.ascontiguousarray(a).tobytes() if a.dtype.kind != "U" else str(a).encode())
     return h.hexdigest()
 
 

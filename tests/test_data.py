@@ -10,7 +10,7 @@ from retarget_lib.data.synthetic.characters import CHARACTER_NAMES
 from retarget_lib.data.synthetic.dataset import (dataset_path, fingerprint_of, load_synthetic, read_dataset,
                                                  save_dataset)
 from retarget_lib.data.synthetic.motions import MOTION_FAMILIES
-from retarget_lib.files import DataError, atomic_write, check_sha256, sha256_file
+from retarget_lib.files import DataError, atomic_write, check_sha256, quantised_sha256, sha256_file
 
 
 @pytest.fixture(scope="module")
@@ -144,3 +144,12 @@ def test_checkpoint_lookup_checks_presence_and_checksum(tmp_path, monkeypatch):
         assert [s.verified for s in status.check_checkpoints()] == [False]
     finally:
         manifest.load_manifest.cache_clear()
+
+
+def test_quantised_sha256_ignores_float_noise_but_not_real_changes():
+    a = np.linspace(0.0, 1.0, 101).reshape(-1, 1) + 0.123
+    digest = quantised_sha256([("x", a)], 1e4)
+    assert quantised_sha256([("x", a + 1e-12)], 1e4) == digest        # last-bit noise of another CPU
+    assert quantised_sha256([("x", a + 1e-3)], 1e4) != digest         # ten quantisation steps
+    assert quantised_sha256([("y", a)], 1e4) != digest                # names count
+    assert quantised_sha256([("x", a.astype(np.float32))], 1e4) == digest

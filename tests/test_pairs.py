@@ -7,7 +7,8 @@ import torch
 from retarget_lib.core.rotations import quat_conjugate, quat_mul
 from retarget_lib.core.skeleton import FOOT_CONTACT_JOINTS
 from retarget_lib.core.skeleton import CANONICAL22, J, JointSetError, Skeleton
-from retarget_lib.core.transfer import PRIMARY_CHILD, rest_alignment, retarget_ground_truth
+from retarget_lib.core.transfer import (PRIMARY_CHILD, change_rest_pose, random_rest_rotations, rest_alignment,
+                                        retarget_ground_truth)
 from retarget_lib.data.splits import MotionId, tdcn_splits
 from retarget_lib.data.synthetic.motions import MOTION_FAMILIES, make_motion
 from retarget_lib.geometry.ik import apply_foot_contact_ik
@@ -89,6 +90,28 @@ def test_copy_baselines(source):
     gt = retarget_ground_truth(source, T_POSE)
     np.testing.assert_allclose(compensated.rotations, gt.rotations)
     assert compensated.meta["retargeted"] == "copy_rest_compensated" != gt.meta["retargeted"]
+
+
+def test_a_changed_rest_pose_moves_no_joint_in_any_frame(source):
+    offsets = torch.from_numpy(source.skeleton.offsets)[None]
+    turns = random_rest_rotations(offsets, 30.0, torch.Generator().manual_seed(3)).double()
+    q, moved = change_rest_pose(torch.from_numpy(source.rotations)[None], offsets, turns)
+    changed = source.copy(skeleton=Skeleton(list(CANONICAL22), source.skeleton.parents, moved[0].numpy()),
+                          rotations=q[0].numpy())
+    # float64 quaternion products: 1e-9 m is far below any rounding that would matter
+    np.testing.assert_allclose(changed.global_positions(), source.global_positions(), atol=1e-9)
+    # the rest pose really changed: bones swing, lengths do not, leaves keep their frame
+    rest_old, rest_new = source.skeleton.rest_positions(), changed.skeleton.rest_positions()
+    assert np.abs(rest_new - rest_old).max() > 0.05
+    np.testing.assert_allclose(np.linalg.norm(moved[0], axis=-1), np.linalg.norm(offsets[0], axis=-1), atol=1e-12)
+    for leaf in (J["Head"], J["LeftHand"], J["LeftToeBase"]):
+        assert turns[0, leaf, 0] == 1.0
+    # the swing of a bone is perpendicular to it: the bone's angle is at most the 30° drawn
+    for j, c in enumerate(PRIMARY_CHILD):
+        if c >= 0:
+            a, b = offsets[0, c].numpy(), moved[0, c].numpy()
+            angle = np.degrees(np.arccos(np.clip(a @ b / np.linalg.norm(a) / np.linalg.norm(b), -1, 1)))
+            assert angle <= 30.0 + 1e-6
 
 
 def test_rest_alignment_needs_canonical_joints():

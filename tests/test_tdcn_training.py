@@ -18,7 +18,7 @@ from retarget_lib.data.synthetic.dataset import load_synthetic
 from retarget_lib.losses import NonFiniteLossError
 from retarget_lib.methods.tdcn import load_generator, retarget_motion_with
 from retarget_lib.models import PROFILE_WIDTHS, NKNGenerator, TDCNGenerator
-from retarget_lib.models.features import skeleton_height
+from retarget_lib.models.features import skeleton_height, source_local_positions
 from retarget_lib.training.loop import fit, load_checkpoint
 from retarget_lib.training.tdcn import RetargetTraining, WindowSampler, training_clips
 
@@ -51,7 +51,8 @@ def test_paper_settings_and_every_table4_row_config():
     assert paper["model"]["channels"] == 1024 and paper["model"]["dropout"] == 0.1
     assert paper["train"]["batch"] == 128 and paper["train"]["lr"] == 1e-4 and paper["train"]["betas"] == [0.5, 0.999]
     assert paper["data"] == {"window": 81, "same_fraction": 0.5, "scale_range": [0.5, 1.5], "scale_targets": True,
-                             "mirror": False, "random_yaw": False, "source": "synthetic"}
+                             "mirror": False, "random_yaw": False, "rest_jitter_deg": 0.0,
+                             "source": "synthetic"}
     assert {k: paper["loss"][k] for k in ("lambda_t", "lambda_h", "lambda_a", "lambda_r", "lambda_o", "lambda_g")} \
         == {"lambda_t": 10, "lambda_h": 10, "lambda_a": 1, "lambda_r": 0.1, "lambda_o": 1, "lambda_g": 5}
     assert sorted(p.stem for p in CONFIGS.glob("tdcn_*.yaml")) == sorted(ROWS)
@@ -116,6 +117,23 @@ def test_sampler_pairs_scales_and_centring():
     assert torch.equal(unbalanced.scale_source, torch.ones(500))
     assert torch.equal(unbalanced.scale_target, torch.ones(500))
     assert torch.equal(unbalanced.offsets_source, clips.offsets[unbalanced.source])
+
+
+def test_rest_jitter_changes_rest_poses_not_the_motion():
+    clips = training_clips()
+    plain = WindowSampler(clips, window=81).sample(64, torch.Generator().manual_seed(5))
+    jittered = WindowSampler(clips, window=81, rest_jitter_deg=30.0).sample(64, torch.Generator().manual_seed(5))
+    assert torch.equal(plain.source, jittered.source) and torch.equal(plain.target, jittered.target)
+    # the same windows: root-relative joints agree (float32 FK of 22 joints: 1e-5 m)
+    for q0, o0, q1, o1 in ((plain.rotations, plain.offsets_source, jittered.rotations, jittered.offsets_source),
+                           (plain.real_rotations, plain.offsets_target, jittered.real_rotations,
+                            jittered.offsets_target)):
+        assert torch.allclose(source_local_positions(q0, o0), source_local_positions(q1, o1), atol=1e-5)
+    moved = (jittered.offsets_source - plain.offsets_source).norm(dim=-1).amax(-1) > 1e-4
+    assert 0.25 < moved.float().mean() < 0.75                          # about half the sources
+    assert torch.equal(jittered.offsets_target[jittered.same_character],
+                       jittered.offsets_source[jittered.same_character])  # A = B: one rest pose
+    assert torch.allclose(skeleton_height(jittered.offsets_source), skeleton_height(plain.offsets_source))
 
 
 def read_log(path):

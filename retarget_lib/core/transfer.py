@@ -22,7 +22,8 @@ import torch
 
 from .motion import Motion
 from .quantities import leg_ratio
-from .rotations import frame_rotation, quat_between, quat_canonical, quat_conjugate, quat_identity, quat_mul
+from .rotations import (frame_rotation, quat_between, quat_canonical, quat_conjugate, quat_from_axis_angle,
+                        quat_identity, quat_mul, quat_rotate)
 from .skeleton import CANONICAL22, CANONICAL22_PARENTS, J, JointSetError, Skeleton, canonical22_skeleton
 
 __all__ = [
@@ -32,6 +33,8 @@ __all__ = [
     "transfer_rotations",
     "retarget_ground_truth",
     "canonical_rest_skeleton",
+    "change_rest_pose",
+    "random_rest_rotations",
 ]
 
 #: the child whose bone defines each canonical joint's rest direction (-1: leaf, uses its parent's)
@@ -105,6 +108,63 @@ def transfer_rotations(rotations: np.ndarray, source: Skeleton, target: Skeleton
     c_parent = torch.cat((root, c[list(CANONICAL22_PARENTS[1:])]))
     q = torch.from_numpy(np.asarray(rotations, dtype=np.float64))
     return quat_canonical(quat_mul(quat_conjugate(c_parent), quat_mul(q, c))).numpy()
+
+
+def change_rest_pose(rotations: torch.Tensor, offsets: torch.Tensor, turns: torch.Tensor,
+                     parents: tuple[int, ...] = CANONICAL22_PARENTS) -> tuple[torch.Tensor, torch.Tensor]:
+    """The same motion on the same character with a different rest pose.
+
+    Every child offset of joint ``j`` is turned by ``R_j`` (``s̄'_c = R_p(c) s̄_c``; the root's
+    own offset is kept), and the local rotations become ``q'_j = R_p(j) q_j R_j⁻¹`` (``R`` of the
+    root's parent = 1): then ``G'_j = G_j R_j⁻¹`` and ``G'_j s̄'_c = G_j s̄_c``, so every joint is
+    at exactly the same place in every frame. It is the inverse view of
+    :func:`transfer_rotations` (``R_j = C_j⁻¹``): the rest pose is a convention of the file, not
+    of the motion, which is why a retargeter must compensate it (A-pose arms, splayed CMU legs).
+
+    Args:
+        rotations: ``(..., T, J, 4)`` local unit quaternions (wxyz).
+        offsets: ``(..., J, 3)`` rest offsets.
+        turns: ``(..., J, 4)`` unit ``R_j``; identity rows leave a joint's rest frame alone.
+        parents: ``J`` parent indices (root first, ``-1``).
+
+    Returns:
+        ``(rotations' (..., T, J, 4), offsets' (..., J, 3))``.
+    """
+    root = quat_identity(turns.shape[:-2] + (1,), dtype=turns.dtype, device=turns.device)
+    turn_parent = torch.cat((root, turns[..., list(parents[1:]), :]), -2)
+    moved = torch.cat((offsets[..., :1, :], quat_rotate(turn_parent[..., 1:, :], offsets[..., 1:, :])), -2)
+    q = quat_mul(turn_parent.unsqueeze(-3), quat_mul(rotations, quat_conjugate(turns).unsqueeze(-3)))
+    return q, moved
+
+
+def random_rest_rotations(offsets: torch.Tensor, max_degrees: float,
+                          generator: torch.Generator | None = None) -> torch.Tensor:
+    """Random rest-pose changes ``R`` for :func:`change_rest_pose` (training augmentation).
+
+    Each joint with a bone (:data:`PRIMARY_CHILD`) swings it by an angle uniform in
+    ``[0, max_degrees]`` about a random axis perpendicular to the bone (a turn about the bone
+    itself would move no joint); the hips and the chest turn their whole frame about a random
+    axis. Leaves (head, hands, toes) keep theirs.
+
+    Args:
+        offsets: ``(B, J, 3)`` canonical-22 rest offsets.
+        max_degrees: largest swing.
+        generator: torch RNG (default the global one).
+
+    Returns:
+        ``(B, J, 4)`` unit wxyz, float32.
+    """
+    b = offsets.shape[0]
+    has_bone = torch.tensor([c >= 0 for c in PRIMARY_CHILD])
+    bone = offsets[:, [max(c, 0) for c in PRIMARY_CHILD]]                   # (B, J, 3)
+    axis = torch.randn(b, len(PRIMARY_CHILD), 3, generator=generator)
+    swing = axis - bone * (axis * bone).sum(-1, keepdim=True) / (bone * bone).sum(-1, keepdim=True).clamp_min(1e-12)
+    frame_joint = torch.zeros(len(PRIMARY_CHILD), dtype=torch.bool)
+    frame_joint[list(ACROSS_PAIR)] = True
+    axis = torch.where(frame_joint[:, None], axis, swing)
+    axis = axis / axis.norm(dim=-1, keepdim=True).clamp_min(1e-12)
+    angle = torch.rand(b, len(PRIMARY_CHILD), 1, generator=generator) * np.radians(max_degrees)
+    return quat_from_axis_angle(axis * angle * has_bone[:, None])
 
 
 def retarget_ground_truth(motion: Motion, target_skeleton: Skeleton) -> Motion:

@@ -10,7 +10,6 @@ Source contacts are detected once per clip and cached (``.cache/contact_training
 
 from __future__ import annotations
 
-import hashlib
 
 import os
 from dataclasses import dataclass
@@ -27,7 +26,7 @@ from ..core.skinning import subsample_mesh
 from ..core.transfer import transfer_rotations
 from ..data.checkpoints import load_state
 from ..devices import module_device, resolve_device
-from ..files import atomic_write, cache_dir
+from ..files import atomic_write, cache_dir, quantised_sha256
 from ..geometry.contacts import SelfContacts, detect_foot_contacts, detect_self_contacts, transfer_contacts
 from ..geometry.penetration import InterpenetrationEnergy
 from ..models.georet import GeometryConditionedRNN, ResidualBase, motion_features, pose_outputs
@@ -69,12 +68,9 @@ class ContactClip:
 
 
 def _motion_digest(motion: Motion) -> str:
-    """12 hex digits of sha256 over the clip's rotations and root path rounded to 1e-5 (float noise
-    across CPUs does not change it)."""
-    h = hashlib.sha256()
-    for a in (motion.rotations, motion.root_positions):
-        h.update(np.round(np.asarray(a, dtype=np.float64), 5).tobytes())
-    return h.hexdigest()[:12]
+    """12 hex digits of :func:`~retarget_lib.files.quantised_sha256` over the clip's rotations and
+    root path at 1e-5 (float noise across CPUs does not change it)."""
+    return quantised_sha256((("rotations", motion.rotations), ("root_positions", motion.root_positions)), 1e5)[:12]
 
 
 def _detected_contacts(motion: Motion, character: Character, cache_key: str | None) -> tuple[np.ndarray, SelfContacts]:

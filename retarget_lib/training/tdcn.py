@@ -110,7 +110,7 @@ from ..config_schema import DATA_SOURCES
 from ..core.motion import Motion
 from ..core.rotations import quat_from_axis_angle, quat_mul, quat_rotate
 from ..core.skeleton import Skeleton
-from ..core.transfer import retarget_ground_truth
+from ..core.transfer import change_rest_pose, random_rest_rotations, retarget_ground_truth
 from ..data.checkpoints import save_state
 from ..data.manifest import mixamo_local_dir
 from ..data.splits import tdcn_split
@@ -296,11 +296,18 @@ class WindowSampler:
         random_yaw: turn every window about the vertical axis through its centre frame's root by
             a uniform random angle (our augmentation, not the paper's: the synthetic clips all
             start facing +Z, real clips face anywhere).
+        rest_jitter_deg: our augmentation, not the paper's (0 = off): half the source skeletons
+            and, independently, half the target skeletons get a random rest pose
+            (:func:`~retarget_lib.core.transfer.random_rest_rotations`, swings up to this angle)
+            with their windows re-expressed on it (:func:`~retarget_lib.core.transfer.change_rest_pose`:
+            every joint stays where it was). The synthetic characters mostly share straight-leg
+            rest poses, real files do not (CMU's legs are splayed by 20°), and a network that
+            must compensate rest poses has to see them vary. ``A = B`` pairs share one rest pose.
     """
 
     def __init__(self, clips: TrainingClips, window: int = 81, same_fraction: float = 0.5,
                  scale_range: tuple[float, float] | None = (0.5, 1.5), scale_targets: bool = True,
-                 random_yaw: bool = False):
+                 random_yaw: bool = False, rest_jitter_deg: float = 0.0):
         if len(clips.characters) < 2:
             raise ValueError("need at least two training characters")
         if not 0.0 <= same_fraction <= 1.0:
@@ -311,6 +318,9 @@ class WindowSampler:
         self.clips, self.window, self.same_fraction = clips, int(window), float(same_fraction)
         self.scale_low, self.scale_high, self.scale_targets = low, high, bool(scale_targets)
         self.random_yaw = bool(random_yaw)
+        if not 0.0 <= float(rest_jitter_deg) <= 180.0:
+            raise ValueError(f"rest_jitter_deg must be in [0, 180], got {rest_jitter_deg}")
+        self.rest_jitter_deg = float(rest_jitter_deg)
         self.starts = clips.window_starts(self.window)
 
     def _scales(self, batch: int, generator: torch.Generator | None) -> Tensor:
@@ -345,8 +355,18 @@ class WindowSampler:
         q_a, r_a = self._windows(source, scale_a, generator)
         q_real, r_real = self._windows(target, scale_b, generator)
         off = self.clips.offsets
-        return TrainingBatch(q_a, r_a, off[source] * scale_a[:, None, None], off[target] * scale_b[:, None, None],
-                             same, q_real, r_real, source, target, scale_a, scale_b)
+        off_a, off_b = off[source] * scale_a[:, None, None], off[target] * scale_b[:, None, None]
+        if self.rest_jitter_deg > 0:
+            turn_a, turn_b = (self._rest_turns(o, generator) for o in (off_a, off_b))
+            turn_b = torch.where(same[:, None, None], turn_a, turn_b)
+            (q_a, off_a), (q_real, off_b) = change_rest_pose(q_a, off_a, turn_a), change_rest_pose(q_real, off_b, turn_b)
+        return TrainingBatch(q_a, r_a, off_a, off_b, same, q_real, r_real, source, target, scale_a, scale_b)
+
+    def _rest_turns(self, offsets: Tensor, generator: torch.Generator | None) -> Tensor:
+        """``(B, J, 4)``: random rest-pose turns for half the samples, identity for the others."""
+        turns = random_rest_rotations(offsets, self.rest_jitter_deg, generator)
+        keep = torch.rand(len(offsets), generator=generator) < 0.5
+        return torch.where(keep[:, None, None], torch.tensor([1.0, 0.0, 0.0, 0.0]), turns)
 
 
 # ------------------------------------------------------------------------------- configs
@@ -407,7 +427,8 @@ class RetargetTraining:
 
     Args:
         config: merged experiment config (:func:`~retarget_lib.config.load_config`) with sections
-            ``model``, ``data`` (``window``, ``same_fraction``, ``scale_range``, ``scale_targets``),
+            ``model``, ``data`` (``window``, ``same_fraction``, ``scale_range``, ``scale_targets``,
+            optional ``mirror``, ``random_yaw``, ``rest_jitter_deg``),
             ``loss`` (``gan``, ``twist_alpha_deg``, ``lambda_*``) and ``train`` (``batch``, ``lr``,
             ``betas``).
         clips: training data (default :func:`training_clips`).
@@ -442,7 +463,8 @@ class RetargetTraining:
             root = str(mixamo_local_dir()) if source != "synthetic" else None
             clips = training_clips(bool(data.get("mirror", False)), source, root)
         self.sampler = WindowSampler(clips, data["window"], data["same_fraction"], data["scale_range"],
-                                     data["scale_targets"], bool(data.get("random_yaw", False)))
+                                     data["scale_targets"], bool(data.get("random_yaw", False)),
+                                     float(data.get("rest_jitter_deg", 0.0)))
         if self.resolved["normalize_inputs"]:
             self._fit_normalizer()
         for module in (self.generator, self.discriminator):

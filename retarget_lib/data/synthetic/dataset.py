@@ -9,7 +9,6 @@ retarget_ground_truth`) — like Mixamo, where every motion exists on every char
 
 from __future__ import annotations
 
-import hashlib
 import json
 from dataclasses import dataclass
 from functools import lru_cache
@@ -20,7 +19,7 @@ import numpy as np
 from ...core.character import Character
 from ...core.motion import Motion
 from ...core.skeleton import canonical22_skeleton
-from ...files import DataError, atomic_write, cache_dir
+from ...files import DataError, atomic_write, cache_dir, quantised_sha256
 from ..manifest import source
 from .characters import CHARACTER_NAMES, make_character
 from .motions import FPS, MOTION_FAMILIES, HandContact, body_radii_from_mesh, make_motion
@@ -174,20 +173,14 @@ def read_dataset(path: Path) -> SyntheticDataset:
 
 
 def fingerprint_of(path: Path) -> str:
-    """SHA-256 over the dataset's arrays rounded to 0.1 mm (lengths) / 1e-4 (rotations, weights).
+    """SHA-256 over the dataset's arrays rounded to 0.1 mm (lengths) / 1e-4 (rotations, weights)
+    (:func:`~retarget_lib.files.quantised_sha256`).
 
     Robust to last-bit float differences between CPUs, but any real change to a character or clip
     changes it.
     """
-    h = hashlib.sha256()
     with np.load(path, allow_pickle=False) as z:
-        for key in sorted(z.files):
-            a = z[key]
-            if a.dtype.kind == "f":
-                a = np.round(a.astype(np.float64) * 1e4).astype(np.int64)
-            h.update(key.encode())
-            h.update(np.ascontiguousarray(a).tobytes() if a.dtype.kind != "U" else str(a).encode())
-    return h.hexdigest()
+        return quantised_sha256(((key, z[key]) for key in sorted(z.files)), 1e4)
 
 
 def build_synthetic(force: bool = False) -> Path:
