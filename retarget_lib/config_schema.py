@@ -121,7 +121,7 @@ CONTACT: dict[str, Any] = {
                                    _data_sources)},
     "train": {"steps": POS_INT, "epochs": POS_INT, "batch": POS_INT, "lr": POS_NUM, "betas": BETAS,
               "lr_decay": Rule("a number in (0, 1]", lambda v: _is_num(v) and 0 < v <= 1),
-              "checkpoint_every": POS_INT},
+              "checkpoint_every": POS_INT, "compile": BOOL},
     "eso": {"iterations": NONNEG_INT, "lr": POS_NUM, "reach": POS_NUM, "blend": FRACTION},
 }
 

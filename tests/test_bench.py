@@ -42,5 +42,7 @@ def test_eso_bench_row_reports_per_frame_cost_against_the_network():
 def test_contact_training_bench_reports_windows_per_second():
     from retarget_lib.evaluation.bench import bench_contact_training
 
-    (row,) = bench_contact_training(quick=True)
-    assert "windows/s" in row.name and row.seconds > 0 and row.reference_seconds > 0
+    compiled, eager = bench_contact_training(quick=True)
+    for row in (compiled, eager):
+        assert "windows/s" in row.name and row.seconds > 0 and row.reference_seconds > 0
+    assert "compiled" in compiled.name and compiled.reference_seconds == eager.seconds

@@ -188,17 +188,23 @@ def bench_training(quick: bool = False, batch: int = 16) -> list[BenchRow]:
 
 def bench_contact_training(quick: bool = False) -> list[BenchRow]:
     """One contact-aware training step (Efull, Eqs. 1-9, of 60-frame windows at the fast profile)
-    of the residual default, beside the same step with the Eskel row's energy (no mesh terms:
-    what Ej2j, Eint and the skinned frame cost). The row name carries the throughput in windows/s."""
-    def step_time(config: str) -> tuple[float, int]:
-        cfg = load_config(REPO_ROOT / "configs" / f"{config}.yaml", profile="fast")
+    of the residual default: compiled (the fast profile's ``train.compile``, one-off compilation in
+    the warm-up) beside the same step eager, and eager beside the Eskel row's energy (no mesh
+    terms: what Ej2j, Eint and the skinned frame cost). Row names carry the throughput in windows/s."""
+    def step_time(config: str, compile: bool) -> tuple[float, int]:
+        cfg = load_config(REPO_ROOT / "configs" / f"{config}.yaml", [f"train.compile={str(compile).lower()}"],
+                          profile="fast")
         run = ContactTraining(cfg)
         return time_it(lambda: run.step(run.steps // 2), repeat=2 if quick else 5, warmup=1), run.batch
 
-    full, batch = step_time("contact_residual")
-    skeleton_only, _ = step_time("contact_eskel")
-    return [BenchRow(f"contact training step (contact_residual, Efull), fast, batch {batch}: "
-                     f"{batch / full:.1f} windows/s", full, "the same step with Eskel only (contact_eskel)",
+    compiled, batch = step_time("contact_residual", True)
+    eager, _ = step_time("contact_residual", False)
+    skeleton_only, _ = step_time("contact_eskel", False)
+    return [BenchRow(f"contact training step (contact_residual, Efull), fast, compiled decoder, batch {batch}: "
+                     f"{batch / compiled:.1f} windows/s", compiled,
+                     f"the same step eager: {batch / eager:.1f} windows/s", eager),
+            BenchRow(f"contact training step (contact_residual, Efull), fast, eager, batch {batch}: "
+                     f"{batch / eager:.1f} windows/s", eager, "the same step with Eskel only (contact_eskel)",
                      skeleton_only)]
 
 

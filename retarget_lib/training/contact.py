@@ -155,8 +155,11 @@ class ContactTraining:
         self._correspondence: dict[tuple[str, str], np.ndarray] = {}
         self._aligned: dict[tuple[str, str], Tensor] = {}
         seed_everything(int(config["seed"]))  # the initial weights depend on the config's seed only
-        self.model = prepare_module(model_from_config(config), self.device, layout)
+        model = model_from_config(config)
         t = config["train"]
+        if bool(t.get("compile", False)):
+            model.compile_decoder()
+        self.model = prepare_module(model, self.device, layout)
         self.optimizer = torch.optim.Adam(self.model.parameters(), lr=float(t["lr"]), betas=tuple(t["betas"]),
                                           eps=1e-8)
         self.steps, self.epochs = int(t["steps"]), int(t["epochs"])
