@@ -20,10 +20,11 @@ from __future__ import annotations
 import numpy as np
 import torch
 
+from .kinematics import align_local_rotations
 from .motion import Motion
 from .quantities import leg_ratio
 from .rotations import (frame_rotation, quat_between, quat_canonical, quat_conjugate, quat_from_axis_angle,
-                        quat_identity, quat_mul, quat_rotate)
+                        quat_identity, quat_rotate)
 from .skeleton import CANONICAL22, CANONICAL22_PARENTS, J, JointSetError, Skeleton, canonical22_skeleton
 
 __all__ = [
@@ -104,10 +105,8 @@ def transfer_rotations(rotations: np.ndarray, source: Skeleton, target: Skeleton
         ``(..., 22, 4)`` local rotations on ``target``, float64.
     """
     c = torch.from_numpy(rest_alignment(source, target))
-    root = quat_identity((1,), dtype=torch.float64)
-    c_parent = torch.cat((root, c[list(CANONICAL22_PARENTS[1:])]))
     q = torch.from_numpy(np.asarray(rotations, dtype=np.float64))
-    return quat_canonical(quat_mul(quat_conjugate(c_parent), quat_mul(q, c))).numpy()
+    return quat_canonical(align_local_rotations(q, c, CANONICAL22_PARENTS)).numpy()
 
 
 def change_rest_pose(rotations: torch.Tensor, offsets: torch.Tensor, turns: torch.Tensor,
@@ -130,11 +129,8 @@ def change_rest_pose(rotations: torch.Tensor, offsets: torch.Tensor, turns: torc
     Returns:
         ``(rotations' (..., T, J, 4), offsets' (..., J, 3))``.
     """
-    root = quat_identity(turns.shape[:-2] + (1,), dtype=turns.dtype, device=turns.device)
-    turn_parent = torch.cat((root, turns[..., list(parents[1:]), :]), -2)
-    moved = torch.cat((offsets[..., :1, :], quat_rotate(turn_parent[..., 1:, :], offsets[..., 1:, :])), -2)
-    q = quat_mul(turn_parent.unsqueeze(-3), quat_mul(rotations, quat_conjugate(turns).unsqueeze(-3)))
-    return q, moved
+    moved = torch.cat((offsets[..., :1, :], quat_rotate(turns[..., list(parents[1:]), :], offsets[..., 1:, :])), -2)
+    return align_local_rotations(rotations, quat_conjugate(turns).unsqueeze(-3), parents), moved
 
 
 def random_rest_rotations(offsets: torch.Tensor, max_degrees: float,

@@ -10,7 +10,6 @@ Source contacts are detected once per clip and cached (``.cache/contact_training
 
 from __future__ import annotations
 
-
 import os
 from dataclasses import dataclass
 from functools import partial

@@ -403,8 +403,10 @@ class GeometryConditionedRNN(nn.Module):
         One frame of the decoder is a few hundred small tensor operations (two GRU cells, the 6D
         rotation head, the residual alignment, FK by depth level), run ``T`` times per clip, so the
         eager step is dominated by per-operation overhead; compiled, they fuse into a few kernels.
-        Measured on the fast contact training step (2 cores, 1 thread): 0.85 → 0.60 s per step, after
-        a one-off compilation of about a minute (cached on disk by inductor afterwards). The weights,
+        Measured on the fast contact training step of ``contact_residual`` (idle 2-core machine):
+        0.91 → 0.55 s per step with 2 threads, 1.02 → 0.75 s with 1 (``retarget bench --only
+        contact-training``), after a one-off compilation of about a minute (cached on disk by
+        inductor afterwards). The weights,
         the ``state_dict`` and the checkpoints are the same modules either way.
         """
         # dynamo traces through core.kinematics._plan's lru_cache (a pure function of ``parents``)
