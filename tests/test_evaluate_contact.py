@@ -6,7 +6,7 @@ import pytest
 from retarget_lib.core.motion import Motion
 from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.evaluation.contact import (CONTACT_TARGETS, ablation_steps, contact_tables,
-                                             foot_contact_accuracy, vertex_contact_mse)
+                                             foot_contact_accuracy, foot_height_error, vertex_contact_mse)
 from retarget_lib.evaluation.paper import PAPER_TABLE1, PAPER_TABLE3
 from retarget_lib.geometry.contacts import SelfContacts, detect_foot_contacts
 
@@ -31,6 +31,23 @@ def test_foot_contact_accuracy_of_a_still_pose_against_labels():
     assert foot_contact_accuracy(still, half) == 0.5
 
 
+def test_foot_height_error_sees_sinking_feet_that_accuracy_counts_as_contacts():
+    c = make_character("ada")
+    root = np.tile(c.skeleton.offsets[0], (20, 1))
+    rest = np.tile([1.0, 0, 0, 0], (20, 22, 1))
+    labels = np.ones((20, 4), bool)
+    standing = Motion(c.skeleton, rest, root, 30.0)
+    assert foot_height_error(standing, labels) == pytest.approx(0.0, abs=1e-9)  # feet at their rest heights
+    sunk = Motion(c.skeleton, rest, root - [0.0, 0.05, 0.0], 30.0)  # the whole body 5 cm into the floor
+    assert foot_height_error(sunk, labels) == pytest.approx(5.0, abs=1e-6)  # cm; float64 round-off only
+    assert foot_contact_accuracy(sunk, labels) == 1.0  # the paper's toe test (height <= 3 cm) passes
+    lifted = Motion(c.skeleton, rest, root + [0.0, 0.02, 0.0], 30.0)
+    only_left_heel = np.zeros((20, 4), bool)
+    only_left_heel[5:10, 0] = True
+    assert foot_height_error(lifted, only_left_heel) == pytest.approx(2.0, abs=1e-6)
+    assert np.isnan(foot_height_error(lifted, np.zeros((20, 4), bool)))
+
+
 def test_tables_put_paper_numbers_beside_ours_and_split_by_body_type():
     import pandas as pd
 
@@ -39,7 +56,7 @@ def test_tables_put_paper_numbers_beside_ours_and_split_by_body_type():
         for name in names:
             rows.append({"method": "Ours", "body": body, "target": name, "interpenetration": 1.0 if body == "skinny" else 3.0,
                          "vertex contact MSE": 2.0, "foot contact accuracy": 0.9, "global position MSE": 0.5,
-                         "penetration rate": 0.1})
+                         "penetration rate": 0.1, "foot height error": 1.0})
     tables = contact_tables(pd.DataFrame(rows))
     assert tables["table1"].loc["Ours", "ours interpenetration"] == pytest.approx(2.0)
     assert tables["table5"].loc["Ours", "ours interpenetration"] == pytest.approx(1.0)
@@ -54,9 +71,11 @@ def test_ablation_steps_compare_each_change_with_the_paper():
     # ours: Efoot raises foot accuracy (as in the paper, 0.71 -> 0.80) but also raises interpenetration
     # (the paper lowers it, 1.67 -> 1.59)
     rows = [{"method": "Eskel", "body": "skinny", "interpenetration": 1.0, "vertex contact MSE": 4.0,
-             "foot contact accuracy": 0.5, "global position MSE": 1.0, "penetration rate": 0.0},
+             "foot contact accuracy": 0.5, "global position MSE": 1.0, "penetration rate": 0.0,
+             "foot height error": 1.0},
             {"method": "Eskel+Efoot", "body": "skinny", "interpenetration": 1.5, "vertex contact MSE": 4.0,
-             "foot contact accuracy": 0.75, "global position MSE": 1.0, "penetration rate": 0.0}]
+             "foot contact accuracy": 0.75, "global position MSE": 1.0, "penetration rate": 0.0,
+             "foot height error": 1.0}]
     table3 = contact_tables(pd.DataFrame(rows))["table3"]
     steps = ablation_steps(table3, (("Eskel", "Eskel+Efoot"),))
     foot = steps.loc[("Eskel → Eskel+Efoot", "foot contact accuracy")]
