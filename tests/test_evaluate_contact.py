@@ -6,7 +6,8 @@ import pytest
 from retarget_lib.core.motion import Motion
 from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.evaluation.contact import (CONTACT_TARGETS, ablation_steps, contact_tables,
-                                             foot_contact_accuracy, foot_height_error, vertex_contact_mse)
+                                             foot_contact_accuracy, foot_height_error,
+                                             foot_heights_in_contact, vertex_contact_mse)
 from retarget_lib.evaluation.paper import PAPER_TABLE1, PAPER_TABLE3
 from retarget_lib.geometry.contacts import SelfContacts, detect_foot_contacts
 
@@ -40,6 +41,7 @@ def test_foot_height_error_sees_sinking_feet_that_accuracy_counts_as_contacts():
     assert foot_height_error(standing, labels) == pytest.approx(0.0, abs=1e-9)  # feet at their rest heights
     sunk = Motion(c.skeleton, rest, root - [0.0, 0.05, 0.0], 30.0)  # the whole body 5 cm into the floor
     assert foot_height_error(sunk, labels) == pytest.approx(5.0, abs=1e-6)  # cm; float64 round-off only
+    np.testing.assert_allclose(foot_heights_in_contact(sunk, labels), -5.0, atol=1e-6)  # signed: below
     assert foot_contact_accuracy(sunk, labels) == 1.0  # the paper's toe test (height <= 3 cm) passes
     lifted = Motion(c.skeleton, rest, root + [0.0, 0.02, 0.0], 30.0)
     only_left_heel = np.zeros((20, 4), bool)

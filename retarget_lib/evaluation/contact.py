@@ -67,7 +67,7 @@ from .tdcn import METRES_TO_CM, normalized_mse, write_table
 
 __all__ = ["CONTACT_TARGETS", "CONTACT_PROFILES", "METRICS", "ContactCase", "shipped_contact_results", "rerun_cases",
            "contact_cases", "contact_methods", "evaluate_contact_case", "evaluate_contact_methods", "write_contact_tables",
-           "vertex_contact_mse", "foot_contact_accuracy", "foot_height_error", "contact_tables", "TABLE3_STEPS", "ablation_steps",
+           "vertex_contact_mse", "foot_contact_accuracy", "foot_height_error", "foot_heights_in_contact", "contact_tables", "TABLE3_STEPS", "ablation_steps",
            "run_contact_evaluation"]
 
 CONTACT_SOURCE = "mannequin-x"
@@ -184,24 +184,30 @@ def foot_contact_accuracy(output: Motion, source_contacts: np.ndarray) -> float:
     return float((detected == np.asarray(source_contacts, dtype=bool)).mean())
 
 
-def foot_height_error(output: Motion, source_contacts: np.ndarray) -> float:
-    """Mean ``|y_j − ȳ_j|`` in cm over the (frame, foot joint) labels in contact: how far the
-    output's heels and toes are from their rest heights above the rest ground (Efoot's ground,
-    Eq. 6; :func:`~retarget_lib.geometry.contacts.rest_ground_height`) where the source touches
-    the ground; ``nan`` without a contact.
+def foot_heights_in_contact(output: Motion, source_contacts: np.ndarray) -> np.ndarray:
+    """Signed heights in cm of the output's heels and toes above their rest heights (Efoot's
+    ground, Eq. 6; :func:`~retarget_lib.geometry.contacts.rest_ground_height`), at every
+    (frame, foot joint) label in contact: negative = sunk into the floor.
 
     Args:
         output: ``(T, ...)`` motion (ground ``y = 0``) whose skeleton has the canonical foot joint names.
         source_contacts: ``(T, 4)`` bool in :data:`~retarget_lib.geometry.contacts.FOOT_JOINTS` order.
+
+    Returns:
+        ``(N,)`` cm, one per contact label (frame-major).
     """
     labels = np.asarray(source_contacts, dtype=bool)
-    if not labels.any():
-        return float("nan")
     skeleton = output.skeleton
     idx = [skeleton.index(n) for n in FOOT_JOINTS]
     rest = skeleton.rest_positions()[idx, 1] - rest_ground_height(skeleton)
-    lift = output.global_positions()[:, idx, 1] - rest
-    return float(np.abs(lift[labels]).mean() * METRES_TO_CM)
+    return (output.global_positions()[:, idx, 1] - rest)[labels] * METRES_TO_CM
+
+
+def foot_height_error(output: Motion, source_contacts: np.ndarray) -> float:
+    """Mean ``|y_j − ȳ_j|`` in cm of :func:`foot_heights_in_contact`: how far the output's heels
+    and toes are from the floor where the source touches it; ``nan`` without a contact."""
+    heights = foot_heights_in_contact(output, source_contacts)
+    return float(np.abs(heights).mean()) if heights.size else float("nan")
 
 
 def evaluate_contact_case(output: Motion, case: ContactCase, eint, eval_every: int = 1) -> dict[str, float]:
