@@ -106,7 +106,7 @@ TDCN: dict[str, Any] = {
     "loss": {"gan": choice("lsgan", "sigmoid_ce"), "twist_alpha_deg": NONNEG_NUM, "twist_exclude_root": BOOL,
              **{f"lambda_{k}": NONNEG_NUM for k in "ctharogd"}},
     "train": {"steps": POS_INT, "batch": POS_INT, "lr": POS_NUM, "betas": BETAS, "checkpoint_every": POS_INT,
-              "decay_from": DECAY_FROM},
+              "decay_from": DECAY_FROM, "compile": BOOL},
 }
 
 #: ``method: contact``: the contact-aware rows of Villegas et al. 2021, Table 3

@@ -270,6 +270,23 @@ def test_nkn_gru_decoder_is_online():
     assert torch.allclose(full.rotations[:, :20], part.rotations, atol=1e-6)
 
 
+def test_a_compiled_nkn_decoder_computes_the_eager_outputs_and_gradients():
+    eager = NKNGenerator(hidden=SMALL)  # dropout 0 (NKN's GRU default): both draw no random masks
+    compiled = NKNGenerator(hidden=SMALL)
+    compiled.load_state_dict(eager.state_dict())
+    compiled.compile_decoder()
+    q, r, oa, ob = _motion(2, 6)
+    outs = [g(q, r, oa, ob) for g in (eager, compiled)]
+    # fused kernels sum in another order: float32 rounding, carried through 6 recurrent frames
+    torch.testing.assert_close(outs[1].rotations, outs[0].rotations, rtol=1e-4, atol=1e-5)
+    torch.testing.assert_close(outs[1].root_positions, outs[0].root_positions, rtol=1e-4, atol=1e-5)
+    for g, out in zip((eager, compiled), outs):
+        (out.rotations.square().sum() + out.root_positions.square().sum()).backward()
+    for (name, a), b in zip(eager.named_parameters(), compiled.parameters()):
+        torch.testing.assert_close(b.grad, a.grad, rtol=1e-3, atol=1e-5, msg=name)
+    assert NKNGenerator(hidden=SMALL, backbone="dense").compile_decoder() is None  # no per-frame loop: a no-op
+
+
 def test_nkn_discriminator_scores_whole_clip():
     d = NKNDiscriminator()
     for frames in (2, 9, 120):

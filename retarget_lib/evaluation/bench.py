@@ -165,8 +165,9 @@ def bench_tdcn(quick: bool = False, frames: int = 1000) -> list[BenchRow]:
 def bench_training(quick: bool = False, batch: int = 16) -> list[BenchRow]:
     """One full TDCN training step (Eq. 6: A→B→A cycle, all losses, G and D updates) of the paper's
     "ours" at fast and paper width and of the residual default at fast width, beside the
-    generator's bare forward+backward on the same batch (same run). The row name carries the
-    throughput in windows/s."""
+    generator's bare forward+backward on the same batch (same run); and the NKN Baseline's step
+    with its per-frame GRU decoder compiled (the fast profile's ``train.compile``, compilation in
+    the warm-up) beside the same step eager. Row names carry the throughput in windows/s."""
     rows = []
     for config, profile in (("tdcn_paper", "fast"), ("tdcn_paper", "paper"), ("tdcn_ours_residual", "fast")):
         cfg = load_config(REPO_ROOT / "configs" / f"{config}.yaml", [f"train.batch={batch}"], profile=profile)
@@ -183,6 +184,15 @@ def bench_training(quick: bool = False, batch: int = 16) -> list[BenchRow]:
         rows.append(BenchRow(f"TDCN training step ({config}), {profile} width {cfg['model']['channels']}, "
                              f"batch {batch}: {batch / step:.1f} windows/s", step,
                              "generator forward+backward only", ref))
+    steps = {}
+    for compile in (True, False):  # NKN's GRU decoder runs per frame: compiled (the fast profile's) vs eager
+        cfg = load_config(REPO_ROOT / "configs" / "tdcn_baseline.yaml",
+                          [f"train.batch={batch}", f"train.compile={str(compile).lower()}"], profile="fast")
+        run = RetargetTraining(cfg)
+        steps[compile] = time_it(lambda: run.step(0), repeat=2 if quick else 5, warmup=1)
+    rows.append(BenchRow(f"NKN Baseline training step (tdcn_baseline), fast, compiled GRU decoder, batch {batch}: "
+                         f"{batch / steps[True]:.1f} windows/s", steps[True],
+                         f"the same step eager: {batch / steps[False]:.1f} windows/s", steps[False]))
     return rows
 
 

@@ -41,6 +41,8 @@ and a linear layer → one logit per clip. The sigmoid cross-entropy belongs to 
 
 from __future__ import annotations
 
+import warnings
+
 from typing import Sequence
 
 import torch
@@ -171,15 +173,44 @@ class NKNGenerator(nn.Module):
         prev = x.new_zeros(b, 3 * j + 3)  # p̂_{t-1}, v̂_{t-1}; zeros at t = 1 (as NKN)
         qs, vs = [], []
         for step in range(t):  # autoregressive: each step needs the previous FK output
-            inp = self.dropout(torch.cat([enc[:, step], skel, prev], -1))
-            for i, cell in enumerate(self.decoder):
-                states[i] = cell(inp if i == 0 else self.dropout(states[i - 1]), states[i])
-            q, v = self._split(self.out(states[-1]))
-            p = forward_kinematics(normalize_quaternions(q), off_tgt, self.parents, None).positions
-            prev = torch.cat([p.reshape(b, 3 * j), v], -1)
+            q, v, prev, states = self.decode_step(enc[:, step], skel, prev, states, off_tgt)
             qs.append(q)
             vs.append(v)
         return torch.stack(qs, 1), torch.stack(vs, 1)
+
+    def decode_step(self, enc_t: Tensor, skel: Tensor, prev: Tensor, states: list[Tensor], off_tgt: Tensor,
+                    ) -> tuple[Tensor, Tensor, Tensor, list[Tensor]]:
+        """One frame of the GRU decoder: stacked cells, the output head, FK of the new pose.
+
+        Args:
+            enc_t: ``(B, H)`` encoder output of this frame.
+            skel: ``(B, 3J)`` flattened target offsets.
+            prev: ``(B, 3J + 3)`` previous frame's ``p̂`` (root-relative, flattened) and ``v̂``.
+            states: per decoder layer ``(B, H)``.
+            off_tgt: ``(B, J, 3)`` target offsets.
+
+        Returns:
+            raw ``q̂ (B, J, 4)``, ``v̂ (B, 3)``, the next ``prev`` and the new states.
+        """
+        inp = self.dropout(torch.cat([enc_t, skel, prev], -1))
+        new: list[Tensor] = []
+        for i, cell in enumerate(self.decoder):
+            new.append(cell(inp if i == 0 else self.dropout(new[i - 1]), states[i]))
+        q, v = self._split(self.out(new[-1]))
+        p = forward_kinematics(normalize_quaternions(q), off_tgt, self.parents, None).positions
+        return q, v, torch.cat([p.reshape(p.shape[0], -1), v], -1), new
+
+    def compile_decoder(self) -> None:
+        """Compile :meth:`decode_step` with ``torch.compile`` (inductor; needs a C++ compiler on the
+        CPU). The GRU backbone runs it once per frame, a few hundred small operations each (the
+        cells, the head, FK joint by joint), so the eager step is dominated by per-operation
+        overhead. The convolutional backbones have no per-frame loop: nothing to compile. Weights,
+        ``state_dict`` and checkpoints are the same either way."""
+        if self.backbone != "gru":
+            return
+        # dynamo traces through core.kinematics._plan's lru_cache (a pure function of ``parents``)
+        warnings.filterwarnings("ignore", message=".*lru_cache.*", category=UserWarning)
+        self.decode_step = torch.compile(self.decode_step, dynamic=False)
 
     def retarget(self, rotations: Tensor, root_positions: Tensor, offsets_src: Tensor, offsets_tgt: Tensor,
                  ) -> tuple[Tensor, Tensor]:

@@ -467,6 +467,8 @@ class RetargetTraining:
                                      float(data.get("rest_jitter_deg", 0.0)))
         if self.resolved["normalize_inputs"]:
             self._fit_normalizer()
+        if bool(train.get("compile", False)) and hasattr(self.generator, "compile_decoder"):
+            self.generator.compile_decoder()  # NKN's per-frame GRU decoder; TDCN has no per-frame loop
         for module in (self.generator, self.discriminator):
             prepare_module(module, self.device, layout)
         adam = dict(lr=float(train["lr"]), betas=tuple(float(b) for b in train["betas"]))
