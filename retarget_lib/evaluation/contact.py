@@ -50,13 +50,13 @@ import pandas as pd
 
 from ..core.character import Character
 from ..core.motion import Motion
+from ..core.quantities import FOOT_CONTACT_IDS, foot_ground_heights
 from ..data.manifest import stored_result, table_checkpoints
 from ..data.sources.mannequin import load_mannequin
 from ..data.synthetic.characters import make_character
 from ..data.synthetic.motions import body_radii_from_mesh, make_motion
 from ..files import atomic_write
-from ..geometry.contacts import (FOOT_JOINTS, SelfContacts, detect_foot_contacts, rest_ground_height,
-                                transfer_contacts)
+from ..geometry.contacts import SelfContacts, detect_foot_contacts, transfer_contacts
 from ..geometry.ik import apply_foot_contact_ik
 from ..geometry.penetration import InterpenetrationEnergy, interpenetration_score, penetration_rate
 from ..losses.contact import TABLE3_ROWS as ENERGY_ROWS
@@ -185,22 +185,20 @@ def foot_contact_accuracy(output: Motion, source_contacts: np.ndarray) -> float:
 
 
 def foot_heights_in_contact(output: Motion, source_contacts: np.ndarray) -> np.ndarray:
-    """Signed heights in cm of the output's heels and toes above their rest heights (Efoot's
-    ground, Eq. 6; :func:`~retarget_lib.geometry.contacts.rest_ground_height`), at every
+    """Signed heights in cm of the output's heels and toes above Efoot's ground (their rest
+    heights, Eq. 6; :func:`~retarget_lib.core.quantities.foot_ground_heights`), at every
     (frame, foot joint) label in contact: negative = sunk into the floor.
 
     Args:
-        output: ``(T, ...)`` motion (ground ``y = 0``) whose skeleton has the canonical foot joint names.
-        source_contacts: ``(T, 4)`` bool in :data:`~retarget_lib.geometry.contacts.FOOT_JOINTS` order.
+        output: ``(T, ...)`` motion on a canonical 22-joint skeleton (ground ``y = 0``).
+        source_contacts: ``(T, 4)`` bool in :data:`~retarget_lib.core.skeleton.FOOT_CONTACT_JOINTS` order.
 
     Returns:
         ``(N,)`` cm, one per contact label (frame-major).
     """
     labels = np.asarray(source_contacts, dtype=bool)
-    skeleton = output.skeleton
-    idx = [skeleton.index(n) for n in FOOT_JOINTS]
-    rest = skeleton.rest_positions()[idx, 1] - rest_ground_height(skeleton)
-    return (output.global_positions()[:, idx, 1] - rest)[labels] * METRES_TO_CM
+    feet_y = output.global_positions()[:, list(FOOT_CONTACT_IDS), 1]
+    return (feet_y - foot_ground_heights(output.skeleton))[labels] * METRES_TO_CM
 
 
 def foot_height_error(output: Motion, source_contacts: np.ndarray) -> float:
