@@ -42,7 +42,6 @@ integration) and :func:`retarget_lib.core.skinning.linear_blend_skinning` with i
 
 from __future__ import annotations
 
-import warnings
 from typing import NamedTuple, Sequence
 
 import numpy as np
@@ -53,6 +52,7 @@ from ..core.kinematics import align_local_rotations, forward_kinematics
 from ..core.quantities import forward_root_velocity
 from ..core.rotations import matrix_from_6d, matrix_to_quat, quat_identity, quat_to_matrix
 from ..core.skeleton import CANONICAL22_PARENTS
+from .compiling import compile_frame_step
 from .features import batched_offsets, skeleton_height
 
 Tensor = torch.Tensor
@@ -409,9 +409,7 @@ class GeometryConditionedRNN(nn.Module):
         inductor afterwards). The weights,
         the ``state_dict`` and the checkpoints are the same modules either way.
         """
-        # dynamo traces through core.kinematics._plan's lru_cache (a pure function of ``parents``)
-        warnings.filterwarnings("ignore", message=".*lru_cache.*", category=UserWarning)
-        self.decode_step = torch.compile(self.decode_step, dynamic=False)
+        self.decode_step = compile_frame_step(self.decode_step)
 
     def decode_step(self, h_enc: Tensor, state: DecoderState, context: TargetContext,
                     base: ResidualBase | None = None) -> tuple[Tensor, Tensor, DecoderState]:

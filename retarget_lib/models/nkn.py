@@ -41,8 +41,6 @@ and a linear layer → one logit per clip. The sigmoid cross-entropy belongs to 
 
 from __future__ import annotations
 
-import warnings
-
 from typing import Sequence
 
 import torch
@@ -50,6 +48,7 @@ from torch import nn
 
 from ..core.kinematics import forward_kinematics
 from ..core.skeleton import CANONICAL22_PARENTS
+from .compiling import compile_frame_step
 from .features import (NUM_JOINTS, FeatureNormalizer, batched_offsets, nkn_input_channels,
                        nkn_source_features, root_velocities, skeleton_height, source_local_positions)
 from .tdcn import (DEFAULT_SLOPE, DilatedStack, GeneratorOutput, edge_pad, init_identity_head,
@@ -208,9 +207,7 @@ class NKNGenerator(nn.Module):
         ``state_dict`` and checkpoints are the same either way."""
         if self.backbone != "gru":
             return
-        # dynamo traces through core.kinematics._plan's lru_cache (a pure function of ``parents``)
-        warnings.filterwarnings("ignore", message=".*lru_cache.*", category=UserWarning)
-        self.decode_step = torch.compile(self.decode_step, dynamic=False)
+        self.decode_step = compile_frame_step(self.decode_step)
 
     def retarget(self, rotations: Tensor, root_positions: Tensor, offsets_src: Tensor, offsets_tgt: Tensor,
                  ) -> tuple[Tensor, Tensor]:

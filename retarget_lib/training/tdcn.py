@@ -92,9 +92,9 @@ A1, paper                       1024   128    77           1.7
 Baseline, paper                 512    128    2.9          43
 ==============================  =====  =====  ===========  ==========
 
-The fast profile (600 steps at batch 16 for every row) takes ~3 min of wall time for ours and
-~8 min for the slowest rows (A1, the GRU baselines; 700 steps of Baseline measured 9 min 23 s);
-the paper schedule (100k steps at batch 128) would be ~540 h for ours on this CPU — a GPU job.
+The fast profile (2000 steps at batch 16 for every row, the second half with a decaying rate) takes
+15-30 min of training per row on two cores (each checkpoint's ``trained_seconds`` in
+``data_manifest.yaml``); the paper schedule (100k steps at batch 128) would be ~540 h for ours on this CPU — a GPU job.
 """
 
 from __future__ import annotations
