@@ -204,7 +204,11 @@ class NKNGenerator(nn.Module):
         CPU). The GRU backbone runs it once per frame, a few hundred small operations each (the
         cells, the head, FK joint by joint), so the eager step is dominated by per-operation
         overhead. The convolutional backbones have no per-frame loop: nothing to compile. Weights,
-        ``state_dict`` and checkpoints are the same either way."""
+        ``state_dict`` and checkpoints are the same either way.
+
+        Measured on the fast Baseline training step (idle 2-core machine, 2 threads, batch 16;
+        ``retarget bench --only training``): 0.715 → 0.253 s per step (22.4 → 63.2 windows/s, 2.8x).
+        A whole 2000-step Baseline run took 694 s including its compilation (8 s beyond the steps)."""
         if self.backbone != "gru":
             return
         self.decode_step = compile_frame_step(self.decode_step)

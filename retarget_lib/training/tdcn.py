@@ -83,7 +83,7 @@ row                             width  batch  s/step       windows/s
 ours (A2, A3, A5 alike), fast   256    16     0.28         58
 A4 (81-frame D), fast           256    16     0.29         55
 A1 (dense), fast                256    16     0.73         22
-Baseline / -height (GRU), fast  128    16     0.76         21
+Baseline / -height (GRU), fast  128    16     0.25         63   (compiled decoder; eager 0.72)
 Baseline-dense, fast            128    16     0.44         36
 Baseline-dilated, fast          128    16     0.22         72
 ours, paper width               1024   16     1.6          10
@@ -93,7 +93,7 @@ Baseline, paper                 512    128    2.9          43
 ==============================  =====  =====  ===========  ==========
 
 The fast profile (2000 steps at batch 16 for every row, the second half with a decaying rate) takes
-15-30 min of training per row on two cores (each checkpoint's ``trained_seconds`` in
+11-30 min of training per row on two cores (each checkpoint's ``trained_seconds`` in
 ``data_manifest.yaml``); the paper schedule (100k steps at batch 128) would be ~540 h for ours on this CPU — a GPU job.
 """
 
