@@ -5,7 +5,7 @@ import pytest
 
 from retarget_lib.core.motion import Motion
 from retarget_lib.data.synthetic.characters import make_character
-from retarget_lib.evaluation.contact import (CONTACT_TARGETS, ablation_steps, contact_tables,
+from retarget_lib.evaluation.contact import (CONTACT_TARGETS, ablation_steps, contact_tables, rerun_tolerance,
                                              foot_contact_accuracy, foot_height_error,
                                              foot_heights_in_contact, vertex_contact_mse)
 from retarget_lib.evaluation.paper import PAPER_TABLE1, PAPER_TABLE3
@@ -87,3 +87,13 @@ def test_ablation_steps_compare_each_change_with_the_paper():
     assert not steps.loc[("Eskel → Eskel+Efoot", "interpenetration"), "same direction"]
     assert not steps.loc[("Eskel → Eskel+Efoot", "vertex contact MSE"), "same direction"]  # ours unchanged
     assert len(steps) == 4
+
+
+def test_a_rerun_tolerance_is_tight_for_networks_and_looser_for_the_eso_optimisation():
+    # feed-forward rows: 0.1 % of the value, absolute 1e-3 below 1 (or 5e-3 cm on foot heights)
+    assert rerun_tolerance("copy", "global position MSE", 7.0) == pytest.approx(7e-3)
+    assert rerun_tolerance("TDCN", "interpenetration", 0.2) == pytest.approx(1e-3)
+    assert rerun_tolerance("NKN", "foot height error", 2.0) == pytest.approx(5e-3)
+    # ESO rows: 2 %, so the 0.08 cm move of one case's foot heights between two CPUs is accepted
+    assert rerun_tolerance("Ours (residual)", "foot height error", 0.856) == pytest.approx(0.1)
+    assert rerun_tolerance("Ours", "vertex contact MSE", 14.6) == pytest.approx(0.292)
