@@ -67,8 +67,8 @@ from .tdcn import METRES_TO_CM, normalized_mse, write_table
 
 __all__ = ["CONTACT_TARGETS", "CONTACT_PROFILES", "METRICS", "ContactCase", "shipped_contact_results", "rerun_cases",
            "rerun_tolerance", "contact_cases", "contact_methods", "evaluate_contact_case", "evaluate_contact_methods",
-           "write_contact_tables",
-           "vertex_contact_mse", "foot_contact_accuracy", "foot_height_error", "foot_heights_in_contact",
+           "write_contact_tables", "vertex_contact_mse", "foot_contact_accuracy", "foot_height_error",
+           "foot_heights_in_contact",
            "contact_tables", "TABLE3_STEPS", "ablation_steps", "run_contact_evaluation"]
 
 CONTACT_SOURCE = "mannequin-x"

@@ -94,7 +94,8 @@ Baseline, paper                 512    128    2.9          43
 
 The fast profile (2000 steps at batch 16 for every row, the second half with a decaying rate) takes
 11-30 min of training per row on two cores (each checkpoint's ``trained_seconds`` in
-``data_manifest.yaml``); the paper schedule (100k steps at batch 128) would be ~540 h for ours on this CPU — a GPU job.
+``data_manifest.yaml``); the paper schedule (100k steps at batch 128) would be ~540 h for ours on
+this CPU — a GPU job.
 """
 
 from __future__ import annotations
