@@ -15,6 +15,8 @@
     retarget sweep    --table tdcn|contact --out DIR [key=value ...] [--profile fast|paper] [--rows ROW ...]
                       [--cluster auto|slurm|local] [--gpus-per-row N] [--timeout-min M] [--partition P]
                       [--wait] [--status]     one submitit job per table row (retarget_lib.training.sweep)
+    retarget evaluate --all --out DIR    every table with provenance (``make tables``: into results/)
+    retarget evaluate --status           each stored result in results/: provenance, stale or not
     retarget evaluate --table tdcn|contact [--profile fast|paper] [--runs SWEEP_DIR] [--device auto] --out DIR
                       [--data synthetic|mixamo-local [--mixamo DIR] [--methods ROW ...] [--checkpoint PATH]]
                                          mixamo-local: the papers' protocols on a reviewer's Mixamo folder
@@ -108,7 +110,50 @@ def _evaluate_contact(args: argparse.Namespace, runs) -> int:
     return 0
 
 
+def _evaluate_all(args: argparse.Namespace) -> int:
+    """Every stored table (Table 4, its real-clip and windowed companions, the contact tables) into
+    ``--out`` with provenance; ``results/`` is the repository's copy."""
+    from .evaluation.contact import run_contact_evaluation
+    from .evaluation.tdcn import run_tdcn_evaluation
+
+    command = f"retarget evaluate --all --out {args.out}"
+    table, missing = run_tdcn_evaluation(args.out, args.device, command=command)
+    _report_table4(table, missing, f"{args.out}/table4.*, table4_h2.*, table4_cases.csv, table4_cmu_cases.csv, "
+                                   "table4_windowed_cases.csv (each with .provenance.json)")
+    tables, missing = run_contact_evaluation(args.out, args.profile or "fast", device=args.device, command=command)
+    print(f"table1:\n{tables['table1'].filter(like='ours').round(3).to_string()}")
+    print(f"wrote {args.out}/contact_table1.*, contact_table3.*, contact_table5.*, contact_table6.*, "
+          "contact_cases.csv (with .provenance.json)")
+    return 0
+
+
+def _results_status() -> int:
+    """Each stored result in ``results/``: where it comes from and whether it is stale."""
+    from .evaluation.contact import stored_contact_results
+    from .evaluation.tdcn import stored_table4
+
+    stale = 0
+    for load in (lambda: stored_table4("table4_cases"), lambda: stored_table4("table4_cmu_cases"),
+                 lambda: stored_table4("table4_windowed_cases"), stored_contact_results):
+        result = load()
+        stale += bool(result.stale)
+        print(result.report())
+    print(f"{stale} stale stored result(s)" if stale else "every stored result matches this checkout")
+    return 1 if stale else 0
+
+
 def _cmd_evaluate(args: argparse.Namespace) -> int:
+    if args.status:
+        return _results_status()
+    if args.out is None:
+        raise RetargetInputError("retarget evaluate: give --out DIR")
+    if args.all:
+        if args.table or args.data != "synthetic" or args.runs:
+            raise RetargetInputError("--all evaluates every table on the shipped checkpoints: leave out "
+                                     "--table, --data and --runs")
+        return _evaluate_all(args)
+    if args.table is None:
+        raise RetargetInputError("retarget evaluate: give --table tdcn|contact, --all or --status")
     if args.data != "mixamo-local" and (args.mixamo or args.methods or args.checkpoint):
         raise RetargetInputError("--mixamo, --methods and --checkpoint need --data mixamo-local")
     if args.table == "contact" and args.checkpoint:
@@ -268,7 +313,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_train)
 
     p = sub.add_parser("evaluate", help="regenerate a paper table (CSV + Markdown, paper numbers beside ours)")
-    p.add_argument("--table", required=True, choices=["tdcn", "contact"],
+    p.add_argument("--all", action="store_true",
+                   help="every table (Table 4 with its real-clip and windowed companions, contact Tables 1, 3, "
+                        "5, 6) with provenance; `make tables` writes them into results/")
+    p.add_argument("--status", action="store_true",
+                   help="say where each stored result in results/ comes from and whether it is stale "
+                        "(exit 1 when one is)")
+    p.add_argument("--table", choices=["tdcn", "contact"],
                    help="tdcn: Kim et al. 2020, Table 4; contact: Villegas et al. 2021, Tables 1, 3, 5, 6")
     p.add_argument("--profile", choices=["fast", "paper"],
                    help="contact protocol size (fast: 6 clips x 6 targets, 60 frames; paper: 16 clips, whole)")
@@ -281,7 +332,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "contact: e.g. copy copy-rest 'Ours (residual)')")
     p.add_argument("--checkpoint", action="append", metavar="PATH",
                    help="with --table tdcn --data mixamo-local: also evaluate this TDCN/NKN checkpoint (repeatable)")
-    p.add_argument("--out", required=True, help="output folder")
+    p.add_argument("--out", help="output folder")
     p.add_argument("--runs", help="a `retarget sweep` folder: its finished rows replace the shipped checkpoints")
     _device_option(p)
     p.set_defaults(func=_cmd_evaluate)

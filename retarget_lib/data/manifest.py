@@ -125,24 +125,3 @@ def table_checkpoints(table: str) -> dict[str, CheckpointEntry]:
     """The shipped checkpoints of one paper table, by row name (``table:`` and ``row:`` in the
     manifest), in manifest order."""
     return {e.row: e for e in checkpoint_entries().values() if e.table == table and e.row is not None}
-
-
-def stored_result(table: str) -> Path:
-    """Path of the stored evaluation results of a paper table (the ``results:`` entry with that
-    ``table:``), checked against its sha256.
-
-    Raises:
-        DataError: no such entry, missing file or checksum mismatch (the message gives the command
-            that re-creates it).
-    """
-    results = {rid: r for rid, r in (load_manifest().get("results") or {}).items() if r.get("table") == table}
-    if len(results) != 1:
-        raise DataError(f"data_manifest.yaml lists {len(results)} stored results for table {table!r} (need one)")
-    (rid, r), = results.items()
-    path = REPO_ROOT / r["path"]
-    if not path.exists():
-        raise DataError(f"stored result {rid} missing at {path}; re-create it with: {r['command']}")
-    if sha256_file(path) != r["sha256"]:
-        raise DataError(f"stored result {rid} at {path} does not match its sha256 in the manifest; "
-                        f"re-create it with: {r['command']}")
-    return path

@@ -51,11 +51,10 @@ import pandas as pd
 from ..core.character import Character
 from ..core.motion import Motion
 from ..core.quantities import FOOT_CONTACT_IDS, foot_ground_heights
-from ..data.manifest import stored_result, table_checkpoints
+from ..data.manifest import CheckpointEntry, checkpoint_entries, default_checkpoint, table_checkpoints
 from ..data.sources.mannequin import load_mannequin
 from ..data.synthetic.characters import make_character
 from ..data.synthetic.motions import body_radii_from_mesh, make_motion
-from ..files import atomic_write
 from ..geometry.contacts import SelfContacts, detect_foot_contacts, transfer_contacts
 from ..geometry.ik import apply_foot_contact_ik
 from ..geometry.penetration import InterpenetrationEnergy, interpenetration_score, penetration_rate
@@ -63,9 +62,10 @@ from ..losses.contact import TABLE3_ROWS as ENERGY_ROWS
 from ..methods.contact import contact_clip, load_contact_model, retarget_with_eso, retarget_with_network
 from ..methods.registry import get_method
 from .paper import CONTACT_PAPER_METRICS, PAPER_TABLE1, PAPER_TABLE3, PAPER_TABLE5, PAPER_TABLE6
+from .results import StoredResult, compare_with_stored, load_result, write_result
 from .tdcn import METRES_TO_CM, normalized_mse, write_table
 
-__all__ = ["CONTACT_TARGETS", "CONTACT_PROFILES", "METRICS", "ContactCase", "shipped_contact_results", "rerun_cases",
+__all__ = ["CONTACT_TARGETS", "CONTACT_PROFILES", "METRICS", "ContactCase", "stored_contact_results", "contact_row_checkpoints", "rerun_cases",
            "rerun_tolerance", "contact_cases", "contact_methods", "evaluate_contact_case", "evaluate_contact_methods",
            "write_contact_tables", "vertex_contact_mse", "foot_contact_accuracy", "foot_height_error",
            "foot_heights_in_contact",
@@ -370,14 +370,32 @@ def ablation_steps(table3: pd.DataFrame, steps: tuple[tuple[str, str], ...] = TA
     return pd.DataFrame(out).set_index(["step", "metric"])
 
 
-def shipped_contact_results() -> pd.DataFrame:
-    """The stored per-case metrics of ``retarget evaluate --table contact --profile fast`` on the
-    shipped checkpoints (``results:`` in the manifest, sha256 checked; one row per method and case).
+def contact_row_checkpoints(rows: tuple[str, ...] = TABLE1_ROWS + TABLE3_ROWS,
+                            runs: Mapping[str, Path] | None = None) -> dict[str, CheckpointEntry | Path]:
+    """Row -> the checkpoint that row runs (:func:`contact_methods`): a network row's own (or its
+    ``runs`` replacement), the registry rows' defaults (TDCN, NKN); copy rows need none."""
+    shipped, entries, runs = table_checkpoints("contact"), checkpoint_entries(), runs or {}
+    out: dict[str, CheckpointEntry | Path] = {}
+    for row in rows:
+        base = EFULL_ROWS.get(row, row)
+        if base in runs:
+            out[row] = Path(runs[base])
+        elif base in shipped:
+            out[row] = shipped[base]
+        elif row in REGISTRY_ROWS and default_checkpoint(REGISTRY_ROWS[row]) is not None:
+            out[row] = entries[default_checkpoint(REGISTRY_ROWS[row])]
+    return out
+
+
+def stored_contact_results() -> StoredResult:
+    """The stored per-case metrics of the contact tables on the shipped checkpoints (``results/
+    contact_cases.csv``, written by ``retarget evaluate --table contact --profile fast``; one row per
+    method and case), with its provenance and staleness (:func:`~retarget_lib.evaluation.results.load_result`).
 
     ESO makes the full run take ~20 min on 2 cores, so the notebooks read these and re-run a few
     cases live (:func:`rerun_cases`) to show that they reproduce.
     """
-    return pd.read_csv(stored_result("contact"))
+    return load_result("contact_cases", rows=contact_row_checkpoints())
 
 
 #: relative tolerance of a live re-run against the stored table: feed-forward rows (networks, copy,
@@ -411,21 +429,12 @@ def rerun_cases(per_case: pd.DataFrame, clips: tuple[str, ...], targets: tuple[s
     methods, _ = contact_methods(rows)
     cases = [c for c in contact_cases(profile) if c.clip in clips and c.target.name in targets]
     now = evaluate_contact_methods(methods, cases, CONTACT_PROFILES[profile]["eval_every"])
-    keys = ["method", "clip", "target"]
-    both = now.merge(per_case, on=keys, suffixes=(" now", " stored"))
-    out = []
-    for m in METRICS:
-        out.append(pd.DataFrame({**{k: both[k] for k in keys}, "metric": m, "stored": both[f"{m} stored"],
-                                 "now": both[f"{m} now"]}))
-    out = pd.concat(out, ignore_index=True)
-    out["abs diff"] = (out["now"] - out["stored"]).abs()
-    out["tolerance"] = [rerun_tolerance(r, m, v) for r, m, v in zip(out["method"], out["metric"], out["stored"])]
-    out["reproduces"] = (out["abs diff"] <= out["tolerance"]) | (out["now"].isna() & out["stored"].isna())
-    return out
+    return compare_with_stored(now, per_case, ("method", "clip", "target"), METRICS, rerun_tolerance)
 
 
 def run_contact_evaluation(out_dir: str | Path, profile: str = "fast", rows: tuple[str, ...] | None = None,
                            device: str | None = None, runs: Mapping[str, Path] | None = None,
+                           command: str = "retarget evaluate --table contact --profile fast --out DIR",
                            ) -> tuple[dict[str, pd.DataFrame], list[str]]:
     """Evaluate every Table 1/3 row with a shipped checkpoint on :func:`contact_cases`; write
     ``contact_table{1,3,5,6}.csv/.md`` and ``contact_cases.csv`` into ``out_dir``.
@@ -436,11 +445,13 @@ def run_contact_evaluation(out_dir: str | Path, profile: str = "fast", rows: tup
         rows: evaluate only these rows and merge them into an existing ``contact_cases.csv`` of
             ``out_dir`` (replacing their old results); default every row, from scratch.
         device, runs: as :func:`contact_methods`.
+        command: the command recorded in the provenance of ``contact_cases``.
 
     Returns:
         ``(tables, missing_rows)``.
     """
     out = Path(out_dir)
+    t0 = time.perf_counter()
     methods, missing = contact_methods(rows or TABLE1_ROWS + TABLE3_ROWS, device, runs)
     cases = contact_cases(profile)
     per_case = evaluate_contact_methods(methods, cases, CONTACT_PROFILES[profile]["eval_every"],
@@ -452,12 +463,17 @@ def run_contact_evaluation(out_dir: str | Path, profile: str = "fast", rows: tup
             f"(targets {CONTACT_TARGETS}); interpenetration x1000, vertex contact MSE and global position MSE "
             "in cm^2/cm; 'paper' columns: Villegas et al. 2021 (Mixamo). "
             + (f"Rows without a shipped checkpoint: {', '.join(missing)}." if missing else ""))
-    return write_contact_tables(per_case, out, note), missing
+    tables = write_contact_tables(per_case, out, note)
+    write_result(per_case, out, "contact_cases", command=command, profile=profile,
+                 checkpoints=contact_row_checkpoints(tuple(per_case["method"].unique()), runs),
+                 seconds=time.perf_counter() - t0)
+    return tables, missing
 
 
 def write_contact_tables(per_case: pd.DataFrame, out_dir: str | Path, note: str) -> dict[str, pd.DataFrame]:
     """:func:`contact_tables` of ``per_case`` written as ``contact_table{1,3,5,6}.csv/.md`` (each
-    with ``note``) and ``contact_cases.csv`` into ``out_dir`` (atomically).
+    with ``note``) into ``out_dir`` (atomically); the per-case file with its provenance is written
+    by :func:`run_contact_evaluation`.
 
     Returns:
         the tables.
@@ -468,6 +484,4 @@ def write_contact_tables(per_case: pd.DataFrame, out_dir: str | Path, note: str)
               "table6": "Table 6 (bulky targets)"}
     for name, table in tables.items():
         write_table(table, out, f"contact_{name}", f"{titles[name]}. {note}")
-    with atomic_write(out / "contact_cases.csv", "w") as f:
-        per_case.to_csv(f, index=False, float_format="%.6g")
     return tables

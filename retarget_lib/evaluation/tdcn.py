@@ -14,7 +14,9 @@ is the mean over the four scenarios.
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from typing import Callable, Mapping, Sequence
 
@@ -24,18 +26,22 @@ import pandas as pd
 from ..core.motion import Motion
 from ..core.skeleton import Skeleton
 from ..core.transfer import retarget_ground_truth
-from ..data.manifest import table_checkpoints
+from ..data.manifest import CheckpointEntry, table_checkpoints
 from ..data.sources.cmu import CMU_CLIPS, load_cmu_clip
 from ..data.splits import tdcn_split
 from ..data.synthetic.dataset import load_synthetic
 from ..files import atomic_write
 from ..methods.registry import get_method
+from ..methods.tdcn import load_generator, retarget_motion_with
 from .paper import PAPER_TABLE4, TABLE4_COLUMNS
+from .results import StoredResult, compare_with_stored, load_result, write_result
 
 #: a retargeting method: (source motion, target skeleton) -> motion on the target
 Method = Callable[[Motion, Skeleton], Motion]
 
 SHORT_FRAMES = 120
+#: the row name of "ours" evaluated with a re-centred 81-frame window per frame
+WINDOWED_ROW = "ours (windowed)"
 METRES_TO_CM = 100.0
 
 
@@ -353,20 +359,89 @@ def tdcn_methods(only: Sequence[str] | None = None, device: str | None = None,
     return methods, missing
 
 
+#: relative tolerance of a live re-run of stored Table 4 numbers: every method is feed-forward
+#: (float32 networks, float64 metric), so a re-run differs only by kernel rounding (measured below
+#: 1e-5 relative between CPUs); the stored CSV keeps 7 significant digits
+RERUN_RTOL = 1e-3
+#: the magnitude below which the tolerance is absolute (``copy-rest`` scores 0 by construction)
+RERUN_FLOOR = 1e-3
+#: the columns that identify one Table 4 case; the first is the row (method)
+CASE_KEYS = ("method", "scenario", "source", "target", "clip")
+
+
+def rerun_tolerance(method: str, metric: str, stored: float) -> float:
+    """Largest ``|now - stored|`` accepted when a stored Table 4 case is re-run: ``RERUN_RTOL *
+    max(|stored|, RERUN_FLOOR)`` for every method and metric."""
+    return RERUN_RTOL * max(abs(stored), RERUN_FLOOR)
+
+
+def rerun_subset(cases: Sequence[EvalCase], per_group: int = 1) -> list[EvalCase]:
+    """The live re-run's cases: the first ``per_group`` cases of each scenario (CMU cases: of each
+    clip), in order, so every scenario and clip is checked."""
+    seen: dict[tuple, int] = {}
+    out = []
+    for c in cases:
+        group = (c.scenario, c.clip if c.scenario == 0 else "")
+        if seen.get(group, 0) < per_group:
+            seen[group] = seen.get(group, 0) + 1
+            out.append(c)
+    return out
+
+
+def rerun_cases(stored: pd.DataFrame, methods: Mapping[str, Method], cases: Sequence[EvalCase],
+                per_group: int = 1, metrics: Sequence[str] = ("short", "long")) -> pd.DataFrame:
+    """Re-evaluate a few stored Table 4 cases live (:func:`rerun_subset`) and put the new numbers
+    beside the stored ones (:func:`~retarget_lib.evaluation.results.compare_with_stored`,
+    :func:`rerun_tolerance`).
+
+    Args:
+        stored: the stored per-case frame (``load_result("table4_cases").frame``).
+        methods: row name -> method; each is re-run on the subset.
+        cases: the cases the stored frame was computed on.
+        per_group: cases per scenario (per clip for CMU cases).
+        metrics: the compared columns.
+    """
+    now = evaluate_methods(methods, rerun_subset(cases, per_group))
+    return compare_with_stored(now, stored, CASE_KEYS, metrics, rerun_tolerance)
+
+
+def stored_table4(name: str = "table4_cases") -> StoredResult:
+    """A stored Table 4 result from ``results/`` (``table4_cases``, ``table4_cmu_cases`` or
+    ``table4_windowed_cases``; written by :func:`run_tdcn_evaluation`), with its provenance and
+    staleness against the shipped checkpoints (:func:`~retarget_lib.evaluation.results.load_result`)."""
+    rows = table_checkpoints("tdcn")
+    if name == "table4_windowed_cases":
+        rows = {WINDOWED_ROW: rows["ours"]} if "ours" in rows else {}
+    return load_result(name, rows=rows)
+
+
+def _row_checkpoints(rows: Sequence[str], runs: Mapping[str, Path] | None) -> dict:
+    """row -> the checkpoint it was evaluated with (a sweep run's file, else the shipped entry)."""
+    shipped, runs = table_checkpoints("tdcn"), runs or {}
+    return {row: runs.get(row, shipped[row]) for row in rows if row in shipped}
+
+
 def run_tdcn_evaluation(out_dir: str | Path, device: str | None = None, runs: Mapping[str, Path] | None = None,
-                        ) -> tuple[pd.DataFrame, list[str]]:
+                        command: str = "retarget evaluate --table tdcn --out DIR") -> tuple[pd.DataFrame, list[str]]:
     """Evaluate :func:`tdcn_methods` on the four scenarios; write ``table4.csv/.md`` (normalised
-    MSE, paper beside ours), ``table4_h2.csv/.md`` (squared-height variant) and the per-case CSV.
+    MSE, paper beside ours), ``table4_h2.csv/.md`` (squared-height variant), and three per-case
+    files with their provenance (:func:`~retarget_lib.evaluation.results.write_result`):
+    ``table4_cases`` (every row, every pair), ``table4_cmu_cases`` (every row on the real CMU clips,
+    :func:`cmu_cases`) and ``table4_windowed_cases`` ("ours" with a re-centred window per frame).
 
     Args:
         out_dir: output folder.
         device, runs: as :func:`tdcn_methods`.
+        command: the command recorded in the provenance.
 
     Returns:
         ``(table, missing_rows)``.
     """
     methods, missing = tdcn_methods(device=device, runs=runs)
-    table, per_case = tdcn_table(methods, tdcn_cases())
+    checkpoints = _row_checkpoints(list(methods), runs)
+    t0 = time.perf_counter()
+    cases = tdcn_cases()
+    table, per_case = tdcn_table(methods, cases)
     table_h2 = table_from_cases(per_case, squared_height=True)
     note = ("Normalised MSE of global joint positions (cm² / H in cm; NKN/TDCN definition) on the "
             "synthetic four-scenario split; 'paper' columns are Kim et al. 2020, Table 4 (Mixamo). "
@@ -374,6 +449,17 @@ def run_tdcn_evaluation(out_dir: str | Path, device: str | None = None, runs: Ma
             + (f"Rows without a trained checkpoint yet: {', '.join(missing)}." if missing else ""))
     write_table(table, out_dir, "table4", note)
     write_table(table_h2, out_dir, "table4_h2", "Same, divided by H² (unit-free).")
-    with atomic_write(Path(out_dir) / "table4_cases.csv", "w") as f:
-        per_case.to_csv(f, index=False, float_format="%.5f")
+    write_result(per_case, out_dir, "table4_cases", command=command, checkpoints=checkpoints, profile="fast",
+                 seconds=time.perf_counter() - t0)
+    t0 = time.perf_counter()
+    _, real = tdcn_table(methods, cmu_cases())
+    write_result(real, out_dir, "table4_cmu_cases", command=command, checkpoints=checkpoints, profile="fast",
+                 seconds=time.perf_counter() - t0)
+    if "ours" in checkpoints:
+        t0 = time.perf_counter()
+        ours = checkpoints["ours"]
+        generator, _ = load_generator(ours.id if isinstance(ours, CheckpointEntry) else ours, device)
+        windowed = evaluate_methods({WINDOWED_ROW: partial(retarget_motion_with, generator, windowed=True)}, cases)
+        write_result(windowed, out_dir, "table4_windowed_cases", command=command,
+                     checkpoints={WINDOWED_ROW: ours}, profile="fast", seconds=time.perf_counter() - t0)
     return table, missing
