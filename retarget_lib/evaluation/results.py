@@ -4,8 +4,8 @@ The full tables (every row, every clip; Table 4 alone takes ~12 min on 2 cores, 
 ~20 min, ESO dominating) are produced by one command, ``retarget evaluate --all --out results``
 (``make tables``), and kept in the repository's ``results/`` folder. Every per-case CSV has a
 ``<name>.provenance.json`` beside it: the command, the commit, the date, the machine, the profile,
-the sha256 of every checkpoint that produced a row, a fingerprint of the library code that computes
-the numbers and the CSV's own sha256.
+the sha256 of every checkpoint that produced a row, the library modules the computation loaded with
+a fingerprint of their code (:func:`code_fingerprint`), and the CSV's own sha256.
 
 The notebooks read these files (:func:`load_result`) and re-run a small live subset that they
 compare with the stored numbers within a stated tolerance (:func:`compare_with_stored`). A stored
@@ -24,8 +24,8 @@ import json
 import os
 import platform
 import subprocess
+import sys
 from dataclasses import dataclass, field
-from functools import lru_cache
 from pathlib import Path
 from typing import Callable, Iterable, Mapping, Sequence
 
@@ -38,9 +38,6 @@ from ..files import REPO_ROOT, DataError, atomic_write, sha256_file
 RESULTS_DIR = REPO_ROOT / "results"
 #: the one command that recomputes every stored result
 RECOMPUTE_COMMAND = "make tables   (= retarget evaluate --all --out results)"
-#: the library packages whose code turns a checkpoint into a table's numbers (data, geometry, models,
-#: methods, metrics); notebook helpers, plots, training and the command line are not part of it
-FINGERPRINT_PACKAGES = ("core", "data", "geometry", "io", "losses", "methods", "models", "evaluation")
 #: printed float precision of stored CSVs: 7 significant digits, 1e-7 relative, far below every
 #: re-run tolerance (1e-3 relative at the tightest)
 CSV_FLOAT_FORMAT = "%.7g"
@@ -58,17 +55,26 @@ def _source_without_docstrings(path: Path) -> str:
     return ast.dump(tree, annotate_fields=False)
 
 
-@lru_cache(maxsize=4)
-def code_fingerprint(packages: Sequence[str] = FINGERPRINT_PACKAGES) -> str:
-    """sha256 over the code (not the docstrings or comments) of the library packages that compute
-    the stored numbers, :data:`FINGERPRINT_PACKAGES`; file names relative to the library. Cached
-    for the life of the process (the code of a running process does not change)."""
+def loaded_library_files() -> list[str]:
+    """The library's modules this process has imported (paths relative to the repository, sorted):
+    after an evaluation, the code that computed its numbers."""
     lib = REPO_ROOT / "retarget_lib"
+    files = set()
+    for module in list(sys.modules.values()):
+        path = getattr(module, "__file__", None)
+        if path and Path(path).resolve().is_relative_to(lib):
+            files.add(Path(path).resolve().relative_to(REPO_ROOT).as_posix())
+    return sorted(files)
+
+
+def code_fingerprint(files: Sequence[str]) -> str:
+    """sha256 over the code (not the docstrings or comments) of the given library files (paths
+    relative to the repository); a file that no longer exists counts as changed."""
     h = hashlib.sha256()
-    for package in packages:
-        for path in sorted((lib / package).rglob("*.py")):
-            h.update(path.relative_to(lib).as_posix().encode() + b"\0")
-            h.update(_source_without_docstrings(path).encode() + b"\0")
+    for rel in sorted(files):
+        path = REPO_ROOT / rel
+        h.update(rel.encode() + b"\0")
+        h.update((_source_without_docstrings(path) if path.exists() else "<missing>").encode() + b"\0")
     return h.hexdigest()
 
 
@@ -84,6 +90,15 @@ def _git_commit() -> str:
     except (OSError, subprocess.CalledProcessError):
         return "unknown"
     return head + ("+dirty" if dirty else "")
+
+
+def git_changed(path: str, commit: str) -> bool:
+    """Whether ``path`` differs from its version at ``commit`` (False when git cannot tell)."""
+    try:
+        return subprocess.run(["git", "diff", "--quiet", commit.removesuffix("+dirty"), "--", path], cwd=REPO_ROOT,
+                              capture_output=True).returncode == 1
+    except OSError:
+        return False
 
 
 def machine_description() -> str:
@@ -155,10 +170,12 @@ def write_result(frame: pd.DataFrame, out_dir: str | Path, name: str, *, command
             rows[row] = {"id": ck.id, "sha256": ck.sha256}
         else:
             rows[row] = {"id": Path(ck).name, "sha256": sha256_file(ck)}
+    code_files = loaded_library_files()
     provenance = {"name": name, "command": command, "commit": _git_commit(),
                   "date": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
                   "machine": machine_description(), "profile": profile, "seconds": round(seconds, 1),
-                  "checkpoints": rows, "code": code_fingerprint(), "sha256": sha256_file(csv_path)}
+                  "checkpoints": rows, "code": code_fingerprint(code_files), "code_files": code_files,
+                  "sha256": sha256_file(csv_path)}
     with atomic_write(out / f"{name}.provenance.json", "w") as f:
         json.dump(provenance, f, indent=1)
         f.write("\n")
@@ -185,9 +202,11 @@ def staleness(provenance: Mapping, rows: Mapping[str, CheckpointEntry] | None = 
     for row, entry in (rows or {}).items():
         if row not in provenance["checkpoints"]:
             reasons.append(f"row {row!r} (checkpoint {entry.id}) has no stored numbers")
-    if provenance["code"] != code_fingerprint():
-        reasons.append(f"the library code that computes them changed since commit {provenance['commit'][:12]} "
-                       f"({', '.join(FINGERPRINT_PACKAGES)})")
+    if provenance["code"] != code_fingerprint(provenance["code_files"]):
+        changed = [f for f in provenance["code_files"]
+                   if not (REPO_ROOT / f).exists() or git_changed(f, provenance["commit"])]
+        reasons.append(f"the library code that computed them changed since commit {provenance['commit'][:12]}"
+                       + (f" ({', '.join(changed[:6])}{' …' if len(changed) > 6 else ''})" if changed else ""))
     return reasons
 
 
