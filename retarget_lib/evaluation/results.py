@@ -38,6 +38,15 @@ from ..files import REPO_ROOT, DataError, atomic_write, sha256_file
 RESULTS_DIR = REPO_ROOT / "results"
 #: the one command that recomputes every stored result
 RECOMPUTE_COMMAND = "make tables   (= retarget evaluate --all --out results)"
+#: loaded modules that move files and names, not numbers: the command line, paths and checksums, the
+#: manifest and checkpoint look-up (a checkpoint is pinned by its sha256 instead), the glTF/FBX/shape
+#: readers and writers and the rig name maps (no stored table reads a GLB, FBX or shape file), devices,
+#: and this module; a change to them does not make a stored result stale
+NOT_NUMERIC = ("retarget_lib/cli.py", "retarget_lib/files.py", "retarget_lib/errors.py", "retarget_lib/devices.py",
+               "retarget_lib/data/manifest.py", "retarget_lib/data/checkpoints.py", "retarget_lib/io/gltf.py",
+               "retarget_lib/io/gltf_write.py", "retarget_lib/io/fbx.py", "retarget_lib/io/fbx_write.py",
+               "retarget_lib/io/shape.py", "retarget_lib/io/rig_maps.py", "retarget_lib/io/amass.py",
+               "retarget_lib/io/gltf_validator.py", "retarget_lib/evaluation/results.py")
 #: printed float precision of stored CSVs: 7 significant digits, 1e-7 relative, far below every
 #: re-run tolerance (1e-3 relative at the tightest)
 CSV_FLOAT_FORMAT = "%.7g"
@@ -56,15 +65,15 @@ def _source_without_docstrings(path: Path) -> str:
 
 
 def loaded_library_files() -> list[str]:
-    """The library's modules this process has imported (paths relative to the repository, sorted):
-    after an evaluation, the code that computed its numbers."""
+    """The library's modules this process has imported (paths relative to the repository, sorted),
+    but for those in :data:`NOT_NUMERIC`: after an evaluation, the code that computed its numbers."""
     lib = REPO_ROOT / "retarget_lib"
     files = set()
     for module in list(sys.modules.values()):
         path = getattr(module, "__file__", None)
         if path and Path(path).resolve().is_relative_to(lib):
             files.add(Path(path).resolve().relative_to(REPO_ROOT).as_posix())
-    return sorted(files)
+    return sorted(files - set(NOT_NUMERIC))
 
 
 def code_fingerprint(files: Sequence[str]) -> str:
