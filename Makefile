@@ -1,7 +1,9 @@
 # retarget-notebooks — two commands do everything (see README):
 #   make        set up .venv, build the embedded dataset, execute every notebook into build/notebooks/
 #               and write the offline HTML book build/book/index.html
-#   make test   unit tests + every notebook executed by nbval
+#   make test   unit tests + every notebook executed by nbval (the tests marked `slow` are left out)
+#   make test-slow   the tests marked `slow` (minutes each: compiled steps, the ESO identity, the
+#               benchmarks' rows, torchrun, sweeps); CI runs them after `make test`
 #   make workshop   the workshop notebooks (notebooks/learning_path.yaml) two at a time, then the book
 #   make book   the HTML book alone, from what is executed (build/notebooks/) or committed (notebooks/)
 #   make unit-fast   the library tests that need neither the built data nor minutes (a bare checkout)
@@ -15,10 +17,18 @@ STAMP  := $(VENV)/.installed
 NOTEBOOKS := $(sort $(wildcard notebooks/[0-9][0-9]*_*.ipynb))
 export VTK_DEFAULT_OPENGL_WINDOW := vtkEGLRenderWindow
 export RETARGET_PROFILE ?= fast
+# the time of each step, printed at the end of `make` and `make test` (.ci/step_times.py)
+RUN_ID := $(shell date +%s%N)
+STEP   := @$(PYTHON) .ci/step_times.py $(RUN_ID)
+# two notebooks or two test workers at a time on a 2-core machine, one OpenMP thread each
+# (more threads than cores oversubscribes and spins)
+JOBS   ?= 2
+ONE_THREAD := OMP_NUM_THREADS=1 MKL_NUM_THREADS=1
 
-.PHONY: all setup system-deps data notebooks book workshop test unit unit-fast unit-threads nbval bench tables clean-build
+.PHONY: all setup system-deps data notebooks book workshop test test-slow unit unit-fast unit-threads nbval bench tables clean-build
 
 all: notebooks
+	$(STEP) report make
 
 # Debian packages: offscreen OpenGL (EGL + Mesa) for pyvista and the CMU clips (assimp-testmodels).
 # Installed only when missing and we are root; otherwise the data step falls back to `apt-get download`.
@@ -26,6 +36,7 @@ system-deps:
 	@bash .ci/system-deps.sh
 
 $(STAMP): pyproject.toml constraints-cpu.txt
+	$(STEP) start setup
 	$(MAKE) system-deps
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install -q --upgrade pip
@@ -33,16 +44,25 @@ $(STAMP): pyproject.toml constraints-cpu.txt
 	$(BIN)/pip install -q -c constraints-cpu.txt -e '.[dev,fbx]'
 	bash .ci/node-deps.sh $(VENV)
 	touch $(STAMP)
+	$(STEP) end setup
 
 setup: $(STAMP)
 
 data: $(STAMP)
+	$(STEP) start data
 	$(BIN)/retarget data build
+	$(STEP) end data
 
+# independent notebooks $(JOBS) at a time, the longest first (build/notebooks/timings.json, else
+# benchmarks/notebook-times.json)
 notebooks: data
 	@mkdir -p build/notebooks
-	$(BIN)/python -m retarget_lib.notebook.runner --out build/notebooks $(NOTEBOOKS)
+	$(STEP) start notebooks
+	$(ONE_THREAD) $(BIN)/python -m retarget_lib.notebook.runner --out build/notebooks --jobs $(JOBS) $(NOTEBOOKS)
+	$(STEP) end notebooks
+	$(STEP) start book
 	$(BIN)/python -m retarget_lib.notebook.book --executed build/notebooks --out build/book
+	$(STEP) end book
 
 # no execution: pages from build/notebooks/ where `make` or `make workshop` executed them, else the
 # outputs committed in notebooks/ (each page says which)
@@ -54,25 +74,37 @@ book: $(STAMP)
 # the runner prints every notebook it leaves out and why. Add WORKSHOP_FLAGS=--force to time a re-run.
 workshop: data
 	@mkdir -p build/notebooks
-	OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 $(BIN)/python -m retarget_lib.notebook.runner --out build/notebooks \
-		--workshop --jobs 2 $(WORKSHOP_FLAGS)
+	$(STEP) start workshop-notebooks
+	$(ONE_THREAD) $(BIN)/python -m retarget_lib.notebook.runner --out build/notebooks \
+		--workshop --jobs $(JOBS) $(WORKSHOP_FLAGS)
+	$(STEP) end workshop-notebooks
 	$(BIN)/python -m retarget_lib.notebook.book --executed build/notebooks --out build/book
+	$(STEP) report "make workshop"
 
-# two xdist workers on two cores: one torch/OpenMP thread each (more oversubscribes and spins)
-PYTEST := OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 $(BIN)/pytest
+# $(JOBS) xdist workers, one torch/OpenMP thread each; the 15 slowest tests printed at the end
+PYTEST := $(ONE_THREAD) $(BIN)/pytest
 
 unit: data
-	$(PYTEST) -q -n 2 --dist loadfile tests
+	$(PYTEST) -q -n $(JOBS) --dist loadfile tests
 
 # no data build: tests marked `data` or `slow` (pyproject.toml) are left out
 unit-fast: $(STAMP)
-	$(PYTEST) -q -n 2 --dist loadfile -m "not data and not slow" tests
+	$(PYTEST) -q -n $(JOBS) --dist loadfile -m "not data and not slow" tests
 
 nbval: data
-	$(PYTEST) -q -n 2 --dist loadfile --nbval-lax notebooks
+	$(PYTEST) -q -n $(JOBS) --dist loadfile --nbval-lax notebooks
 
 test: data
-	$(PYTEST) -q -n 2 --dist loadfile tests --nbval-lax notebooks
+	$(STEP) start pytest-unit+nbval
+	$(PYTEST) -q -n $(JOBS) --dist loadfile --durations=15 -m "not slow" tests --nbval-lax notebooks
+	$(STEP) end pytest-unit+nbval
+	$(STEP) report "make test"
+
+test-slow: data
+	$(STEP) start pytest-slow
+	$(PYTEST) -q -n $(JOBS) --dist loadfile --durations=10 -m slow tests
+	$(STEP) end pytest-slow
+	$(STEP) report "make test-slow"
 
 # the library tests once more in one process with two OpenMP threads: results must not depend on the
 # thread count (tolerances, never exact equality between kernels); run by CI after `make test`

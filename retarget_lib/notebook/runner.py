@@ -28,6 +28,9 @@ from pathlib import Path
 from ..files import REPO_ROOT, atomic_write
 
 TIMINGS_FILE = "timings.json"
+#: per-notebook seconds of the last measured fresh-clone run (benchmarks/two_commands.py writes it):
+#: the order in which ``--jobs`` starts notebooks when ``<out>/timings.json`` does not know them yet
+REFERENCE_TIMINGS = REPO_ROOT / "benchmarks" / "notebook-times.json"
 _TIMING_PREFIX = "RUNNER-TIMING "
 
 
@@ -102,6 +105,17 @@ def record_timings(out_dir: Path, timings: dict[str, dict]) -> None:
         json.dump(dict(sorted(merged.items())), f, indent=1)
 
 
+def longest_first(notebooks: list[Path], out_dir: Path) -> list[Path]:
+    """``notebooks`` ordered by their last known execution time, longest first, so that ``--jobs``
+    does not start the longest one last (times from ``out_dir/timings.json``, else
+    :data:`REFERENCE_TIMINGS`; an unknown notebook counts as long)."""
+    known: dict[str, float] = {}
+    for path in (REFERENCE_TIMINGS, out_dir / TIMINGS_FILE):
+        if path.exists():
+            known.update({name: t["seconds"] for name, t in json.loads(path.read_text()).items()})
+    return sorted(notebooks, key=lambda nb: -known.get(nb.name, float("inf")))
+
+
 def workshop_notebooks(notebooks_dir: Path = REPO_ROOT / "notebooks") -> tuple[list[Path], list[tuple[str, str]]]:
     """The notebooks ``make workshop`` executes, and the ones it leaves out with the reason."""
     from .book import load_learning_path
@@ -152,7 +166,8 @@ def main(argv: list[str] | None = None) -> int:
                 report(nb, run_notebook(nb, args.out, force=args.force))
         else:
             with concurrent.futures.ThreadPoolExecutor(args.jobs) as pool:
-                futures = {pool.submit(_run_in_subprocess, nb, args.out, args.force): nb for nb in notebooks}
+                futures = {pool.submit(_run_in_subprocess, nb, args.out, args.force): nb
+                           for nb in longest_first(notebooks, args.out)}
                 for fut in concurrent.futures.as_completed(futures):
                     report(futures[fut], fut.result())
     finally:
