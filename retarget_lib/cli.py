@@ -17,6 +17,7 @@
                       [--wait] [--status]     one submitit job per table row (retarget_lib.training.sweep)
     retarget evaluate --all --out DIR    every table with provenance (``make tables``: into results/)
     retarget evaluate --status           each stored result in results/: provenance, stale or not
+    retarget evaluate --compare DIR      results/ against DIR's per-case files, within the re-run tolerances
     retarget evaluate --table tdcn|contact [--profile fast|paper] [--runs SWEEP_DIR] [--device auto] --out DIR
                       [--data synthetic|mixamo-local [--mixamo DIR] [--methods ROW ...] [--checkpoint PATH]]
                                          mixamo-local: the papers' protocols on a reviewer's Mixamo folder
@@ -142,9 +143,42 @@ def _results_status() -> int:
     return 1 if stale else 0
 
 
+def _compare_results(other_dir: str) -> int:
+    """Every stored per-case file in ``results/`` against the same file in ``other_dir`` (e.g. a
+    fresh ``retarget evaluate --all --out DIR``), value by value, within the live re-runs'
+    tolerances; exit 1 when a case is missing or a value is outside its tolerance."""
+    from pathlib import Path
+
+    import pandas as pd
+
+    from .evaluation import contact, tdcn
+    from .evaluation.results import compare_with_stored, load_result
+
+    table4 = (tdcn.CASE_KEYS, ("short", "long", "short_h2", "long_h2"), tdcn.rerun_tolerance)
+    specs = {"table4_cases": table4, "table4_cmu_cases": table4, "table4_windowed_cases": table4,
+             "contact_cases": (("method", "clip", "target"), contact.METRICS, contact.rerun_tolerance)}
+    bad = 0
+    for name, (keys, metrics, tolerance) in specs.items():
+        stored = load_result(name).frame
+        path = Path(other_dir) / f"{name}.csv"
+        if not path.exists():
+            raise RetargetInputError(f"{path}: not found (run `retarget evaluate --all --out {other_dir}` first)")
+        other = pd.read_csv(path)
+        cmp = compare_with_stored(other, stored, keys, metrics, tolerance)
+        outside = int((~cmp["reproduces"]).sum()) + abs(len(other) - len(stored))
+        worst = (cmp["abs diff"] / cmp["tolerance"]).max()
+        print(f"{name}: {len(other)} cases against {len(stored)} stored, {len(cmp)} values; "
+              f"{outside} outside tolerance; largest |difference| / tolerance {worst:.3f}")
+        bad += outside
+    print("every value reproduces the stored results" if bad == 0 else f"{bad} value(s) or case(s) do not reproduce")
+    return 1 if bad else 0
+
+
 def _cmd_evaluate(args: argparse.Namespace) -> int:
     if args.status:
         return _results_status()
+    if args.compare:
+        return _compare_results(args.compare)
     if args.out is None:
         raise RetargetInputError("retarget evaluate: give --out DIR")
     if args.all:
@@ -319,6 +353,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--status", action="store_true",
                    help="say where each stored result in results/ comes from and whether it is stale "
                         "(exit 1 when one is)")
+    p.add_argument("--compare", metavar="DIR",
+                   help="compare the stored results in results/ with the per-case files of DIR (e.g. written by "
+                        "--all), value by value within the live re-runs' tolerances (exit 1 when one is outside)")
     p.add_argument("--table", choices=["tdcn", "contact"],
                    help="tdcn: Kim et al. 2020, Table 4; contact: Villegas et al. 2021, Tables 1, 3, 5, 6")
     p.add_argument("--profile", choices=["fast", "paper"],

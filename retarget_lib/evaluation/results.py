@@ -87,14 +87,14 @@ def code_fingerprint(files: Sequence[str]) -> str:
     return h.hexdigest()
 
 
-def _git_commit() -> str:
-    """The checkout's commit, ``+dirty`` when the library, configs, checkpoints or manifest differ
-    from it (tests and notebooks do not change results); ``unknown`` outside git."""
+def _git_commit(code_files: Sequence[str]) -> str:
+    """The checkout's commit, ``+dirty`` when the code that computed the numbers (``code_files``),
+    the configs, the checkpoints or the manifest differ from it; ``unknown`` outside git."""
     try:
         head = subprocess.run(["git", "rev-parse", "HEAD"], cwd=REPO_ROOT, capture_output=True, text=True,
                               check=True).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "--",
-                                "retarget_lib", "configs", "checkpoints", "data_manifest.yaml"], cwd=REPO_ROOT,
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "--", *code_files,
+                                "configs", "checkpoints", "data_manifest.yaml"], cwd=REPO_ROOT,
                                capture_output=True, text=True, check=True).stdout.strip()
     except (OSError, subprocess.CalledProcessError):
         return "unknown"
@@ -180,7 +180,7 @@ def write_result(frame: pd.DataFrame, out_dir: str | Path, name: str, *, command
         else:
             rows[row] = {"id": Path(ck).name, "sha256": sha256_file(ck)}
     code_files = loaded_library_files()
-    provenance = {"name": name, "command": command, "commit": _git_commit(),
+    provenance = {"name": name, "command": command, "commit": _git_commit(code_files),
                   "date": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
                   "machine": machine_description(), "profile": profile, "seconds": round(seconds, 1),
                   "checkpoints": rows, "code": code_fingerprint(code_files), "code_files": code_files,
