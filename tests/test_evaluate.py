@@ -5,6 +5,7 @@ import pandas as pd
 import pytest
 
 from retarget_lib.core.transfer import retarget_ground_truth
+from retarget_lib.data.manifest import table_checkpoints
 from retarget_lib.evaluation.paper import PAPER_TABLE4, TABLE4_COLUMNS
 from retarget_lib.evaluation.tdcn import (markdown_table, normalized_mse, ordering_checks, paper_comparison,
                                           tdcn_cases, tdcn_table, write_table)
@@ -57,19 +58,33 @@ def test_paper_numbers_and_markdown():
 
 
 @pytest.mark.data
-def test_cli_evaluate_writes_every_table4_row(tmp_path, capsys):
+def test_cli_evaluate_writes_every_table4_row_with_provenance(tmp_path, capsys, monkeypatch):
     from retarget_lib.cli import main
+    from retarget_lib.evaluation import tdcn
+    from retarget_lib.evaluation.results import load_result
 
+    # every row on a subset of the cases (the full run is `make tables`, ~10 min): the first pair of
+    # every scenario, one CMU clip onto one target
+    every, real = tdcn.tdcn_cases(), tdcn.cmu_cases()[:1]
+    monkeypatch.setattr(tdcn, "tdcn_cases", lambda: tdcn.rerun_subset(every))
+    monkeypatch.setattr(tdcn, "cmu_cases", lambda: real)
     assert main(["evaluate", "--table", "tdcn", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     assert "no trained checkpoint yet for:" not in out  # every Table 4 row ships a checkpoint
-    for name in ("table4.csv", "table4.md", "table4_h2.csv", "table4_cases.csv"):
+    for name in ("table4.csv", "table4.md", "table4_h2.csv", "table4_cases.csv", "table4_cmu_cases.csv",
+                 "table4_windowed_cases.csv"):
         assert (tmp_path / name).exists()
-    import pandas as pd
-
     t = pd.read_csv(tmp_path / "table4.csv", index_col=0)
     assert set(PAPER_TABLE4) <= set(t.index), set(PAPER_TABLE4) - set(t.index)
     assert t.loc["ours", "paper short avg"] == 2.45 and t.loc["ours", "ours long avg"] > 0
+    # the provenance names every row's checkpoint, and a fresh result is not stale
+    stored = load_result("table4_cases", rows=table_checkpoints("tdcn"), results_dir=tmp_path)
+    assert stored.stale == [], stored.stale
+    assert set(stored.provenance["checkpoints"]) == set(table_checkpoints("tdcn"))
+    assert len(stored.frame) == 4 * len(t) and set(stored.frame["scenario"]) == {1, 2, 3, 4}
+    assert load_result("table4_cmu_cases", results_dir=tmp_path).frame["clip"].nunique() == 1
+    windowed = load_result("table4_windowed_cases", results_dir=tmp_path)
+    assert list(windowed.provenance["checkpoints"]) == [tdcn.WINDOWED_ROW]
 
 
 def test_ordering_checks_compare_directions_with_the_paper():

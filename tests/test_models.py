@@ -270,6 +270,7 @@ def test_nkn_gru_decoder_is_online():
     assert torch.allclose(full.rotations[:, :20], part.rotations, atol=1e-6)
 
 
+@pytest.mark.slow  # torch.compile of the GRU step: ~1 min of CPU
 def test_a_compiled_nkn_decoder_computes_the_eager_outputs_and_gradients():
     eager = NKNGenerator(hidden=SMALL)  # dropout 0 (NKN's GRU default): both draw no random masks
     compiled = NKNGenerator(hidden=SMALL)
