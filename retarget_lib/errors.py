@@ -1,4 +1,5 @@
-"""The library's exception types for bad input (this module imports nothing of the library).
+"""The library's exception types for bad input, and :func:`short_repr` for the values they show
+(this module imports nothing of the library).
 
 Every error a user can cause with a file, a path, a config or an option is a
 :class:`RetargetInputError` (a ``ValueError``) whose message names the file or key and the problem
@@ -40,8 +41,21 @@ file missing or corrupt) is separate: it is not the user's input, but the CLI al
 
 from __future__ import annotations
 
-__all__ = ["RetargetInputError", "InputFileError", "OutputPathError", "LimitError", "CheckpointError", "GLTFError",
-           "AMASSError", "FBXError", "DeviceError", "MixamoFolderError"]
+import reprlib
+from typing import Any
+
+__all__ = ["short_repr", "RetargetInputError", "InputFileError", "OutputPathError", "LimitError", "CheckpointError",
+           "GLTFError", "AMASSError", "FBXError", "DeviceError", "MixamoFolderError"]
+
+
+_SHORT = reprlib.Repr()
+_SHORT.maxstring, _SHORT.maxother, _SHORT.maxlist, _SHORT.maxdict, _SHORT.maxlevel = 60, 60, 4, 4, 2
+
+
+def short_repr(value: Any) -> str:
+    """A bounded ``repr`` of a value from a user's file for an error message: at most a few items
+    of a few levels, long strings cut (an aliased YAML value is never expanded)."""
+    return _SHORT.repr(value)
 
 
 class RetargetInputError(ValueError):
@@ -79,7 +93,6 @@ class FBXError(RetargetInputError):
 
 class DeviceError(RetargetInputError):
     """A device, precision or process layout that cannot run here (the message says what to use)."""
-
 
 
 class MixamoFolderError(RetargetInputError):

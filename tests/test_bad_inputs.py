@@ -120,19 +120,22 @@ def test_out_equal_to_an_input_is_refused(tmp_path, capsys, src, which):
     assert main(retarget_args(src, out, target, "copy", "--force")) == 0  # allowed when asked for
 
 
-def test_stale_temp_files_are_swept_and_live_ones_kept(tmp_path):
+def test_only_recorded_temp_files_of_gone_processes_are_swept(tmp_path):
+    """Files that merely look like temporary files (a user's ``.notes.tmp``, the old
+    ``.NAME.<pid>.<random>.tmp`` pattern of a dead process) are never removed; the temporary file
+    of a write whose process is gone is, from its record (tests/test_untrusted_paths.py: SIGKILL)."""
     dead = tmp_path / ".out.bvh.999999999.abcd1234.tmp"       # pid beyond pid_max: its process is gone
     legacy = tmp_path / ".out.bvh.abcd1234.tmp"                 # before temp names carried a pid
-    live = tmp_path / f".out.bvh.{os.getppid()}.abcd1234.tmp"   # a running process's write
-    for p in (dead, legacy, live):
+    notes = tmp_path / ".notes.tmp"
+    for p in (dead, legacy, notes):
         p.write_bytes(b"x" * 100)
     two_hours_ago = time.time() - 7200
     os.utime(legacy, (two_hours_ago, two_hours_ago))
+    os.utime(notes, (two_hours_ago, two_hours_ago))
     with atomic_write(tmp_path / "out.bvh", "w") as f:
         f.write("data")
-    assert not dead.exists() and not legacy.exists() and live.exists()
     assert sweep_stale_temps(tmp_path) == []
-    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([live.name, "out.bvh"])
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([dead.name, legacy.name, notes.name, "out.bvh"])
 
 
 @pytest.mark.parametrize("signame", ["SIGTERM", "SIGINT"])
