@@ -32,11 +32,9 @@ from __future__ import annotations
 import os
 from typing import Mapping, Sequence
 
-import yaml
-
 from ..core.canonical import NAME_MAPS, strip_prefix
 from ..core.skeleton import CANONICAL22, CANONICAL22_PARENTS, J, JointSetError
-from ..files import readable_file
+from ..files import read_yaml
 
 __all__ = ["RIG_MAPS", "joint_key", "map_joints", "load_mapping_file"]
 
@@ -112,7 +110,7 @@ def _ancestors(j: int, parents: Sequence[int]) -> set[int]:
 
 
 def map_joints(names: Sequence[str], parents: Sequence[int], mapping: Mapping[str, str] | None = None,
-               what: str = "the rig") -> tuple[dict[int, int], str]:
+               what: str = "the rig", mapping_source: str = "the mapping") -> tuple[dict[int, int], str]:
     """Map a rig's joints onto the canonical 22.
 
     Args:
@@ -121,6 +119,7 @@ def map_joints(names: Sequence[str], parents: Sequence[int], mapping: Mapping[st
         mapping: ``{canonical name: file joint name}`` entries that replace or complete the
             detected map (a mapping file, or a VRM file's humanoid bones).
         what: the file, for messages.
+        mapping_source: where ``mapping`` comes from (a joint map file), for messages.
 
     Returns:
         ``({file joint index: canonical index} for the 22 canonical joints, rig name)``; the rig
@@ -139,10 +138,11 @@ def map_joints(names: Sequence[str], parents: Sequence[int], mapping: Mapping[st
         keys = [joint_key(n) for n in names]
         for canon, file_name in mapping.items():
             if canon not in J:
-                raise JointSetError(f"{what}: mapping names {canon!r}, not a canonical joint "
+                raise JointSetError(f"{what}: {mapping_source} names {canon!r}, not a canonical joint "
                                     f"({', '.join(CANONICAL22)})")
             if joint_key(file_name) not in keys:
-                raise JointSetError(f"{what}: mapping maps {canon} to {file_name!r}, which is not a joint of the rig")
+                raise JointSetError(f"{what}: {mapping_source} maps {canon} to {file_name!r}, which is not a joint of "
+                                    "the rig")
             found = {i: c for i, c in found.items() if c != J[canon]}
             found[keys.index(joint_key(file_name))] = J[canon]
         rig += "+mapping"
@@ -166,17 +166,22 @@ def _listed(names: Sequence[str], limit: int = 60) -> str:
 
 
 def load_mapping_file(path: str | os.PathLike) -> dict[str, str]:
-    """Read a joint mapping file: YAML or JSON, ``{canonical name: file joint name}``.
+    """Read a joint mapping file: YAML or JSON, ``{canonical name: file joint name}``, read within
+    the bounds of :func:`~retarget_lib.files.read_yaml` (1 MiB, nesting, aliases; a key given twice
+    is an error, not a silently dropped line).
 
     Raises:
-        JointSetError: not a mapping of strings to strings.
+        JointSetError: malformed, not a mapping of strings to strings, a canonical name given
+            twice, or two canonical joints mapped to one file joint.
         InputFileError: missing, empty or unreadable.
     """
-    path = readable_file(path, "joint mapping file", max_bytes=1 << 20)
-    try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except (yaml.YAMLError, UnicodeDecodeError) as e:
-        raise JointSetError(f"{path}: not a YAML/JSON mapping: {str(e).splitlines()[0]}") from None
+    data = read_yaml(path, "joint mapping file", JointSetError)
     if not isinstance(data, dict) or not all(isinstance(k, str) and isinstance(v, str) for k, v in data.items()):
         raise JointSetError(f"{path}: a joint mapping file holds lines 'CanonicalName: file_joint_name'")
+    first: dict[str, str] = {}
+    for canon, file_name in data.items():
+        if joint_key(file_name) in first:
+            raise JointSetError(f"{path}: maps both {first[joint_key(file_name)]} and {canon} to {file_name!r}; a file "
+                                "joint can stand for one canonical joint")
+        first[joint_key(file_name)] = canon
     return data
