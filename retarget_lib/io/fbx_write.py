@@ -58,6 +58,7 @@ from ..core.rig import Rig
 from ..core.rotations import quat_to_euler
 from ..errors import FBXError
 from ..files import atomic_write
+from .untrusted import name_problem
 
 __all__ = ["KTIME_PER_SECOND", "FBX_VERSION", "save_fbx", "fbx_time_mode"]
 
@@ -280,8 +281,9 @@ def save_fbx(rig: Rig, path: str | os.PathLike, motion: Motion | None = None,
             writes metres, 1 centimetres (what Mixamo and Maya write); importers convert either.
 
     Raises:
-        FBXError: ``motion`` is on another joint set, ``unit_scale_factor`` is not positive, or
-            the file would exceed FBX 7.4's 4 GiB.
+        FBXError: ``motion`` is on another joint set, ``unit_scale_factor`` is not positive, a
+            joint name FBX cannot hold (a control character: ``\\x00\\x01`` separates a name
+            from its class), or the file would exceed FBX 7.4's 4 GiB.
         OutputPathError: ``path`` cannot be created (from :func:`~retarget_lib.files.atomic_write`).
     """
     sk = rig.skeleton
@@ -289,6 +291,9 @@ def save_fbx(rig: Rig, path: str | os.PathLike, motion: Motion | None = None,
         raise FBXError(f"{path}: the motion's joints are not the rig {rig.name!r}'s joints")
     if not (np.isfinite(unit_scale_factor) and unit_scale_factor > 0):
         raise FBXError(f"{path}: unit_scale_factor {unit_scale_factor} must be a positive number of centimetres")
+    for name in sk.joint_names:
+        if name_problem(name):
+            raise FBXError(f"{path}: cannot write the joint name {name!r}: it {name_problem(name)}")
     to_file = 100.0 / float(unit_scale_factor)  # file units per metre
     if to_file != 1.0:
         rig = Rig(rig.name, sk.scaled(to_file), rig.rest_vertices * to_file, rig.faces, rig.weights, rig.joint_map)
