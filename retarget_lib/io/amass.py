@@ -29,15 +29,19 @@ local rotations), so the file's axis-angles are the local rotations.
 (``(x, y, z) -> (x, z, -y)``), ``up="y"`` keeps it; ``up=None`` (default) decides from the data:
 the body's up axis (the pelvis frame's +Y) points mostly along world +Z in a Z-up file.
 
-Bounds (:class:`~retarget_lib.errors.AMASSError`): |betas| <= 10, |pose angle| <= 100 rad, frame
-rate 1-1000, 1,000,000 frames, file size 512 MiB.
+Bounds (:class:`~retarget_lib.errors.AMASSError` / :class:`~retarget_lib.errors.LimitError`):
+|betas| <= 10, at most 10,000 betas, |pose angle| <= 100 rad, frame rate 1-1000 (one number),
+1,000,000 frames and at most :data:`~retarget_lib.io.untrusted.MAX_MOTION_SAMPLES` / 22 of them
+(136,363: 19 minutes at 120 fps), at most 330 pose columns, file size 512 MiB. Each array's size
+is read from its header and checked before it is inflated
+(:func:`~retarget_lib.io.untrusted.read_npz`: a small file whose ``poses`` would inflate to
+gigabytes is refused, as is a ``.npy`` file named ``.npz``).
 """
 
 from __future__ import annotations
 
 import importlib.resources
 import os
-import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -47,8 +51,9 @@ from ..core.canonical import SMPLX_BODY_NAMES, SMPLX_MAP
 from ..core.motion import Motion
 from ..core.rotations import quat_from_axis_angle, quat_mul, quat_rotate, quat_to_axis_angle
 from ..core.skeleton import CANONICAL22, CANONICAL22_PARENTS, Skeleton, canonical22_skeleton
-from ..errors import AMASSError, LimitError
+from ..errors import AMASSError
 from ..files import DataError, atomic_write, check_sha256, readable_file
+from .untrusted import check_count, check_motion_samples, read_npz
 
 __all__ = ["AMASSError", "SMPLX_CALIBRATION_SHA256", "smplx_skeleton", "load_amass", "save_amass"]
 
@@ -57,6 +62,7 @@ SMPLX_CALIBRATION_SHA256 = "fe149bebd6e813a67305e264bd4e5e6648652f5acdc5f3aeb15e
 MAX_FILE_BYTES = 512 * 2**20
 MAX_FRAMES = 1_000_000
 MAX_BETA, MAX_ANGLE = 10.0, 100.0
+MAX_BETAS, MAX_POSE_COLUMNS = 10_000, 330
 _NUM_BETAS = 10
 #: canonical joint c is SMPL-X body joint _ORDER[c]
 _ORDER = [SMPLX_BODY_NAMES.index(next(k for k, v in SMPLX_MAP.items() if v == n)) for n in CANONICAL22]
@@ -106,25 +112,45 @@ def _first_betas(betas: np.ndarray) -> np.ndarray:
     return b
 
 
+_WANTED = ("poses", "root_orient", "pose_body", "betas", "trans", "mocap_frame_rate", "mocap_framerate", "gender",
+           "surface_model_type")
+_PER_FRAME = ("poses", "root_orient", "pose_body", "trans")
+
+
+def _check_shape(path: Path, key: str, shape: tuple[int, ...]) -> None:
+    """Refuse, from an array's header, a size the reader cannot take (before it is inflated)."""
+    if key in _PER_FRAME and shape:
+        check_count(shape[0], MAX_FRAMES, f"frames of {key}", str(path))
+        check_motion_samples(shape[0], len(CANONICAL22), str(path))
+    if key == "poses" and len(shape) == 2:
+        check_count(shape[1], MAX_POSE_COLUMNS, "pose columns", str(path))
+    if key == "betas":
+        check_count(int(np.prod(shape)), MAX_BETAS, "betas", str(path))
+
+
 def _read_arrays(path: Path) -> dict[str, np.ndarray]:
-    wanted = ("poses", "root_orient", "pose_body", "betas", "trans", "mocap_frame_rate", "mocap_framerate",
-              "gender", "surface_model_type")
-    try:
-        with np.load(path, allow_pickle=False) as data:
-            out = {}
-            for k in wanted:
-                if k in data.files:
-                    try:
-                        out[k] = data[k]
-                    except ValueError:  # an object array (pickled), e.g. a gender written as bytes object
-                        if k not in ("gender", "surface_model_type"):
-                            raise AMASSError(f"{path}: key {k!r} is a pickled object array; store plain numbers") \
-                                from None
-            return out
-    except AMASSError:
-        raise
-    except (zipfile.BadZipFile, EOFError, OSError, ValueError) as e:
-        raise AMASSError(f"{path}: not a readable .npz file (truncated or corrupt?): {e}") from None
+    """The arrays of the file the reader uses (pickled ``gender`` / ``surface_model_type`` left out)."""
+    return read_npz(path, _WANTED, AMASSError, objects_skipped=("gender", "surface_model_type"),
+                    shape_check=lambda key, shape: _check_shape(path, key, shape))
+
+
+def _frame_rate(a: dict[str, np.ndarray], fps: float | None, path: Path) -> float:
+    """The file's frame rate (one number), else ``fps``."""
+    key = next((k for k in ("mocap_frame_rate", "mocap_framerate") if k in a), None)
+    if key is None and fps is None:
+        raise AMASSError(f"{path}: no frame rate: the file has no 'mocap_frame_rate' or 'mocap_framerate' key; add "
+                         "it (frames per second), as AMASS files have it")
+    if key is None:
+        rate = float(fps)
+    else:
+        value = np.asarray(a[key])
+        if value.size != 1 or not np.issubdtype(value.dtype, np.number):
+            raise AMASSError(f"{path}: {key} must be one number (frames per second), got {value.dtype} of shape "
+                             f"{value.shape}")
+        rate = float(value.ravel()[0])
+    if not (np.isfinite(rate) and 1.0 <= rate <= 1000.0):
+        raise AMASSError(f"{path}: frame rate {rate} is outside 1-1000")
+    return rate
 
 
 def _finite(a: np.ndarray, key: str, path: Path, bound: float) -> np.ndarray:
@@ -152,8 +178,10 @@ def load_amass(path: str | os.PathLike, up: str | None = None, fps: float | None
 
     Raises:
         AMASSError: no ``betas`` (naming it: the skeleton's lengths come from them), no poses, no
-            translation, no frame rate, wrong shapes, non-finite or out-of-bound values.
-        InputFileError: missing, empty or larger than 512 MiB. LimitError: too many frames.
+            translation, no frame rate, wrong shapes, non-finite or out-of-bound values, not an
+            ``.npz`` (e.g. a ``.npy``), truncated or corrupt.
+        InputFileError: missing, empty or larger than 512 MiB. LimitError: too many frames, pose
+            columns or betas, or an array beyond the budget (checked before it is inflated).
     """
     path = readable_file(path, "SMPL-X/AMASS .npz file", MAX_FILE_BYTES)
     a = _read_arrays(path)
@@ -184,14 +212,7 @@ def load_amass(path: str | os.PathLike, up: str | None = None, fps: float | None
         raise AMASSError(f"{path}: trans must be ({len(poses)}, 3) like poses, got {trans.shape}")
     if len(poses) == 0:
         raise AMASSError(f"{path}: no frames")
-    if len(poses) > MAX_FRAMES:
-        raise LimitError(f"{path}: {len(poses)} frames exceed the limit of {MAX_FRAMES}")
-    rate_key = next((k for k in ("mocap_frame_rate", "mocap_framerate") if k in a), None)
-    if rate_key is None and fps is None:
-        raise AMASSError(f"{path}: no frame rate ('mocap_frame_rate' or 'mocap_framerate'); pass --fps")
-    rate = float(np.asarray(a[rate_key]).ravel()[0]) if rate_key else float(fps)
-    if not (np.isfinite(rate) and 1.0 <= rate <= 1000.0):
-        raise AMASSError(f"{path}: frame rate {rate} is outside 1-1000")
+    rate = _frame_rate(a, fps, path)
     local = quat_from_axis_angle(torch.from_numpy(poses.reshape(-1, 22, 3))).numpy()[:, _ORDER]
     root = trans + _pelvis_rest(betas)
     if up is None:

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import os
 import sys
-import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -32,6 +31,7 @@ from ..core.character import Character
 from ..core.skeleton import CANONICAL22, canonical22_skeleton
 from ..errors import RetargetInputError
 from ..files import atomic_write, readable_file
+from .untrusted import check_count, read_npz
 
 __all__ = ["SHAPE_KEYS", "ShapeError", "load_shape_npz", "save_shape_npz"]
 
@@ -41,6 +41,8 @@ _WEIGHT_TOL = 1e-3
 #: rows whose sum is off by more than _WEIGHT_TOL but at most this are renormalised (real Mixamo
 #: exports store float32 weights whose rows sum to 0.997-1.0), with one line on stderr
 _RENORMALIZE_TOL = 1e-2
+#: bounds of a shape file (as the glTF reader's), checked from the arrays' headers before reading
+MAX_VERTICES, MAX_FACES = 2_000_000, 4_000_000
 
 
 class ShapeError(RetargetInputError):
@@ -77,21 +79,17 @@ def load_shape_npz(path: str | os.PathLike, unit: str | float | None = None) -> 
 
     Raises:
         ShapeError: naming the problem: not a readable ``.npz`` (truncated, corrupt, pickled
-            objects), missing keys, wrong shapes, NaN/inf values, face indices out of range, weight
+            objects, a ``.npy``), missing keys, wrong shapes, NaN/inf values, face indices out of range, weight
             rows not summing to 1 (which rows), missing joints (which).
         InputFileError: missing, a directory, unreadable or empty.
+        LimitError: more than :data:`MAX_VERTICES` vertices or :data:`MAX_FACES` faces, or an array
+            beyond the budget (read from its header, before it is inflated).
     """
     path = readable_file(path, "shape .npz file")
-    try:
-        with np.load(path, allow_pickle=False) as data:
-            missing = [k for k in SHAPE_KEYS if k not in data.files]
-            if missing:
-                raise ShapeError(f"{path}: missing keys {missing} (a shape file needs {list(SHAPE_KEYS)})")
-            arrays = {k: data[k] for k in SHAPE_KEYS}
-    except ShapeError:
-        raise
-    except (zipfile.BadZipFile, EOFError, OSError, ValueError) as e:
-        raise ShapeError(f"{path}: not a readable .npz file (truncated or corrupt?): {e}") from None
+    arrays = read_npz(path, SHAPE_KEYS, ShapeError, shape_check=lambda key, shape: _check_shape(path, key, shape))
+    missing = [k for k in SHAPE_KEYS if k not in arrays]
+    if missing:
+        raise ShapeError(f"{path}: missing keys {missing} (a shape file needs {list(SHAPE_KEYS)})")
     vertices, faces, weights, offsets, names = _validated(arrays, path)
     order = _canonical_order(names, path)
     offsets, weights = offsets[order], weights[:, order]
@@ -100,6 +98,14 @@ def load_shape_npz(path: str | os.PathLike, unit: str | float | None = None) -> 
     vertices = vertices * scale + offsets[0]
     return Character(path.stem, canonical22_skeleton(offsets), vertices, faces, weights,
                      style=dict(source=str(path), unit_scale=scale))
+
+
+def _check_shape(path: Path, key: str, shape: tuple[int, ...]) -> None:
+    """Refuse more vertices or faces than the bounds, from an array's header."""
+    if key in ("rest_vertices", "skinning_weights") and shape:
+        check_count(shape[0], MAX_VERTICES, f"vertices in {key}", str(path))
+    if key == "rest_faces" and shape:
+        check_count(shape[0], MAX_FACES, "faces", str(path))
 
 
 def _validated(arrays: dict, path: Path) -> tuple[np.ndarray, ...]:

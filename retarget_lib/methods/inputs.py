@@ -25,7 +25,6 @@ a name            a synthetic character or ``mannequin-x`` (skeleton and mesh)
 from __future__ import annotations
 
 import os
-import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -43,7 +42,8 @@ from ..io import fbx
 from ..io.amass import load_amass, smplx_skeleton
 from ..io.bvh import load_bvh
 from ..io.gltf import NoSkinError, load_gltf_animation, load_gltf_motion, load_gltf_rig
-from ..io.shape import SHAPE_KEYS, load_shape_npz
+from ..io.shape import SHAPE_KEYS, ShapeError, load_shape_npz
+from ..io.untrusted import npz_keys
 
 __all__ = ["SOURCE_SUFFIXES", "TARGET_SUFFIXES", "Source", "Target", "load_source", "load_target"]
 
@@ -124,9 +124,8 @@ def load_source(path: str | os.PathLike, joint_map: str | os.PathLike | None = N
 def _is_shape_npz(path: str | os.PathLike) -> bool:
     """Whether an ``.npz`` is a character shape file (else it is read as SMPL-X/AMASS)."""
     try:
-        with np.load(path, allow_pickle=False) as data:
-            return set(SHAPE_KEYS) <= set(data.files)
-    except (zipfile.BadZipFile, EOFError, OSError, ValueError):
+        return set(SHAPE_KEYS) <= set(npz_keys(path, ShapeError))
+    except (ShapeError, OSError):
         return True  # let the shape reader name the problem
 
 
