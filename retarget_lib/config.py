@@ -5,6 +5,16 @@ base's. A ``profiles:`` mapping holds per-profile deltas (``fast`` for CI and la
 the papers' sizes) applied after the merge. Command-line ``key=value`` overrides (dotted keys,
 values parsed as YAML) come last. The seed lives in the config like everything else.
 
+Which value wins, from strongest to weakest: an override; the file's own ``profiles:`` entry; a
+key the file sets itself; the base's ``profiles:`` entry; the base's own key. So a file with
+``base: tdcn_paper.yaml`` and ``model: {channels: 64}`` trains 64 channels in every profile
+(the base's ``fast`` profile sets 256 only for files that do not say), and a file that wants a
+value per profile says so in its own ``profiles:``.
+
+Config files and override values are read as untrusted YAML
+(:func:`~retarget_lib.files.read_yaml`: 1 MiB, nesting 32, aliases expanding to at most 100,000
+values, no key twice), and sizes and the training memory they imply are bounded by the schema.
+
 The merged config is checked against :mod:`retarget_lib.config_schema` before anything runs:
 unknown keys, wrong types and invalid values (in the file or an override) raise
 :class:`ConfigError` naming the file or override, the key and what is allowed.
@@ -27,8 +37,9 @@ from typing import Any, Iterable
 
 import yaml
 
-from .config_schema import check_value, validate
-from .errors import RetargetInputError
+from .config_schema import check_value, memory_problem, validate
+from .errors import RetargetInputError, short_repr
+from .files import load_yaml, read_yaml
 
 PROFILES = ("fast", "paper")
 
@@ -48,32 +59,48 @@ def deep_merge(base: dict, delta: dict) -> dict:
     return out
 
 
+def _without_keys_of(delta: Any, own: dict) -> Any:
+    """``delta`` (a base's profile delta) without every key that ``own`` (the file's own keys) sets,
+    so the file's own values win over the base's profiles."""
+    if not isinstance(delta, dict):
+        return delta
+    out = {}
+    for k, v in delta.items():
+        if k not in own:
+            out[k] = v
+        elif isinstance(v, dict) and isinstance(own[k], dict):
+            out[k] = _without_keys_of(v, own[k])
+    return out
+
+
 def _read(path: Path, seen: tuple[Path, ...] = ()) -> dict:
     path = path.resolve()
     if path in seen:
         raise ConfigError(f"config base cycle: {' -> '.join(str(p) for p in seen + (path,))}")
     if not path.is_file():
         raise ConfigError(f"{path}: config file not found" if not path.exists() else f"{path}: not a file")
-    try:
-        with open(path) as f:
-            data = yaml.safe_load(f) or {}
-    except yaml.YAMLError as e:
-        mark = getattr(e, "problem_mark", None)
-        where = f" line {mark.line + 1}" if mark is not None else ""
-        raise ConfigError(f"{path}:{where} malformed YAML: {getattr(e, 'problem', None) or e}") from None
-    except UnicodeDecodeError:
-        raise ConfigError(f"{path}: not a text file") from None
+    data = read_yaml(path, "config file", ConfigError)
     if not isinstance(data, dict):
         raise ConfigError(f"{path}: a config must be a mapping")
     base = data.pop("base", None)
     if base is None:
         return data
+    if not isinstance(base, str) or not base:
+        raise ConfigError(f"{path}: base must be the name of a config file, got {short_repr(base)}")
     merged = _read(path.parent / base, seen + (path,))
-    profiles = merged.pop("profiles", {})
-    own_profiles = data.pop("profiles", {})
+    profiles = _pop_profiles(merged, path.parent / base)
+    own_profiles = _pop_profiles(data, path)
     out = deep_merge(merged, data)
-    out["profiles"] = deep_merge(profiles, own_profiles)
+    out["profiles"] = deep_merge({name: _without_keys_of(delta, data) for name, delta in profiles.items()}, own_profiles)
     return out
+
+
+def _pop_profiles(config: dict, path: Path) -> dict:
+    """``config``'s ``profiles:`` mapping, removed from it (``{}`` without one)."""
+    profiles = config.pop("profiles", None) or {}
+    if not isinstance(profiles, dict):
+        raise ConfigError(f"{path}: 'profiles' must map profile names to config deltas")
+    return profiles
 
 
 def parse_override(item: str) -> tuple[list[str], Any]:
@@ -83,10 +110,7 @@ def parse_override(item: str) -> tuple[list[str], Any]:
     key, raw = item.split("=", 1)
     if not key or any(not part for part in key.split(".")):
         raise ConfigError(f"override {item!r} has an empty key")
-    try:
-        return key.split("."), yaml.safe_load(raw)
-    except yaml.YAMLError:
-        raise ConfigError(f"override {item!r}: the value is not valid YAML") from None
+    return key.split("."), load_yaml(raw, f"override {item!r}", ConfigError)
 
 
 def set_key(config: dict, keys: list[str], value: Any) -> None:
@@ -124,7 +148,7 @@ def load_config(path: str | os.PathLike, overrides: Iterable[str] = (), profile:
     if unknown:
         raise ConfigError(f"{path}: unknown profiles {sorted(unknown)}; allowed: {', '.join(PROFILES)}")
     for merged in [cfg] + [deep_merge(cfg, delta or {}) for delta in profiles.values()]:
-        problem = validate(merged)  # also the keys a profile replaces, and every profile's values
+        problem = validate(merged) or memory_problem(merged)  # also every profile's values
         if problem:
             raise ConfigError(f"{path}: {problem}")
     cfg = deep_merge(cfg, profiles.get(profile, {}) or {})
@@ -134,6 +158,9 @@ def load_config(path: str | os.PathLike, overrides: Iterable[str] = (), profile:
         problem = check_value(cfg, keys, value)
         if problem:
             raise ConfigError(f"override {item!r}: {problem}")
+    problem = memory_problem(cfg)
+    if problem:
+        raise ConfigError(f"{path} with {' '.join(overrides)}: {problem}")
     if "seed" not in cfg:
         raise ConfigError(f"{path}: every experiment config needs a 'seed'")
     cfg["profile"] = profile

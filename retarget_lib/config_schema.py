@@ -6,6 +6,13 @@ stops the command with a :class:`~retarget_lib.config.ConfigError` naming the ke
 allowed, instead of being ignored by a training run. A config with ``method: contact`` follows
 :data:`CONTACT`, every other one :data:`TDCN`. Keys meant for the model constructors are listed
 in :mod:`retarget_lib.models` (TDCN/NKN) and :mod:`retarget_lib.training.contact`.
+
+Sizes are bounded (``SECURITY.md``): every width at most :data:`MAX_WIDTH` (4x the papers' 1024),
+``train.batch`` at most :data:`MAX_BATCH` (16x the papers' 256), ``data.window`` at most
+:data:`MAX_WINDOW` frames, ``train.steps`` at most :data:`MAX_STEPS`; and the memory a
+combination implies (:func:`training_memory`) at most :data:`MAX_TRAINING_BYTES`, so a value such
+as ``model.channels=200000`` or ``train.batch=1000000000`` is refused before any tensor exists.
+Values shown in messages are cut short (:func:`~retarget_lib.errors.short_repr`).
 """
 
 from __future__ import annotations
@@ -14,7 +21,18 @@ import math
 from dataclasses import dataclass
 from typing import Any, Callable
 
-__all__ = ["Rule", "TDCN", "CONTACT", "schema_for", "check_value", "validate"]
+from .errors import short_repr
+
+__all__ = ["Rule", "TDCN", "CONTACT", "MAX_WIDTH", "MAX_BATCH", "MAX_WINDOW", "MAX_STEPS", "MAX_TRAINING_BYTES",
+           "schema_for", "check_value", "validate", "training_memory", "memory_problem"]
+
+#: bounds of the sizes a config sets (module docstring)
+MAX_WIDTH, MAX_BATCH, MAX_WINDOW, MAX_STEPS = 4096, 4096, 1000, 10_000_000
+#: the training memory a config may imply (:func:`training_memory`): a large GPU node
+MAX_TRAINING_BYTES = 64 * 2**30
+#: the per-sample activation bytes of one width unit: float32 x an upper bound of the layers x
+#: (forward + backward) of the generator and discriminator
+_ACTIVATION_BYTES = 4 * 64
 
 
 @dataclass(frozen=True)
@@ -35,10 +53,9 @@ def _is_int(v: Any) -> bool:
 
 
 def _is_num(v: Any) -> bool:
-    return (isinstance(v, (int, float)) and not isinstance(v, bool)) and math.isfinite(v)
+    return (_is_int(v) and abs(v) < 2**53) or (isinstance(v, float) and math.isfinite(v))
 
 
-POS_INT = Rule("an integer > 0", lambda v: _is_int(v) and v > 0)
 NONNEG_INT = Rule("an integer >= 0", lambda v: _is_int(v) and v >= 0)
 POS_NUM = Rule("a finite number > 0", lambda v: _is_num(v) and v > 0)
 NONNEG_NUM = Rule("a finite number >= 0", lambda v: _is_num(v) and v >= 0)
@@ -54,7 +71,18 @@ SCALE_RANGE = Rule("null or [low, high] with 0 < low <= high",
                    lambda v: v is None or (isinstance(v, list) and len(v) == 2 and all(_is_num(x) for x in v)
                                            and 0 < v[0] <= v[1]))
 NAMES = Rule("a list of character names", lambda v: isinstance(v, list) and all(isinstance(n, str) for n in v))
-INT_LIST = Rule("a list of integers > 0", lambda v: isinstance(v, list) and all(_is_int(x) and x > 0 for x in v))
+
+
+def up_to(high: int) -> Rule:
+    """An integer in ``[1, high]``."""
+    return Rule(f"an integer > 0 and at most {high}", lambda v: _is_int(v) and 1 <= v <= high)
+
+
+WIDTH, BATCH, WINDOW, STEPS = up_to(MAX_WIDTH), up_to(MAX_BATCH), up_to(MAX_WINDOW), up_to(MAX_STEPS)
+LAYERS = up_to(64)
+ITERATIONS = Rule("an integer >= 0 and at most 100000", lambda v: _is_int(v) and 0 <= v <= 100_000)
+DILATIONS = Rule(f"a list of at most 64 integers > 0 and at most {MAX_WINDOW}",
+                 lambda v: isinstance(v, list) and len(v) <= 64 and all(_is_int(x) and 1 <= x <= MAX_WINDOW for x in v))
 
 
 def choice(*values: Any) -> Rule:
@@ -93,36 +121,36 @@ TDCN: dict[str, Any] = {
     **_COMMON,
     "model": {"row": lazy_choice("the Table 4 rows (retarget_lib.models.TABLE4_ROWS)", _table4_rows),
               "kind": choice("tdcn", "nkn"), "variant": TEXT, "profile": choice("fast", "paper"),
-              "channels": POS_INT, "disc_channels": POS_INT, "disc_receptive_field": choice(31, 81),
-              "dropout": DROPOUT, "normalize_inputs": BOOL, "height_loss": BOOL, "dilations": INT_LIST,
-              "kernel": POS_INT, "slope": NONNEG_NUM, "head_hidden": POS_INT, "skip_projection": BOOL,
-              "num_layers": POS_INT, "disc_norm": TEXT, "causal": BOOL, "dense": BOOL, "residual": BOOL,
+              "channels": WIDTH, "disc_channels": WIDTH, "disc_receptive_field": choice(31, 81),
+              "dropout": DROPOUT, "normalize_inputs": BOOL, "height_loss": BOOL, "dilations": DILATIONS,
+              "kernel": up_to(MAX_WINDOW), "slope": NONNEG_NUM, "head_hidden": WIDTH, "skip_projection": BOOL,
+              "num_layers": LAYERS, "disc_norm": TEXT, "causal": BOOL, "dense": BOOL, "residual": BOOL,
               "normalize_root": BOOL, "backbone": TEXT, "data": TEXT, "loss": TEXT},
-    "data": {"window": POS_INT, "same_fraction": FRACTION, "scale_range": SCALE_RANGE, "scale_targets": BOOL,
+    "data": {"window": WINDOW, "same_fraction": FRACTION, "scale_range": SCALE_RANGE, "scale_targets": BOOL,
              "mirror": BOOL, "random_yaw": BOOL,
              "rest_jitter_deg": Rule("a number of degrees in [0, 180]", lambda v: _is_num(v) and 0 <= v <= 180),
              "source": lazy_choice("synthetic, mixamo-local ($RETARGET_MIXAMO) or mixamo-local+synthetic",
                                    _data_sources)},
     "loss": {"gan": choice("lsgan", "sigmoid_ce"), "twist_alpha_deg": NONNEG_NUM, "twist_exclude_root": BOOL,
              **{f"lambda_{k}": NONNEG_NUM for k in "ctharogd"}},
-    "train": {"steps": POS_INT, "batch": POS_INT, "lr": POS_NUM, "betas": BETAS, "checkpoint_every": POS_INT,
+    "train": {"steps": STEPS, "batch": BATCH, "lr": POS_NUM, "betas": BETAS, "checkpoint_every": STEPS,
               "decay_from": DECAY_FROM, "compile": BOOL},
 }
 
 #: ``method: contact``: the contact-aware rows of Villegas et al. 2021, Table 3
 CONTACT: dict[str, Any] = {
     **_COMMON,
-    "model": {"hidden": POS_INT, "layers": POS_INT, "geometry": POS_INT, "dropout": DROPOUT, "residual": BOOL},
+    "model": {"hidden": WIDTH, "layers": LAYERS, "geometry": WIDTH, "dropout": DROPOUT, "residual": BOOL},
     "energy": {"row": lazy_choice("the Table 3 rows (retarget_lib.losses.contact.TABLE3_ROWS)", _table3_rows),
                "lambda_j2j": NONNEG_NUM, "beta_int": NONNEG_NUM, "gamma_foot": NONNEG_NUM, "rho": NONNEG_NUM,
                "omega": NONNEG_NUM, "length_unit": POS_NUM},
-    "data": {"window": POS_INT, "held_out_seed": NONNEG_INT, "train_characters": NAMES,
+    "data": {"window": WINDOW, "held_out_seed": NONNEG_INT, "train_characters": NAMES,
              "source": lazy_choice("synthetic, mixamo-local ($RETARGET_MIXAMO) or mixamo-local+synthetic",
                                    _data_sources)},
-    "train": {"steps": POS_INT, "epochs": POS_INT, "batch": POS_INT, "lr": POS_NUM, "betas": BETAS,
+    "train": {"steps": STEPS, "epochs": STEPS, "batch": BATCH, "lr": POS_NUM, "betas": BETAS,
               "lr_decay": Rule("a number in (0, 1]", lambda v: _is_num(v) and 0 < v <= 1),
-              "checkpoint_every": POS_INT, "compile": BOOL},
-    "eso": {"iterations": NONNEG_INT, "lr": POS_NUM, "reach": POS_NUM, "blend": FRACTION},
+              "checkpoint_every": STEPS, "compile": BOOL},
+    "eso": {"iterations": ITERATIONS, "lr": POS_NUM, "reach": POS_NUM, "blend": FRACTION},
 }
 
 
@@ -151,7 +179,7 @@ def _problem(schema: dict, keys: list[str], value: Any) -> str | None:
                 return found
         return None
     if not node.ok(value):
-        return f"{'.'.join(keys)} = {value!r} is invalid: must be {node.allowed}"
+        return f"{'.'.join(keys)} = {short_repr(value)} is invalid: must be {node.allowed}"
     return None
 
 
@@ -168,3 +196,24 @@ def validate(config: dict) -> str | None:
         if found:
             return found
     return None
+
+
+def training_memory(config: dict) -> int:
+    """An upper estimate of the bytes one training step of ``config`` needs: activations
+    ``batch x window x width x`` :data:`_ACTIVATION_BYTES` plus parameters, gradients and Adam's
+    two moments ``16 x 64 x width^2`` (width: the widest of the model's sizes; a size the config
+    leaves to the model's defaults counts as the paper's 1024)."""
+    model, data, train = (config.get(k) if isinstance(config.get(k), dict) else {} for k in ("model", "data", "train"))
+    sizes = [model.get(k) for k in ("channels", "disc_channels", "head_hidden", "hidden", "geometry")]
+    width = max([v for v in sizes if _is_int(v)] or [1024])
+    batch, window = (v if _is_int(v) else 1 for v in (train.get("batch"), data.get("window")))
+    return batch * window * width * _ACTIVATION_BYTES + 16 * 64 * width * width
+
+
+def memory_problem(config: dict) -> str | None:
+    """Why ``config`` would need more than :data:`MAX_TRAINING_BYTES` to train, or ``None``."""
+    need = training_memory(config)
+    if need <= MAX_TRAINING_BYTES:
+        return None
+    return (f"train.batch x data.window x the model's width would need about {need / 2**30:,.0f} GiB to train "
+            f"(estimate), beyond the {MAX_TRAINING_BYTES / 2**30:.0f} GiB limit; make them smaller")
