@@ -21,14 +21,20 @@ source's frame rate (or ``fps``) and written by the output's suffix:
 
 Everything the user gives is checked before any work: the output path (:func:`~retarget_lib.files.check_output`:
 a supported suffix, never an input unless ``force``), options the method would ignore (a mesh for a
-skeleton-only method), a target mesh whose skeleton disagrees with the target file. A result that
-is non-finite or implausibly far away (a corrupt checkpoint) is refused, not written.
+skeleton-only method), a target mesh whose skeleton disagrees with the target file, target joint
+names the output format cannot hold (:func:`~retarget_lib.io.untrusted.name_problem`). The run is
+one :func:`~retarget_lib.files.input_ledger`: every file it reads (the inputs, a ``.gltf``'s
+buffers, joint maps, meshes, checkpoints) is recorded by inode and no output replaces one. An
+error while reading an input names that input. A result that is non-finite or implausibly far
+away (a corrupt checkpoint) is refused, not written.
 """
 
 from __future__ import annotations
 
 import os
+from contextlib import contextmanager
 from pathlib import Path
+from typing import Iterator
 
 import numpy as np
 
@@ -36,11 +42,12 @@ from ..core.canonical import from_canonical22
 from ..core.motion import Motion
 from ..core.skeleton import Skeleton
 from ..errors import CheckpointError, OutputPathError, RetargetInputError
-from ..files import check_output
+from ..files import check_output, input_ledger, refuse_overwriting_inputs
 from ..io.bvh import save_bvh
 from ..io.fbx_write import save_fbx
 from ..io.gltf_write import save_glb
 from ..io.shape import load_shape_npz
+from ..io.untrusted import check_motion_samples, name_problem
 from .inputs import MESH_TOLERANCE, Target, load_source, load_target
 from .registry import Method, get_method
 
@@ -74,7 +81,35 @@ def _check_options(chosen: Method, target: str, target_mesh, source_mesh, checkp
                                  "ignored")
 
 
-def _check_plausible(result: Motion, source: Motion, target_skeleton: Skeleton, method: str, checkpoint) -> None:
+@contextmanager
+def _naming(path) -> Iterator[None]:
+    """Make an input error raised while reading ``path`` name it (prefixed when its message does
+    not), as one :class:`~retarget_lib.errors.RetargetInputError` (a ``ValueError`` of the core,
+    e.g. an inconsistent rig, becomes one)."""
+    try:
+        yield
+    except ValueError as e:
+        if str(path) in str(e) or str(Path(path)) in str(e):
+            raise
+        kind = type(e) if isinstance(e, RetargetInputError) else RetargetInputError
+        raise kind(f"{path}: {e}") from None
+
+
+def _check_writable_names(tgt: Target, target, out: Path) -> None:
+    """Refuse a GLB/FBX target whose joint names ``out``'s format cannot hold (a line break in a
+    BVH name would inject a line; ``\\x00\\x01`` in an FBX name, a class)."""
+    suffix = out.suffix.lower()
+    if tgt.rig is None or suffix == ".glb" or (suffix == ".bvh" and tgt.bvh is not None):
+        return
+    for name in tgt.rig.skeleton.joint_names:
+        problem = name_problem(name, bvh=suffix == ".bvh")
+        if problem:
+            raise OutputPathError(f"{out}: cannot write the joint name {name!r} of {target} in a {suffix} file: it "
+                                  f"{problem}; rename the joint or write a .glb")
+
+
+def _check_plausible(result: Motion, source: Motion, target_skeleton: Skeleton, method: str, checkpoint,
+                     source_path) -> None:
     """Refuse a non-finite result or one whose root leaves :data:`ROOT_RANGE_FACTOR` times the
     source's range."""
     scale = max(1.0, target_skeleton.height() / source.skeleton.height())
@@ -86,7 +121,7 @@ def _check_plausible(result: Motion, source: Motion, target_skeleton: Skeleton, 
         if checkpoint is not None or get_method(method).needs_checkpoint:
             raise CheckpointError(f"{checkpoint or method}: --method {method} produced {what}; the checkpoint is "
                                   "corrupt or not trained for this input")
-        raise RetargetInputError(f"--method {method} produced {what} for {source.name}")
+        raise RetargetInputError(f"{source_path}: --method {method} produced {what}")
 
 
 def _load_retargeter(chosen: Method, checkpoint, device):
@@ -139,29 +174,52 @@ def retarget_file(source: str | os.PathLike, target: str, method: str, out: str 
     """
     chosen = get_method(method)
     _check_options(chosen, str(target), target_mesh, source_mesh, checkpoint)
-    check_output(out, [source, target, target_mesh, source_mesh, checkpoint, joint_map, source_joint_map],
-                 OUTPUT_SUFFIXES, force)
-    src = load_source(source, source_joint_map)
-    tgt = load_target(str(target), target_mesh, joint_map)
-    suffix = Path(out).suffix.lower()
+    with input_ledger(force):
+        check_output(out, [source, target, target_mesh, source_mesh, checkpoint, joint_map, source_joint_map],
+                     OUTPUT_SUFFIXES, force)
+        with _naming(source):
+            src = load_source(source, source_joint_map)
+        with _naming(target):
+            tgt = load_target(str(target), target_mesh, joint_map)
+        refuse_overwriting_inputs(out)  # also the files the inputs named (a .gltf's buffers)
+        _check_target_fits(tgt, target, Path(out))
+        out_fps = float(fps) if fps is not None else src.motion.fps
+        if not (np.isfinite(out_fps) and 1.0 <= out_fps <= 1000.0):
+            raise RetargetInputError(f"--fps {fps}: the output frame rate must be within 1-1000")
+        _check_result_size(src.motion, tgt, out_fps, source)
+        motion = src.motion.resample(METHOD_FPS)
+        if chosen.needs_mesh:
+            if tgt.character is None:
+                raise RetargetInputError(f"{target}: --method contact needs the target's mesh: give a .glb/.fbx/shape "
+                                         ".npz target, --target-mesh SHAPE.npz or a character name")
+            with _naming(source_mesh):
+                source_character = load_shape_npz(source_mesh) if source_mesh is not None else src.character
+            result = _load_retargeter(chosen, checkpoint, device)(motion, tgt.character,
+                                                                  source_character=source_character)
+        else:
+            result = _load_retargeter(chosen, checkpoint, device)(motion, tgt.skeleton)
+        _check_plausible(result, motion, tgt.skeleton, method, checkpoint, source)
+        _write(result.resample(out_fps), tgt, src.meta, Path(out))
+    return Path(out)
+
+
+def _check_result_size(motion: Motion, tgt: Target, out_fps: float, source) -> None:
+    """Refuse, before any work, a result beyond the motion budget of
+    :mod:`~retarget_lib.io.untrusted`: the source's duration at the output (or the methods') rate
+    x the joints the result is written on."""
+    joints = max([22] + [m.skeleton.num_joints for m in (tgt.rig, tgt.bvh) if m is not None])
+    frames = int((motion.num_frames - 1) / motion.fps * max(out_fps, METHOD_FPS)) + 1
+    check_motion_samples(frames, joints, str(source), " (the result, on the target's joints)")
+
+
+def _check_target_fits(tgt: Target, target, out: Path) -> None:
+    """Refuse an output the target cannot make: a mesh result without a mesh, joint names the
+    format cannot hold."""
+    suffix = out.suffix.lower()
     if suffix != ".bvh" and tgt.rig is None:
         raise OutputPathError(f"{out}: a {suffix} result is the target's skinned mesh, and the target {target} has "
                               "none; give a .glb/.fbx/shape .npz target, a character name, or --target-mesh")
-    out_fps = float(fps) if fps is not None else src.motion.fps
-    if not (np.isfinite(out_fps) and 1.0 <= out_fps <= 1000.0):
-        raise RetargetInputError(f"--fps {fps}: the output frame rate must be within 1-1000")
-    motion = src.motion.resample(METHOD_FPS)
-    if chosen.needs_mesh:
-        if tgt.character is None:
-            raise RetargetInputError(f"--method contact needs the target's mesh: give a .glb/.fbx/shape .npz target, "
-                                     f"--target-mesh SHAPE.npz or a character name; {target} has none")
-        source_character = load_shape_npz(source_mesh) if source_mesh is not None else src.character
-        result = _load_retargeter(chosen, checkpoint, device)(motion, tgt.character, source_character=source_character)
-    else:
-        result = _load_retargeter(chosen, checkpoint, device)(motion, tgt.skeleton)
-    _check_plausible(result, motion, tgt.skeleton, method, checkpoint)
-    _write(result.resample(out_fps), tgt, src.meta, Path(out))
-    return Path(out)
+    _check_writable_names(tgt, target, out)
 
 
 def _write(result: Motion, tgt: Target, source_layout: dict, out: Path) -> None:
