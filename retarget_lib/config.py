@@ -154,7 +154,10 @@ def load_config(path: str | os.PathLike, overrides: Iterable[str] = (), profile:
     cfg = deep_merge(cfg, profiles.get(profile, {}) or {})
     for item in overrides:
         keys, value = parse_override(item)
-        set_key(cfg, keys, value)
+        try:
+            set_key(cfg, keys, value)
+        except ConfigError as e:
+            raise ConfigError(f"override {item!r}: {e}") from None
         problem = check_value(cfg, keys, value)
         if problem:
             raise ConfigError(f"override {item!r}: {problem}")

@@ -349,15 +349,18 @@ def load_yaml(text: str, where: str, error: type[RetargetInputError]) -> Any:
         error: malformed YAML (naming the line), nested too deep, a duplicate key, or more than
             :data:`MAX_YAML_VALUES` values after expanding aliases.
     """
-    loader = _BoundedLoader(text)
+    loader = None
     try:
+        loader = _BoundedLoader(text)  # its reader already refuses non-printable characters
         data = loader.get_single_data()
     except yaml.YAMLError as e:
         mark = getattr(e, "problem_mark", None)
         line = f" line {mark.line + 1}" if mark is not None else ""
-        raise error(f"{where}:{line} malformed YAML: {getattr(e, 'problem', None) or e}") from None
+        problem = getattr(e, "problem", None) or " ".join(str(e).split())
+        raise error(f"{where}:{line} malformed YAML: {problem}") from None
     finally:
-        loader.dispose()
+        if loader is not None:
+            loader.dispose()
     if _expands_beyond(data, MAX_YAML_VALUES):
         raise error(f"{where}: holds more than {MAX_YAML_VALUES} values once its aliases are expanded (the limit; "
                     "a YAML alias bomb?)")

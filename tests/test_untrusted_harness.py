@@ -18,6 +18,7 @@ import os
 import resource
 import struct
 import sys
+import warnings
 from contextlib import contextmanager, redirect_stderr, redirect_stdout
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -132,9 +133,12 @@ def run_contained(argv: list[str], folder: Path, out: Path | None = None) -> Run
     test's folder and ``out`` the one file the command may create."""
     before = snapshot(folder)
     err, stdout = io.StringIO(), io.StringIO()
-    with watch_opens() as opened, memory_cap(), redirect_stderr(err), redirect_stdout(stdout):
+    with watch_opens() as opened, memory_cap(), redirect_stderr(err), redirect_stdout(stdout), \
+            warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")  # a warning is a line on a user's stderr
         code = main(argv)
-    return Run(code, err.getvalue(), opened, before, snapshot(folder), folder, out)
+    shown = "".join(f"{w.category.__name__}: {w.message}\n" for w in caught)
+    return Run(code, shown + err.getvalue(), opened, before, snapshot(folder), folder, out)
 
 
 def retarget_argv(source, out, target="kato", *extra) -> list[str]:
@@ -199,6 +203,18 @@ def test_the_file_check_fails_on_a_changed_removed_or_created_file(tmp_path):
     (tmp_path / "c").write_text("c")
     with pytest.raises(AssertionError, match="created"):
         Run(0, "", [], before, snapshot(tmp_path), tmp_path).assert_contained("x", tmp_path)
+
+
+def test_a_warning_counts_as_a_line_on_stderr(tmp_path, monkeypatch):
+    import retarget_lib.cli
+
+    def warn_then_fail(args):
+        warnings.warn("casting discards the imaginary part", RuntimeWarning)
+        raise ValueError("a.glb: problem")
+    monkeypatch.setattr(retarget_lib.cli, "_cmd_data", warn_then_fail)
+    run = run_contained(["data", "list"], tmp_path)
+    with pytest.raises(AssertionError):
+        run.assert_error("a.glb")
 
 
 def test_the_error_check_fails_on_a_traceback_or_two_lines(tmp_path):

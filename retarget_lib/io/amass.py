@@ -53,7 +53,7 @@ from ..core.rotations import quat_from_axis_angle, quat_mul, quat_rotate, quat_t
 from ..core.skeleton import CANONICAL22, CANONICAL22_PARENTS, Skeleton, canonical22_skeleton
 from ..errors import AMASSError
 from ..files import DataError, atomic_write, check_sha256, readable_file
-from .untrusted import check_count, check_motion_samples, read_npz
+from .untrusted import check_count, check_motion_samples, is_real_dtype, read_npz
 
 __all__ = ["AMASSError", "SMPLX_CALIBRATION_SHA256", "smplx_skeleton", "load_amass", "save_amass"]
 
@@ -144,7 +144,7 @@ def _frame_rate(a: dict[str, np.ndarray], fps: float | None, path: Path) -> floa
         rate = float(fps)
     else:
         value = np.asarray(a[key])
-        if value.size != 1 or not np.issubdtype(value.dtype, np.number):
+        if value.size != 1 or not is_real_dtype(value.dtype):
             raise AMASSError(f"{path}: {key} must be one number (frames per second), got {value.dtype} of shape "
                              f"{value.shape}")
         rate = float(value.ravel()[0])
@@ -154,8 +154,8 @@ def _frame_rate(a: dict[str, np.ndarray], fps: float | None, path: Path) -> floa
 
 
 def _finite(a: np.ndarray, key: str, path: Path, bound: float) -> np.ndarray:
-    if not np.issubdtype(a.dtype, np.number):
-        raise AMASSError(f"{path}: {key} must be numbers, got {a.dtype}")
+    if not is_real_dtype(a.dtype):
+        raise AMASSError(f"{path}: {key} must be real numbers, got {a.dtype}")
     a = a.astype(np.float64)
     if not np.isfinite(a).all():
         raise AMASSError(f"{path}: {key} holds NaN or inf")

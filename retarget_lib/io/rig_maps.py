@@ -34,6 +34,7 @@ from typing import Mapping, Sequence
 
 from ..core.canonical import NAME_MAPS, strip_prefix
 from ..core.skeleton import CANONICAL22, CANONICAL22_PARENTS, J, JointSetError
+from ..errors import short_repr
 from ..files import read_yaml
 
 __all__ = ["RIG_MAPS", "joint_key", "map_joints", "load_mapping_file"]
@@ -138,30 +139,32 @@ def map_joints(names: Sequence[str], parents: Sequence[int], mapping: Mapping[st
         keys = [joint_key(n) for n in names]
         for canon, file_name in mapping.items():
             if canon not in J:
-                raise JointSetError(f"{what}: {mapping_source} names {canon!r}, not a canonical joint "
+                raise JointSetError(f"{what}: {mapping_source} names {short_repr(canon)}, not a canonical joint "
                                     f"({', '.join(CANONICAL22)})")
             if joint_key(file_name) not in keys:
-                raise JointSetError(f"{what}: {mapping_source} maps {canon} to {file_name!r}, which is not a joint of "
-                                    "the rig")
+                raise JointSetError(f"{what}: {mapping_source} maps {canon} to {short_repr(file_name)}, which is not a "
+                                    "joint of the rig")
             found = {i: c for i, c in found.items() if c != J[canon]}
             found[keys.index(joint_key(file_name))] = J[canon]
         rig += "+mapping"
+    with_mapping = f", with {mapping_source}" if mapping else ""
     missing = [CANONICAL22[c] for c in range(22) if c not in found.values()]
     if missing:
         raise JointSetError(
-            f"{what}: cannot map joints {missing} onto the canonical 22 (closest rig naming: {rig}); give a "
-            f"mapping file (--joint-map FILE.yaml, lines 'CanonicalName: file_joint_name'); the rig's joints: "
+            f"{what}: cannot map joints {missing} onto the canonical 22 (closest rig naming: {rig}{with_mapping}); "
+            f"give a mapping file (--joint-map FILE.yaml, lines 'CanonicalName: file_joint_name'); the rig's joints: "
             f"{_listed(names)}")
     file_of = {c: i for i, c in found.items()}
     for c, p in enumerate(CANONICAL22_PARENTS):
         if p >= 0 and file_of[p] not in _ancestors(file_of[c], parents):
-            raise JointSetError(f"{what}: {names[file_of[c]]!r} (mapped to {CANONICAL22[c]}) is not below "
-                                f"{names[file_of[p]]!r} (mapped to {CANONICAL22[p]}) in the joint tree")
+            raise JointSetError(f"{what}: {short_repr(names[file_of[c]])} (mapped to {CANONICAL22[c]}) is not below "
+                                f"{short_repr(names[file_of[p]])} (mapped to {CANONICAL22[p]}) in the joint tree"
+                                f"{with_mapping}")
     return found, rig
 
 
 def _listed(names: Sequence[str], limit: int = 60) -> str:
-    shown = ", ".join(repr(str(n)) for n in names[:limit])
+    shown = ", ".join(short_repr(str(n)) for n in names[:limit])
     return f"[{shown}{f', ... ({len(names)} in all)' if len(names) > limit else ''}]"
 
 
@@ -181,7 +184,7 @@ def load_mapping_file(path: str | os.PathLike) -> dict[str, str]:
     first: dict[str, str] = {}
     for canon, file_name in data.items():
         if joint_key(file_name) in first:
-            raise JointSetError(f"{path}: maps both {first[joint_key(file_name)]} and {canon} to {file_name!r}; a file "
-                                "joint can stand for one canonical joint")
+            raise JointSetError(f"{path}: maps both {first[joint_key(file_name)]} and {canon} to "
+                                f"{short_repr(file_name)}; a file joint can stand for one canonical joint")
         first[joint_key(file_name)] = canon
     return data

@@ -31,7 +31,7 @@ from ..core.character import Character
 from ..core.skeleton import CANONICAL22, canonical22_skeleton
 from ..errors import RetargetInputError
 from ..files import atomic_write, readable_file
-from .untrusted import check_count, read_npz
+from .untrusted import check_count, is_real_dtype, read_npz
 
 __all__ = ["SHAPE_KEYS", "ShapeError", "load_shape_npz", "save_shape_npz"]
 
@@ -120,6 +120,9 @@ def _validated(arrays: dict, path: Path) -> tuple[np.ndarray, ...]:
             raise ShapeError(f"{path}: {key} must have shape {shape}, got {arrays[key].shape}")
     if not np.issubdtype(faces.dtype, np.integer):
         raise ShapeError(f"{path}: rest_faces must be integers, got {faces.dtype}")
+    for key in ("rest_vertices", "skinning_weights", "skeleton"):
+        if not is_real_dtype(arrays[key].dtype):
+            raise ShapeError(f"{path}: {key} must be real numbers, got {arrays[key].dtype}")
     for key in ("rest_vertices", "skinning_weights", "skeleton"):
         bad = ~np.isfinite(arrays[key]).all(axis=-1)
         if bad.any():

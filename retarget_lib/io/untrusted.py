@@ -41,7 +41,8 @@ from ..errors import LimitError, RetargetInputError, short_repr
 
 __all__ = ["MAX_ARRAY_BYTES", "MAX_MOTION_SAMPLES", "MAX_JSON_DEPTH", "MAX_JSON_ITEMS", "check_count",
            "check_array_bytes", "check_motion_samples", "Leaf", "Arr", "Obj", "JsonObject", "INDEX", "COUNT", "INT",
-           "NUMBER", "TEXT", "FLAG", "ANY", "parse_json", "typed_json", "name_problem", "npz_keys", "read_npz"]
+           "NUMBER", "TEXT", "FLAG", "ANY", "parse_json", "typed_json", "name_problem", "is_real_dtype", "npz_keys",
+           "read_npz"]
 
 MAX_ARRAY_BYTES = 2**30
 MAX_MOTION_SAMPLES = 3_000_000
@@ -264,6 +265,12 @@ def name_problem(name: str, bvh: bool = False) -> str | None:
 # -------------------------------------------------------------------------------------- npz
 _NPY_MAGIC = b"\x93NUMPY"
 _ZIP_MAGICS = (b"PK\x03\x04", b"PK\x05\x06")
+
+
+def is_real_dtype(dtype: np.dtype) -> bool:
+    """Integers or floats: what numeric arrays of a file may be (not booleans, complex numbers,
+    strings or objects, which would fail or warn when used as numbers)."""
+    return np.issubdtype(dtype, np.integer) or np.issubdtype(dtype, np.floating)
 
 
 def _check_archive(path: Path, error: type[RetargetInputError]) -> None:
