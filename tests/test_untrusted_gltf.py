@@ -6,6 +6,9 @@ a valid 195 KB GLB of the synthetic character ``kato``."""
 import copy
 import json
 import os
+import subprocess
+import sys
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -399,3 +402,33 @@ def test_fuzz_vrm_humanoid(tmp_path_factory, kato_parts, extensions):  # noqa: F
     path = write(root / "in", "avatar.glb", *edited(kato_parts, lambda doc, blob: doc.update(extensions=extensions)))
     out = root / "out" / "o.glb"
     run_contained(retarget_argv(path, out, path), root, out).assert_contained(path, root / "in")
+
+
+def test_the_memory_cases_stay_within_2_gib_in_a_fresh_process(tmp_path, kato_parts):  # noqa: F811
+    """The catalogue's memory cases, run by ``retarget`` in one fresh process whose whole address
+    space is capped at 2 GiB (as measured in the issue, where they ran past 4 GiB)."""
+    def no_buffer(index, count):
+        def edit(doc, blob):
+            doc["accessors"][index].update(count=count)
+            del doc["accessors"][index]["bufferView"]
+        return edit
+
+    def span(doc, blob):
+        times = np.arange(12) / 30.0
+        times[-1] = 33333.0
+        put_accessor(doc, blob, TIMES, times)
+    cases = [write(tmp_path, name, *edited(kato_parts, edit)) for name, edit in
+             (("positions.glb", no_buffer(0, 10**9)), ("ibm.glb", no_buffer(IBM, 400_000_000)), ("span.glb", span))]
+    script = textwrap.dedent(f"""
+        import resource, sys
+        resource.setrlimit(resource.RLIMIT_AS, (2 * 2**30, 2 * 2**30))
+        from retarget_lib.cli import main
+        codes = [main(["retarget", "--source", p, "--target", "kato", "--method", "copy", "--out", p + ".bvh"])
+                 for p in {[str(p) for p in cases]!r}]
+        print(codes)
+    """)
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300,
+                          env=dict(os.environ, OMP_NUM_THREADS="1"))
+    assert done.returncode == 0 and done.stdout.strip() == "[2, 2, 2]", (done.stdout, done.stderr)
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 3 and all(str(p) in line for p, line in zip(cases, lines)), lines
