@@ -91,7 +91,8 @@ def _read(path: Path, seen: tuple[Path, ...] = ()) -> dict:
     profiles = _pop_profiles(merged, path.parent / base)
     own_profiles = _pop_profiles(data, path)
     out = deep_merge(merged, data)
-    out["profiles"] = deep_merge({name: _without_keys_of(delta, data) for name, delta in profiles.items()}, own_profiles)
+    base_profiles = {name: _without_keys_of(delta, data) for name, delta in profiles.items()}
+    out["profiles"] = deep_merge(base_profiles, own_profiles)
     return out
 
 

@@ -114,7 +114,8 @@ def test_a_header_that_declares_more_than_its_member_holds(tmp_path):
                                            ((1_000_001, 0), "1,000,001 frames of poses exceed the limit")])
 def test_sizes_beyond_the_bounds_are_refused_from_the_header(tmp_path, shape, problem):
     arrays = clip_arrays()
-    path = npz_bomb(tmp_path / "in" / "big.npz", *shape, **{k: arrays[k] for k in ("betas", "trans", "mocap_frame_rate")})
+    others = {k: arrays[k] for k in ("betas", "trans", "mocap_frame_rate")}
+    path = npz_bomb(tmp_path / "in" / "big.npz", *shape, **others)
     with pytest.raises(LimitError, match=problem):
         load_amass(path)
 

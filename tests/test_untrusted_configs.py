@@ -8,7 +8,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import retarget_lib.training.run
-from retarget_lib.config import ConfigError, load_config
+from retarget_lib.config import load_config
 from retarget_lib.config_schema import MAX_TRAINING_BYTES, memory_problem, validate
 from retarget_lib.core.skeleton import JointSetError
 from retarget_lib.files import REPO_ROOT
@@ -111,7 +111,8 @@ def train_run(tmp_path, path, *overrides):
      "train: {batch: 4096}\ndata: {window: 1000}\n", (), "beyond the 64 GiB limit"),
     (f"base: {CONFIGS / 'tdcn_paper.yaml'}\n" + "train: " + "{a: " * 50 + "1" + "}" * 50 + "\n", (),
      "nested more than 32 deep"),
-    (f"base: {CONFIGS / 'tdcn_paper.yaml'}\ntrain: {{steps: 3}}\ntrain: {{batch: 2}}\n", (), "key 'train' is given twice"),
+    (f"base: {CONFIGS / 'tdcn_paper.yaml'}\ntrain: {{steps: 3}}\ntrain: {{batch: 2}}\n", (),
+     "key 'train' is given twice"),
     (f"base: {CONFIGS / 'tdcn_paper.yaml'}\nname: [1, 2, 3, 4, 5, 6, 7, 8, 9, 10]\n", (), "name = [1, 2, 3, 4, ...]"),
     ("base: [1]\n", (), "base must be the name of a config file"),
     (f"base: {CONFIGS / 'tdcn_paper.yaml'}\ntrain: {{lr: {'9' * 400}}}\n", (), "train.lr = "),

@@ -79,7 +79,8 @@ def test_what_crashed_assimp_is_one_clear_error(tmp_path, monkeypatch, case, pro
     if case == "nested":
         nested_fbx(path, 200_000)
     else:
-        kato_fbx(path, monkeypatch, **(dict(skeleton=hips_under_spine) if case == "cycle" else dict(mesh=cluster_index_1e9)))
+        edit = dict(skeleton=hips_under_spine) if case == "cycle" else dict(mesh=cluster_index_1e9)
+        kato_fbx(path, monkeypatch, **edit)
     before = temp_folders()
     out = tmp_path / "out" / "o.bvh"
     run = run_contained(retarget_argv(path, out), tmp_path, out)
@@ -88,13 +89,14 @@ def test_what_crashed_assimp_is_one_clear_error(tmp_path, monkeypatch, case, pro
     assert temp_folders() == before
 
 
-@pytest.mark.parametrize("case,signal_name", [("cycle", "SIGSEGV"), ("index", "SIGABRT")])
-def test_a_crash_of_assimp_itself_is_one_clear_error(tmp_path, monkeypatch, case, signal_name):
-    """Without the scan, assimp crashes on these files: in its child process, which is one error."""
+@pytest.mark.parametrize("case", ["cycle", "index"])
+def test_a_crash_of_assimp_itself_is_one_clear_error(tmp_path, monkeypatch, case):
+    """Without the scan, assimp crashes on these files (here: SIGSEGV, SIGABRT) in its child
+    process, which is one error."""
     edit = dict(skeleton=hips_under_spine) if case == "cycle" else dict(mesh=cluster_index_1e9)
     path = kato_fbx(tmp_path / f"{case}.fbx", monkeypatch, **edit)
     monkeypatch.setattr(fbx, "_scan_binary_fbx", lambda data, path: fbx._Scan())
-    with pytest.raises(FBXError, match=f"the FBX reader \\(assimp\\) crashed on it \\(signal {signal_name}"):
+    with pytest.raises(FBXError, match=r"the FBX reader \(assimp\) crashed on it \(signal SIG"):
         load_fbx_rig(path)
 
 

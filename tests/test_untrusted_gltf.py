@@ -214,7 +214,8 @@ def test_inverse_bind_matrices_that_are_not_invertible_affine(tmp_path, kato_par
     def edit(doc, blob):
         projective = np.eye(4)
         projective[3, 0] = 1.0  # a bottom row other than (0, 0, 0, 1)
-        put_accessor(doc, blob, IBM, np.zeros((22, 16)) if matrix == "zeros" else np.tile(projective.T.ravel(), (22, 1)))
+        ibm = np.zeros((22, 16)) if matrix == "zeros" else np.tile(projective.T.ravel(), (22, 1))
+        put_accessor(doc, blob, IBM, ibm)
     path = write(tmp_path / "in", "ibm.glb", *edited(kato_parts, edit))
     source_run(tmp_path, path).assert_error(path, "skin 0 inverse bind matrices: 22 of 22 are not invertible affine",
                                             "first: joint 'Hips'")
@@ -386,13 +387,16 @@ def test_fuzz_gltf_and_glb(tmp_path_factory, kato_parts, case, role):  # noqa: F
         assert os.path.getsize(out) > 0
 
 
+_NODE = _JSON | st.integers(0, 30)
+_BONE_0X = st.fixed_dictionaries({}, optional={"bone": _JSON | st.sampled_from(["hips", "head", "leftUpperArm"]),
+                                               "node": _NODE})
+_BONES_1 = st.dictionaries(st.sampled_from(["hips", "head", "spine", "x"]),
+                           _JSON | st.fixed_dictionaries({"node": _NODE}), max_size=4)
 _VRM = st.fixed_dictionaries({}, optional={
     "VRM": _JSON | st.fixed_dictionaries({"humanoid": _JSON | st.fixed_dictionaries(
-        {"humanBones": _JSON | st.lists(st.fixed_dictionaries({}, optional={"bone": _JSON | st.sampled_from(
-            ["hips", "head", "leftUpperArm"]), "node": _JSON | st.integers(0, 30)}), max_size=4)})}),
+        {"humanBones": _JSON | st.lists(_BONE_0X, max_size=4)})}),
     "VRMC_vrm": _JSON | st.fixed_dictionaries({"humanoid": _JSON | st.fixed_dictionaries(
-        {"humanBones": _JSON | st.dictionaries(st.sampled_from(["hips", "head", "spine", "x"]), _JSON | st.fixed_dictionaries(
-            {"node": _JSON | st.integers(0, 30)}), max_size=4)})})})
+        {"humanBones": _JSON | _BONES_1})})})
 
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])

@@ -209,7 +209,7 @@ def test_a_warning_counts_as_a_line_on_stderr(tmp_path, monkeypatch):
     import retarget_lib.cli
 
     def warn_then_fail(args):
-        warnings.warn("casting discards the imaginary part", RuntimeWarning)
+        warnings.warn("casting discards the imaginary part", RuntimeWarning, stacklevel=2)
         raise ValueError("a.glb: problem")
     monkeypatch.setattr(retarget_lib.cli, "_cmd_data", warn_then_fail)
     run = run_contained(["data", "list"], tmp_path)

@@ -13,8 +13,8 @@ from pathlib import Path
 import pytest
 
 from retarget_lib.errors import GLTFError, OutputPathError
-from retarget_lib.files import REPO_ROOT, TEMP_PREFIX, atomic_write, cache_dir, input_ledger, read_beside, \
-    sweep_stale_temps
+from retarget_lib.files import (REPO_ROOT, TEMP_PREFIX, atomic_write, cache_dir, input_ledger, read_beside,
+                                sweep_stale_temps)
 from retarget_lib.io.gltf import load_gltf_rig
 from test_untrusted_harness import kato_glb, kato_parts, retarget_argv, run_contained, split_glb  # noqa: F401
 

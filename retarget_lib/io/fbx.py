@@ -183,14 +183,14 @@ def _collect(scan: _Scan, name: str, parent: str, owner: int | None, props: list
     if name == "C" and parent == "Connections" and len(props) >= 3 and props[0] == b"OO" \
             and isinstance(props[1], int) and isinstance(props[2], int):
         scan.parents.setdefault(props[1], []).append(props[2])
-    elif not (owner is not None and props and isinstance(props[0], tuple)):
-        pass
-    elif name == "Indexes" and scan.objects[owner][1] == "Cluster" and props[0][0] in "il":
-        indices = _int_array(props[0], path)
+    array = props[0] if owner is not None and props and isinstance(props[0], tuple) else None
+    kind = scan.objects[owner][1] if owner is not None else ""
+    if array is not None and name == "Indexes" and kind == "Cluster" and array[0] in "il":
+        indices = _int_array(array, path)
         if indices.size:
             scan.cluster_range[owner] = (int(indices.min()), int(indices.max()))
-    elif name == "Vertices" and scan.objects[owner][1] == "Mesh":
-        scan.vertices[owner] = props[0][1] // 3
+    elif array is not None and name == "Vertices" and kind == "Mesh":
+        scan.vertices[owner] = array[1] // 3
     return owner
 
 
@@ -276,6 +276,16 @@ def _child_memory(size: int) -> int:
     return int(min(8 * 2**30, max(1.5 * 2**30, 16 * size)))
 
 
+def _ending(returncode: int) -> str:
+    """How a child process ended, in words (``signal SIGSEGV``, ``exit status 1``)."""
+    if returncode >= 0:
+        return f"exit status {returncode}"
+    try:
+        return f"signal {signal.Signals(-returncode).name}"
+    except ValueError:
+        return f"signal {-returncode}"
+
+
 def _convert(data: bytes, path: Path) -> tuple[bytes, float | None, float]:
     """``(GLB bytes, the first animation's frame rate or None, metres per file unit)`` of an FBX
     file's bytes, converted by assimp in the contained child (module docstring)."""
@@ -290,8 +300,7 @@ def _convert(data: bytes, path: Path) -> tuple[bytes, float | None, float]:
         raise FBXError(f"{path}: the Open Asset Import Library cannot read it as FBX "
                        f"({problem[-1][:200] if problem else 'no message'})")
     if done.returncode != 0:
-        how = (f"signal {signal.Signals(-done.returncode).name}" if done.returncode < 0
-               else f"exit status {done.returncode}")
+        how = _ending(done.returncode)
         raise FBXError(f"{path}: the FBX reader (assimp) crashed on it ({how}: "
                        f"{problem[-1][:200] if problem else 'no message'}); the file is malformed or needs more than "
                        f"{_child_memory(len(data)) / 2**30:.1f} GiB to read")
