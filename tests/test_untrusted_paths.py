@@ -28,12 +28,13 @@ def gltf_with_buffer(folder: Path, uri: str, blob: bytes, kato_parts) -> Path:  
     return folder / "a.gltf"
 
 
-def test_a_buffer_symlinked_out_of_the_folder_is_refused_and_never_read(tmp_path, kato_parts):  # noqa: F811
+@pytest.mark.parametrize("pointing_at", ["secret", "/etc/passwd"])
+def test_a_buffer_symlinked_out_of_the_folder_is_refused_and_never_read(tmp_path, kato_parts, pointing_at):  # noqa: F811
     secret = tmp_path / "secret" / "passwd"
     secret.parent.mkdir()
     secret.write_bytes(kato_parts[1].replace(b"\0\0\0\0", b"ROOT", 1))  # a valid buffer, with a marker
     gltf = gltf_with_buffer(tmp_path / "in", "data.bin", kato_parts[1], kato_parts)
-    (tmp_path / "in" / "data.bin").symlink_to(secret)
+    (tmp_path / "in" / "data.bin").symlink_to(secret if pointing_at == "secret" else pointing_at)
     out = tmp_path / "out" / "o.glb"
     run = run_contained(retarget_argv(gltf, out), tmp_path, out)
     run.assert_error(gltf, "buffer 0 URI 'data.bin' resolves to", "outside the folder")
