@@ -208,6 +208,40 @@ def test_a_result_beyond_the_budget_is_refused_before_any_work(tmp_path, kato_pa
     run.assert_error(path, "1,000,001 frames x 22 joints", "(the result, on the target's joints)")
 
 
+def test_channels_sharing_one_sampler_decode_it_once(tmp_path, kato_parts):  # noqa: F811
+    def edit(doc, blob):
+        with_groups(doc, 1200)
+        rotation = next(c for c in doc["animations"][0]["channels"] if c["target"]["path"] == "rotation")
+        doc["animations"][0]["channels"] += [{"sampler": rotation["sampler"], "target": {"node": n, "path": "rotation"}}
+                                             for n in range(22, len(doc["nodes"]))]
+    path = write(tmp_path / "in", "shared.glb", *edited(kato_parts, edit))
+    motion = load_gltf_motion(path)[0]
+    assert motion.num_frames == 12 and np.isfinite(motion.rotations).all()
+
+
+def test_two_channels_on_one_property(tmp_path, kato_parts):  # noqa: F811
+    def edit(doc, blob):
+        doc["animations"][0]["channels"].append(dict(doc["animations"][0]["channels"][1]))
+    path = write(tmp_path / "in", "twice.glb", *edited(kato_parts, edit))
+    source_run(tmp_path, path).assert_error(path, "channels 1 and 23 both move node 0 rotation")
+
+
+def test_accessors_read_again_and_again_are_within_one_budget(tmp_path, kato_parts):  # noqa: F811
+    def edit(doc, blob):
+        attributes = doc["meshes"][0]["primitives"][0]["attributes"]
+        for k in range(1, 6000):  # 6000 weight sets, each the same two accessors: 1.15 GB if decoded
+            attributes[f"JOINTS_{k}"], attributes[f"WEIGHTS_{k}"] = attributes["JOINTS_0"], attributes["WEIGHTS_0"]
+    path = write(tmp_path / "in", "sets.glb", *edited(kato_parts, edit))
+    source_run(tmp_path, path).assert_error(path, "the accessors read from the file would take more than 1 GiB in all")
+
+
+def test_primitives_sharing_accessors_count_every_vertex(tmp_path, kato_parts):  # noqa: F811
+    def edit(doc, blob):
+        doc["meshes"][0]["primitives"] *= 700  # 700 x 3002 vertices
+    path = write(tmp_path / "in", "copies.glb", *edited(kato_parts, edit))
+    source_run(tmp_path, path).assert_error(path, "vertices exceed the limit of 2,000,000")
+
+
 # ---------------------------------------------------------------------- silent wrong outputs
 @pytest.mark.parametrize("matrix", ["zeros", "projective"])
 def test_inverse_bind_matrices_that_are_not_invertible_affine(tmp_path, kato_parts, matrix):  # noqa: F811

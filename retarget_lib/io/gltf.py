@@ -40,7 +40,9 @@ applied as those of any non-joint ancestor.
 Bounds (:class:`~retarget_lib.errors.LimitError` naming the limit): file size 256 MiB, 100,000
 nodes, 1000 joints, 2,000,000 vertices, 4,000,000 triangles, 1,000,000 keys per channel and
 frames per animation, and the budgets of :mod:`~retarget_lib.io.untrusted` (1 GiB per decoded
-array, 3,000,000 joint-frames per sampled motion, JSON nesting 64). External buffers only beside
+array and for all the accessors of a file, 3,000,000 joint-frames per sampled motion, JSON
+nesting 64); vertices and triangles are counted over all primitives, and each property of a node
+may have one animation channel. External buffers only beside
 the ``.gltf`` file (:func:`~retarget_lib.files.read_beside`: no ``..``, no absolute paths, no
 URLs, no symbolic link leading out of its folder). Node hierarchies are walked iteratively (any
 depth, linear time).
@@ -53,7 +55,7 @@ import binascii
 import heapq
 import os
 import struct
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -63,11 +65,11 @@ from ..core.motion import Motion
 from ..core.rig import Rig
 from ..core.rotations import matrix_to_quat, quat_slerp, quat_to_matrix
 from ..core.skeleton import Skeleton
-from ..errors import GLTFError
+from ..errors import GLTFError, LimitError
 from ..files import read_beside, readable_file
 from .rig_maps import RIG_MAPS, joint_key, load_mapping_file, map_joints
-from .untrusted import (ANY, COUNT, FLAG, INDEX, INT, NUMBER, TEXT, Arr, JsonObject, Obj, check_array_bytes,
-                        check_count, check_motion_samples, parse_json, typed_json)
+from .untrusted import (ANY, COUNT, FLAG, INDEX, INT, MAX_ARRAY_BYTES, NUMBER, TEXT, Arr, JsonObject, Obj,
+                        check_array_bytes, check_count, check_motion_samples, parse_json, typed_json)
 
 __all__ = ["GLTFError", "NoSkinError", "MAX_FILE_BYTES", "MAX_NODES", "MAX_JOINTS", "MAX_VERTICES", "MAX_TRIANGLES",
            "MAX_FRAMES", "DEFAULT_FPS", "key_rate", "load_gltf_rig", "load_gltf_motion", "load_gltf_animation",
@@ -147,11 +149,14 @@ _KEY_VALUES = {"rotation": _Role(("VEC4",), (_FLOAT, _BYTE, _UBYTE, _SHORT, _USH
 @dataclass
 class GLTFDocument:
     """A parsed, type-checked file: its JSON (:class:`~retarget_lib.io.untrusted.JsonObject`), its
-    buffers and the path named in messages."""
+    buffers, the path named in messages, and the bytes its accessors have decoded so far (at most
+    :data:`~retarget_lib.io.untrusted.MAX_ARRAY_BYTES` in all, as float64: accessors may overlap,
+    so the file's size alone does not bound them)."""
 
     gltf: JsonObject
     buffers: list[bytes]
     path: Path
+    decoded: int = field(default=0)
 
     def error(self, problem: str) -> GLTFError:
         return GLTFError(f"{self.path}: {problem}")
@@ -172,6 +177,11 @@ class GLTFDocument:
         check_count(acc.count, role.max_count, f"elements in accessor {index}", f"{self.path}: {what}")
         dtype, width = np.dtype(_DTYPES[acc.componentType]).newbyteorder("<"), _WIDTH[acc.type]
         check_array_bytes((acc.count, width), 8, f"accessor {index}", f"{self.path}: {what}")
+        self.decoded += acc.count * width * 8
+        if self.decoded > MAX_ARRAY_BYTES:
+            raise LimitError(f"{self.path}: {what}: the accessors read from the file would take more than "
+                             f"{MAX_ARRAY_BYTES / 2**30:.0f} GiB in all (the budget; an accessor read twice counts "
+                             "twice)")
         if acc.bufferView is None:
             out = np.zeros((acc.count, width), dtype)
         else:
@@ -509,7 +519,7 @@ def _mesh(doc: GLTFDocument, skinned: list[int], tree: _Skeleton, world: dict[in
     """Rest vertices ``(V, 3)`` (posed by the file's skinning), faces ``(F, 3)``, weights ``(V, J)``."""
     g = doc.gltf
     index = {n: i for i, n in enumerate(tree.nodes)}
-    verts, faces, weights, base = [], [], [], 0
+    verts, faces, weights, base, triangles = [], [], [], 0, 0
     for n in skinned:
         skin = g.skins[g.nodes[n].skin]
         palette = np.array([index[j] for j in skin.joints])
@@ -523,7 +533,8 @@ def _mesh(doc: GLTFDocument, skinned: list[int], tree: _Skeleton, world: dict[in
                 raise doc.error(f"{what} lacks POSITION, JOINTS_0 or WEIGHTS_0 (a skinned mesh needs all three)")
             pos = doc.accessor(attrs.POSITION, _POSITION, f"{what} POSITION").astype(np.float64)
             check_count(base + len(pos), MAX_VERTICES, "vertices", str(doc.path))
-            check_array_bytes((len(pos), len(tree.nodes)), 8, "skinning weights (vertices x joints)", str(doc.path))
+            check_array_bytes((base + len(pos), len(tree.nodes)), 8, "skinning weights (vertices x joints)",
+                              str(doc.path))
             w = _weights(doc, attrs, len(pos), palette, len(tree.nodes), what)
             local_w = w[:, palette]  # (V, K)
             blended = np.einsum("vk,kij->vij", local_w, skin_mats)
@@ -532,6 +543,8 @@ def _mesh(doc: GLTFDocument, skinned: list[int], tree: _Skeleton, world: dict[in
                    if prim.indices is not None else np.arange(len(pos)))
             if len(idx) % 3 or (idx.size and idx.max() >= len(pos)):
                 raise doc.error(f"{what}: triangle indices are not triples of vertices 0..{len(pos) - 1}")
+            triangles += len(idx) // 3
+            check_count(triangles, MAX_TRIANGLES, "triangles", str(doc.path))
             faces.append(idx.reshape(-1, 3) + base)
             weights.append(w)
             base += len(pos)
@@ -720,34 +733,48 @@ class _Channel:
 
 
 def _channels(doc: GLTFDocument, animation: int) -> list[_Channel]:
-    """The rotation, translation and scale channels of ``animation``, checked and decoded."""
+    """The rotation, translation and scale channels of ``animation``, checked and decoded (each
+    accessor once, however many channels share it; one channel per node and property, as glTF
+    requires)."""
     g = doc.gltf
     if not 0 <= animation < len(g.animations):
         raise doc.error(f"has {len(g.animations)} animations; animation {animation} does not exist")
     anim = g.animations[animation]
-    out = []
+    out, first, decoded = [], {}, {}
     for i, c in enumerate(anim.channels):
         where = f"animation {animation} channel {i}"
         if c.target.node is None or c.target.path not in _KEY_VALUES:
             continue
         if c.sampler >= len(anim.samplers) or c.target.node >= len(g.nodes):
             raise doc.error(f"{where} names sampler {c.sampler} or node {c.target.node}, which does not exist")
+        target = (c.target.node, c.target.path)
+        if target in first:
+            raise doc.error(f"animation {animation} channels {first[target]} and {i} both move node {target[0]} "
+                            f"{target[1]}; a property may have one channel")
+        first[target] = i
         s = anim.samplers[c.sampler]
-        interpolation = s.interpolation or "LINEAR"
-        if interpolation not in ("LINEAR", "STEP", "CUBICSPLINE"):
-            raise doc.error(f"{where}: unknown interpolation {interpolation!r} (LINEAR, STEP or CUBICSPLINE)")
-        where = f"animation {animation} sampler {c.sampler}"
-        times = doc.accessor(s.input, _KEY_TIMES, f"{where} input").ravel().astype(np.float64)
-        values = doc.accessor(s.output, _KEY_VALUES[c.target.path], f"{where} output ({c.target.path})")
-        values = values.astype(np.float64)
-        if interpolation == "CUBICSPLINE":
-            values = values[1::3] if len(values) == 3 * len(times) else values[:0]
-        if len(times) == 0 or len(values) != len(times) or np.any(np.diff(times) <= 0):
-            raise doc.error(f"{where}: keyframe times must increase and match the values")
-        out.append(_Channel(c.target.node, c.target.path, times, values, interpolation))
+        key = (s.input, s.output, c.target.path, s.interpolation or "LINEAR")
+        if key not in decoded:
+            decoded[key] = _keys(doc, animation, c.sampler, *key)
+        out.append(_Channel(c.target.node, c.target.path, *decoded[key], key[3]))
     if not out:
         raise doc.error(f"animation {animation} has no rotation or translation channels")
     return out
+
+
+def _keys(doc: GLTFDocument, animation: int, sampler: int, times_at: int, values_at: int, path: str,
+          interpolation: str) -> tuple[np.ndarray, np.ndarray]:
+    """``(key times (K,), key values (K, C))`` of one sampler for the property ``path``."""
+    where = f"animation {animation} sampler {sampler}"
+    if interpolation not in ("LINEAR", "STEP", "CUBICSPLINE"):
+        raise doc.error(f"{where}: unknown interpolation {interpolation!r} (LINEAR, STEP or CUBICSPLINE)")
+    times = doc.accessor(times_at, _KEY_TIMES, f"{where} input").ravel().astype(np.float64)
+    values = doc.accessor(values_at, _KEY_VALUES[path], f"{where} output ({path})").astype(np.float64)
+    if interpolation == "CUBICSPLINE":
+        values = values[1::3] if len(values) == 3 * len(times) else values[:0]
+    if len(times) == 0 or len(values) != len(times) or np.any(np.diff(times) <= 0):
+        raise doc.error(f"{where}: keyframe times must increase and match the values")
+    return times, values
 
 
 def _frame_rate(doc: GLTFDocument, animation: int, fps: float | None, channels: list[_Channel]) -> float:
