@@ -499,7 +499,7 @@ def atomic_write(path: str | os.PathLike, mode: str = "wb") -> Iterator:
     if path.is_dir():
         raise OutputPathError(f"{path}: is a directory; give a file name")
     sweep_stale_temps(path.parent)
-    tmp = path.absolute().parent / f"{TEMP_PREFIX}{os.getpid()}-{secrets.token_hex(6)}-{path.name[:80]}.tmp"
+    tmp = path.absolute().parent / f"{TEMP_PREFIX}{os.getpid()}-{secrets.token_hex(6)}-{path.name[:40]}.tmp"
     fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC, 0o600)
     record = None
     try:
