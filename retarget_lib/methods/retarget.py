@@ -82,14 +82,15 @@ def _check_options(chosen: Method, target: str, target_mesh, source_mesh, checkp
 
 
 @contextmanager
-def _naming(path) -> Iterator[None]:
-    """Make an input error raised while reading ``path`` name it (prefixed when its message does
-    not), as one :class:`~retarget_lib.errors.RetargetInputError` (a ``ValueError`` of the core,
-    e.g. an inconsistent rig, becomes one)."""
+def _naming(path, *also) -> Iterator[None]:
+    """Make an input error raised while reading ``path`` (and the files ``also`` read with it: a
+    joint map, a mesh) name a file: prefixed with ``path`` when its message names none of them, as
+    one :class:`~retarget_lib.errors.RetargetInputError` (a ``ValueError`` of the core, e.g. an
+    inconsistent rig, becomes one)."""
     try:
         yield
     except ValueError as e:
-        if str(path) in str(e) or str(Path(path)) in str(e):
+        if any(str(p) in str(e) or str(Path(p)) in str(e) for p in (path, *also) if p is not None):
             raise
         kind = type(e) if isinstance(e, RetargetInputError) else RetargetInputError
         raise kind(f"{path}: {e}") from None
@@ -177,9 +178,9 @@ def retarget_file(source: str | os.PathLike, target: str, method: str, out: str 
     with input_ledger(force):
         check_output(out, [source, target, target_mesh, source_mesh, checkpoint, joint_map, source_joint_map],
                      OUTPUT_SUFFIXES, force)
-        with _naming(source):
+        with _naming(source, source_joint_map):
             src = load_source(source, source_joint_map)
-        with _naming(target):
+        with _naming(target, joint_map, target_mesh):
             tgt = load_target(str(target), target_mesh, joint_map)
         refuse_overwriting_inputs(out)  # also the files the inputs named (a .gltf's buffers)
         _check_target_fits(tgt, target, Path(out))
