@@ -7,7 +7,7 @@
 #   make workshop   the workshop notebooks (notebooks/learning_path.yaml) two at a time, then the book
 #   make book   the HTML book alone, from what is executed (build/notebooks/) or committed (notebooks/)
 #   make unit-fast   the library tests that need neither the built data nor minutes (a bare checkout)
-#   make tables      every table of both papers, recomputed into results/ with provenance (~35 min on 2 cores)
+#   make tables      every table of both papers, recomputed into results/ with provenance (the seconds each part took: results/*.provenance.json)
 # Both are idempotent: stamps and the data cache make a second run reuse what is built.
 
 PYTHON ?= python3

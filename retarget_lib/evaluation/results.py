@@ -1,7 +1,7 @@
 """Stored evaluation results: every table of both papers, computed once and kept with its provenance.
 
-The full tables (every row, every clip; Table 4 alone takes ~12 min on 2 cores, the contact tables
-~20 min, ESO dominating) are produced by one command, ``retarget evaluate --all --out results``
+The full tables (every row, every clip; the contact tables' ESO rows dominate, and each part's
+seconds are in its provenance) are produced by one command, ``retarget evaluate --all --out results``
 (``make tables``), and kept in the repository's ``results/`` folder. Every per-case CSV has a
 ``<name>.provenance.json`` beside it: the command, the commit, the date, the machine, the profile,
 the sha256 of every checkpoint that produced a row, the library modules the computation loaded with
