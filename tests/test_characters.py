@@ -170,7 +170,7 @@ def test_identity_pose_skins_to_rest(chars):
 def test_deterministic_and_cached_copies():
     spec = CHARACTER_SPECS[3]
     a, b = build_character(spec), build_character(spec)
-    np.testing.assert_array_equal(a.rest_vertices, b.rest_vertices)
+    np.testing.assert_array_equal(a.rest_vertices, b.rest_vertices)  # the same code twice in one process: exact
     np.testing.assert_array_equal(a.faces, b.faces)
     np.testing.assert_array_equal(a.weights, b.weights)
     np.testing.assert_array_equal(a.skeleton.offsets, b.skeleton.offsets)
@@ -181,7 +181,7 @@ def test_deterministic_and_cached_copies():
 
 def test_random_characters():
     a, b, c = random_character(7), random_character(7), random_character(8)
-    np.testing.assert_array_equal(a.rest_vertices, b.rest_vertices)
+    np.testing.assert_array_equal(a.rest_vertices, b.rest_vertices)  # copied (cached), not recomputed: exact
     assert a.name == "random-7" and a.height != c.height
     for x in (a, c):
         assert 1.2 <= x.height <= 2.1 and 1000 <= x.num_vertices <= 5000

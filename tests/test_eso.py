@@ -86,7 +86,9 @@ def test_eso_leaves_an_output_that_already_equals_the_source_unchanged():
     result = encoder_space_optimization(model, feats, character, source, np.zeros((4, 4), bool), 1.0,
                                         weights=only_weak)
     assert result.energies.shape == (4, 31)
-    assert result.energies.abs().max().item() == 0.0           # Eweak at its minimum, every iteration
+    # Eweak at its minimum, every iteration: the same decode_step kernels on the same values in one process
+    # give exactly the source's rotations (and exact 0 matters: Adam's step hardly shrinks with the gradient)
+    assert result.energies.abs().max().item() == 0.0
     torch.testing.assert_close(result.rotations, out.rotations[0])
     torch.testing.assert_close(result.root_positions, posed.root_positions[0])
     torch.testing.assert_close(result.positions, posed.positions[0])

@@ -109,16 +109,18 @@ def test_sampler_pairs_scales_and_centring():
     assert torch.equal(b.same_character, b.source == b.target)
     for s in (b.scale_source, b.scale_target):
         assert s.min() >= 0.5 and s.max() <= 1.5 and s.std() > 0.25  # ~U[0.5, 1.5] (std 0.289)
-    assert torch.equal(b.scale_target[b.same_character], b.scale_source[b.same_character])
+    assert torch.equal(b.scale_target[b.same_character], b.scale_source[b.same_character])  # copied: exact
     assert torch.allclose(skeleton_height(b.offsets_source),
                           skeleton_height(clips.offsets[b.source]) * b.scale_source)  # H scales with s
+    # one elementwise product of the same two values (correctly rounded on any CPU): exact
     assert torch.equal(b.offsets_target[b.same_character], b.offsets_source[b.same_character])
     for r in (b.root_positions, b.real_root_positions):  # centre frame above the origin, height kept
+        # centred: x - x is exactly 0
         assert torch.equal(r[:, 40, [0, 2]], torch.zeros(2000, 2)) and (r[:, 40, 1] > 0.2).all()
     unbalanced = WindowSampler(clips, window=81, scale_range=None).sample(500)
     assert torch.equal(unbalanced.scale_source, torch.ones(500))
     assert torch.equal(unbalanced.scale_target, torch.ones(500))
-    assert torch.equal(unbalanced.offsets_source, clips.offsets[unbalanced.source])
+    assert torch.equal(unbalanced.offsets_source, clips.offsets[unbalanced.source])  # x * 1.0: exact
 
 
 def test_rest_jitter_changes_rest_poses_not_the_motion():
@@ -133,8 +135,9 @@ def test_rest_jitter_changes_rest_poses_not_the_motion():
         assert torch.allclose(source_local_positions(q0, o0), source_local_positions(q1, o1), atol=1e-5)
     moved = (jittered.offsets_source - plain.offsets_source).norm(dim=-1).amax(-1) > 1e-4
     assert 0.25 < moved.float().mean() < 0.75                          # about half the sources
+    # A = B: one rest pose (the same code on the same values at the same batch rows, one process: exact)
     assert torch.equal(jittered.offsets_target[jittered.same_character],
-                       jittered.offsets_source[jittered.same_character])  # A = B: one rest pose
+                       jittered.offsets_source[jittered.same_character])
     assert torch.allclose(skeleton_height(jittered.offsets_source), skeleton_height(plain.offsets_source))
 
 
@@ -154,7 +157,7 @@ def test_cli_train_resume_matches_a_straight_run(tmp_path, capsys):
     assert resumed["step"] == straight["step"] == 6
     for net in ("generator", "discriminator"):
         for k, v in straight["modules"][net].items():
-            assert torch.equal(resumed["modules"][net][k], v), (net, k)
+            assert torch.equal(resumed["modules"][net][k], v), (net, k)  # same code, one process, state reloaded: exact
     log_a, log_b = read_log(tmp_path / "a" / "losses.csv"), read_log(tmp_path / "b" / "losses.csv")
     assert log_a[0] == log_b[0] == ["step", "seconds", *TERMS]
     assert [r[2:] for r in log_a[1:]] == [r[2:] for r in log_b[1:]] and len(log_a) == 7
