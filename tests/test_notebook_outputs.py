@@ -37,6 +37,19 @@ def test_images_small_no_errors_setup_and_what_to_try(path):
                     assert kb <= 150, f"{path.name} cell {i}: {mime} of {kb:.0f} KB"
 
 
+@pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.name)
+def test_outputs_name_no_path_of_the_machine_that_ran_them(path):
+    # a committed page must not show where it was executed (the repository, a home or temp folder)
+    repo = str(Path(__file__).resolve().parents[1])
+    for i, cell in enumerate(c for c in nbformat.read(path, as_version=4).cells if c.cell_type == "code"):
+        for out in cell.get("outputs", []):
+            texts = [out.get("text", "")] + [v for k, v in out.get("data", {}).items() if k.startswith("text/")]
+            for text in texts:
+                text = "".join(text) if isinstance(text, list) else text
+                for bad in (repo, "/home/", "/root/", "/tmp/"):
+                    assert bad not in text, f"{path.name} code cell {i} prints a machine path ({bad!r})"
+
+
 def test_notebooks_exist_in_order():
     numbers = sorted({p.name[:2] for p in NOTEBOOKS})
     assert numbers == [f"{i:02d}" for i in range(len(numbers))]
