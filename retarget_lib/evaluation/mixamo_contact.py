@@ -19,6 +19,7 @@ of each clip, Eint every 3rd frame; ``paper``: whole clips, every frame).
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 from typing import Sequence
 
@@ -31,8 +32,9 @@ from ..files import atomic_write
 from ..geometry.contacts import transfer_contacts
 from ..methods.contact import contact_clip
 from .contact import (CONTACT_PROFILES, METRICS, TABLE1_ROWS, TABLE3_ROWS, ContactCase, contact_methods,
-                      evaluate_contact_methods, write_contact_tables)
+                      contact_row_checkpoints, evaluate_contact_methods, write_contact_tables)
 from .mixamo import METHOD_FPS, same_length
+from .results import write_result
 
 __all__ = ["mixamo_contact_cases", "run_mixamo_contact_evaluation"]
 
@@ -90,6 +92,7 @@ def run_mixamo_contact_evaluation(out_dir: str | Path, root: str | Path | None =
     Returns:
         ``(tables, coverage, missing_rows)``.
     """
+    t0 = time.perf_counter()
     folder = load_mixamo_folder(root if root is not None else mixamo_local_dir())
     cases, coverage = mixamo_contact_cases(folder, profile)
     out = Path(out_dir)
@@ -108,4 +111,8 @@ def run_mixamo_contact_evaluation(out_dir: str | Path, root: str | Path | None =
             "Ground truth = each target's own clip. Interpenetration x1000, vertex contact MSE and global position "
             "MSE in cm^2/cm; 'paper' columns: Villegas et al. 2021. "
             + (f"Rows without a shipped checkpoint: {', '.join(missing)}." if missing else ""))
-    return write_contact_tables(per_case, out, note), coverage, missing
+    tables = write_contact_tables(per_case, out, note)
+    write_result(per_case, out, "contact_cases", profile=profile, seconds=time.perf_counter() - t0,
+                 command=f"retarget evaluate --table contact --data mixamo-local --profile {profile} --out DIR",
+                 checkpoints=contact_row_checkpoints(tuple(per_case["method"].unique())))
+    return tables, coverage, missing
