@@ -128,14 +128,22 @@ def _evaluate_all(args: argparse.Namespace) -> int:
     return 0
 
 
+def _stored_results() -> dict:
+    """Every stored result in ``results/``, one entry each: name -> (load it, the columns naming a
+    case, the compared metrics, the live re-run tolerance)."""
+    from .evaluation import contact, tdcn
+
+    table4 = (tdcn.CASE_KEYS, ("short", "long", "short_h2", "long_h2"), tdcn.rerun_tolerance)
+    return {**{name: (lambda name=name: tdcn.stored_table4(name), *table4)
+               for name in ("table4_cases", "table4_cmu_cases", "table4_windowed_cases")},
+            "contact_cases": (contact.stored_contact_results, ("method", "clip", "target"), contact.METRICS,
+                              contact.rerun_tolerance)}
+
+
 def _results_status() -> int:
     """Each stored result in ``results/``: where it comes from and whether it is stale."""
-    from .evaluation.contact import stored_contact_results
-    from .evaluation.tdcn import stored_table4
-
     stale = 0
-    for load in (lambda: stored_table4("table4_cases"), lambda: stored_table4("table4_cmu_cases"),
-                 lambda: stored_table4("table4_windowed_cases"), stored_contact_results):
+    for load, *_ in _stored_results().values():
         result = load()
         stale += bool(result.stale)
         print(result.report())
@@ -151,15 +159,11 @@ def _compare_results(other_dir: str) -> int:
 
     import pandas as pd
 
-    from .evaluation import contact, tdcn
-    from .evaluation.results import compare_with_stored, load_result
+    from .evaluation.results import compare_with_stored
 
-    table4 = (tdcn.CASE_KEYS, ("short", "long", "short_h2", "long_h2"), tdcn.rerun_tolerance)
-    specs = {"table4_cases": table4, "table4_cmu_cases": table4, "table4_windowed_cases": table4,
-             "contact_cases": (("method", "clip", "target"), contact.METRICS, contact.rerun_tolerance)}
     bad = 0
-    for name, (keys, metrics, tolerance) in specs.items():
-        stored = load_result(name).frame
+    for name, (load, keys, metrics, tolerance) in _stored_results().items():
+        stored = load().frame
         path = Path(other_dir) / f"{name}.csv"
         if not path.exists():
             raise RetargetInputError(f"{path}: not found (run `retarget evaluate --all --out {other_dir}` first)")
