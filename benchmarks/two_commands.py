@@ -7,9 +7,12 @@ time). Writes ``benchmarks/two-commands.md`` (every run, the per-step times that
 the slowest notebooks) and ``benchmarks/notebook-times.json`` (each notebook's median seconds, which
 ``make``'s runner uses to start the longest notebooks first).
 
-Usage (about 25 minutes per repetition on 2 cores; nothing else should run meanwhile)::
+Usage (about 15 minutes per repetition on 2 cores, 20 with ``--ci-once``; nothing else should run meanwhile)::
 
-    python3 benchmarks/two_commands.py --repeat 3 [--ci-once]
+    python3 benchmarks/two_commands.py --repeat 3 [--ci-once] [--append]
+
+Every run is kept in ``benchmarks/two-commands.json`` as soon as it ends; ``--append`` adds the new
+runs to those (each row names its commit), without it the table starts afresh.
 """
 
 from __future__ import annotations
@@ -28,6 +31,8 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 OUT_MD = REPO / "benchmarks" / "two-commands.md"
 OUT_TIMES = REPO / "benchmarks" / "notebook-times.json"
+#: every run of the table, kept so that ``--append`` adds runs (a later commit, another session)
+OUT_RUNS = REPO / "benchmarks" / "two-commands.json"
 #: the product requirements (README): minutes on a 2-core machine from a fresh clone
 LIMITS = {"make": 10, "make test": 15, "make workshop": 4}
 
@@ -63,8 +68,9 @@ def one_run(keep: Path, ci: bool) -> dict:
     clone = Path(tempfile.mkdtemp(prefix="retarget-fresh-"))
     try:
         subprocess.run(["git", "clone", "-q", str(REPO), str(clone)], check=True)
-        run = {"commit": subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=clone, capture_output=True,
-                                        text=True, check=True).stdout.strip()}
+        commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=clone, capture_output=True,
+                                text=True, check=True).stdout.strip()
+        run = {"date": dt.date.today().isoformat(), "commit": commit}
         commands = [("make", ["make"]), ("make test", ["make", "test"]),
                     ("make workshop", ["make", "workshop", "WORKSHOP_FLAGS=--force"])]
         if ci:  # the rest of .ci/run: CI = make test (with set-up and data) + these two
@@ -90,7 +96,7 @@ def write(runs: list[dict]) -> None:
     OUT_TIMES.write_text(json.dumps({nb: {"seconds": s} for nb, s in median.items()}, indent=1) + "\n")
     lines = ["# The two commands, timed from a fresh clone",
              "",
-             f"Measured {dt.date.today().isoformat()} by `python3 benchmarks/two_commands.py --repeat {len(runs)}` on "
+             f"Measured by `python3 benchmarks/two_commands.py` (runs on {', '.join(sorted({r['date'] for r in runs}))}) on "
              f"{_cpu()}, {__import__('os').cpu_count()} cores, nothing else running. Each run clones the "
              "repository into a new folder and runs `make`, `make test`, then `make workshop "
              "WORKSHOP_FLAGS=--force` there (the README's commands, as a first-time student types them).",
@@ -128,16 +134,18 @@ def write(runs: list[dict]) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--append", action="store_true", help="add to the runs in benchmarks/two-commands.json")
     parser.add_argument("--ci-once", action="store_true",
                         help="in the first run also time `make test-slow` and `make unit-threads` (the rest of CI)")
     args = parser.parse_args()
     keep = Path(tempfile.mkdtemp(prefix="retarget-two-commands-logs-"))
-    runs = []
+    runs = json.loads(OUT_RUNS.read_text()) if args.append and OUT_RUNS.exists() else []
     for i in range(args.repeat):
         runs.append(one_run(keep, ci=args.ci_once and i == 0))
+        OUT_RUNS.write_text(json.dumps(runs, indent=1) + "\n")
         print(f"run {i + 1}: " + ", ".join(f"{k} {runs[-1][k] / 60:.1f} min" for k in LIMITS), flush=True)
         write(runs)
-    print(f"wrote {OUT_MD.relative_to(REPO)} and {OUT_TIMES.relative_to(REPO)}; logs in {keep}")
+    print(f"wrote {OUT_MD.relative_to(REPO)}, {OUT_RUNS.relative_to(REPO)} and {OUT_TIMES.relative_to(REPO)}; logs in {keep}")
 
 
 if __name__ == "__main__":

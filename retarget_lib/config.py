@@ -87,7 +87,11 @@ def _read(path: Path, seen: tuple[Path, ...] = ()) -> dict:
         return data
     if not isinstance(base, str) or not base:
         raise ConfigError(f"{path}: base must be the name of a config file, got {short_repr(base)}")
-    merged = _read(path.parent / base, seen + (path,))
+    base_path = path.parent / base
+    if not base_path.is_file():  # named by the file that refers to it: the base is that file's value
+        raise ConfigError(f"{path}: base {short_repr(base)} is " + ("not a file" if base_path.exists() else
+                                                                 "no config file (a path relative to this one)"))
+    merged = _read(base_path, seen + (path,))
     profiles = _pop_profiles(merged, path.parent / base)
     own_profiles = _pop_profiles(data, path)
     out = deep_merge(merged, data)

@@ -4,7 +4,7 @@ bounded sizes before anything is allocated, and the ``base:`` merging rule (``re
 
 import pytest
 import yaml
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 import retarget_lib.training.run
@@ -115,6 +115,9 @@ def train_run(tmp_path, path, *overrides):
      "key 'train' is given twice"),
     (f"base: {CONFIGS / 'tdcn_paper.yaml'}\nname: [1, 2, 3, 4, 5, 6, 7, 8, 9, 10]\n", (), "name = [1, 2, 3, 4, ...]"),
     ("base: [1]\n", (), "base must be the name of a config file"),
+    # found by test_fuzz_configs: the indented line continues the base's value, which names no file;
+    # the error names the config that refers to it, not the path it could not find
+    (f"base: {CONFIGS / 'tdcn_paper.yaml'}\n  model", (), "model' is no config file"),
     (f"base: {CONFIGS / 'tdcn_paper.yaml'}\ntrain: {{lr: {'9' * 400}}}\n", (), "train.lr = "),
 ])
 def test_a_hostile_config_stops_before_any_work(tmp_path, no_training, text, overrides, problem):
@@ -174,6 +177,7 @@ _TOKENS = st.lists(st.sampled_from(_CONFIG_TOKENS) | st.text(max_size=4), max_si
 @given(text=_STRUCTURED | _TOKENS, with_base=st.booleans(), overrides=st.lists(st.sampled_from(
     ["train.steps=5", "model.channels=99999", "train.batch=2", "name=*a", "seed=[", "train.lr=1e999",
      "model.channels=4096", "train.batch=4096", "data.window=1000"]), max_size=3))
+@example(text="  model", with_base=True, overrides=[])  # a base value that names no file (found by this test)
 def test_fuzz_configs(tmp_path_factory, monkeypatch, text, with_base, overrides):
     """A config loads to one that passes the schema and the memory bound, or ``retarget train``
     stops with one line naming the file (or the override) before any work."""
