@@ -1,7 +1,7 @@
 """Stable public API: forward kinematics.
 
 ``from retarget_lib.kinematics import forward_kinematics`` is part of the suite's public contract
-(DESIGN.md, "Public contract"), so this module keeps it importable whatever moves inside the
+(`docs/architecture.md`, "Public contract"), so this module keeps it importable whatever moves inside the
 library. It only re-exports :mod:`retarget_lib.core.kinematics`, where the code lives; the library
 itself imports from there.
 """

@@ -1,7 +1,7 @@
 """Stable public API: skeletons, the canonical 22 joints, and folding any joint set onto them.
 
 ``from retarget_lib.skeleton import to_canonical22`` is part of the suite's public contract
-(DESIGN.md, "Public contract"), so this module keeps those names importable whatever moves inside
+(`docs/architecture.md`, "Public contract"), so this module keeps those names importable whatever moves inside
 the library. It only re-exports :mod:`retarget_lib.core.skeleton` and
 :mod:`retarget_lib.core.canonical`, where the code lives; the library itself imports from there.
 """

@@ -1,4 +1,4 @@
-"""The public contract of DESIGN.md stays importable from its documented paths, and those names are
+"""The public contract of docs/architecture.md stays importable from its documented paths, and those names are
 the library's own objects (not copies)."""
 
 from retarget_lib import kinematics, skeleton

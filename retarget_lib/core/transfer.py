@@ -1,7 +1,7 @@
 """Rest-pose transfer: the ground-truth retargeting of synthetic motion (the copy baselines built on it
 are methods: :mod:`retarget_lib.methods.copy`, :mod:`retarget_lib.methods.copy_rest`).
 
-Ground truth (DESIGN.md, "Data"): the target performs the source's motion with the same *global*
+Ground truth of the synthetic data: the target performs the source's motion with the same *global*
 bone directions and twists, rest-pose differences compensated, and the root trajectory scaled by
 the leg-length ratio -- what Mixamo produces when one animation is applied to many characters.
 
@@ -164,7 +164,7 @@ def random_rest_rotations(offsets: torch.Tensor, max_degrees: float,
 
 
 def retarget_ground_truth(motion: Motion, target_skeleton: Skeleton) -> Motion:
-    """The ground-truth retargeting of a synthetic motion onto another character (DESIGN.md).
+    """The ground-truth retargeting of a synthetic motion onto another character (see the module docstring).
 
     Every global bone direction and twist of the source is reproduced (:func:`transfer_rotations`;
     an A-pose source and a T-pose target end up with the same world-space arms), and the root
