@@ -20,6 +20,7 @@ from __future__ import annotations
 import argparse
 import datetime as dt
 import json
+import os
 import platform
 import shutil
 import statistics
@@ -70,7 +71,8 @@ def one_run(keep: Path, ci: bool) -> dict:
         subprocess.run(["git", "clone", "-q", str(REPO), str(clone)], check=True)
         commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=clone, capture_output=True,
                                 text=True, check=True).stdout.strip()
-        run = {"date": dt.date.today().isoformat(), "commit": commit}
+        run = {"date": dt.date.today().isoformat(), "commit": commit,
+               "load before": round(os.getloadavg()[0], 2)}
         commands = [("make", ["make"]), ("make test", ["make", "test"]),
                     ("make workshop", ["make", "workshop", "WORKSHOP_FLAGS=--force"])]
         if ci:  # the rest of .ci/run: CI = make test (with set-up and data) + these two
@@ -78,6 +80,7 @@ def one_run(keep: Path, ci: bool) -> dict:
         for name, cmd in commands:
             log = keep / f"{name.replace(' ', '-')}.log"
             run[name] = round(_timed(cmd, clone, log), 1)
+            run["load after"] = max(run.get("load after", 0.0), round(os.getloadavg()[0], 2))
             run[f"{name} steps"] = _steps(log)
             if name in ("make", "make workshop"):  # the runner's own per-notebook record of that command
                 timings = json.loads((clone / "build/notebooks/timings.json").read_text())
@@ -90,6 +93,13 @@ def one_run(keep: Path, ci: bool) -> dict:
         shutil.rmtree(clone, ignore_errors=True)
 
 
+def _machine(run: dict) -> str:
+    """How loaded the machine was during a run (see the table's header)."""
+    if "load before" in run:
+        return f"load {run['load before']:.1f} before, {run['load after']:.1f} at most after"
+    return run.get("machine", "not recorded")
+
+
 def write(runs: list[dict]) -> None:
     names = sorted({nb for r in runs for nb in r["notebooks"]})
     median = {nb: statistics.median(r["notebooks"][nb] for r in runs if nb in r["notebooks"]) for nb in names}
@@ -97,15 +107,20 @@ def write(runs: list[dict]) -> None:
     lines = ["# The two commands, timed from a fresh clone",
              "",
              f"Measured by `python3 benchmarks/two_commands.py` (runs on {', '.join(sorted({r['date'] for r in runs}))}) on "
-             f"{_cpu()}, {__import__('os').cpu_count()} cores, nothing else running. Each run clones the "
+             f"{_cpu()}, {os.cpu_count()} cores. Each run clones the "
              "repository into a new folder and runs `make`, `make test`, then `make workshop "
              "WORKSHOP_FLAGS=--force` there (the README's commands, as a first-time student types them).",
              "",
-             "| run | commit | `make` | `make test` | `make workshop` |",
-             "|---|---|---|---|---|"]
+             "The machine column is the 1-minute load average before the run and the largest one seen after "
+             "a command (2 cores: a load near 2 means the run had the machine to itself; well above 2, other "
+             "work shared it and the run is slower than a student's), or a note where the load was not recorded.",
+             "",
+             "| run | commit | machine | `make` | `make test` | `make workshop` |",
+             "|---|---|---|---|---|---|"]
     for i, r in enumerate(runs, 1):
-        lines.append(f"| {i} | {r['commit']} | " + " | ".join(f"{r[k] / 60:.1f} min" for k in LIMITS) + " |")
-    lines.append("| **limit** | | " + " | ".join(f"{v} min" for v in LIMITS.values()) + " |")
+        lines.append(f"| {i} | {r['commit']} | {_machine(r)} | "
+                     + " | ".join(f"{r[k] / 60:.1f} min" for k in LIMITS) + " |")
+    lines.append("| **limit** | | | " + " | ".join(f"{v} min" for v in LIMITS.values()) + " |")
     lines += ["", "`make test` runs after `make` in the same clone, as the README orders them; typed first on a fresh clone it also pays the `setup` and `data` steps of `make` (add them)."]
     ci = [r for r in runs if "make test-slow" in r]
     for r in ci:
