@@ -43,3 +43,15 @@ def contact_runs(mask):
     m = np.concatenate(([False], mask, [False]))
     e = np.flatnonzero(m[1:] != m[:-1])
     return list(zip(e[::2], e[1::2]))
+
+
+def assert_same_up_to_floor_shift(actual, expected, atol, max_shift=0.3):
+    """``(T, J, 3)`` positions equal but for one vertical shift per frame (the ground rule of
+    ``retarget retarget``, :func:`retarget_lib.core.ground.floor_offset`), at most ``max_shift``
+    metres (a source whose floor is not the target's: 15-21 cm measured between CMU and Mixamo
+    proportions)."""
+    actual, expected = np.asarray(actual), np.asarray(expected)
+    np.testing.assert_allclose(actual[..., [0, 2]], expected[..., [0, 2]], atol=atol)
+    dy = actual[..., 1] - expected[..., 1]  # (T, J)
+    np.testing.assert_allclose(dy, np.broadcast_to(dy[:, :1], dy.shape), atol=atol)
+    assert np.abs(dy).max() <= max_shift, f"shifted {np.abs(dy).max():.3f} m"

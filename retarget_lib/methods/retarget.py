@@ -3,8 +3,11 @@
 
 Sources and targets are read by suffix (:mod:`.inputs`: BVH, SMPL-X/AMASS ``.npz``, glTF/GLB, FBX
 through the optional extra; a target may also be a shape ``.npz`` or a character name). The
-methods run on the canonical 22 joints at :data:`METHOD_FPS`; the result is resampled back to the
-source's frame rate (or ``fps``) and written by the output's suffix:
+methods run on the canonical 22 joints at :data:`METHOD_FPS` (:func:`method_times`: the source's last
+frame included); the result is brought back to the source's frame rate with the source's frame count, or to ``fps``
+with the count the duration implies (:func:`at_output_rate`), put on the ground there by one rule for
+every method (:func:`on_the_ground`: where the source's feet stand on its floor, the target's stand
+on ``y = 0``), and written by the output's suffix:
 
 * ``.bvh``: on a BVH target's *full* joint set, names, channel layout and length unit
   (:func:`~retarget_lib.core.canonical.from_canonical22`), so it loads next to the target's own
@@ -39,6 +42,8 @@ from typing import Iterator
 import numpy as np
 
 from ..core.canonical import from_canonical22
+from ..core.character import Character
+from ..core.ground import clip_floor, floor_offset, foot_positions, sole_heights, standing_feet
 from ..core.motion import Motion
 from ..core.skeleton import Skeleton
 from ..errors import CheckpointError, OutputPathError, RetargetInputError
@@ -51,7 +56,8 @@ from ..io.untrusted import check_motion_samples, name_problem
 from .inputs import MESH_TOLERANCE, Target, load_source, load_target
 from .registry import Method, get_method
 
-__all__ = ["METHOD_FPS", "OUTPUT_SUFFIXES", "MESH_TOLERANCE", "resolve_target", "retarget_file"]
+__all__ = ["METHOD_FPS", "OUTPUT_SUFFIXES", "MESH_TOLERANCE", "resolve_target", "retarget_file", "method_times",
+           "output_count", "at_output_rate", "on_the_ground"]
 
 #: the frame rate every method works at (the models were trained on 30 fps windows)
 METHOD_FPS = 30.0
@@ -188,7 +194,9 @@ def retarget_file(source: str | os.PathLike, target: str, method: str, out: str 
         if not (np.isfinite(out_fps) and 1.0 <= out_fps <= 1000.0):
             raise RetargetInputError(f"--fps {fps}: the output frame rate must be within 1-1000")
         _check_result_size(src.motion, tgt, out_fps, source)
-        motion = src.motion.resample(METHOD_FPS)
+        times = method_times(src.motion)
+        motion = src.motion.copy() if _same_rate(src.motion.fps, METHOD_FPS) else \
+            src.motion.at_times(times, fps=METHOD_FPS)
         if chosen.needs_mesh:
             if tgt.character is None:
                 raise RetargetInputError(f"{target}: --method contact needs the target's mesh: give a .glb/.fbx/shape "
@@ -200,8 +208,77 @@ def retarget_file(source: str | os.PathLike, target: str, method: str, out: str 
         else:
             result = _load_retargeter(chosen, checkpoint, device)(motion, tgt.skeleton)
         _check_plausible(result, motion, tgt.skeleton, method, checkpoint, source)
-        _write(result.resample(out_fps), tgt, src.meta, Path(out))
+        result = at_output_rate(result, times, src.motion, out_fps)
+        source_out = src.motion if result.num_frames == src.motion.num_frames else \
+            at_output_rate(motion, times, src.motion, out_fps)
+        _write(on_the_ground(result, source_out, tgt.character, src.character), tgt, src.meta, Path(out))
     return Path(out)
+
+
+def _same_rate(a: float, b: float) -> bool:
+    return abs(a - b) < 1e-9
+
+
+def method_times(motion: Motion) -> np.ndarray:
+    """The times (seconds after the first frame) at which the methods see ``motion``: every
+    ``1 / METHOD_FPS`` and, when that grid misses it, the source's last frame (so no source frame
+    lies beyond the result). ``(N,)``, increasing, the last one the source's last frame."""
+    last = (motion.num_frames - 1) / motion.fps
+    n = int(np.ceil(last * METHOD_FPS - 1e-6)) + 1
+    return np.minimum(np.arange(n) / METHOD_FPS, last)
+
+
+def output_count(motion: Motion, fps: float) -> int:
+    """How many frames a result at ``fps`` has: the source's own count at its rate, else the
+    count its duration implies (``floor((T - 1) / fps_source * fps) + 1``)."""
+    if _same_rate(fps, motion.fps):
+        return motion.num_frames
+    return int(np.floor((motion.num_frames - 1) / motion.fps * fps + 1e-9)) + 1
+
+
+def at_output_rate(result: Motion, times: np.ndarray, source: Motion, fps: float) -> Motion:
+    """The result (one frame per :func:`method_times` entry ``times``) at ``fps``, with
+    :func:`output_count` frames: a source at 30 fps comes back frame for frame, any other rate is
+    sampled at its own frame times (slerp, linear root)."""
+    count = output_count(source, fps)
+    if _same_rate(fps, METHOD_FPS) and count == result.num_frames:
+        return result
+    position = np.interp(np.arange(count) / fps, times, np.arange(len(times)))  # fractional result frames
+    return result.at_times(position / result.fps, fps=fps)
+
+
+def on_the_ground(result: Motion, source: Motion, target: Character | None = None,
+                  source_character: Character | None = None) -> Motion:
+    """``result`` shifted vertically by the ground rule (:func:`~retarget_lib.core.ground.floor_offset`):
+    where a foot of ``source`` stands on its floor, the result's is on ``y = 0`` (at the source's
+    sole height times the height ratio).
+
+    Args:
+        result: the canonical-22 result on the target skeleton.
+        source: the canonical-22 source clip, frame for frame with ``result``.
+        target: the target character when it has a mesh (its soles are its rest mesh's lowest
+            point), else None (its lowest rest foot joint).
+        source_character: the same for the source.
+
+    Returns:
+        a copy of ``result`` whose root heights carry the shift (``meta["floor_offset_m"]``: the
+        ``(T,)`` shift applied, metres).
+    """
+    if source.num_frames != result.num_frames:
+        raise ValueError(f"the result has {result.num_frames} frames and the source {source.num_frames}")
+    src_mesh = None if source_character is None else source_character.rest_vertices
+    tgt_mesh = None if target is None else target.rest_vertices
+    src_pos = source.global_positions()
+    src_soles = sole_heights(src_pos, source.skeleton, src_mesh)
+    floor = clip_floor(src_soles)
+    src_height = source.skeleton.height()
+    standing = standing_feet(foot_positions(src_pos, source.skeleton), src_soles, floor, src_height, source.fps)
+    tgt_soles = sole_heights(result.global_positions(), result.skeleton, tgt_mesh)
+    shift = floor_offset(tgt_soles, src_soles, floor, standing, result.skeleton.height() / src_height)
+    out = result.copy()
+    out.root_positions[:, 1] += shift
+    out.meta["floor_offset_m"] = shift
+    return out
 
 
 def _check_result_size(motion: Motion, tgt: Target, out_fps: float, source) -> None:
@@ -209,7 +286,7 @@ def _check_result_size(motion: Motion, tgt: Target, out_fps: float, source) -> N
     :mod:`~retarget_lib.io.untrusted`: the source's duration at the output (or the methods') rate
     x the joints the result is written on."""
     joints = max([22] + [m.skeleton.num_joints for m in (tgt.rig, tgt.bvh) if m is not None])
-    frames = int((motion.num_frames - 1) / motion.fps * max(out_fps, METHOD_FPS)) + 1
+    frames = max(len(method_times(motion)), output_count(motion, out_fps))
     check_motion_samples(frames, joints, str(source), " (the result, on the target's joints)")
 
 
