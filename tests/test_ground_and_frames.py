@@ -18,8 +18,10 @@ from retarget_lib.core.ground import (
 )
 from retarget_lib.core.rig import Rig
 from retarget_lib.data.sources.cmu import cmu_clip_path
+from retarget_lib.data.synthetic.amass_clip import AMASS_CLIP_PATH
 from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.io import load_bvh, save_bvh, save_glb
+from retarget_lib.io.amass import load_amass
 from retarget_lib.io.gltf import load_gltf_motion, load_gltf_rig
 from skeletons import make_skeleton
 
@@ -103,7 +105,7 @@ def files(tmp_path_factory):
 
 def _source_soles(source_path):
     """The source's sole heights above its own floor ``(T, 4)`` and where it stands ``(T, 4)``."""
-    source = to_canonical22(load_bvh(source_path))
+    source = load_amass(source_path) if source_path.suffix == ".npz" else to_canonical22(load_bvh(source_path))
     pos = source.global_positions()
     soles = sole_heights(pos, source.skeleton)
     floor = clip_floor(soles)
@@ -120,7 +122,6 @@ def _errors(out, target_glb, source_path):
         result = written_rig.motion_to_canonical(motion)
     else:
         result = to_canonical22(load_bvh(out))
-    assert result.num_frames == 240
     soles = sole_heights(result.global_positions(), result.skeleton, rig.character().rest_vertices)
     source, standing, source_height = _source_soles(source_path)
     return soles - source * result.skeleton.height() / source_height, standing
@@ -140,7 +141,7 @@ def test_feet_stand_on_the_targets_floor_where_the_sources_do(files, tmp_path, m
     if suffix == ".fbx":  # written; the same run's result read back through its glTF twin
         out = _run(files, tmp_path, method, ".glb", target)
     error, standing = _errors(out, files / f"{target}.glb", files / "walk.bvh")
-    assert standing.any(axis=1).mean() > 0.5  # the walk stands in most frames
+    assert len(error) == 240 and standing.any(axis=1).mean() > 0.5  # the walk stands in most frames
     # the lowest standing joint is where the source's is (to float32 / 6-decimal files)
     lowest = np.where(standing, error, np.inf).min(axis=1)[standing.any(axis=1)]
     assert np.abs(lowest).max() <= 1e-3
@@ -152,6 +153,17 @@ def test_feet_stand_on_the_targets_floor_where_the_sources_do(files, tmp_path, m
         foot = np.where(standing[:, [heel, toe]], error[:, [heel, toe]], np.inf).min(axis=1)
         foot = foot[np.isfinite(foot)]
         assert foot.min() >= -1e-3 and np.median(foot) <= 0.04, (heel, np.median(foot))
+
+
+def test_an_amass_clip_stands_on_the_targets_floor(files, tmp_path):
+    """SMPL+H clips came out 5-9 cm under the floor before the rule (issue 28)."""
+    out = tmp_path / "amass_gus.glb"
+    assert main(["retarget", "--source", str(AMASS_CLIP_PATH), "--target", str(files / "gus.glb"), "--method",
+                 "copy", "--out", str(out)]) == 0
+    error, standing = _errors(out, files / "gus.glb", AMASS_CLIP_PATH)
+    assert standing.any(axis=1).mean() > 0.5
+    lowest = np.where(standing, error, np.inf).min(axis=1)[standing.any(axis=1)]
+    assert np.abs(lowest).max() <= 1e-3  # float32 GLB
 
 
 def test_a_sources_floor_need_not_be_at_zero(files, tmp_path):
