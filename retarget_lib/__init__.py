@@ -1,6 +1,6 @@
 """retarget_lib — the shared library behind the retarget-notebooks study suite.
 
-Two motion-retargeting methods are taught and re-checked here: TDCN (Kim, Park, Lee 2020) and
+Two motion-retargeting methods are taught and re-checked here: TDCN (Kim, Park, Kwon, Han 2020) and
 contact-aware retargeting of skinned motion (Villegas et al. 2021).
 
 Layers, bottom to top; each folder imports only from the ones before it (README, "Library"):

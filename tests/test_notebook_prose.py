@@ -122,3 +122,14 @@ def test_library_constants_typed_in_prose_match_the_library():
         module, name = where.rsplit(".", 1)
         assert getattr(importlib.import_module(module), name) == value, (token, where)
         assert str(int(value)) in token
+
+
+def test_the_tdcn_authors_are_cited_as_the_paper_names_them():
+    """SangBin Kim, Inbum Park, Seongsu Kwon and JungHyun Han (the paper and its official
+    repository); an earlier text had "Kim, Park, Lee" everywhere."""
+    root = Path(__file__).resolve().parents[1]
+    texts = [root / "README.md", *root.glob("docs/*.md"), *root.glob("configs/*.yaml"), *NOTEBOOKS,
+             *root.glob("retarget_lib/**/*.py")]
+    wrong = [p.relative_to(root).as_posix() for p in texts if "Park, Lee" in p.read_text(encoding="utf-8")]
+    assert not wrong, wrong
+    assert "Kim, Park, Kwon, Han" in (root / "README.md").read_text(encoding="utf-8")

@@ -1,6 +1,6 @@
 """Every number the two papers report that this suite compares against, in one place.
 
-* Kim, Park, Lee 2020 (TDCN), Table 4: normalised MSE of global joint positions per scenario and
+* Kim, Park, Kwon, Han 2020 (TDCN), Table 4: normalised MSE of global joint positions per scenario and
   their average, short and long clips (Mixamo).
 * Villegas, Ceylan, Hertzmann, Yang, Saito 2021 (contact-aware), Tables 1, 3, 5 and 6:
   interpenetration, vertex contact MSE, foot contact accuracy, global position MSE (Mixamo).

@@ -1,4 +1,4 @@
-"""TDCN loss functions (Kim, Park, Lee, Eurographics 2020, Sec. 4.2, Eqs. 6-23).
+"""TDCN loss functions (Kim, Park, Kwon, Han, Eurographics 2020, Sec. 4.2, Eqs. 6-23).
 
 Every loss is a small differentiable function on plain tensors — no model objects — so that
 notebook 03 can evaluate each term on hand-made motions and the trainer can combine them.
