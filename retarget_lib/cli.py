@@ -37,8 +37,9 @@ from __future__ import annotations
 
 import argparse
 import sys
+import warnings
 
-from .errors import RetargetInputError
+from .errors import RetargetInputError, RetargetWarning
 from .files import DataError, atomic_write, exit_on_signals, sha256_file
 
 
@@ -416,12 +417,28 @@ def _one_line(error: Exception) -> str:
     return " ".join(part.strip() for part in text.splitlines() if part.strip())
 
 
+def _warning_lines(command: str):
+    """A ``warnings.showwarning`` that prints a :class:`~retarget_lib.errors.RetargetWarning` as one
+    ``retarget COMMAND: warning: ...`` line (others as Python prints them)."""
+    default = warnings.showwarning
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        if issubclass(category, RetargetWarning):
+            print(f"retarget {command}: warning: {_one_line(message)}", file=sys.stderr)
+        else:
+            default(message, category, filename, lineno, file, line)
+    return show
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point; returns the exit status (2 with a one-line message on data/input errors)."""
     args = build_parser().parse_args(argv)
     exit_on_signals()
     try:
-        return args.func(args)
+        with warnings.catch_warnings():
+            warnings.showwarning = _warning_lines(args.command)
+            warnings.simplefilter("always", RetargetWarning)
+            return args.func(args)
     except (RetargetInputError, DataError, ValueError, OSError) as e:
         print(f"retarget {args.command}: error: {_one_line(e)}", file=sys.stderr)
         return 2

@@ -97,3 +97,10 @@ class DeviceError(RetargetInputError):
 
 class MixamoFolderError(RetargetInputError):
     """A ``mixamo-local`` folder whose layout is ambiguous or whose ``splits.yaml`` is invalid."""
+
+
+class RetargetWarning(UserWarning):
+    """Something the user should know about an input that was still used (e.g. a target mesh whose
+    skeleton differs from the target's by 1-5 % of its height and was rebound); the command line
+    prints it as one ``retarget CMD: warning: ...`` line on stderr."""
+

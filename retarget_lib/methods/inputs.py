@@ -25,6 +25,7 @@ a name            a synthetic character or ``mannequin-x`` (skeleton and mesh)
 from __future__ import annotations
 
 import os
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -37,7 +38,7 @@ from ..core.rig import Rig
 from ..core.skeleton import Skeleton
 from ..data.sources.mannequin import load_mannequin
 from ..data.synthetic.characters import CHARACTER_NAMES, make_character
-from ..errors import InputFileError, RetargetInputError
+from ..errors import InputFileError, RetargetInputError, RetargetWarning
 from ..io import fbx
 from ..io.amass import load_amass, smplx_skeleton
 from ..io.bvh import load_bvh
@@ -163,21 +164,53 @@ def load_target(target: str, target_mesh: str | os.PathLike | None = None,
                                  f"character; characters: {', '.join(CHARACTER_NAMES)}, mannequin-x")
     if target_mesh is not None:
         character = load_shape_npz(target_mesh)
-        _check_mesh_matches(character, out.skeleton, target_mesh, target)
+        character = _fit_mesh(character, out.skeleton, target_mesh, target)
         out.character, out.rig = character, Rig.from_character(character)
     return out
 
 
-#: a target mesh's rest offsets may differ from the target's skeleton by this fraction of the
-#: target's height (float32 exports and unit round trips move them by < 0.1 %)
-MESH_TOLERANCE = 0.01
+#: a target mesh whose rest skeleton differs from the target's by more than this fraction of the
+#: target's height is named in a warning (float32 exports and unit round trips move joints by
+#: < 0.1 %; real exports of one character's mesh and motion files, by 1-2.5 cm)
+MESH_WARN = 0.01
+#: ... and refused beyond this one: a mesh of another character
+MESH_LIMIT = 0.05
 
 
-def _check_mesh_matches(character: Character, target_skeleton: Skeleton, target_mesh, target) -> None:
-    """Refuse a target mesh whose rest skeleton is not the target's (:data:`MESH_TOLERANCE`)."""
+def _fit_mesh(character: Character, target_skeleton: Skeleton, target_mesh, target) -> Character:
+    """A target mesh on the target's skeleton: refused when its rest joints differ from the
+    target's by more than :data:`MESH_LIMIT` of the target's height, else rebound
+    (:func:`rebind_mesh`), with a warning beyond :data:`MESH_WARN`."""
     height = target_skeleton.height()
-    diff = np.abs(character.skeleton.offsets[1:] - target_skeleton.offsets[1:]).max()
-    if diff > MESH_TOLERANCE * height:
-        raise RetargetInputError(f"{target_mesh}: its skeleton differs from the target {target} by {diff * 100:.1f} cm "
-                                 f"(more than {MESH_TOLERANCE:.0%} of the target's height): a mesh of another "
-                                 "character?")
+    diff = float(np.abs(_root_relative(character.skeleton) - _root_relative(target_skeleton)).max())
+    what = f"its skeleton differs from the target {target} by {diff * 100:.1f} cm ({diff / height:.1%} of its height)"
+    if diff > MESH_LIMIT * height:
+        raise RetargetInputError(f"{target_mesh}: {what}, more than {MESH_LIMIT:.0%}: a mesh of another character?")
+    if diff > MESH_WARN * height:
+        warnings.warn(f"{target_mesh}: {what}; the mesh is rebound to the target's skeleton", RetargetWarning,
+                      stacklevel=2)
+    return rebind_mesh(character, target_skeleton)
+
+
+def _root_relative(skeleton: Skeleton) -> np.ndarray:
+    """``(J, 3)`` rest joint positions relative to the root (where a file puts its root differs)."""
+    rest = skeleton.rest_positions()
+    return rest - rest[0]
+
+
+def rebind_mesh(character: Character, skeleton: Skeleton) -> Character:
+    """``character``'s mesh bound to another rest skeleton with the same joints: each vertex moves
+    with its joints' root-relative rest positions (``v + sum_j w_vj (p'_j - p_j)``, linear blend
+    skinning of the translation between the two rests), faces and weights kept; the character's
+    own root placement (its feet on ``y = 0``) is kept.
+
+    Args:
+        character: a canonical-22 character (mesh, weights, its own skeleton).
+        skeleton: the canonical-22 skeleton to bind to (same joint names).
+    """
+    moved = _root_relative(skeleton) - _root_relative(character.skeleton)  # (22, 3)
+    bound = skeleton.copy()
+    bound.offsets[0] = character.skeleton.offsets[0]
+    return Character(character.name, bound, character.rest_vertices + character.weights @ moved,
+                     character.faces, character.weights, character.bulk, dict(character.style))
+

@@ -24,7 +24,8 @@ on ``y = 0``), and written by the output's suffix:
 
 Everything the user gives is checked before any work: the output path (:func:`~retarget_lib.files.check_output`:
 a supported suffix, never an input unless ``force``), options the method would ignore (a mesh for a
-skeleton-only method), a target mesh whose skeleton disagrees with the target file, target joint
+skeleton-only method), a target mesh whose skeleton differs from the target file's by more than
+:data:`MESH_LIMIT` of its height (rebound, with a warning, beyond :data:`MESH_WARN`), target joint
 names the output format cannot hold (:func:`~retarget_lib.io.untrusted.name_problem`). The run is
 one :func:`~retarget_lib.files.input_ledger`: every file it reads (the inputs, a ``.gltf``'s
 buffers, joint maps, meshes, checkpoints) is recorded by inode and no output replaces one. An
@@ -53,11 +54,11 @@ from ..io.fbx_write import save_fbx
 from ..io.gltf_write import save_glb
 from ..io.shape import load_shape_npz
 from ..io.untrusted import check_motion_samples, name_problem
-from .inputs import MESH_TOLERANCE, Target, load_source, load_target
+from .inputs import MESH_LIMIT, MESH_WARN, Target, load_source, load_target
 from .registry import Method, get_method
 
-__all__ = ["METHOD_FPS", "OUTPUT_SUFFIXES", "MESH_TOLERANCE", "resolve_target", "retarget_file", "method_times",
-           "output_count", "at_output_rate", "on_the_ground"]
+__all__ = ["METHOD_FPS", "OUTPUT_SUFFIXES", "MESH_WARN", "MESH_LIMIT", "resolve_target", "retarget_file",
+           "method_times", "output_count", "at_output_rate", "on_the_ground"]
 
 #: the frame rate every method works at (the models were trained on 30 fps windows)
 METHOD_FPS = 30.0
