@@ -86,9 +86,9 @@ def test_contact_method_on_the_command_line(tmp_path, capsys):
     out = tmp_path / "contact.bvh"
     assert main(["retarget", "--source", str(short), "--target", "gus", "--method", "contact", "--out", str(out)]) == 0
     result = load_bvh(out)
-    # the method runs at 30 fps (6 frames over 5/30 s); the output comes back at the source's
-    # 120 fps over that same span: 5/30 s * 120 + 1 = 21 frames
-    assert result.fps == pytest.approx(120.0) and result.num_frames == 21
+    # the method runs at 30 fps (7 frames: 6 over 5/30 s and the source's last at 23/120 s); the
+    # output comes back at the source's 120 fps with every one of its 24 frames
+    assert result.fps == pytest.approx(120.0) and result.num_frames == 24
     assert main(["retarget", "--source", str(short), "--target", str(cmu_clip_path("Boxing_Toes.bvh")),
                  "--method", "contact", "--out", str(out)]) == 2
     assert "--target-mesh" in capsys.readouterr().err
