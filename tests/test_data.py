@@ -21,12 +21,12 @@ def ds():
 @pytest.mark.data
 def test_every_source_has_id_license_origin_and_check():
     m = manifest.load_manifest()
-    assert set(m["sources"]) == {"synthetic", "cmu-assimp", "mannequin-x", "mixamo-local"}
+    assert set(m["sources"]) == {"synthetic", "cmu-assimp", "mannequin-x", "model-viewer", "mixamo-local"}
     for sid, src in m["sources"].items():
         assert src["license"] and src["origin"], sid
     statuses = {s.id: s for s in status.verify()}
     assert statuses["synthetic"].verified and statuses["cmu-assimp"].verified
-    assert statuses["mannequin-x"].verified
+    assert statuses["mannequin-x"].verified and statuses["model-viewer"].verified
 
 
 def test_missing_source_says_how_to_get_it(monkeypatch, tmp_path):
@@ -153,3 +153,17 @@ def test_quantised_sha256_ignores_float_noise_but_not_real_changes():
     assert quantised_sha256([("x", a + 1e-3)], 1e4) != digest         # ten quantisation steps
     assert quantised_sha256([("y", a)], 1e4) != digest                # names count
     assert quantised_sha256([("x", a.astype(np.float32))], 1e4) == digest
+
+
+def test_the_viewer_script_is_fetched_once_and_checked(monkeypatch, tmp_path):
+    """model-viewer: absent from an empty cache (the message says how to get it); a cached file with
+    other bytes fails its checksum."""
+    from retarget_lib.data.sources.model_viewer import model_viewer_path
+
+    monkeypatch.setenv("RETARGET_CACHE", str(tmp_path))
+    with pytest.raises(DataError, match="retarget data build"):
+        model_viewer_path()
+    (tmp_path / "model-viewer").mkdir(exist_ok=True)
+    (tmp_path / "model-viewer" / "model-viewer-umd.min.js").write_text("alert('not the package')")
+    with pytest.raises(DataError, match="fails its checksum"):
+        model_viewer_path()

@@ -8,12 +8,14 @@ from ..files import DataError
 from .manifest import source
 from .sources.cmu import CMU_CLIPS, cmu_clip_path
 from .sources.mannequin import mannequin_path
+from .sources.model_viewer import model_viewer_path
 from .status import verify
 from .synthetic.dataset import build_synthetic, dataset_path, fingerprint_of
 
 
 def build_all(force: bool = False) -> None:
-    """Fetch the CMU clips, check mannequin-x, build the synthetic dataset; verify all.
+    """Fetch the CMU clips and the book's 3-D viewer script, check mannequin-x, build the synthetic
+    dataset; verify all.
 
     Args:
         force: rebuild the synthetic dataset even if it is cached.
@@ -26,6 +28,7 @@ def build_all(force: bool = False) -> None:
     paths = [cmu_clip_path(name, fetch=True) for name in CMU_CLIPS]
     print(f"cmu-assimp: {len(paths)} clips in {paths[0].parent}", flush=True)
     print(f"mannequin-x: {mannequin_path()}", flush=True)
+    print(f"model-viewer: {model_viewer_path(fetch=True)}", flush=True)
     existed = dataset_path().exists()
     path = build_synthetic(force=force)
     fp = fingerprint_of(path)

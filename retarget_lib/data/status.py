@@ -19,6 +19,8 @@ from ..errors import RetargetInputError
 from ..files import DataError, cache_dir, sha256_file, sweep_stale_temps
 from .manifest import checkpoint, load_manifest, mixamo_local_dir, source
 from .sources.cmu import cmu_clip_path
+from .sources.model_viewer import SOURCE_ID as MODEL_VIEWER
+from .sources.model_viewer import model_viewer_path
 from .sources.mixamo_local import read_splits_file, scan_mixamo_folder
 from .synthetic.dataset import dataset_path, fingerprint_of
 
@@ -67,6 +69,15 @@ def _check_mannequin() -> SourceStatus:
     ok = sha256_file(path) == src["sha256"]
     return SourceStatus("mannequin-x", src["kind"], True, ok,
                         str(path) if ok else f"checksum mismatch for {path}")
+
+
+def _check_model_viewer() -> SourceStatus:
+    src = source(MODEL_VIEWER)
+    try:
+        return SourceStatus(MODEL_VIEWER, src["kind"], True, True, str(model_viewer_path(fetch=False)))
+    except DataError as e:
+        present = "checksum" in str(e)
+        return SourceStatus(MODEL_VIEWER, src["kind"], present, False if present else None, str(e))
 
 
 def _check_synthetic() -> SourceStatus:
@@ -135,6 +146,7 @@ _CHECKS = {
     "synthetic": _check_synthetic,
     "cmu-assimp": _check_cmu,
     "mannequin-x": _check_mannequin,
+    MODEL_VIEWER: _check_model_viewer,
     "mixamo-local": _check_mixamo_local,
 }
 

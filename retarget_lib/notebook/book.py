@@ -43,6 +43,7 @@ from pathlib import Path
 import yaml
 
 from ..files import REPO_ROOT, atomic_write
+from .viewer import VIEWER_METHODS, VIEWER_PAGE, write_viewer
 
 NOTEBOOKS_DIR = REPO_ROOT / "notebooks"
 LEARNING_PATH = NOTEBOOKS_DIR / "learning_path.yaml"
@@ -251,6 +252,8 @@ a {{ color: #1a5fb4; }}
 <p>Read the notebooks in this order. Each page is the notebook executed headless, with every
 picture inline; it opens from disk without a network. To change a value and re-run a cell, open the
 notebook itself: <code>.venv/bin/jupyter lab notebooks/</code>.</p>
+<p><b><a href="{VIEWER_PAGE}">The 3-D viewer</a></b>: one real clip retargeted by several methods,
+playing side by side; turn and zoom the characters in the browser.</p>
 <p><b>Study time</b> is an estimate for a student who reads, runs and does the exercises
 (the whole path: {total} min; the workshop notebooks: {total_ws} min).
 <b>Run time</b> is measured: how long the notebook took to execute headless on this machine
@@ -286,7 +289,8 @@ def read_timings(executed: Path | None) -> dict[str, dict]:
 def build_book(out: Path, executed: Path | None = REPO_ROOT / "build" / "notebooks",
                committed: Path = NOTEBOOKS_DIR, path: LearningPath | None = None,
                extra: list[Path] = (), verbose: bool = True) -> list[Path]:
-    """Write the book: one page per learning-path notebook, the index, the local MathJax.
+    """Write the book: one page per learning-path notebook, the index, the local MathJax, and the
+    3-D viewer page (:mod:`.viewer`).
 
     Args:
         out: destination folder (``build/book``).
@@ -324,10 +328,15 @@ def build_book(out: Path, executed: Path | None = REPO_ROOT / "build" / "noteboo
         pages.append(page)
         if verbose:
             print(f"book: {page.name} ({note}) in {time.perf_counter() - t0:.1f} s", flush=True)
+    t0 = time.perf_counter()
+    viewer = write_viewer(out)
+    if verbose:
+        print(f"book: {viewer.name} (3-D viewer: {', '.join(VIEWER_METHODS)}) in {time.perf_counter() - t0:.1f} s",
+              flush=True)
     index = out / "index.html"
     with atomic_write(index, "w") as f:
         f.write(index_html(path, sources, read_timings(executed)))
-    return [index] + pages
+    return [index] + pages + [viewer]
 
 
 def main(argv: list[str] | None = None) -> int:
