@@ -6,6 +6,7 @@ The rule (what counts as a hand-typed number, what is allowed) is documented in
 `prose(f"...{value:.2f}...")` output, which is computed and therefore never scanned here.
 """
 
+import re
 from pathlib import Path
 
 import nbformat
@@ -133,3 +134,21 @@ def test_the_tdcn_authors_are_cited_as_the_paper_names_them():
     wrong = [p.relative_to(root).as_posix() for p in texts if "Park, Lee" in p.read_text(encoding="utf-8")]
     assert not wrong, wrong
     assert "Kim, Park, Kwon, Han" in (root / "README.md").read_text(encoding="utf-8")
+
+
+#: the longest Markdown cell a student reads in one go (words; comments and table rows, which are
+#: looked up rather than read through, left out)
+MARKDOWN_WORDS = 200
+
+
+@pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.name)
+def test_no_wall_of_text(path):
+    long = []
+    for i, cell in enumerate(nbformat.read(path, as_version=4).cells):
+        if cell.cell_type == "markdown":
+            prose = "\n".join(line for line in re.sub(r"<!--.*?-->", "", cell.source, flags=re.S).splitlines()
+                              if not line.lstrip().startswith("|"))
+            n = len(re.findall(r"[A-Za-z0-9]+", prose))
+            if n > MARKDOWN_WORDS:
+                long.append((i, n))
+    assert not long, f"{path.name}: Markdown cells over {MARKDOWN_WORDS} words (cell, words): {long}"

@@ -55,6 +55,10 @@ def _short(value) -> str:
     if isinstance(value, (np.ndarray, list, tuple)) and not isinstance(value, str):
         with np.printoptions(precision=6, suppress=True, threshold=20):
             text = repr(np.asarray(value))
+    elif isinstance(value, (float, np.floating)):
+        text = f"{float(value):.6g}"
+    elif isinstance(value, np.integer):
+        text = str(int(value))
     else:
         text = repr(value)
     return text if len(text) <= 200 else text[:197] + "..."
