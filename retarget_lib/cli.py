@@ -312,14 +312,15 @@ def build_parser() -> argparse.ArgumentParser:
                                         "or character", formatter_class=_RetargetHelp)
     p.add_argument("--source", required=True,
                    help="source motion: .bvh (any joint set the library can fold), SMPL-X/AMASS .npz, "
-                        ".glb/.gltf (its first animation), .fbx (needs the fbx extra)")
+                        ".glb/.gltf/.vrm (its first animation), .fbx (needs the fbx extra)")
     p.add_argument("--target", required=True,
-                   help="target .bvh (its skeleton, units and joint names are used), .glb/.gltf/.fbx character "
+                   help="target .bvh (its skeleton, units and joint names are used), .glb/.gltf/.vrm/.fbx character "
                         "(skeleton, mesh, skin, all joints), shape .npz, SMPL-X/AMASS .npz (its betas' "
                         "skeleton), or a character name")
-    p.add_argument("--joint-map", help="mapping file (YAML/JSON 'CanonicalName: file_joint_name') for a .glb/.fbx "
-                                       "target whose joint names no rig map covers")
-    p.add_argument("--source-joint-map", help="the same for a .glb/.fbx source")
+    p.add_argument("--joint-map", help="joint map (YAML/JSON lines 'CanonicalName: file_joint_name', or "
+                                       "'CanonicalName: null' for a joint a BVH rig lacks; docs/joint-maps.md) for a "
+                                       ".bvh/.glb/.fbx target whose joint names no rig map covers")
+    p.add_argument("--source-joint-map", help="the same for a .bvh/.glb/.fbx source")
     p.add_argument("--method", required=True, choices=_RegisteredMethods(), metavar="NAME",
                    help="a method of the registry (retarget_lib/methods/registry.py)")
     p.add_argument("--target-mesh", help="target character shape .npz (rest_vertices, faces, weights, "

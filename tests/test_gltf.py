@@ -225,7 +225,7 @@ def test_mapping_file_completes_a_custom_rig(tmp_path):
     parents = make_character("hana").skeleton.parents
     names = list(CANONICAL22)
     names[5], names[17] = "Skull", "L_Palm"
-    with pytest.raises(JointSetError, match=r"cannot map joints \['Head', 'LeftHand'\].*mapping file"):
+    with pytest.raises(JointSetError, match=r"cannot map joints \['Head', 'LeftHand'\].*give a joint map"):
         map_joints(names, parents)
     mapping = tmp_path / "map.yaml"
     mapping.write_text("Head: Skull\nLeftHand: L_Palm\n")

@@ -110,22 +110,26 @@ def _ancestors(j: int, parents: Sequence[int]) -> set[int]:
     return out
 
 
-def map_joints(names: Sequence[str], parents: Sequence[int], mapping: Mapping[str, str] | None = None,
-               what: str = "the rig", mapping_source: str = "the mapping") -> tuple[dict[int, int], str]:
+def map_joints(names: Sequence[str], parents: Sequence[int], mapping: Mapping[str, str | None] | None = None,
+               what: str = "the rig", mapping_source: str = "the mapping",
+               may_be_absent: Sequence[str] = ()) -> tuple[dict[int, int], str]:
     """Map a rig's joints onto the canonical 22.
 
     Args:
         names: ``J`` joint names as in the file.
         parents: ``J`` parent indices (root ``-1``, parents first).
         mapping: ``{canonical name: file joint name}`` entries that replace or complete the
-            detected map (a mapping file, or a VRM file's humanoid bones).
+            detected map (a mapping file, or a VRM file's humanoid bones); ``None`` marks a
+            canonical joint the rig does not have.
         what: the file, for messages.
         mapping_source: where ``mapping`` comes from (a joint map file), for messages.
+        may_be_absent: canonical joints the caller can do without (it inserts them:
+            :mod:`~retarget_lib.io.joint_maps`); a ``None`` entry for another joint is an error.
 
     Returns:
-        ``({file joint index: canonical index} for the 22 canonical joints, rig name)``; the rig
-        name is that of :data:`RIG_MAPS` that matched most, with ``"+mapping"`` when ``mapping``
-        changed it.
+        ``({file joint index: canonical index} for the canonical joints the rig has: all 22 but
+        those ``mapping`` marks absent, rig name)``; the rig name is that of :data:`RIG_MAPS` that
+        matched most, with ``"+mapping"`` when ``mapping`` changed it.
 
     Raises:
         JointSetError: canonical joints nothing maps to (named, with the file's joints and the
@@ -135,12 +139,21 @@ def map_joints(names: Sequence[str], parents: Sequence[int], mapping: Mapping[st
     scored = [(len(_match(names, table)), rig) for rig, table in RIG_MAPS.items()]
     rig = max(scored, key=lambda x: x[0])[1]
     found = _match(names, RIG_MAPS[rig])
+    absent: set[int] = set()
     if mapping:
         keys = [joint_key(n) for n in names]
         for canon, file_name in mapping.items():
             if canon not in J:
                 raise JointSetError(f"{what}: {mapping_source} names {short_repr(canon)}, not a canonical joint "
                                     f"({', '.join(CANONICAL22)})")
+            if file_name is None:
+                if canon not in may_be_absent:
+                    can = f"only {', '.join(may_be_absent)} may be" if may_be_absent else "no joint may be"
+                    raise JointSetError(f"{what}: {mapping_source} marks {canon} absent (null); {can} absent"
+                                        + ("" if may_be_absent else " in this format"))
+                found = {i: c for i, c in found.items() if c != J[canon]}
+                absent.add(J[canon])
+                continue
             if joint_key(file_name) not in keys:
                 raise JointSetError(f"{what}: {mapping_source} maps {canon} to {short_repr(file_name)}, which is not a "
                                     "joint of the rig")
@@ -148,15 +161,20 @@ def map_joints(names: Sequence[str], parents: Sequence[int], mapping: Mapping[st
             found[keys.index(joint_key(file_name))] = J[canon]
         rig += "+mapping"
     with_mapping = f", with {mapping_source}" if mapping else ""
-    missing = [CANONICAL22[c] for c in range(22) if c not in found.values()]
+    missing = [CANONICAL22[c] for c in range(22) if c not in found.values() and c not in absent]
     if missing:
+        null = f"; 'Name: null' marks one the rig does not have ({', '.join(may_be_absent)})" if may_be_absent else ""
         raise JointSetError(
             f"{what}: cannot map joints {missing} onto the canonical 22 (closest rig naming: {rig}{with_mapping}); "
-            f"give a mapping file (--joint-map FILE.yaml, lines 'CanonicalName: file_joint_name'); the rig's joints: "
-            f"{_listed(names)}")
+            f"give a joint map (a YAML file with a line 'CanonicalName: file_joint_name' for each joint listed{null}; "
+            f"--joint-map for a target, --source-joint-map for a source); the rig's joints: {_listed(names)}")
     file_of = {c: i for i, c in found.items()}
     for c, p in enumerate(CANONICAL22_PARENTS):
-        if p >= 0 and file_of[p] not in _ancestors(file_of[c], parents):
+        while p in absent:  # an absent joint's children hang below its nearest present ancestor
+            p = CANONICAL22_PARENTS[p]
+        if c in absent or p < 0:
+            continue
+        if file_of[p] not in _ancestors(file_of[c], parents):
             raise JointSetError(f"{what}: {short_repr(names[file_of[c]])} (mapped to {CANONICAL22[c]}) is not below "
                                 f"{short_repr(names[file_of[p]])} (mapped to {CANONICAL22[p]}) in the joint tree"
                                 f"{with_mapping}")
@@ -168,8 +186,8 @@ def _listed(names: Sequence[str], limit: int = 60) -> str:
     return f"[{shown}{f', ... ({len(names)} in all)' if len(names) > limit else ''}]"
 
 
-def load_mapping_file(path: str | os.PathLike) -> dict[str, str]:
-    """Read a joint mapping file: YAML or JSON, ``{canonical name: file joint name}``, read within
+def load_mapping_file(path: str | os.PathLike) -> dict[str, str | None]:
+    """Read a joint mapping file: YAML or JSON, ``{canonical name: file joint name or null}``, read within
     the bounds of :func:`~retarget_lib.files.read_yaml` (1 MiB, nesting, aliases; a key given twice
     is an error, not a silently dropped line).
 
@@ -179,10 +197,14 @@ def load_mapping_file(path: str | os.PathLike) -> dict[str, str]:
         InputFileError: missing, empty or unreadable.
     """
     data = read_yaml(path, "joint mapping file", JointSetError)
-    if not isinstance(data, dict) or not all(isinstance(k, str) and isinstance(v, str) for k, v in data.items()):
-        raise JointSetError(f"{path}: a joint mapping file holds lines 'CanonicalName: file_joint_name'")
+    if not isinstance(data, dict) or not all(isinstance(k, str) and (v is None or isinstance(v, str))
+                                             for k, v in data.items()):
+        raise JointSetError(f"{path}: a joint mapping file holds lines 'CanonicalName: file_joint_name' (or "
+                            "'CanonicalName: null' for a joint the rig does not have)")
     first: dict[str, str] = {}
     for canon, file_name in data.items():
+        if file_name is None:
+            continue
         if joint_key(file_name) in first:
             raise JointSetError(f"{path}: maps both {first[joint_key(file_name)]} and {canon} to "
                                 f"{short_repr(file_name)}; a file joint can stand for one canonical joint")

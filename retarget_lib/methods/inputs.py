@@ -5,7 +5,7 @@ source            read as
 ================  =====================================================================
 ``.bvh``          any BVH the library folds (:func:`~retarget_lib.core.canonical.to_canonical22`)
 ``.npz``          an SMPL-X / AMASS motion (:func:`~retarget_lib.io.amass.load_amass`)
-``.glb/.gltf``    the first animation of a skinned glTF file; its mesh is the source
+``.glb/.gltf``    the first animation of a skinned glTF file (``.vrm`` too); its mesh is the source
                   character (hand contacts for ``contact``)
 ``.fbx``          the same through the optional FBX reader (``pip install -e .[fbx]``)
 ================  =====================================================================
@@ -14,7 +14,8 @@ source            read as
 target            gives
 ================  =====================================================================
 ``.bvh``          the skeleton; the result is written on its joints, channels and unit
-``.glb/.gltf``    skeleton, mesh and skin, all its joints (a GLB result keeps them)
+``.glb/.gltf``    skeleton, mesh and skin, all its joints (a GLB result keeps them); a
+                  ``.vrm`` avatar (VRM 0.x or 1.0 humanoid bones name its joints)
 ``.fbx``          the same through the optional FBX reader
 ``.npz``          a character shape file (mesh), or an SMPL-X/AMASS file (the skeleton
                   of its betas)
@@ -31,11 +32,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.canonical import to_canonical22
+from ..core.canonical import canonical_name_map, to_canonical22
 from ..core.character import Character
 from ..core.motion import Motion
 from ..core.rig import Rig
-from ..core.skeleton import Skeleton
+from ..core.skeleton import JointSetError, Skeleton
 from ..data.sources.mannequin import load_mannequin
 from ..data.synthetic.characters import CHARACTER_NAMES, make_character
 from ..errors import InputFileError, RetargetInputError, RetargetWarning
@@ -43,14 +44,19 @@ from ..io import fbx
 from ..io.amass import load_amass, smplx_skeleton
 from ..io.bvh import load_bvh
 from ..io.gltf import NoSkinError, load_gltf_animation, load_gltf_motion, load_gltf_rig
+from ..io.joint_maps import fold_with_map, present_map, with_virtual_joints
+from ..io.rig_maps import load_mapping_file
 from ..io.shape import SHAPE_KEYS, ShapeError, load_shape_npz
 from ..io.untrusted import npz_keys
 
 __all__ = ["SOURCE_SUFFIXES", "TARGET_SUFFIXES", "Source", "Target", "load_source", "load_target"]
 
-SOURCE_SUFFIXES = (".bvh", ".npz", ".glb", ".gltf", ".fbx")
-TARGET_SUFFIXES = (".bvh", ".glb", ".gltf", ".fbx", ".npz")
-_GLTF = (".glb", ".gltf")
+SOURCE_SUFFIXES = (".bvh", ".npz", ".glb", ".gltf", ".vrm", ".fbx")
+TARGET_SUFFIXES = (".bvh", ".glb", ".gltf", ".vrm", ".fbx", ".npz")
+#: glTF 2.0 files: a VRM avatar is a GLB with a humanoid extension (VRM 0.x or 1.0)
+_GLTF = (".glb", ".gltf", ".vrm")
+#: the inputs a joint map applies to (an SMPL-X/AMASS file's joints have fixed names)
+_MAPPABLE = (".bvh",) + _GLTF + (".fbx",)
 
 
 @dataclass
@@ -78,12 +84,15 @@ class Target:
         rig: the character on its own joints (a GLB/FBX file's, else the canonical one) when a mesh
             is known: what a ``.glb`` / ``.fbx`` result is written with.
         bvh: the full target BVH motion (its joints, channels and unit) for a ``.bvh`` target.
+        bvh_map: ``{BVH joint index: canonical index}`` of the joints it has, when the BVH is
+            read through the rig maps or a joint map (None: its naming convention).
     """
 
     skeleton: Skeleton
     character: Character | None = None
     rig: Rig | None = None
     bvh: Motion | None = None
+    bvh_map: dict[int, int] | None = None
 
 
 def _suffix(path: str | os.PathLike) -> str:
@@ -101,11 +110,12 @@ def load_source(path: str | os.PathLike, joint_map: str | os.PathLike | None = N
         RetargetInputError: an unsupported suffix, or the reader's error for a bad file.
     """
     suffix = _suffix(path)
-    if joint_map is not None and suffix not in _GLTF + (".fbx",):
-        raise RetargetInputError(f"{joint_map}: --source-joint-map is for .glb/.gltf/.fbx sources, not {path}")
+    if joint_map is not None and suffix not in _MAPPABLE:
+        raise RetargetInputError(f"{joint_map}: --source-joint-map is for .bvh/.glb/.gltf/.vrm/.fbx sources (an SMPL-X "
+                                 f"file's joints have fixed names), not {path}")
     if suffix == ".bvh":
         raw = load_bvh(path)
-        return Source(to_canonical22(raw), raw.meta, None)
+        return Source(_bvh_to_canonical(raw, path, joint_map), raw.meta, None)
     if suffix == ".npz":
         motion = load_amass(path)
         return Source(motion, {}, None)
@@ -120,6 +130,28 @@ def load_source(path: str | os.PathLike, joint_map: str | os.PathLike | None = N
         return Source(rig.motion_to_canonical(motion), {}, rig.character())
     raise InputFileError(f"{path}: cannot read a {suffix or 'suffix-less'} source; supported: "
                          f"{', '.join(SOURCE_SUFFIXES)}")
+
+
+def _known_bvh_names(motion: Motion) -> bool:
+    """Whether a BVH's joint names are of a convention :func:`~retarget_lib.core.canonical.to_canonical22`
+    folds by itself (CMU, Biovision, Mixamo, SMPL-X)."""
+    try:
+        canonical_name_map(motion.skeleton.joint_names)
+    except JointSetError:
+        return False
+    return True
+
+
+def _mapping(joint_map: str | os.PathLike | None) -> dict[str, str | None] | None:
+    return None if joint_map is None else load_mapping_file(joint_map)
+
+
+def _bvh_to_canonical(raw: Motion, path, joint_map) -> Motion:
+    """A BVH motion on the canonical 22: by its naming convention, else by the rig maps completed by
+    the joint map (absent joints inserted: :mod:`~retarget_lib.io.joint_maps`)."""
+    if joint_map is None and _known_bvh_names(raw):
+        return to_canonical22(raw)
+    return fold_with_map(raw, _mapping(joint_map), str(path), str(joint_map))
 
 
 def _is_shape_npz(path: str | os.PathLike) -> bool:
@@ -138,11 +170,17 @@ def load_target(target: str, target_mesh: str | os.PathLike | None = None,
         RetargetInputError: an unknown name or suffix, or the reader's error for a bad file.
     """
     suffix = _suffix(target)
-    if joint_map is not None and suffix not in _GLTF + (".fbx",):
-        raise RetargetInputError(f"{joint_map}: --joint-map is for .glb/.gltf/.fbx targets, not {target}")
+    if joint_map is not None and suffix not in _MAPPABLE:
+        raise RetargetInputError(f"{joint_map}: --joint-map is for .bvh/.glb/.gltf/.vrm/.fbx targets, not {target}")
     if suffix == ".bvh":
         full = load_bvh(target)
-        out = Target(to_canonical22(full.slice(0, 1)).skeleton, bvh=full)
+        rest = full.slice(0, 1)
+        if joint_map is None and _known_bvh_names(rest):
+            out = Target(to_canonical22(rest).skeleton, bvh=full)
+        else:  # the rig maps and the joint map, absent joints inserted (io.joint_maps)
+            bvh_map = present_map(rest.skeleton, _mapping(joint_map), str(target), str(joint_map))
+            augmented, full_map = with_virtual_joints(rest, bvh_map)
+            out = Target(to_canonical22(augmented, joint_map=full_map).skeleton, bvh=full, bvh_map=bvh_map)
     elif suffix in _GLTF or suffix == ".fbx":
         rig = load_gltf_rig(target, joint_map) if suffix in _GLTF else fbx.load_fbx_rig(target, joint_map)
         character = rig.character()
@@ -160,7 +198,7 @@ def load_target(target: str, target_mesh: str | os.PathLike | None = None,
         character = load_mannequin() if target == "mannequin-x" else make_character(target)
         out = Target(character.skeleton, character, Rig.from_character(character))
     else:
-        raise RetargetInputError(f"target {target!r} is neither a file (.bvh, .glb, .gltf, .fbx, .npz) nor a "
+        raise RetargetInputError(f"target {target!r} is neither a file ({', '.join(TARGET_SUFFIXES)}) nor a "
                                  f"character; characters: {', '.join(CHARACTER_NAMES)}, mannequin-x")
     if target_mesh is not None:
         character = load_shape_npz(target_mesh)

@@ -308,7 +308,7 @@ def _write(result: Motion, tgt: Target, source_layout: dict, out: Path) -> None:
         save = save_glb if suffix == ".glb" else save_fbx
         save(tgt.rig, out, tgt.rig.motion_from_canonical(result))
     elif tgt.bvh is not None:  # the target's joints, names, channels and unit
-        full = from_canonical22(result, tgt.bvh.skeleton)
+        full = from_canonical22(result, tgt.bvh.skeleton, joint_map=tgt.bvh_map)
         full.meta.update({k: tgt.bvh.meta[k] for k in ("unit_scale", "unit", "channels", "file_joint_names")
                           if k in tgt.bvh.meta})
         save_bvh(full, out)

@@ -1,0 +1,224 @@
+"""Joint maps for every format (BVH included), joints a rig does not have (``null``), complete
+errors, and the examples of docs/joint-maps.md (issue 28)."""
+
+import ast
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+import yaml
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from retarget_lib.cli import main
+from retarget_lib.core.canonical import to_canonical22
+from retarget_lib.core.motion import Motion
+from retarget_lib.core.rotations import quat_conjugate, quat_mul
+from retarget_lib.core.skeleton import CANONICAL22, CANONICAL22_PARENTS, JointSetError, Skeleton
+from retarget_lib.data.sources.cmu import cmu_clip_path
+from retarget_lib.io import load_bvh, save_bvh
+from retarget_lib.io.joint_maps import MAY_BE_ABSENT, fold_with_map, present_map, with_virtual_joints
+from retarget_lib.io.rig_maps import load_mapping_file, map_joints
+from test_bad_inputs import assert_cli_error
+
+DOC = Path(__file__).resolve().parents[1] / "docs" / "joint-maps.md"
+
+
+def doc_examples() -> dict[str, dict]:
+    """``{section title: map}`` of every YAML block under a ``###`` heading of the doc."""
+    text = DOC.read_text(encoding="utf-8")
+    out = {}
+    for title, body in re.findall(r"^### (.+?)\n(.*?)(?=^### |\Z)", text, flags=re.S | re.M):
+        block = re.search(r"```yaml\n(.*?)```", body, flags=re.S)
+        if block:
+            out[title.strip()] = yaml.safe_load(block.group(1))
+    return out
+
+
+@pytest.fixture(scope="module")
+def clip():
+    """Two seconds of CMU 01_01 on the canonical 22 joints at 30 fps, the methods' rate (the joint
+    names are renamed below)."""
+    return to_canonical22(load_bvh(cmu_clip_path("01_01.bvh")).slice(0, 240)).resample(30.0)
+
+
+def rig_clip(clip: Motion, mapping: dict) -> Motion:
+    """``clip`` on a rig named and shaped by ``mapping``: canonical joints renamed, the ``null``
+    ones removed (their children re-attached to the nearest kept ancestor), every kept joint in the
+    same world place and orientation in every frame."""
+    sk = clip.skeleton
+    keep = [n for n in CANONICAL22 if mapping.get(n, n) is not None]
+    rest = sk.rest_positions()
+    parents = []
+    for n in keep:
+        p = sk.parents[sk.index(n)]
+        while p >= 0 and CANONICAL22[p] not in keep:
+            p = sk.parents[p]
+        parents.append(keep.index(CANONICAL22[p]) if p >= 0 else -1)
+    offsets = np.array([rest[sk.index(n)] - (rest[sk.index(keep[p])] if p >= 0 else 0.0)
+                        for n, p in zip(keep, parents)])
+    offsets[0] = sk.offsets[0]
+    _, grot = clip.fk()
+    g = torch.from_numpy(grot[:, [sk.index(n) for n in keep]])
+    local = g.clone()
+    for k, p in enumerate(parents):
+        if p >= 0:
+            local[:, k] = quat_mul(quat_conjugate(g[:, p]), g[:, k])
+    names = tuple(mapping.get(n, n) for n in keep)
+    return Motion(Skeleton(names, tuple(parents), offsets), local.numpy(), clip.root_positions.copy(), clip.fps)
+
+
+BANDAI = doc_examples()["Bandai-Namco Research Motion dataset (BVH)"]
+SMALL = doc_examples()["A game rig with two spine joints, no clavicles and no toes"]
+
+
+# ----------------------------------------------------------------------------- the doc's examples
+def test_the_doc_has_an_example_per_rig_convention():
+    assert {"Mixamo", "Unreal mannequin (UE4/UE5)", "Rigify (Blender)", "VRoid (VRM)", "SMPL / SMPL-H exports",
+            "CMU (cgspeed BVH conversion)"} <= set(doc_examples())
+    assert len(doc_examples()) >= 8
+
+
+@pytest.mark.parametrize("title", list(doc_examples()))
+def test_every_example_of_the_doc_maps_its_rig(title, clip):
+    mapping = doc_examples()[title]
+    assert set(mapping) == set(CANONICAL22)
+    rig = rig_clip(clip, mapping)
+    found = present_map(rig.skeleton, mapping, what=title)
+    assert {CANONICAL22[c]: rig.skeleton.joint_names[i] for i, c in found.items()} == \
+        {k: v for k, v in mapping.items() if v is not None}
+    if None not in mapping.values() and title != "Bandai-Namco Research Motion dataset (BVH)":
+        # a known convention: the detection alone finds the same map
+        assert map_joints(rig.skeleton.joint_names, rig.skeleton.parents)[0] == found
+    folded = fold_with_map(rig, mapping, what=title)
+    present = [c for c in range(22) if mapping[CANONICAL22[c]] is not None]
+    own = [rig.skeleton.joint_names.index(mapping[CANONICAL22[c]]) for c in present]
+    # the rig's own joints keep their world positions (sums of the same rotated offsets)
+    np.testing.assert_allclose(folded.global_positions()[:, present], rig.global_positions()[:, own], atol=1e-9)
+
+
+# ----------------------------------------------------------------------------- absent joints
+def test_virtual_joints_sit_on_the_bone_and_do_not_move_the_rig(clip):
+    rig = rig_clip(clip, SMALL)
+    found = present_map(rig.skeleton, SMALL, what="small")
+    augmented, full = with_virtual_joints(rig, found)
+    names = augmented.skeleton.joint_names
+    assert sorted(full.values()) == list(range(22))
+    assert {n for n in names if n.endswith("(virtual)")} == {f"{c} (virtual)" for c, v in SMALL.items() if v is None}
+    pos = augmented.global_positions()
+    idx = {CANONICAL22[c]: i for i, c in full.items()}
+    # Spine1 halfway between Spine and Spine2; a clavicle halfway between Spine2 and the arm;
+    # a toe on its foot (zero-length bone); parents before children
+    for mid, a, b in (("Spine1", "Spine", "Spine2"), ("LeftShoulder", "Spine2", "LeftArm")):
+        np.testing.assert_allclose(pos[:, idx[mid]], 0.5 * (pos[:, idx[a]] + pos[:, idx[b]]), atol=1e-9)
+    np.testing.assert_allclose(pos[:, idx["LeftToeBase"]], pos[:, idx["LeftFoot"]], atol=1e-12)
+    assert all(p < k for k, p in enumerate(augmented.skeleton.parents))
+    original = rig.global_positions()
+    for i, name in enumerate(rig.skeleton.joint_names):
+        np.testing.assert_allclose(pos[:, names.index(name)], original[:, i], atol=1e-9)
+
+
+def test_a_two_spine_bandai_namco_bvh_as_source_and_as_target(clip, tmp_path, capsys):
+    rig = rig_clip(clip, BANDAI)
+    save_bvh(rig, tmp_path / "bn.bvh")
+    (tmp_path / "bn.yaml").write_text(yaml.safe_dump(BANDAI))
+    # without a map: one line naming the file, every missing joint and the way to say absent
+    capsys.readouterr()
+    assert main(["retarget", "--source", str(tmp_path / "bn.bvh"), "--target", "gus", "--method", "copy",
+                 "--out", str(tmp_path / "o.bvh")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "bn.bvh: cannot map joints" in err[0] and "null" in err[0], err
+    assert "'Spine1'" in err[0] and "--source-joint-map" in err[0]
+    # as a source
+    out = tmp_path / "bn_gus.bvh"
+    assert main(["retarget", "--source", str(tmp_path / "bn.bvh"), "--source-joint-map", str(tmp_path / "bn.yaml"),
+                 "--target", "gus", "--method", "copy", "--out", str(out)]) == 0
+    assert load_bvh(out).num_frames == rig.num_frames
+    # as a target: the result has exactly the rig's joints, in its order
+    out = tmp_path / "cmu_bn.bvh"
+    assert main(["retarget", "--source", str(cmu_clip_path("01_03.bvh")), "--target", str(tmp_path / "bn.bvh"),
+                 "--joint-map", str(tmp_path / "bn.yaml"), "--method", "copy", "--out", str(out)]) == 0
+    written = load_bvh(out)
+    assert written.skeleton.joint_names == load_bvh(tmp_path / "bn.bvh").skeleton.joint_names
+
+
+def test_written_on_a_rig_without_some_joints_the_legs_match_the_result(clip, tmp_path):
+    """A rig missing Spine1, the clavicles and the toes as target: the hips and legs of the written
+    file are where the canonical result puts them (no absent joint on their path); the upper body
+    differs only by the bends the result gives the absent joints."""
+    rig = rig_clip(clip, SMALL)
+    save_bvh(rig, tmp_path / "small.bvh")
+    (tmp_path / "small.yaml").write_text(yaml.safe_dump(SMALL))
+    out = tmp_path / "o.bvh"
+    assert main(["retarget", "--source", str(tmp_path / "small.bvh"), "--source-joint-map",
+                 str(tmp_path / "small.yaml"), "--target", str(tmp_path / "small.bvh"), "--joint-map",
+                 str(tmp_path / "small.yaml"), "--method", "copy", "--out", str(out)]) == 0
+    written, target = load_bvh(out), load_bvh(tmp_path / "small.bvh")
+    assert written.skeleton.joint_names == target.skeleton.joint_names
+    # onto itself with copy: the virtual joints never rotate, so every joint comes back (6-decimal text,
+    # and the ground rule's shift, the same for every joint of a frame)
+    got, want = written.global_positions(), target.global_positions()
+    shift = got[:, :1, 1] - want[:, :1, 1]
+    np.testing.assert_allclose(got[..., [0, 2]], want[..., [0, 2]], atol=1e-4)
+    np.testing.assert_allclose(got[..., 1] - shift, want[..., 1], atol=1e-4)
+
+
+# ----------------------------------------------------------------------------- errors
+def test_a_required_joint_cannot_be_absent(clip, tmp_path):
+    rig = rig_clip(clip, BANDAI)
+    with pytest.raises(JointSetError, match=r"rig: the map marks LeftHand absent \(null\); only Spine, "):
+        present_map(rig.skeleton, dict(BANDAI, LeftHand=None), what="rig", mapping_source="the map")
+
+
+def test_null_is_refused_by_the_formats_that_need_every_joint():
+    with pytest.raises(JointSetError, match="no joint may be absent in this format"):
+        map_joints(CANONICAL22, CANONICAL22_PARENTS, {"Spine1": None}, what="hero.glb")
+
+
+def test_every_missing_joint_is_listed_with_the_files_joints(clip):
+    rig = rig_clip(clip, BANDAI)
+    with pytest.raises(JointSetError) as e:
+        present_map(rig.skeleton, {"Hips": "Hips"}, what="bn.bvh", mapping_source="m.yaml")
+    message = str(e.value)
+    missing = re.search(r"cannot map joints (\[.*?\])", message).group(1)
+    assert set(ast.literal_eval(missing)) >= {"Spine1", "LeftUpLeg"} and "with m.yaml" in message
+    assert "'UpperLeg_L'" in message  # the file's joints to choose from
+
+
+def test_two_canonical_joints_on_one_bone_name_the_duplicate(tmp_path):
+    (tmp_path / "m.yaml").write_text("LeftArm: UpperArm_L\nLeftForeArm: UpperArm_L\n")
+    with pytest.raises(JointSetError, match="maps both LeftArm and LeftForeArm to 'UpperArm_L'"):
+        load_mapping_file(tmp_path / "m.yaml")
+
+
+def test_a_joint_map_for_an_smplx_file_is_refused(tmp_path, capsys):
+    from retarget_lib.data.synthetic.amass_clip import AMASS_CLIP_PATH
+
+    (tmp_path / "m.yaml").write_text("Hips: pelvis\n")
+    assert_cli_error(capsys, ["retarget", "--source", str(AMASS_CLIP_PATH), "--source-joint-map",
+                              str(tmp_path / "m.yaml"), "--target", "gus", "--method", "copy", "--out",
+                              str(tmp_path / "o.bvh")], "m.yaml", "an SMPL-X file's joints have fixed names")
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.dictionaries(st.sampled_from(list(CANONICAL22) + ["Tail", "hips"]),
+                       st.one_of(st.none(), st.sampled_from(["Hips", "Spine", "Chest", "UpperArm_L", "nope", ""]))))
+def test_fuzz_maps_give_a_map_or_one_joint_set_error(mapping):
+    """Any map applied to the Bandai-Namco rig: a complete map or a JointSetError, never another
+    exception."""
+    skeleton = Skeleton(tuple(BANDAI_NAMES), tuple(BANDAI_PARENTS), np.ones((len(BANDAI_NAMES), 3)))
+    try:
+        found = present_map(skeleton, dict(BANDAI, **mapping), what="bn.bvh")
+    except JointSetError:
+        return
+    assert len(set(found.values())) == len(found)
+    absent = {c for c in range(22) if c not in found.values()}
+    assert {CANONICAL22[c] for c in absent} <= set(MAY_BE_ABSENT)
+
+
+BANDAI_NAMES = ["Hips", "Spine", "Chest", "Neck", "Head", "Shoulder_L", "UpperArm_L", "LowerArm_L", "Hand_L",
+                "Shoulder_R", "UpperArm_R", "LowerArm_R", "Hand_R", "UpperLeg_L", "LowerLeg_L", "Foot_L", "Toes_L",
+                "UpperLeg_R", "LowerLeg_R", "Foot_R", "Toes_R"]
+BANDAI_PARENTS = [-1, 0, 1, 2, 3, 2, 5, 6, 7, 2, 9, 10, 11, 0, 13, 14, 15, 0, 17, 18, 19]
