@@ -53,7 +53,7 @@ def test_character_target_and_errors(short_source, tmp_path, capsys):
     assert load_bvh(out).skeleton.num_joints == 22
     assert main(["retarget", "--source", str(short_source), "--target", "nobody", "--method", "copy",
                  "--out", str(out)]) == 2
-    assert "is neither a file (.bvh, .glb, .gltf, .fbx, .npz) nor a character" in capsys.readouterr().err
+    assert "is neither a file (.bvh, .glb, .gltf, .vrm, .fbx, .npz) nor a character" in capsys.readouterr().err
     bad = tmp_path / "bad.bvh"
     bad.write_text("HIERARCHY\nROOT Hips\n{\n")
     assert main(["retarget", "--source", str(bad), "--target", "kato", "--method", "copy",

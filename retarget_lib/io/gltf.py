@@ -64,7 +64,7 @@ import torch
 from ..core.motion import Motion
 from ..core.rig import Rig
 from ..core.rotations import matrix_to_quat, quat_slerp, quat_to_matrix
-from ..core.skeleton import Skeleton
+from ..core.skeleton import J, Skeleton
 from ..errors import GLTFError, LimitError
 from ..files import read_beside, readable_file
 from .rig_maps import RIG_MAPS, joint_key, load_mapping_file, map_joints
@@ -157,6 +157,9 @@ class GLTFDocument:
     buffers: list[bytes]
     path: Path
     decoded: int = field(default=0)
+    #: ``(3, 3)`` rotation from the file's axes to the library's (+Y up, facing +Z, left +X),
+    #: applied above its top nodes (:func:`_upright`); identity until a rig is read
+    frame: np.ndarray = field(default_factory=lambda: np.eye(3))
 
     def error(self, problem: str) -> GLTFError:
         return GLTFError(f"{self.path}: {problem}")
@@ -362,6 +365,42 @@ def _world(node_parent: list[int], local: dict[int, np.ndarray], nodes: list[int
             above = local[c] if above is None else above @ local[c]
             out[c] = above
     return out
+
+
+def _framed(local: dict[int, np.ndarray], node_parent: list[int], frame: np.ndarray) -> dict[int, np.ndarray]:
+    """``local`` with the top nodes' transforms turned by ``frame`` (``(3, 3)``): every world
+    transform then comes out in the library's axes."""
+    if np.array_equal(frame, np.eye(3)):
+        return local
+    turn = np.eye(4)
+    turn[:3, :3] = frame
+    return {n: turn @ m if node_parent[n] < 0 else m for n, m in local.items()}
+
+
+def _snap(v: np.ndarray) -> np.ndarray:
+    """The signed coordinate axis nearest to ``v`` (a unit vector)."""
+    axis = np.zeros(3)
+    k = int(np.argmax(np.abs(v)))
+    axis[k] = np.sign(v[k]) or 1.0
+    return axis
+
+
+def _upright(rest: np.ndarray, joint_map: dict[int, int]) -> np.ndarray:
+    """``(3, 3)`` the quarter turns that stand a rig's rest pose up in the library's axes: its
+    hips-to-head direction onto +Y and its right-to-left hip direction onto +X (so it faces +Z),
+    each snapped to the nearest axis first. A Z-up FBX (Unreal, 3ds Max), a VRM 0.x avatar (facing
+    -Z) or an export turned by a quarter are read standing, facing +Z; the identity for a rig that
+    already does."""
+    file_of = {c: j for j, c in joint_map.items()}
+    up = _snap(rest[file_of[J["Head"]]] - rest[file_of[J["Hips"]]])
+    across = rest[file_of[J["LeftUpLeg"]]] - rest[file_of[J["RightUpLeg"]]]
+    across = across - (across @ up) * up
+    left = _snap(across) if np.linalg.norm(across) > 0 else np.array([1.0, 0.0, 0.0])
+    if abs(left @ up) > 0.5:  # degenerate (hips on the up axis): keep the file's facing
+        return np.eye(3)
+    # rows: the file's left, up and forward (left x up, as +X x +Y = +Z): the rotation taking
+    # each onto +X, +Y, +Z
+    return np.stack([left, up, np.cross(left, up)])
 
 
 def _with_ancestors(nodes: list[int], node_parent: list[int]) -> list[int]:
@@ -600,7 +639,7 @@ def _armature(doc: GLTFDocument, tree: _Skeleton, mapping) -> tuple[Skeleton, di
     matched), the ``(J, 3, 3)`` rest world rotations of the joints and the rest world transforms."""
     g = doc.gltf
     local = {n: _local_matrix(g.nodes[n]) for n in _with_ancestors(tree.nodes, tree.node_parent)}
-    world = _world(tree.node_parent, local, tree.nodes)
+    world = _world(tree.node_parent, _framed(local, tree.node_parent, doc.frame), tree.nodes)
     for n in tree.nodes[1:]:
         _rotation_part(local[n], doc, f"joint {g.nodes[n].name or n}")
         if abs(np.cbrt(np.linalg.det(local[n][:3, :3])) - 1.0) > _SCALE_TOL:
@@ -617,6 +656,10 @@ def _armature(doc: GLTFDocument, tree: _Skeleton, mapping) -> tuple[Skeleton, di
     vrm = _vrm_mapping(doc, tree)
     joint_map, rig_name = map_joints(tree.names, tree.parents, vrm | user, what=str(doc.path),
                                      mapping_source=source if user else "the VRM humanoid")
+    turn = _upright(rest, joint_map)
+    if not np.array_equal(turn, np.eye(3)):  # once: read again in the library's axes
+        doc.frame = turn @ doc.frame
+        return _armature(doc, tree, mapping)
     return skeleton, joint_map, rig_name, rest_rot, world
 
 
@@ -835,7 +878,7 @@ def _pose(doc: GLTFDocument, tree: _Skeleton, rest_rot: np.ndarray, local: dict[
     """``(rotations (T, J, 4) wxyz relative to the rest pose, root positions (T, 3))`` of ``frames``
     frames from per-node local transforms (``(4, 4)`` or ``(T, 4, 4)``)."""
     g = doc.gltf
-    world = _world(tree.node_parent, local, tree.nodes)
+    world = _world(tree.node_parent, _framed(local, tree.node_parent, doc.frame), tree.nodes)
     glob = np.stack([np.broadcast_to(_rotation_part(world[n], doc, f"joint {g.nodes[n].name or n}"), (frames, 3, 3))
                      for n in tree.nodes], axis=1)
     q_glob = glob @ np.swapaxes(rest_rot, -1, -2)[None]  # rest pose -> identity
