@@ -88,3 +88,21 @@ def test_a_vrm_avatar_facing_minus_z_is_a_target(gus, tmp_path):
     up = pos[:, c.index("Head")] - pos[:, c.index("Hips")]
     assert (up[:, 1] > 0.9 * np.linalg.norm(up, axis=1)).all()  # standing
     assert (left[:, 0] > 0.9 * np.linalg.norm(left, axis=1)).all()  # left at +X: facing +Z
+
+
+def test_a_z_up_fbx_character_is_read_standing(gus, tmp_path):
+    """The FBX reader converts through glTF (assimp): the same turn applies (a Z-up character as
+    the Unreal mannequin's FBX stores it)."""
+    from retarget_lib.io import fbx
+    from retarget_lib.io.fbx_write import save_fbx
+
+    if fbx.fbx_missing():
+        pytest.skip(fbx.fbx_missing())
+    character, motion = gus
+    turned, turned_motion = _turned(character, motion, TURNS["z-up"])
+    save_fbx(Rig.from_character(turned), tmp_path / "z_up.fbx", turned_motion)
+    rig = fbx.load_fbx_rig(tmp_path / "z_up.fbx")
+    np.testing.assert_allclose(rig.character().rest_joint_positions(), character.rest_joint_positions(), atol=1e-4)
+    read, read_rig = fbx.load_fbx_motion(tmp_path / "z_up.fbx")
+    np.testing.assert_allclose(read_rig.motion_to_canonical(read).global_positions(), motion.global_positions(),
+                               atol=1e-3)  # float32 keys through two converters
