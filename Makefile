@@ -100,9 +100,11 @@ test: data
 	$(STEP) end pytest-unit+nbval
 	$(STEP) report "make test"
 
+# loadscope: a module's tests stay together (their module fixtures), a test class's too; the
+# wrong-answer notebook runs (tests/test_exercises.py) are two classes, one per worker
 test-slow: data
 	$(STEP) start pytest-slow
-	$(PYTEST) -q -n $(JOBS) --dist loadfile --durations=10 -m slow tests
+	$(PYTEST) -q -n $(JOBS) --dist loadscope --durations=10 -m slow tests
 	$(STEP) end pytest-slow
 	$(STEP) report "make test-slow"
 

@@ -80,9 +80,7 @@ def _inject_wrong_answers(nb) -> None:
         nb.cells[s].source = f"{PERTURB}\n{before}\nanswer = _wrong({solution})"
 
 
-@pytest.mark.slow
-@pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.name)
-def test_a_wrong_answer_in_every_student_cell_fails_its_check(path, tmp_path):
+def _wrong_answers_fail(path: Path) -> None:
     from nbclient import NotebookClient
 
     nb = nbformat.read(path, as_version=4)
@@ -96,3 +94,19 @@ def test_a_wrong_answer_in_every_student_cell_fails_its_check(path, tmp_path):
         assert errors, f"{label}: a wrong answer passed its check: {json.dumps(nb.cells[sol].outputs)[:300]}"
         assert errors[0].ename == "AssertionError" and f"exercise {label}: your answer" in errors[0].evalue, (
             label, errors[0].ename, errors[0].evalue)
+
+
+# Two classes, so that `make test-slow` (pytest-xdist --dist loadscope) runs the two halves of the
+# notebooks on its two workers: each notebook is executed once more in full here
+@pytest.mark.slow
+class TestWrongAnswersFailFirstHalf:
+    @pytest.mark.parametrize("path", NOTEBOOKS[::2], ids=lambda p: p.name)
+    def test_a_wrong_answer_in_every_student_cell_fails_its_check(self, path):
+        _wrong_answers_fail(path)
+
+
+@pytest.mark.slow
+class TestWrongAnswersFailSecondHalf:
+    @pytest.mark.parametrize("path", NOTEBOOKS[1::2], ids=lambda p: p.name)
+    def test_a_wrong_answer_in_every_student_cell_fails_its_check(self, path):
+        _wrong_answers_fail(path)
