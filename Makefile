@@ -69,7 +69,7 @@ notebooks: data
 book: $(STAMP)
 	$(BIN)/python -m retarget_lib.notebook.book --executed build/notebooks --out build/book
 
-# the workshop path (README "Workshop", docs/teachers_guide.md): the notebooks marked `workshop: yes`
+# the workshop path (docs/book-and-workshop.md, docs/teachers_guide.md): the notebooks marked `workshop: yes`
 # in notebooks/learning_path.yaml, fast profile, two at a time with one thread each on a 2-core laptop;
 # the runner prints every notebook it leaves out and why. Add WORKSHOP_FLAGS=--force to time a re-run.
 workshop: data

@@ -9,7 +9,7 @@
 * Exported, inference-only models may be **written** with their floating-point tensors as float16
   (:func:`save_state` with ``half=True``): half the bytes on disk and in the git history. The
   exporters do so only where that moves no reported number by more than 1e-3 relative (TDCN
-  generators; README, "Checkpoints"). Training checkpoints (``last.pt``, ``final.pt``) keep
+  generators; docs/checkpoints.md). Training checkpoints (``last.pt``, ``final.pt``) keep
   float32, so a resumed run is exact.
 * A file that is not a checkpoint (empty, truncated, text, bit-flipped so that it no longer
   unpickles) or holds no ``config``/``modules`` mappings, or model weights that are non-finite or
