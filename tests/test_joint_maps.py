@@ -115,6 +115,11 @@ def test_virtual_joints_sit_on_the_bone_and_do_not_move_the_rig(clip):
         np.testing.assert_allclose(pos[:, idx[mid]], 0.5 * (pos[:, idx[a]] + pos[:, idx[b]]), atol=1e-9)
     np.testing.assert_allclose(pos[:, idx["LeftToeBase"]], pos[:, idx["LeftFoot"]], atol=1e-12)
     assert all(p < k for k, p in enumerate(augmented.skeleton.parents))
+    # each virtual joint hangs from its canonical parent's joint, and the arm from its clavicle
+    parent_of = {names[k]: names[p] for k, p in enumerate(augmented.skeleton.parents) if p >= 0}
+    assert parent_of["LeftShoulder (virtual)"] == parent_of["RightShoulder (virtual)"] == SMALL["Spine2"]
+    assert parent_of[SMALL["LeftArm"]] == "LeftShoulder (virtual)" and parent_of[SMALL["Spine2"]] == "Spine1 (virtual)"
+    assert parent_of["LeftToeBase (virtual)"] == SMALL["LeftFoot"]
     original = rig.global_positions()
     for i, name in enumerate(rig.skeleton.joint_names):
         np.testing.assert_allclose(pos[:, names.index(name)], original[:, i], atol=1e-9)

@@ -77,8 +77,9 @@ def with_virtual_joints(motion: Motion, index_map: Mapping[int, int]) -> tuple[M
     names, parents = list(sk.joint_names), list(sk.parents)
     rest = sk.rest_positions()
     file_of = {c: i for i, c in index_map.items()}
-    #: one entry per virtual joint: (canonical, anchor file joint, rest position, its run's present end)
-    plan: list[tuple[int, int, np.ndarray, int | None]] = []
+    #: one chain of virtual joints per run of absent ones: (anchor file joint, [(canonical,
+    #: rest position)], the file joint that ends the run or None for a leaf run)
+    runs: list[tuple[int, list[tuple[int, np.ndarray]], int | None]] = []
     done: set[int] = set()
     for c in missing:
         if c in done:
@@ -90,35 +91,31 @@ def with_virtual_joints(motion: Motion, index_map: Mapping[int, int]) -> tuple[M
         end = _present_end(run[-1], present) if run[-1] in CHAIN_CHILD else None
         start = rest[file_of[parent]]
         stop = rest[file_of[end]] if end is not None else start
-        for k, cc in enumerate(run, 1):
-            plan.append((cc, file_of[parent], start + (stop - start) * k / (len(run) + 1) if end is not None else start,
-                         file_of[end] if end is not None else None))
-            done.add(cc)
-    # build the new joint order: each run's joints right after its anchor, chained, the run's
-    # present end re-parented under the last one
-    by_anchor: dict[int, list[tuple[int, np.ndarray, int | None]]] = {}
-    for cc, anchor, pos, child in plan:
-        by_anchor.setdefault(anchor, []).append((cc, pos, child))
+        runs.append((file_of[parent], [(cc, start + (stop - start) * k / (len(run) + 1)) for k, cc in enumerate(run, 1)],
+                     file_of[end] if end is not None else None))
+        done.update(run)
+    # the new joint order: each run's joints right after its anchor, chained; the file joint on the
+    # path from the anchor to the run's present end re-parented under the run's last joint
+    after: dict[int, list[int]] = {}
+    for r, (anchor, _, _) in enumerate(runs):
+        after.setdefault(anchor, []).append(r)
     new_order: list[tuple[str, int]] = []
     for i in range(len(names)):
         new_order.append(("file", i))
-        for cc, _, _ in by_anchor.get(i, []):
-            new_order.append(("virtual", cc))
+        new_order += [("virtual", cc) for r in after.get(i, []) for cc, _ in runs[r][1]]
     index_of = {item: k for k, item in enumerate(new_order)}
     n = len(new_order)
     new_names, new_parents = [""] * n, [-1] * n
     new_rest = np.zeros((n, 3))
-    virtual_pos = {cc: pos for cc, _, pos, _ in plan}
-    reparent: dict[int, int] = {}  # file joint -> new parent (the last virtual joint of its run)
-    for anchor, run in by_anchor.items():
+    virtual_pos = {cc: pos for _, run, _ in runs for cc, pos in run}
+    reparent: dict[int, int] = {}  # file joint -> new parent
+    for anchor, run, end in runs:
         prev = index_of[("file", anchor)]
-        for cc, _, child in run:
+        for cc, _ in run:
             new_parents[index_of[("virtual", cc)]] = prev
             prev = index_of[("virtual", cc)]
-        child = run[-1][2]
-        if child is not None:
-            # the file joint on the path from the anchor to the run's present end moves under it
-            x = child
+        if end is not None:
+            x = end
             while parents[x] != anchor:
                 x = parents[x]
             reparent[x] = prev
@@ -140,7 +137,7 @@ def with_virtual_joints(motion: Motion, index_map: Mapping[int, int]) -> tuple[M
     rotations[:, [index_of[("file", i)] for i in file_rows]] = motion.rotations[:, file_rows]
     skeleton = Skeleton(tuple(new_names), tuple(new_parents), offsets)
     full = {index_of[("file", i)]: c for i, c in index_map.items()}
-    full.update({index_of[("virtual", cc)]: cc for cc, _, _, _ in plan})
+    full.update({index_of[("virtual", cc)]: cc for cc in virtual_pos})
     return motion.copy(skeleton=skeleton, rotations=rotations), full
 
 
