@@ -487,8 +487,8 @@ def atomic_write(path: str | os.PathLike, mode: str = "wb") -> Iterator:
         mode: ``"wb"`` or ``"w"``.
 
     Raises:
-        OutputPathError: ``path`` is a directory, a parent of it is a file, or it is an input of
-            the current run.
+        OutputPathError: ``path`` is a directory, a parent of it is a file, its folder cannot be
+            written, or it is an input of the current run.
     """
     path = Path(path)
     refuse_overwriting_inputs(path)
@@ -500,7 +500,10 @@ def atomic_write(path: str | os.PathLike, mode: str = "wb") -> Iterator:
         raise OutputPathError(f"{path}: is a directory; give a file name")
     sweep_stale_temps(path.parent)
     tmp = path.absolute().parent / f"{TEMP_PREFIX}{os.getpid()}-{secrets.token_hex(6)}-{path.name[:40]}.tmp"
-    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC, 0o600)
+    try:
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC, 0o600)
+    except PermissionError:  # name the output the user gave, not the temporary file
+        raise OutputPathError(f"{path}: cannot write into {path.parent} (permission denied)") from None
     record = None
     try:
         record = _record_temp(tmp, fd)

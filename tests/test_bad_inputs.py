@@ -529,3 +529,22 @@ def test_data_verify_names_truncated_empty_and_bit_flipped_cache_files(tmp_path,
         assert name in status.detail
     assert "good.npz" not in status.detail
     assert_cli_error(capsys, ["data", "verify"], "data verification failed", "flip.npz", "cut.npz", "empty.npz")
+
+
+def test_an_output_folder_that_cannot_be_written_names_the_output(tmp_path, capsys, src, monkeypatch):
+    """A read-only folder (simulated: the suite runs as root, which writes anywhere): the error
+    names the --out file, not the temporary file beside it."""
+    import retarget_lib.files as files
+
+    real_open = files.os.open
+
+    def refuse_temps(path, *args, **kw):
+        if Path(path).name.startswith(files.TEMP_PREFIX):
+            raise PermissionError(13, "Permission denied", str(path))
+        return real_open(path, *args, **kw)
+
+    monkeypatch.setattr(files.os, "open", refuse_temps)
+    capsys.readouterr()
+    assert main(retarget_args(src, tmp_path / "o.bvh")) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"{tmp_path / 'o.bvh'}: cannot write into" in err[0] and ".tmp" not in err[0], err
