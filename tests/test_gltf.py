@@ -254,6 +254,11 @@ def test_bad_files_give_one_clear_error(tmp_path):
     text.write_text("hello")
     with pytest.raises(GLTFError, match="not a readable glTF"):
         load_gltf_rig(text)
+    # a GLB whose magic is damaged: said in glTF's terms, not as a text decoding error
+    damaged = tmp_path / "damaged.glb"
+    damaged.write_bytes(b"\x98\x98\x98\x98" + good.read_bytes()[4:])
+    with pytest.raises(GLTFError, match=r"damaged.glb: not a glTF 2.0 file: a binary .glb starts with the bytes 'glTF'"):
+        load_gltf_rig(damaged)
 
 
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])

@@ -260,6 +260,12 @@ def parse_gltf_bytes(data: bytes, path: Path, beside: bool) -> GLTFDocument:
         text, blob = _split_glb(data, path)
     else:
         text, blob = data, None
+        try:
+            data[:4096].decode("utf-8")
+        except UnicodeDecodeError as e:
+            if e.start < 4092:  # not a multi-byte character cut by the slice
+                raise GLTFError(f"{path}: not a glTF 2.0 file: a binary .glb starts with the bytes 'glTF' and a "
+                                f".gltf is JSON text; this file is neither (first bytes {data[:4]!r})") from None
     raw = parse_json(text, f"{path}: not a readable glTF 2.0 / GLB file", GLTFError)
     if not isinstance(raw, dict):
         raise GLTFError(f"{path}: not a readable glTF 2.0 / GLB file (the JSON is not an object)")
