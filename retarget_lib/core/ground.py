@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .quantities import foot_ground_heights
 from .skeleton import FOOT_CONTACT_JOINTS, Skeleton
 
 __all__ = ["FOOT_JOINTS", "STAND_BAND_M", "STILL_STEP_M", "REFERENCE_HEIGHT_M", "rest_ground", "sole_offsets",
@@ -55,8 +56,11 @@ def rest_ground(skeleton: Skeleton, rest_vertices: np.ndarray | None = None) -> 
 
 
 def sole_offsets(skeleton: Skeleton, rest_vertices: np.ndarray | None = None) -> np.ndarray:
-    """``(4,)`` rest heights of the :data:`FOOT_JOINTS` above the rest ground (metres, >= 0 but
-    for a joint below a mesh's lowest point, which a real mesh does not have)."""
+    """``(4,)`` rest heights, on a canonical-22 ``skeleton``, of the :data:`FOOT_JOINTS` above the rest ground (metres, >= 0 but
+    for a joint below a mesh's lowest point, which a real mesh does not have); without a mesh,
+    Efoot's heel and toe heights (:func:`~retarget_lib.core.quantities.foot_ground_heights`)."""
+    if rest_vertices is None or not len(rest_vertices):
+        return foot_ground_heights(skeleton)
     rest = skeleton.rest_positions()
     feet = np.array([rest[skeleton.index(n), 1] for n in FOOT_JOINTS])
     return feet - rest_ground(skeleton, rest_vertices)
@@ -71,8 +75,8 @@ def sole_heights(positions: np.ndarray, skeleton: Skeleton, rest_vertices: np.nd
     """``(T, 4)`` height of each foot joint's sole above ``y = 0`` (metres, :data:`FOOT_JOINTS` order).
 
     Args:
-        positions: ``(T, J, 3)`` global joint positions in ``skeleton``'s joint order (metres, +Y up).
-        skeleton: their skeleton.
+        positions: ``(T, 22, 3)`` global joint positions (metres, +Y up).
+        skeleton: their canonical-22 skeleton.
         rest_vertices: the character's rest mesh, if any (:func:`rest_ground`).
     """
     return foot_positions(positions, skeleton)[..., 1] - sole_offsets(skeleton, rest_vertices)
