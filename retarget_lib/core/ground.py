@@ -56,9 +56,10 @@ def rest_ground(skeleton: Skeleton, rest_vertices: np.ndarray | None = None) -> 
 
 
 def sole_offsets(skeleton: Skeleton, rest_vertices: np.ndarray | None = None) -> np.ndarray:
-    """``(4,)`` rest heights, on a canonical-22 ``skeleton``, of the :data:`FOOT_JOINTS` above the rest ground (metres, >= 0 but
-    for a joint below a mesh's lowest point, which a real mesh does not have); without a mesh,
-    Efoot's heel and toe heights (:func:`~retarget_lib.core.quantities.foot_ground_heights`)."""
+    """``(4,)`` rest heights of the :data:`FOOT_JOINTS` of a canonical-22 ``skeleton`` above the
+    rest ground (metres, >= 0 but for a joint below a mesh's lowest point, which a real mesh does
+    not have); without a mesh, Efoot's heel and toe heights
+    (:func:`~retarget_lib.core.quantities.foot_ground_heights`)."""
     if rest_vertices is None or not len(rest_vertices):
         return foot_ground_heights(skeleton)
     rest = skeleton.rest_positions()
