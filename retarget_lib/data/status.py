@@ -22,6 +22,7 @@ from .sources.cmu import cmu_clip_path
 from .sources.model_viewer import SOURCE_ID as MODEL_VIEWER
 from .sources.model_viewer import model_viewer_path
 from .sources.mixamo_local import read_splits_file, scan_mixamo_folder
+from .sources import real_characters
 from .synthetic.dataset import dataset_path, fingerprint_of
 
 
@@ -69,6 +70,12 @@ def _check_mannequin() -> SourceStatus:
     ok = sha256_file(path) == src["sha256"]
     return SourceStatus("mannequin-x", src["kind"], True, ok,
                         str(path) if ok else f"checksum mismatch for {path}")
+
+
+def _check_real_characters() -> SourceStatus:
+    src = source(real_characters.SOURCE_ID)
+    ok, detail = real_characters.check()
+    return SourceStatus(real_characters.SOURCE_ID, src["kind"], ok or "missing" not in detail, ok, detail)
 
 
 def _check_model_viewer() -> SourceStatus:
@@ -148,6 +155,7 @@ _CHECKS = {
     "mannequin-x": _check_mannequin,
     MODEL_VIEWER: _check_model_viewer,
     "mixamo-local": _check_mixamo_local,
+    real_characters.SOURCE_ID: _check_real_characters,
 }
 
 
