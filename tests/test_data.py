@@ -21,7 +21,8 @@ def ds():
 @pytest.mark.data
 def test_every_source_has_id_license_origin_and_check():
     m = manifest.load_manifest()
-    assert set(m["sources"]) == {"synthetic", "cmu-assimp", "mannequin-x", "model-viewer", "mixamo-local"}
+    assert set(m["sources"]) == {"synthetic", "cmu-assimp", "mannequin-x", "model-viewer", "real-characters",
+                                 "mixamo-local"}
     for sid, src in m["sources"].items():
         assert src["license"] and src["origin"], sid
     statuses = {s.id: s for s in status.verify()}
