@@ -18,7 +18,7 @@
     retarget evaluate --all --out DIR    every table with provenance (``make tables``: into results/)
     retarget evaluate --status           each stored result in results/: provenance, stale or not
     retarget evaluate --compare DIR      results/ against DIR's per-case files, within the re-run tolerances
-    retarget evaluate --table tdcn|contact [--profile fast|paper] [--runs SWEEP_DIR] [--device auto] --out DIR
+    retarget evaluate --table tdcn|contact|real [--profile fast|paper] [--runs SWEEP_DIR] [--device auto] --out DIR
                       [--data synthetic|mixamo-local [--mixamo DIR] [--methods ROW ...] [--checkpoint PATH]]
                                          mixamo-local: the papers' protocols on a reviewer's Mixamo folder
                                          (retarget_lib.evaluation.mixamo, .mixamo_contact)
@@ -121,7 +121,9 @@ def _evaluate_all(args: argparse.Namespace) -> int:
     command = f"retarget evaluate --all --out {args.out}"
     table, missing = run_tdcn_evaluation(args.out, args.device, command=command)
     _report_table4(table, missing, f"{args.out}/table4.*, table4_h2.*, table4_cases.csv, table4_cmu_cases.csv, "
-                                   "table4_windowed_cases.csv (each with .provenance.json)")
+                                   "table4_windowed_cases.csv, table4_mixamo_convention.*, "
+                                   "table4_mixamo_convention_cases.csv (each with .provenance.json)")
+    _evaluate_real(args, command)
     tables, missing = run_contact_evaluation(args.out, args.profile or "fast", device=args.device, command=command)
     print(f"table1:\n{tables['table1'].filter(like='ours').round(3).to_string()}")
     print(f"wrote {args.out}/contact_table1.*, contact_table3.*, contact_table5.*, contact_table6.*, "
@@ -132,11 +134,14 @@ def _evaluate_all(args: argparse.Namespace) -> int:
 def _stored_results() -> dict:
     """Every stored result in ``results/``, one entry each: name -> (load it, the columns naming a
     case, the compared metrics, the live re-run tolerance)."""
-    from .evaluation import contact, tdcn
+    from .evaluation import contact, real, tdcn
 
     table4 = (tdcn.CASE_KEYS, ("short", "long", "short_h2", "long_h2"), tdcn.rerun_tolerance)
     return {**{name: (lambda name=name: tdcn.stored_table4(name), *table4)
-               for name in ("table4_cases", "table4_cmu_cases", "table4_windowed_cases")},
+               for name in ("table4_cases", "table4_cmu_cases", "table4_windowed_cases",
+                            "table4_mixamo_convention_cases")},
+            "real_cases": (real.stored_real_results, ("character", "method", "clip"), real.MEASURES,
+                           real.rerun_tolerance),
             "contact_cases": (contact.stored_contact_results, ("method", "clip", "target"), contact.METRICS,
                               contact.rerun_tolerance)}
 
@@ -192,7 +197,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
                                      "--table, --data and --runs")
         return _evaluate_all(args)
     if args.table is None:
-        raise RetargetInputError("retarget evaluate: give --table tdcn|contact, --all or --status")
+        raise RetargetInputError("retarget evaluate: give --table tdcn|contact|real, --all or --status")
     if args.data != "mixamo-local" and (args.mixamo or args.methods or args.checkpoint):
         raise RetargetInputError("--mixamo, --methods and --checkpoint need --data mixamo-local")
     if args.table == "contact" and args.checkpoint:
@@ -208,12 +213,27 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         print(f"trained rows from {args.runs}: {', '.join(runs) or 'none finished yet'}")
     if args.table == "contact":
         return _evaluate_contact(args, runs)
+    if args.table == "real":
+        return _evaluate_real(args)
     if args.data == "mixamo-local":
         return _evaluate_tdcn_mixamo(args)
     from .evaluation.tdcn import run_tdcn_evaluation
 
     table, missing = run_tdcn_evaluation(args.out, args.device, runs)
     return _report_table4(table, missing, f"{args.out}/table4.csv, table4.md, table4_h2.*, table4_cases.csv")
+
+
+def _evaluate_real(args: argparse.Namespace, command: str | None = None) -> int:
+    """``--table real``: every method on the real-character set (retarget_lib.evaluation.real)."""
+    from .evaluation.real import run_real_evaluation
+
+    if args.runs or args.data != "synthetic":
+        raise RetargetInputError("--table real scores the shipped checkpoints on data/real_characters: leave out "
+                                 "--runs and --data")
+    table = run_real_evaluation(args.out, args.device, command=command or f"retarget evaluate --table real --out {args.out}")
+    print(table.round(3).to_string())
+    print(f"wrote {args.out}/real.csv, real.md, real_cases.csv (with .provenance.json)")
+    return 0
 
 
 def _report_table4(table, missing, written: str) -> int:
@@ -362,8 +382,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--compare", metavar="DIR",
                    help="compare the stored results in results/ with the per-case files of DIR (e.g. written by "
                         "--all), value by value within the live re-runs' tolerances (exit 1 when one is outside)")
-    p.add_argument("--table", choices=["tdcn", "contact"],
-                   help="tdcn: Kim et al. 2020, Table 4; contact: Villegas et al. 2021, Tables 1, 3, 5, 6")
+    p.add_argument("--table", choices=["tdcn", "contact", "real"],
+                   help="tdcn: Kim et al. 2020, Table 4 (both synthetic profiles); contact: Villegas et al. 2021, "
+                        "Tables 1, 3, 5, 6; real: every method on the real characters, measures without ground truth")
     p.add_argument("--profile", choices=["fast", "paper"],
                    help="contact protocol size (fast: 6 clips x 6 targets, 60 frames; paper: 16 clips, whole)")
     p.add_argument("--data", choices=["synthetic", "mixamo-local"], default="synthetic",

@@ -100,8 +100,13 @@ def _table4_rows():
     return TABLE4_ROWS
 
 
-#: ``data.source`` values: the embedded synthetic split, a reviewer's Mixamo folder, or both
-DATA_SOURCES = ("synthetic", "mixamo-local", "mixamo-local+synthetic")
+#: ``data.source`` values: the embedded synthetic split (varied-rest profile), its Mixamo-convention
+#: profile, both profiles, a reviewer's Mixamo folder, or that folder and the synthetic split
+DATA_SOURCES = ("synthetic", "mixamo-convention", "synthetic+mixamo-convention", "mixamo-local",
+                "mixamo-local+synthetic")
+
+#: ``data.source`` values of the contact-aware method (the Mixamo-convention profile is TDCN's so far)
+CONTACT_DATA_SOURCES = ("synthetic", "mixamo-local", "mixamo-local+synthetic")
 
 
 def _data_sources():
@@ -129,9 +134,10 @@ TDCN: dict[str, Any] = {
     "data": {"window": WINDOW, "same_fraction": FRACTION, "scale_range": SCALE_RANGE, "scale_targets": BOOL,
              "mirror": BOOL, "random_yaw": BOOL,
              "rest_jitter_deg": Rule("a number of degrees in [0, 180]", lambda v: _is_num(v) and 0 <= v <= 180),
-             "source": lazy_choice("synthetic, mixamo-local ($RETARGET_MIXAMO) or mixamo-local+synthetic",
-                                   _data_sources)},
+             "source": lazy_choice("synthetic, mixamo-convention, synthetic+mixamo-convention, mixamo-local "
+                                   "($RETARGET_MIXAMO) or mixamo-local+synthetic", _data_sources)},
     "loss": {"gan": choice("lsgan", "sigmoid_ce"), "twist_alpha_deg": NONNEG_NUM, "twist_exclude_root": BOOL,
+             "reduction": choice("mean", "frame_sum"), "standardize": BOOL,
              **{f"lambda_{k}": NONNEG_NUM for k in "ctharogd"}},
     "train": {"steps": STEPS, "batch": BATCH, "lr": POS_NUM, "betas": BETAS, "checkpoint_every": STEPS,
               "decay_from": DECAY_FROM, "compile": BOOL},
@@ -145,8 +151,7 @@ CONTACT: dict[str, Any] = {
                "lambda_j2j": NONNEG_NUM, "beta_int": NONNEG_NUM, "gamma_foot": NONNEG_NUM, "rho": NONNEG_NUM,
                "omega": NONNEG_NUM, "length_unit": POS_NUM},
     "data": {"window": WINDOW, "held_out_seed": NONNEG_INT, "train_characters": NAMES,
-             "source": lazy_choice("synthetic, mixamo-local ($RETARGET_MIXAMO) or mixamo-local+synthetic",
-                                   _data_sources)},
+             "source": choice(*CONTACT_DATA_SOURCES)},
     "train": {"steps": STEPS, "epochs": STEPS, "batch": BATCH, "lr": POS_NUM, "betas": BETAS,
               "lr_decay": Rule("a number in (0, 1]", lambda v: _is_num(v) and 0 < v <= 1),
               "checkpoint_every": STEPS, "compile": BOOL},

@@ -57,6 +57,20 @@ def test_loads_onto_the_canonical_22_with_a_plausible_height(name):
     np.testing.assert_allclose(character.weights.sum(1), 1.0, atol=1e-5)
 
 
+@pytest.mark.parametrize("name", NAMES)
+def test_stands_upright_facing_plus_z_on_the_floor(name):
+    # every file is read standing on y = 0 (its rest mesh's lowest point), head up, facing +Z:
+    # the MakeHuman and BCN_Epileptic files are centred on their origin as written
+    character = load_real_character(name).character()
+    rest = character.skeleton.rest_positions()
+    index = character.skeleton.index
+    assert character.rest_vertices[:, 1].min() == pytest.approx(0.0, abs=1e-6)  # float64 after one shift
+    assert rest[index("Head"), 1] > rest[index("Hips"), 1] > rest[index("LeftFoot"), 1]
+    assert rest[index("LeftUpLeg"), 0] > rest[index("RightUpLeg"), 0]  # the character's left at +X
+    toes = rest[index("LeftToeBase")] - rest[index("LeftFoot")]
+    assert toes[2] > abs(toes[0])  # toes forward: facing +Z
+
+
 @pytest.fixture(scope="module")
 def short_source(tmp_path_factory):
     path = tmp_path_factory.mktemp("cmu") / "01_01_short.bvh"

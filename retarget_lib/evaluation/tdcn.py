@@ -30,6 +30,7 @@ from ..data.manifest import CheckpointEntry, table_checkpoints
 from ..data.sources.cmu import CMU_CLIPS, load_cmu_clip
 from ..data.splits import tdcn_split
 from ..data.synthetic.dataset import load_synthetic
+from ..data.synthetic.mixamo_convention import load_mixamo_convention, mixamo_convention_split
 from ..files import atomic_write
 from ..methods.registry import get_method
 from ..methods.tdcn import load_generator, retarget_motion_with
@@ -92,6 +93,21 @@ def tdcn_cases() -> list[EvalCase]:
             cases.append(EvalCase(int(scenario), p.source, p.target, clip.name,
                                   retarget_ground_truth(clip, src_skel), tgt_skel,
                                   retarget_ground_truth(clip, tgt_skel)))
+    return cases
+
+
+def mixamo_convention_cases() -> list[EvalCase]:
+    """The four TDCN scenarios on the Mixamo-convention profile
+    (:mod:`~retarget_lib.data.synthetic.mixamo_convention`): the source clip is the source
+    character's own version, the ground truth the target character's own version (authored on it,
+    contacts solved on its body), as a Mixamo download of the same motion would be."""
+    data, split = load_mixamo_convention(), mixamo_convention_split()
+    cases = []
+    for scenario, pairs in split.scenarios.items():
+        for p in pairs:
+            versions = data.clips[f"{p.motion.family}_{p.motion.seed:03d}"]
+            cases.append(EvalCase(int(scenario), p.source, p.target, versions[p.source].name, versions[p.source],
+                                  data.characters[p.target].skeleton, versions[p.target]))
     return cases
 
 
@@ -359,6 +375,30 @@ def tdcn_methods(only: Sequence[str] | None = None, device: str | None = None,
     return methods, missing
 
 
+#: the manifest's ``table:`` of the checkpoints trained on the Mixamo-convention profile
+MIXAMO_CONVENTION_TABLE = "tdcn-mixamo-convention"
+
+
+def mixamo_convention_checkpoints() -> dict[str, CheckpointEntry]:
+    """Row -> checkpoint of the Mixamo-convention Table 4: every checkpoint trained on that
+    profile (``table: tdcn-mixamo-convention`` in the manifest), then the default TDCN (trained
+    on whatever its entry says) under its own row name."""
+    rows = dict(table_checkpoints(MIXAMO_CONVENTION_TABLE))
+    for row, entry in table_checkpoints("tdcn").items():
+        if entry.default and row not in rows:
+            rows[row] = entry
+    return rows
+
+
+def mixamo_convention_methods(device: str | None = None) -> dict[str, Method]:
+    """The methods of the Mixamo-convention Table 4: ``copy``, ``copy-rest`` and
+    :func:`mixamo_convention_checkpoints`, each through the registry method its entry names."""
+    methods: dict[str, Method] = {name: get_method(name).retargeter() for name in ("copy", "copy-rest")}
+    for row, entry in mixamo_convention_checkpoints().items():
+        methods[row] = get_method(entry.method).retargeter(entry.id, device)
+    return methods
+
+
 #: relative tolerance of a live re-run of stored Table 4 numbers: every method is feed-forward
 #: (float32 networks, float64 metric), so a re-run differs only by kernel rounding (measured below
 #: 1e-5 relative between CPUs); the stored CSV keeps 7 significant digits
@@ -409,6 +449,8 @@ def stored_table4(name: str = "table4_cases") -> StoredResult:
     """A stored Table 4 result from ``results/`` (``table4_cases``, ``table4_cmu_cases`` or
     ``table4_windowed_cases``; written by :func:`run_tdcn_evaluation`), with its provenance and
     staleness against the shipped checkpoints (:func:`~retarget_lib.evaluation.results.load_result`)."""
+    if name == "table4_mixamo_convention_cases":
+        return load_result(name, rows=mixamo_convention_checkpoints())
     rows = table_checkpoints("tdcn")
     if name == "table4_windowed_cases":
         rows = {WINDOWED_ROW: rows["ours"]} if "ours" in rows else {}
@@ -427,7 +469,9 @@ def run_tdcn_evaluation(out_dir: str | Path, device: str | None = None, runs: Ma
     MSE, paper beside ours), ``table4_h2.csv/.md`` (squared-height variant), and three per-case
     files with their provenance (:func:`~retarget_lib.evaluation.results.write_result`):
     ``table4_cases`` (every row, every pair), ``table4_cmu_cases`` (every row on the real CMU clips,
-    :func:`cmu_cases`) and ``table4_windowed_cases`` ("ours" with a re-centred window per frame).
+    :func:`cmu_cases`) and ``table4_windowed_cases`` ("ours" with a re-centred window per frame);
+    and ``table4_mixamo_convention.csv/.md`` with its per-case file (:func:`mixamo_convention_cases`,
+    :func:`mixamo_convention_methods`).
 
     Args:
         out_dir: output folder.
@@ -462,4 +506,12 @@ def run_tdcn_evaluation(out_dir: str | Path, device: str | None = None, runs: Ma
         windowed = evaluate_methods({WINDOWED_ROW: partial(retarget_motion_with, generator, windowed=True)}, cases)
         write_result(windowed, out_dir, "table4_windowed_cases", command=command,
                      checkpoints={WINDOWED_ROW: ours}, profile="fast", seconds=time.perf_counter() - t0)
+    t0 = time.perf_counter()
+    mc_table, mc_per_case = tdcn_table(mixamo_convention_methods(device), mixamo_convention_cases())
+    write_table(mc_table, out_dir, "table4_mixamo_convention",
+                "Normalised MSE (as table4.md) on the Mixamo-convention synthetic profile: every character in "
+                "one T-pose rest, each clip authored on every character (its own version is the ground truth), "
+                "as on Mixamo. Rows trained on this profile, and the default TDCN.")
+    write_result(mc_per_case, out_dir, "table4_mixamo_convention_cases", command=command,
+                 checkpoints=mixamo_convention_checkpoints(), profile="fast", seconds=time.perf_counter() - t0)
     return table, missing

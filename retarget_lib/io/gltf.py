@@ -160,6 +160,9 @@ class GLTFDocument:
     #: ``(3, 3)`` rotation from the file's axes to the library's (+Y up, facing +Z, left +X),
     #: applied above its top nodes (:func:`_upright`); identity until a rig is read
     frame: np.ndarray = field(default_factory=lambda: np.eye(3))
+    #: metres added to every height above the top nodes so that the rest mesh's lowest point is at
+    #: ``y = 0`` (:func:`_load`; a character stands on the floor); 0 until a rig is read
+    lift: float = 0.0
 
     def error(self, problem: str) -> GLTFError:
         return GLTFError(f"{self.path}: {problem}")
@@ -373,14 +376,20 @@ def _world(node_parent: list[int], local: dict[int, np.ndarray], nodes: list[int
     return out
 
 
-def _framed(local: dict[int, np.ndarray], node_parent: list[int], frame: np.ndarray) -> dict[int, np.ndarray]:
-    """``local`` with the top nodes' transforms turned by ``frame`` (``(3, 3)``): every world
-    transform then comes out in the library's axes."""
-    if np.array_equal(frame, np.eye(3)):
+def _framed(local: dict[int, np.ndarray], node_parent: list[int], frame: np.ndarray,
+            lift: float = 0.0) -> dict[int, np.ndarray]:
+    """``local`` with the top nodes' transforms turned by ``frame`` (``(3, 3)``) and raised by
+    ``lift`` metres: every world transform then comes out in the library's axes, on its floor."""
+    if np.array_equal(frame, np.eye(3)) and lift == 0.0:
         return local
     turn = np.eye(4)
     turn[:3, :3] = frame
+    turn[1, 3] = lift
     return {n: turn @ m if node_parent[n] < 0 else m for n, m in local.items()}
+
+
+#: a rest mesh whose lowest point is further than this from ``y = 0`` is lifted onto it (metres)
+FLOOR_TOLERANCE_M = 1e-4
 
 
 def _snap(v: np.ndarray) -> np.ndarray:
@@ -645,7 +654,7 @@ def _armature(doc: GLTFDocument, tree: _Skeleton, mapping) -> tuple[Skeleton, di
     matched), the ``(J, 3, 3)`` rest world rotations of the joints and the rest world transforms."""
     g = doc.gltf
     local = {n: _local_matrix(g.nodes[n]) for n in _with_ancestors(tree.nodes, tree.node_parent)}
-    world = _world(tree.node_parent, _framed(local, tree.node_parent, doc.frame), tree.nodes)
+    world = _world(tree.node_parent, _framed(local, tree.node_parent, doc.frame, doc.lift), tree.nodes)
     for n in tree.nodes[1:]:
         _rotation_part(local[n], doc, f"joint {g.nodes[n].name or n}")
         if abs(np.cbrt(np.linalg.det(local[n][:3, :3])) - 1.0) > _SCALE_TOL:
@@ -681,6 +690,10 @@ def _load(doc: GLTFDocument, mapping) -> tuple[GLTFDocument, _Skeleton, Rig, np.
     tree = _joint_tree(doc, skinned)
     skeleton, joint_map, rig_name, rest_rot, world = _armature(doc, tree, mapping)
     vertices, faces, weights = _mesh(doc, skinned, tree, world)
+    low = float(vertices[:, 1].min()) if len(vertices) else 0.0
+    if abs(low) > FLOOR_TOLERANCE_M and doc.lift == 0.0:  # once: read again standing on y = 0
+        doc.lift = -low
+        return _load(doc, mapping)
     rig = Rig(doc.path.stem, skeleton, vertices, faces, weights, joint_map,
               meta=dict(source=str(doc.path), rig=rig_name))
     return doc, tree, rig, rest_rot
@@ -884,7 +897,7 @@ def _pose(doc: GLTFDocument, tree: _Skeleton, rest_rot: np.ndarray, local: dict[
     """``(rotations (T, J, 4) wxyz relative to the rest pose, root positions (T, 3))`` of ``frames``
     frames from per-node local transforms (``(4, 4)`` or ``(T, 4, 4)``)."""
     g = doc.gltf
-    world = _world(tree.node_parent, _framed(local, tree.node_parent, doc.frame), tree.nodes)
+    world = _world(tree.node_parent, _framed(local, tree.node_parent, doc.frame, doc.lift), tree.nodes)
     glob = np.stack([np.broadcast_to(_rotation_part(world[n], doc, f"joint {g.nodes[n].name or n}"), (frames, 3, 3))
                      for n in tree.nodes], axis=1)
     q_glob = glob @ np.swapaxes(rest_rot, -1, -2)[None]  # rest pose -> identity

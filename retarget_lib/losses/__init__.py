@@ -7,7 +7,7 @@ The motion quantities they compare (normalised displacements, root velocities, .
 from .contact import (ContactEnergyWeights, TABLE3_ROWS, end_effector_energy, eso_self_contact_energy,
                       foot_contact_energy, full_energy, geometry_energy, self_contact_energy, skeleton_energy,
                       weak_energy)
-from .tdcn import (MotionTensors, NonFiniteLossError, TDCNLossWeights, TERM_WEIGHTS, adversarial_loss,
+from .tdcn import (MotionTensors, NonFiniteLossError, PositionScale, TDCNLossWeights, TERM_WEIGHTS, adversarial_loss,
                    adversarial_loss_discriminator, adversarial_loss_generator, bone_direction_loss, check_finite,
                    cycle_loss, height_loss, orientation_loss, reconstruction_loss, regularization_loss,
                    sigmoid_ce_discriminator_loss, sigmoid_ce_generator_loss, smooth_l1, total_generator_loss,
@@ -17,7 +17,7 @@ __all__ = [
     "ContactEnergyWeights", "TABLE3_ROWS", "end_effector_energy", "eso_self_contact_energy",
     "foot_contact_energy", "full_energy", "geometry_energy", "self_contact_energy", "skeleton_energy",
     "weak_energy",
-    "MotionTensors", "NonFiniteLossError", "TDCNLossWeights", "TERM_WEIGHTS", "adversarial_loss", "bone_direction_loss",
+    "MotionTensors", "NonFiniteLossError", "PositionScale", "TDCNLossWeights", "TERM_WEIGHTS", "adversarial_loss", "bone_direction_loss",
     "adversarial_loss_discriminator", "adversarial_loss_generator", "check_finite", "cycle_loss",
     "height_loss", "orientation_loss", "reconstruction_loss", "regularization_loss",
     "sigmoid_ce_discriminator_loss", "sigmoid_ce_generator_loss", "smooth_l1", "total_generator_loss",

@@ -116,7 +116,8 @@ from ..data.checkpoints import save_state
 from ..data.manifest import mixamo_local_dir
 from ..data.splits import tdcn_split
 from ..data.synthetic.dataset import load_synthetic
-from ..losses import (MotionTensors, TDCNLossWeights, adversarial_loss, adversarial_loss_discriminator,
+from ..data.synthetic.mixamo_convention import load_mixamo_convention, mixamo_convention_split
+from ..losses import (MotionTensors, PositionScale, TDCNLossWeights, adversarial_loss, adversarial_loss_discriminator,
                       adversarial_loss_generator, bone_direction_loss, check_finite, cycle_loss, height_loss,
                       orientation_loss, regularization_loss, sigmoid_ce_discriminator_loss,
                       sigmoid_ce_generator_loss, total_generator_loss, twist_loss)
@@ -221,6 +222,19 @@ def _synthetic_clips() -> tuple[dict[str, Skeleton], list[tuple[Motion, dict]]]:
     return {n: ds.characters[n].skeleton for n in split.train_characters}, clips
 
 
+def _mixamo_convention_clips() -> tuple[dict[str, Skeleton], list[tuple[Motion, dict]]]:
+    """The Mixamo-convention profile's train characters and train clips, each character's own
+    version (:mod:`~retarget_lib.data.synthetic.mixamo_convention`)."""
+    data, split = load_mixamo_convention(), mixamo_convention_split()
+    skeletons = {n: data.characters[n].skeleton for n in split.train_characters}
+    clips = []
+    for m in split.train_motions:
+        versions = data.clips[f"{m.family}_{m.seed:03d}"]
+        own = {n: versions[n] for n in skeletons}
+        clips.append((own[split.train_characters[0]], own))
+    return skeletons, clips
+
+
 @lru_cache(maxsize=2)
 def training_clips(mirror: bool = False, source: str = "synthetic", mixamo_root: str | None = None) -> TrainingClips:
     """The training characters × training clips of ``source``, built once per process.
@@ -228,7 +242,10 @@ def training_clips(mirror: bool = False, source: str = "synthetic", mixamo_root:
     Args:
         mirror: also every clip's left/right mirror image (:meth:`Motion.mirror`), as more clips.
         source: one of :data:`DATA_SOURCES`. ``synthetic``: the TDCN split's train characters ×
-            train clips (ground-truth transfers). ``mixamo-local``: the folder's paper training
+            train clips (ground-truth transfers). ``mixamo-convention``: the same of the
+            Mixamo-convention profile (each character's own version of each clip).
+            ``synthetic+mixamo-convention``: both profiles' characters and clips (a character
+            without its own version of a clip performs its ground-truth transfer). ``mixamo-local``: the folder's paper training
             characters and seen motions (:func:`~retarget_lib.data.sources.mixamo_training.mixamo_training_set`),
             each character's own clip where it has one. ``mixamo-local+synthetic``: both
             characters sets, both clip sets; a character without its own version of a clip
@@ -242,13 +259,15 @@ def training_clips(mirror: bool = False, source: str = "synthetic", mixamo_root:
         raise ValueError(f"data.source must be one of {DATA_SOURCES}, got {source!r}")
     skeletons: dict[str, Skeleton] = {}
     clips: list[tuple[Motion, Mapping[str, Motion]]] = []
-    if source != "synthetic":
+    parts = source.split("+")
+    if "mixamo-local" in parts:
         from ..data.mixamo_splits import mixamo_training_set
 
         skeletons, clips = mixamo_training_set(mixamo_root)
-    if source != "mixamo-local":
-        synthetic_skeletons, synthetic_clips = _synthetic_clips()
-        skeletons, clips = {**skeletons, **synthetic_skeletons}, clips + synthetic_clips
+    for part, load in (("mixamo-convention", _mixamo_convention_clips), ("synthetic", _synthetic_clips)):
+        if part in parts:
+            more_skeletons, more_clips = load()
+            skeletons, clips = {**skeletons, **more_skeletons}, clips + more_clips
     if mirror:
         clips += [(ref.mirror(), {k: v.mirror() for k, v in own.items()}) for ref, own in clips]
     return stack_clips(skeletons, clips)
@@ -459,15 +478,17 @@ class RetargetTraining:
         loss, data, train = config["loss"], config["data"], config["train"]
         self.gan, self.alpha_deg, self.batch = loss["gan"], float(loss["twist_alpha_deg"]), int(train["batch"])
         self.twist_exclude_root = bool(loss.get("twist_exclude_root", False))
+        self.reduction = loss.get("reduction", "mean")
         if clips is None:
             source = data.get("source", "synthetic")
-            root = str(mixamo_local_dir()) if source != "synthetic" else None
+            root = str(mixamo_local_dir()) if "mixamo-local" in source.split("+") else None
             clips = training_clips(bool(data.get("mirror", False)), source, root)
         self.sampler = WindowSampler(clips, data["window"], data["same_fraction"], data["scale_range"],
                                      data["scale_targets"], bool(data.get("random_yaw", False)),
                                      float(data.get("rest_jitter_deg", 0.0)))
         if self.resolved["normalize_inputs"]:
             self._fit_normalizer()
+        self.position_scale = self._fit_position_scale() if loss.get("standardize", False) else None
         if bool(train.get("compile", False)) and hasattr(self.generator, "compile_decoder"):
             self.generator.compile_decoder()  # NKN's per-frame GRU decoder; TDCN has no per-frame loop
         for module in (self.generator, self.discriminator):
@@ -496,6 +517,13 @@ class RetargetTraining:
             x = nkn_source_features(p, b.root_positions, h)
         self.generator.normalizer.fit(x)
 
+    @torch.no_grad()
+    def _fit_position_scale(self) -> PositionScale:
+        """The z-scores of ``loss.standardize`` (:class:`~retarget_lib.losses.tdcn.PositionScale`),
+        fitted on source windows drawn with their own RNG (global state untouched)."""
+        b = self.sampler.sample(_NORMALIZER_WINDOWS, torch.Generator().manual_seed(int(self.config["seed"]) + 1))
+        return PositionScale.fit(source_local_positions(b.rotations, b.offsets_source), b.root_positions)
+
     def _retarget(self, q: Tensor, r: Tensor, p: Tensor, off_src: Tensor, off_tgt: Tensor):
         """``G(x, s̄_tgt)`` (Eqs. 4-5) → (raw output, unit q̂ ``(B,W,J,4)``, ``p̂ = f_FK(q̂, s̄_tgt)``)."""
         out = self.generator.generate(q, r, off_src, off_tgt, positions=p)
@@ -522,17 +550,20 @@ class RetargetTraining:
             root_a, root_b = r_a, out_b.root_positions
         else:  # NKN predicts root offsets: Lh on offsets (Baseline-height, Sec. 6 (iv))
             root_a, root_b = root_velocities(r_a), out_b.root_velocities
-        d = self.discriminator
+        x_a_hat = MotionTensors(p_a_hat, out_a.rotations, out_a.root_positions)
+        d, red = self.discriminator, self.reduction
         h_fake = d(d.features(p_b, out_b.root_positions, off_b))
+        z = self.position_scale.apply if self.position_scale is not None else (lambda x: x)
         terms = {
-            "Lc": cycle_loss(x_a, MotionTensors(p_a_hat, out_a.rotations, out_a.root_positions)),
-            "Lt": twist_loss(out_b.rotations, out_a.rotations, self.alpha_deg, exclude_root=self.twist_exclude_root),
+            "Lc": cycle_loss(z(x_a), z(x_a_hat), red),
+            "Lt": twist_loss(out_b.rotations, out_a.rotations, self.alpha_deg, exclude_root=self.twist_exclude_root,
+                             reduction=red),
             "Lh": height_loss(p_a, p_b, root_a, root_b, skeleton_height(off_a), skeleton_height(off_b),
-                              self.weights.lambda_g),
-            "La": adversarial_loss(h_fake, x_a, x_b_hat, batch.same_character, gan=self.gan),
-            "Lr": regularization_loss(out_b.rotations, out_a.rotations),
-            "Lo": orientation_loss(q_a[:, :, 0], out_b.rotations[:, :, 0]),
-            "Ld": bone_direction_loss(p_a, p_b, self.generator.parents),
+                              self.weights.lambda_g, red),
+            "La": adversarial_loss(h_fake, z(x_a), z(x_b_hat), batch.same_character, gan=self.gan, reduction=red),
+            "Lr": regularization_loss(out_b.rotations, out_a.rotations, red),
+            "Lo": orientation_loss(q_a[:, :, 0], out_b.rotations[:, :, 0], red),
+            "Ld": bone_direction_loss(p_a, p_b, self.generator.parents, red),
         }
         return terms, x_b_hat
 

@@ -21,7 +21,7 @@ import numpy as np
 
 from ...core.character import Character
 from ...core.rig import Rig
-from ...core.skeleton import J
+from ...core.skeleton import J, Skeleton
 from ...files import REPO_ROOT, DataError, sha256_file
 from ..manifest import source
 
@@ -95,38 +95,46 @@ PROPORTION_COLUMNS = ("character", "convention", "height_m", "mesh_height_m", "l
                       "hip_width", "arm_angle_deg", "rest_pose")
 
 
-def measure_proportions(character: Character) -> dict[str, float | str]:
-    """Rest-pose proportions of a canonical-22 character.
+def skeleton_proportions(skeleton: Skeleton) -> dict[str, float | str]:
+    """Rest-pose proportions of a canonical-22 skeleton (the columns of ``proportions.csv`` but
+    the mesh's height).
 
     ``height_m`` is the library's skeleton height ``H`` (:meth:`~retarget_lib.core.skeleton.Skeleton.height`:
-    the hips-to-head chain plus the left leg chain), ``mesh_height_m`` the mesh's extent along +Y.
-    Lengths, as fractions of ``H`` (left side): ``leg`` hip-knee-ankle, ``thigh``, ``shin``, ``foot``
-    ankle-toe, ``arm`` shoulder joint-elbow-wrist, ``upper_arm``, ``forearm``, ``spine`` the
-    Hips-Spine-Spine1-Spine2-Neck chain, ``neck_head`` Neck-Head, ``shoulder`` Spine2-clavicle-shoulder
-    joint, ``shoulder_width`` between the shoulder joints, ``hip_width`` between the hip joints.
-    ``arm_angle_deg``: how far the left upper arm hangs below the horizontal plane (0 = T-pose,
-    about 45 = A-pose, 90 = arms down); ``rest_pose`` names it (T below 20, A below 60, else down).
+    the hips-to-head chain plus the left leg chain). Lengths, as fractions of ``H`` (left side):
+    ``leg`` hip-knee-ankle, ``thigh``, ``shin``, ``foot`` ankle-toe, ``arm`` shoulder joint-elbow-wrist,
+    ``upper_arm``, ``forearm``, ``spine`` the Hips-Spine-Spine1-Spine2-Neck chain, ``neck_head``
+    Neck-Head, ``shoulder`` Spine2-clavicle-shoulder joint, ``shoulder_width`` between the shoulder
+    joints, ``hip_width`` between the hip joints. ``arm_angle_deg``: how far the left upper arm
+    hangs below the horizontal plane (0 = T-pose, about 45 = A-pose, 90 = arms down);
+    ``rest_pose`` names it (T below 20, A below 60, else down).
     """
-    p = character.skeleton.rest_positions()
+    p = skeleton.rest_positions()
 
     def d(a: str, b: str) -> float:
         return float(np.linalg.norm(p[J[a]] - p[J[b]]))
 
-    h = character.skeleton.height()
+    h = skeleton.height()
     thigh, shin = d("LeftUpLeg", "LeftLeg"), d("LeftLeg", "LeftFoot")
     upper, fore = d("LeftArm", "LeftForeArm"), d("LeftForeArm", "LeftHand")
     spine = d("Hips", "Spine") + d("Spine", "Spine1") + d("Spine1", "Spine2") + d("Spine2", "Neck")
     arm_vec = p[J["LeftForeArm"]] - p[J["LeftArm"]]
     angle = float(np.degrees(np.arcsin(np.clip(-arm_vec[1] / np.linalg.norm(arm_vec), -1, 1))))
-    verts = character.rest_vertices
     return {
-        "height_m": h, "mesh_height_m": float(verts[:, 1].max() - verts[:, 1].min()),
+        "height_m": h,
         "leg": (thigh + shin) / h, "thigh": thigh / h, "shin": shin / h, "foot": d("LeftFoot", "LeftToeBase") / h,
         "arm": (upper + fore) / h, "upper_arm": upper / h, "forearm": fore / h, "spine": spine / h,
         "neck_head": d("Neck", "Head") / h, "shoulder": (d("Spine2", "LeftShoulder") + d("LeftShoulder", "LeftArm")) / h,
         "shoulder_width": d("LeftArm", "RightArm") / h, "hip_width": d("LeftUpLeg", "RightUpLeg") / h,
         "arm_angle_deg": angle, "rest_pose": "T" if angle < 20 else "A" if angle < 60 else "arms down",
     }
+
+
+def measure_proportions(character: Character) -> dict[str, float | str]:
+    """:func:`skeleton_proportions` of the character's skeleton, with ``mesh_height_m``, the rest
+    mesh's extent along +Y."""
+    verts = character.rest_vertices
+    return {"height_m": character.skeleton.height(), "mesh_height_m": float(verts[:, 1].max() - verts[:, 1].min()),
+            **skeleton_proportions(character.skeleton)}
 
 
 def check() -> tuple[bool, str]:

@@ -1,0 +1,226 @@
+"""The *Mixamo-convention* synthetic profile: the papers' training setting, without Mixamo's data.
+
+Both papers train on Mixamo, where every character is rigged in one T-pose rest with identity rest
+rotations, and every motion exists on every character (Mixamo's own retargeting keeps feet planted
+and hands where they touch). The default synthetic data (:mod:`~retarget_lib.data.synthetic.dataset`,
+the *varied-rest* profile) gives its characters A-poses, T-poses, bent knees and swept arms, so
+that copying local rotations is wrong there; this profile is the easier, paper-like one:
+
+* **Characters** ``tp01 .. tp14``: T-pose rest (arms horizontal, straight legs, feet forward,
+  straight spine; all encoded in the offsets' directions, rest rotations identity), segment length
+  factors, heights and girths drawn at random (deterministic by index), kept only when their
+  proportions lie within the ranges measured on the real rigs of ``data/real_characters``
+  (:data:`REAL_RIG_RANGES`, from ``proportions.csv``, widened by :data:`RANGE_MARGIN`).
+* **Motions**: every clip of the synthetic library (same families, same seeds, so the same
+  style, speed and timing) **authored on each character** (:func:`~retarget_lib.data.synthetic.
+  motions.make_motion`: its own footsteps planted on its own floor, its own hand contacts solved
+  by IK on its own body). A character's own version is the ground truth of any pair onto it, as a
+  Mixamo character's download is. It differs from copying the source's rotations by what the
+  contacts and the leg geometry require (the IK), not by a rest pose.
+
+The profile is built on first use into ``<cache>/synthetic/mixamo_convention.npz`` (about 3
+minutes on 2 cores; not part of ``retarget data build``, nothing downloads) and split like the
+varied-rest profile (:func:`mixamo_convention_split`, the manifest's TDCN split parameters).
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+
+from ...core.character import Character
+from ...core.motion import Motion
+from ...core.skeleton import canonical22_skeleton
+from ...files import DataError, atomic_write, cache_dir
+from ..manifest import source
+from ..sources.real_characters import skeleton_proportions
+from ..splits import TDCNSplits, tdcn_splits
+from .characters import CharacterSpec, _scale, _unscaled_offsets, build_character
+from .motions import FPS, MOTION_FAMILIES, body_radii_from_mesh, make_motion
+
+__all__ = [
+    "PROFILES",
+    "REAL_RIG_RANGES",
+    "MixamoConventionData",
+    "load_mixamo_convention",
+    "mixamo_convention_names",
+    "mixamo_convention_spec",
+    "mixamo_convention_split",
+]
+
+#: the two synthetic profiles: the default data, and this module's
+PROFILES = ("varied-rest", "mixamo-convention")
+#: number of characters of the profile
+N_CHARACTERS = 14
+#: fractions of the skeleton height ``H`` measured on the real rigs (``data/real_characters/
+#: proportions.csv``, min and max over its rows; ``tests/test_mixamo_convention.py`` re-reads it)
+REAL_RIG_RANGES: dict[str, tuple[float, float]] = {
+    "leg": (0.3856, 0.5507),
+    "arm": (0.2681, 0.3897),
+    "spine": (0.2872, 0.4666),
+    "shoulder_width": (0.1915, 0.3199),
+    "hip_width": (0.0959, 0.1399),
+}
+#: the ranges are widened by this fraction of their width on each side (9 files, 6 bodies: the
+#: measured extremes are not the population's)
+RANGE_MARGIN = 0.1
+FORMAT_VERSION = 1
+
+
+def mixamo_convention_names() -> tuple[str, ...]:
+    """``("tp01", ..., "tp14")``."""
+    return tuple(f"tp{i + 1:02d}" for i in range(N_CHARACTERS))
+
+
+def _within_real_ranges(spec: CharacterSpec) -> bool:
+    skeleton = canonical22_skeleton(_unscaled_offsets(spec) * _scale(spec))
+    measured = skeleton_proportions(skeleton)
+    for key, (lo, hi) in REAL_RIG_RANGES.items():
+        pad = RANGE_MARGIN * (hi - lo)
+        if not lo - pad <= float(measured[key]) <= hi + pad:
+            return False
+    return True
+
+
+def mixamo_convention_spec(index: int) -> CharacterSpec:
+    """Character ``index`` (0-based) of the profile: a T-pose :class:`CharacterSpec` whose
+    proportions lie within :data:`REAL_RIG_RANGES` (rejection sampling, deterministic by index).
+
+    Args:
+        index: ``0 .. N_CHARACTERS - 1`` (any non-negative integer gives a character).
+    """
+    rng = np.random.default_rng([index, 20_21])
+    for _ in range(10_000):
+        factors = {n: float(np.clip(rng.lognormal(0.0, 0.13), 0.65, 1.45)) for n in CharacterSpec.FACTORS}
+        bulk = float(rng.uniform(0.75, 1.45))
+        spec = CharacterSpec(
+            f"tp{index + 1:02d}", height=float(rng.uniform(1.3, 1.95)), **factors, bulk=bulk,
+            belly=float(rng.uniform(0.0, 0.8)) if bulk > 1.15 else 0.0, chest=float(rng.uniform(0.9, 1.3)),
+            limbs=float(rng.uniform(0.9, 1.2)),
+        )
+        if _within_real_ranges(spec):
+            return spec
+    raise RuntimeError(f"no character within the real rigs' ranges after 10000 draws (index {index})")
+
+
+@dataclass
+class MixamoConventionData:
+    """The profile's characters and every clip on every character.
+
+    Attributes:
+        characters: name -> :class:`Character` (T-pose rest, feet on ``y = 0``).
+        clips: clip name (``"walk_003"``) -> character name -> that character's own version.
+    """
+
+    characters: dict[str, Character]
+    clips: dict[str, dict[str, Motion]]
+
+
+def _clip_ids() -> list[tuple[str, int]]:
+    per_family = int(source("synthetic")["build"]["clips_per_family"])
+    return [(family, k) for family in MOTION_FAMILIES for k in range(per_family)]
+
+
+def generate(count: int = N_CHARACTERS, clip_ids: list[tuple[str, int]] | None = None) -> MixamoConventionData:
+    """Build the profile in memory (deterministic).
+
+    Args:
+        count: characters ``tp01 ..`` to build (the profile has :data:`N_CHARACTERS`).
+        clip_ids: ``(family, seed)`` of the clips (default: every clip of the synthetic library).
+    """
+    characters = {}
+    for i in range(count):
+        c = build_character(mixamo_convention_spec(i))
+        c.style = dict(c.style, source="synthetic-mixamo-convention")
+        characters[c.name] = c
+    radii = {n: body_radii_from_mesh(c.skeleton, c.rest_vertices, c.weights) for n, c in characters.items()}
+    clips: dict[str, dict[str, Motion]] = {}
+    for family, k in clip_ids or _clip_ids():
+        name = f"{family}_{k:03d}"
+        clips[name] = {}
+        for n, c in characters.items():
+            m = make_motion(family, c.skeleton, k, body_radii=radii[n])
+            m.name = name
+            clips[name][n] = m
+    return MixamoConventionData(characters, clips)
+
+
+def data_path() -> Path:
+    """Where the built profile lives."""
+    return cache_dir("synthetic") / "mixamo_convention.npz"
+
+
+def save(data: MixamoConventionData, path: Path) -> None:
+    """Write the profile as one ``.npz`` (atomically)."""
+    arrays: dict[str, np.ndarray] = {}
+    index: dict = {"version": FORMAT_VERSION, "characters": [], "clips": list(data.clips)}
+    for name, c in data.characters.items():
+        arrays[f"char/{name}/offsets"] = c.skeleton.offsets
+        arrays[f"char/{name}/vertices"] = c.rest_vertices.astype(np.float32)
+        arrays[f"char/{name}/faces"] = c.faces.astype(np.int32)
+        arrays[f"char/{name}/weights"] = c.weights.astype(np.float32)
+        index["characters"].append({"name": name, "bulk": float(c.bulk),
+                                    "style": json.loads(json.dumps(c.style, default=float))})
+    for clip, versions in data.clips.items():
+        for name, m in versions.items():
+            arrays[f"clip/{clip}/{name}/rotations"] = m.rotations.astype(np.float32)
+            arrays[f"clip/{clip}/{name}/root"] = m.root_positions.astype(np.float32)
+            arrays[f"clip/{clip}/{name}/foot_contacts"] = np.asarray(m.meta["foot_contacts"], dtype=bool)
+    arrays["index"] = np.array(json.dumps(index))
+    with atomic_write(path) as f:
+        np.savez_compressed(f, **arrays)
+
+
+def read(path: Path) -> MixamoConventionData:
+    """Read what :func:`save` wrote."""
+    with np.load(path, allow_pickle=False) as z:
+        index = json.loads(str(z["index"]))
+        if index.get("version") != FORMAT_VERSION:
+            raise DataError(f"{path} has format {index.get('version')}, expected {FORMAT_VERSION}; delete it "
+                            "to rebuild")
+        chars = {}
+        for entry in index["characters"]:
+            n = entry["name"]
+            chars[n] = Character(n, canonical22_skeleton(z[f"char/{n}/offsets"]),
+                                 z[f"char/{n}/vertices"].astype(np.float64), z[f"char/{n}/faces"].astype(np.int64),
+                                 z[f"char/{n}/weights"].astype(np.float64), entry["bulk"], entry["style"])
+        clips: dict[str, dict[str, Motion]] = {}
+        for clip in index["clips"]:
+            family = clip.rsplit("_", 1)[0]
+            clips[clip] = {}
+            for n, c in chars.items():
+                q = z[f"clip/{clip}/{n}/rotations"].astype(np.float64)
+                q /= np.linalg.norm(q, axis=-1, keepdims=True)
+                clips[clip][n] = Motion(c.skeleton.copy(), q, z[f"clip/{clip}/{n}/root"].astype(np.float64), FPS,
+                                        name=clip, meta={"family": family, "performer": n,
+                                                         "foot_contacts": z[f"clip/{clip}/{n}/foot_contacts"]})
+    return MixamoConventionData(chars, clips)
+
+
+def build_mixamo_convention(force: bool = False) -> Path:
+    """Build the profile into the cache unless it is there (``force`` rebuilds)."""
+    path = data_path()
+    if path.exists() and not force:
+        return path
+    print("building the Mixamo-convention synthetic profile (once, about 3 minutes) ...", file=sys.stderr)
+    save(generate(), path)
+    load_mixamo_convention.cache_clear()
+    return path
+
+
+@lru_cache(maxsize=1)
+def load_mixamo_convention() -> MixamoConventionData:
+    """The built profile (built into the cache on first use; cached in-process)."""
+    return read(build_mixamo_convention())
+
+
+def mixamo_convention_split() -> TDCNSplits:
+    """The TDCN four-scenario split of this profile's characters and clips (the manifest's TDCN
+    split parameters; ``MotionId(family, k)`` is clip ``f"{family}_{k:03d}"``)."""
+    params = dict(source("synthetic")["splits"]["tdcn"]["params"])
+    return tdcn_splits(mixamo_convention_names(), MOTION_FAMILIES, **params)

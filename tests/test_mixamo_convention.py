@@ -1,0 +1,59 @@
+"""The Mixamo-convention synthetic profile (retarget_lib/data/synthetic/mixamo_convention.py)."""
+
+import csv
+
+import numpy as np
+import pytest
+
+from retarget_lib.core.skeleton import canonical22_skeleton
+from retarget_lib.data.sources.real_characters import REAL_DIR, skeleton_proportions
+from retarget_lib.data.synthetic.characters import _scale, _unscaled_offsets
+from retarget_lib.data.synthetic.mixamo_convention import (N_CHARACTERS, RANGE_MARGIN, REAL_RIG_RANGES, generate,
+                                                           mixamo_convention_names, mixamo_convention_spec,
+                                                           mixamo_convention_split)
+from retarget_lib.methods.copy import copy_rotations
+
+
+def test_the_ranges_are_those_measured_on_the_real_rigs():
+    with open(REAL_DIR / "proportions.csv") as f:
+        rows = list(csv.DictReader(f))
+    for key, (lo, hi) in REAL_RIG_RANGES.items():
+        values = [float(r[key]) for r in rows]
+        assert (lo, hi) == pytest.approx((min(values), max(values)), abs=1e-4), key  # the CSV keeps 4 decimals
+
+
+@pytest.mark.parametrize("index", range(N_CHARACTERS))
+def test_every_character_is_in_a_t_pose_with_real_proportions(index):
+    spec = mixamo_convention_spec(index)
+    assert (spec.arm_angle, spec.arm_forward, spec.spine_curve, spec.knee_bend, spec.feet_out) == (0, 0, 0, 0, 0)
+    measured = skeleton_proportions(canonical22_skeleton(_unscaled_offsets(spec) * _scale(spec)))
+    assert abs(measured["arm_angle_deg"]) < 1e-6
+    for key, (lo, hi) in REAL_RIG_RANGES.items():
+        pad = RANGE_MARGIN * (hi - lo)
+        assert lo - pad <= measured[key] <= hi + pad, key
+
+
+def test_the_characters_differ_and_the_split_keeps_unseen_ones():
+    specs = [mixamo_convention_spec(i) for i in range(N_CHARACTERS)]
+    assert len({(s.height, s.thigh, s.upper_arm) for s in specs}) == N_CHARACTERS
+    assert mixamo_convention_spec(3) == specs[3]  # deterministic
+    split = mixamo_convention_split()
+    assert set(split.train_characters).isdisjoint(split.test_characters)
+    assert set(split.train_characters) | set(split.test_characters) == set(mixamo_convention_names())
+
+
+def test_each_character_performs_its_own_version_of_a_clip():
+    data = generate(count=2, clip_ids=[("walk", 0), ("clap", 1)])
+    a, b = data.characters["tp01"], data.characters["tp02"]
+    for clip in ("walk_000", "clap_001"):
+        own_a, own_b = data.clips[clip]["tp01"], data.clips[clip]["tp02"]
+        assert own_a.num_frames == own_b.num_frames  # same seed, same timing
+        assert own_a.skeleton.offsets == pytest.approx(a.skeleton.offsets)
+        assert own_b.skeleton.offsets == pytest.approx(b.skeleton.offsets)
+        # copying A's rotations onto B is close to B's own version (same rest) but not the same:
+        # B's feet and hands are solved on B's body
+        err = np.linalg.norm(copy_rotations(own_a, b.skeleton).global_positions() - own_b.global_positions(), axis=-1)
+        assert 0.001 < err.mean() < 0.1 * b.skeleton.height(), clip
+    walk = data.clips["walk_000"]["tp02"]
+    feet = walk.global_positions()[:, [b.skeleton.index("LeftToeBase"), b.skeleton.index("RightToeBase")], 1]
+    assert feet.min() > -0.01  # planted on its own floor (1 cm: the toe joint's rest height above the sole)
