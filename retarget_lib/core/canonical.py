@@ -282,23 +282,21 @@ def from_canonical22(motion: Motion, skeleton: Skeleton, convention: str | None 
     else:
         cmap = dict(joint_map)
     rot22 = torch.from_numpy(motion.rotations)
+    world = [rot22[:, 0]]  # canonical global rotations, parents first
+    for k in range(1, 22):
+        world.append(quat_mul(world[CANONICAL22_PARENTS[k]], rot22[:, k]))
     T = motion.num_frames
     out = np.zeros((T, skeleton.num_joints, 4))
     out[..., 0] = 1.0
     for j, c in cmap.items():
-        # nearest kept ancestor in the target
+        # nearest kept ancestor in the target; the joints between keep identity, so j's local
+        # rotation is the ancestor's global rotation undone, then c's: conj(G_stop) G_c (the
+        # product of the canonical rotations below ``stop`` when it is a canonical ancestor of c;
+        # a rig may also hang c elsewhere, e.g. Rigify's clavicles under the joint mapped to Neck)
         a = skeleton.parents[j]
         while a >= 0 and a not in cmap:
             a = skeleton.parents[a]
-        stop = cmap[a] if a >= 0 else -1
-        path = []  # canonical joints from just below ``stop`` down to ``c``
-        k = c
-        while k != stop:
-            path.append(k)
-            k = CANONICAL22_PARENTS[k]
-        q = rot22[:, path[-1]]
-        for k in reversed(path[:-1]):
-            q = quat_mul(q, rot22[:, k])
+        q = world[c] if a < 0 else quat_mul(quat_conjugate(world[cmap[a]]), world[c])
         out[:, j] = q.numpy()
     # a root above the hips (an Unreal ``root``, an armature joint) keeps its rest rotation and
     # carries the hips: it sits at the hips' position minus their rest offset from it
