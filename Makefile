@@ -25,7 +25,7 @@ STEP   := @$(PYTHON) .ci/step_times.py $(RUN_ID)
 JOBS   ?= 2
 ONE_THREAD := OMP_NUM_THREADS=1 MKL_NUM_THREADS=1
 
-.PHONY: all setup system-deps data notebooks book workshop test test-slow unit unit-fast unit-threads nbval bench tables clean-build
+.PHONY: all setup system-deps data notebooks book workshop test test-slow unit unit-fast unit-threads lint nbval bench tables clean-build
 
 all: notebooks
 	$(STEP) report make
@@ -110,6 +110,10 @@ test-slow: data
 
 # the library tests once more in one process with two OpenMP threads: results must not depend on the
 # thread count (tolerances, never exact equality between kernels); run by CI after `make test`
+# pyflakes and syntax checks over the library, tests, tools and benchmarks (config: pyproject.toml)
+lint: $(STAMP)
+	$(BIN)/ruff check retarget_lib tests tools benchmarks
+
 unit-threads: $(STAMP)
 	OMP_NUM_THREADS=2 MKL_NUM_THREADS=2 $(BIN)/pytest -q -p no:cacheprovider -m "not data and not slow" tests
 

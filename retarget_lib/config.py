@@ -44,6 +44,19 @@ from .files import load_yaml, read_yaml
 PROFILES = ("fast", "paper")
 
 
+def active_profile(profile: str | None = None) -> str:
+    """``profile``, else ``$RETARGET_PROFILE``, else ``"fast"``: the one place the library reads the
+    environment variable.
+
+    Raises:
+        ConfigError: a name that is not one of :data:`PROFILES`.
+    """
+    chosen = profile or os.environ.get("RETARGET_PROFILE", "fast")
+    if chosen not in PROFILES:
+        raise ConfigError(f"unknown profile {chosen!r}; choose from {PROFILES}")
+    return chosen
+
+
 class ConfigError(RetargetInputError):
     """A config file or override is malformed (the message names the file or key)."""
 
@@ -142,9 +155,7 @@ def load_config(path: str | os.PathLike, overrides: Iterable[str] = (), profile:
     Returns:
         the merged config, with ``profile`` and ``config_path`` recorded in it.
     """
-    profile = profile or os.environ.get("RETARGET_PROFILE", "fast")
-    if profile not in PROFILES:
-        raise ConfigError(f"unknown profile {profile!r}; choose from {PROFILES}")
+    profile = active_profile(profile)
     cfg = _read(Path(path))
     profiles = cfg.pop("profiles", {}) or {}
     if not isinstance(profiles, dict) or not all(isinstance(v, dict) for v in profiles.values() if v is not None):

@@ -7,7 +7,6 @@ import pytest
 from retarget_lib.cli import main
 from retarget_lib.core.canonical import to_canonical22
 from retarget_lib.core.ground import (
-    STAND_BAND_M,
     clip_floor,
     floor_offset,
     foot_positions,

@@ -1,9 +1,7 @@
 """The residual TDCN and GeoRet variants (ours, not the papers'), their alignment algebra and the
 bone-direction term."""
 
-import math
 
-import numpy as np
 import pytest
 import torch
 
@@ -11,7 +9,7 @@ from retarget_lib.core.kinematics import align_local_rotations, forward_kinemati
 from retarget_lib.losses import bone_direction_loss
 from retarget_lib.models import build_model
 from retarget_lib.models.features import leg_length
-from retarget_lib.core.rotations import quat_from_axis_angle, quat_normalize
+from retarget_lib.core.rotations import quat_normalize
 from retarget_lib.core.skeleton import CANONICAL22_PARENTS
 
 PARENTS = CANONICAL22_PARENTS

@@ -470,7 +470,7 @@ def read_makehuman(mpfb_dir: Path, rig: str, scale: float = 0.1) -> Doc:
     """The MakeHuman base mesh (``3dobjs/base.obj``, body group only, decimetres) skinned with one
     of MPFB2's rigs (``rigs/<standard|rigify>/rig.<rig>.json`` and ``weights.<rig>.json``): joint
     positions from the rig's head definitions (joint cubes, vertex means), identity rest rotations."""
-    verts, groups, faces, cur = [], {}, [], None
+    verts, groups, cur = [], {}, None
     for line in (mpfb_dir / "3dobjs" / "base.obj").read_text().splitlines():
         if line.startswith("v "):
             verts.append([float(x) for x in line.split()[1:4]])

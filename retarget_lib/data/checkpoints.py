@@ -26,7 +26,7 @@ from typing import Any
 import torch
 
 from ..errors import CheckpointError
-from ..files import DataError, atomic_write, readable_file
+from ..files import atomic_write, readable_file
 from .manifest import checkpoint, checkpoint_entries
 
 __all__ = ["MAX_WEIGHT", "resolve_checkpoint", "load_state", "save_state"]

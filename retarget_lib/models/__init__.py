@@ -32,11 +32,11 @@ A2 (unbalanced data) and A3 (no ``L_h``) use the same network as "ours"; their r
 
 from __future__ import annotations
 
-import os
 from typing import Any, Mapping, NamedTuple
 
 from torch import nn
 
+from ..config import active_profile
 from .discriminator import PatchDiscriminator
 from .features import FeatureNormalizer, discriminator_features, generator_features
 from .nkn import NKNDiscriminator, NKNGenerator
@@ -142,7 +142,7 @@ def resolve_config(config: Mapping[str, Any] | None = None) -> dict[str, Any]:
         raise ValueError(f"unknown {kind} variant {variant!r}; variants: {list(variants)}")
     for key, value in variants[variant].items():
         cfg.setdefault(key, value)
-    profile = cfg.setdefault("profile", os.environ.get("RETARGET_PROFILE", "fast"))
+    profile = cfg.setdefault("profile", active_profile())
     if profile not in PROFILE_WIDTHS:
         raise ValueError(f"profile must be one of {list(PROFILE_WIDTHS)}, got {profile!r}")
     cfg.setdefault("channels", PROFILE_WIDTHS[profile][kind])

@@ -18,13 +18,13 @@ import argparse
 import concurrent.futures
 import datetime as dt
 import json
-import os
 import resource
 import subprocess
 import sys
 import time
 from pathlib import Path
 
+from ..config import active_profile
 from ..files import REPO_ROOT, atomic_write
 
 TIMINGS_FILE = "timings.json"
@@ -80,7 +80,7 @@ def run_notebook(notebook: Path, out_dir: Path, timeout: int = 900, force: bool 
         nbformat.write(nb, f)
     return {"seconds": round(time.perf_counter() - t0, 1), "cpu_seconds": round(_cpu_seconds() - c0, 1),
             "finished": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
-            "profile": os.environ.get("RETARGET_PROFILE", "fast")}
+            "profile": active_profile()}
 
 
 def _run_in_subprocess(notebook: Path, out_dir: Path, force: bool) -> dict | None:

@@ -12,6 +12,7 @@ import pandas as pd
 import torch
 
 from .. import viz
+from ..config import active_profile
 from ..files import REPO_ROOT
 from ..training.loop import seed_everything
 
@@ -56,5 +57,5 @@ def setup_notebook(seed: int = 0, threads: int | None = None) -> NotebookContext
     torch.set_printoptions(precision=4, sci_mode=False)
     figures = REPO_ROOT / "build" / "figures"
     figures.mkdir(parents=True, exist_ok=True)
-    return NotebookContext(seed, os.environ.get("RETARGET_PROFILE", "fast"), np.random.default_rng(seed),
+    return NotebookContext(seed, active_profile(), np.random.default_rng(seed),
                            figures)

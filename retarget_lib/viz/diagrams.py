@@ -241,7 +241,6 @@ def tdcn_generator_diagram(config: Mapping[str, Any] | None = None) -> Figure:
         the figure; ``fig.receptive_field`` holds the receptive field drawn (frames).
     """
     from ..models import build_model
-    from ..models.features import NUM_JOINTS
 
     config = {"row": "ours", "profile": "fast"} if config is None else dict(config)
     gen = build_model(config).generator
@@ -581,7 +580,7 @@ def eso_loop_diagram(eso_config: Mapping[str, Any] | None = None) -> Figure:
     cv.text(1.42, 2.25, f"repeat N = {n} times", size=10, color="C1", weight="bold", ha="left")
     init = cv.box(0.2, 3.45, 2.2, 0.42, "from the encoder", "h^enc_t (Eq. 12)", role="data")
     cv.arrow(init.bottom, var.top)
-    cv.text(4.55, 3.62, f"constraints fixed once per frame from the initial output:", size=MIN_FONT)
+    cv.text(4.55, 3.62, "constraints fixed once per frame from the initial output:", size=MIN_FONT)
     cv.text(4.55, 3.38, f"contact pairs within {reach * 100:g} cm, colliding triangles", size=MIN_FONT)
     cv.text(4.5, 0.6, "after N steps: decode frame t with the optimised values, keep it,", size=MIN_FONT)
     cv.text(4.5, 0.36, "carry the decoder state to frame t + 1 (Eq. 11)", size=MIN_FONT)
