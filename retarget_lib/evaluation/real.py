@@ -131,7 +131,7 @@ def welded(character: Character, tolerance: float = 1e-6) -> Character:
                      character.weights[first], character.bulk, dict(character.style))
 
 
-def _heights(result: Motion, character: Character) -> np.ndarray:
+def _sole_heights(result: Motion, character: Character) -> np.ndarray:
     return sole_heights(result.global_positions(), result.skeleton, character.rest_vertices)
 
 
@@ -147,7 +147,7 @@ def real_measures(result: Motion, clip: RealClip, character: Character) -> dict[
     feet = foot_positions(out_pos, result.skeleton)
     speed = np.linalg.norm(np.diff(feet[..., [0, 2]], axis=0), axis=-1) * result.fps  # (T-1, 4) m/s
     stand_steps = standing[1:] & standing[:-1]
-    soles = _heights(result, character)
+    soles = _sole_heights(result, character)
     out = {
         "skate_pct_per_s": 100 * float(speed[stand_steps].mean() / h) if stand_steps.any() else float("nan"),
         "under_floor_pct": 100 * float(np.maximum(0.0, -soles.min(axis=1)).mean() / h),
