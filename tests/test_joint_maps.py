@@ -19,7 +19,8 @@ from retarget_lib.core.rotations import quat_conjugate, quat_mul
 from retarget_lib.core.skeleton import CANONICAL22, CANONICAL22_PARENTS, JointSetError, Skeleton
 from retarget_lib.data.sources.cmu import cmu_clip_path
 from retarget_lib.io import load_bvh, save_bvh
-from retarget_lib.io.joint_maps import MAY_BE_ABSENT, fold_with_map, present_map, with_virtual_joints
+from retarget_lib.core.virtual_joints import MAY_BE_ABSENT, with_virtual_joints
+from retarget_lib.io.joint_maps import fold_with_map, present_map
 from retarget_lib.io.rig_maps import load_mapping_file, map_joints
 from test_bad_inputs import assert_cli_error
 
@@ -227,3 +228,36 @@ BANDAI_NAMES = ["Hips", "Spine", "Chest", "Neck", "Head", "Shoulder_L", "UpperAr
                 "Shoulder_R", "UpperArm_R", "LowerArm_R", "Hand_R", "UpperLeg_L", "LowerLeg_L", "Foot_L", "Toes_L",
                 "UpperLeg_R", "LowerLeg_R", "Foot_R", "Toes_R"]
 BANDAI_PARENTS = [-1, 0, 1, 2, 3, 2, 5, 6, 7, 2, 9, 10, 11, 0, 13, 14, 15, 0, 17, 18, 19]
+
+
+@pytest.mark.data  # the CMU clip (assimp-testmodels)
+def test_a_glb_rig_without_clavicles_and_one_spine_joint_is_retargeted_and_keeps_its_joints(tmp_path):
+    # Mr. Fixit's GLB has the clavicles and Spine1 only as inserted joints without weight; a map that
+    # marks them absent (null) treats it as the rig it was: two spine joints, no clavicles
+    from retarget_lib.cli import main
+    from retarget_lib.data.sources.cmu import cmu_clip_path
+    from retarget_lib.data.sources.real_characters import joint_map_path, real_character_path
+    from retarget_lib.io import load_bvh, save_bvh
+    from retarget_lib.io.gltf import load_gltf_motion, load_gltf_rig
+    from retarget_lib.io.rig_maps import load_mapping_file
+
+    full = load_mapping_file(joint_map_path("mrfixit"))
+    absent = dict(full, Spine1=None, LeftShoulder=None, RightShoulder=None)
+    (tmp_path / "map.yaml").write_text("\n".join(f"{k}: {'null' if v is None else v}" for k, v in absent.items()))
+    rig = load_gltf_rig(real_character_path("mrfixit"), tmp_path / "map.yaml")
+    assert len(rig.joint_map) == 19
+    character = rig.character()
+    with_all = load_gltf_rig(real_character_path("mrfixit"), full).character()
+    # the three inserted joints sit where the file's inserted joints are: midway (clavicles on the
+    # bone Spine2 -> UpperArm, Spine1 between Spine and Spine2, as the conversion placed them)
+    np.testing.assert_allclose(character.skeleton.rest_positions(), with_all.skeleton.rest_positions(), atol=0.02)
+    source = tmp_path / "clip.bvh"
+    save_bvh(load_bvh(cmu_clip_path("01_01.bvh")).slice(0, 40), source)
+    out = tmp_path / "out.glb"
+    assert main(["retarget", "--source", str(source), "--target", str(real_character_path("mrfixit")),
+                 "--joint-map", str(tmp_path / "map.yaml"), "--method", "copy", "--out", str(out)]) == 0
+    motion, written = load_gltf_motion(out, mapping=absent)
+    assert written.skeleton.joint_names == rig.skeleton.joint_names  # the file's own joints, none added
+    back = written.motion_to_canonical(motion)
+    assert back.num_frames == 40
+    assert back.global_positions()[..., 1].min() > -0.03  # on the floor

@@ -23,6 +23,7 @@ from .character import Character
 from .motion import Motion
 from .skeleton import CANONICAL22, CANONICAL22_PARENTS, Skeleton, canonical22_skeleton
 from .skinning import linear_blend_skinning
+from .virtual_joints import MAY_BE_ABSENT, with_virtual_joints
 
 __all__ = ["Rig"]
 
@@ -38,7 +39,9 @@ class Rig:
         rest_vertices: ``(V, 3)`` float64 world rest-pose vertices (metres).
         faces: ``(F, 3)`` int64 triangles.
         weights: ``(V, J)`` float64 skinning weights over the rig's joints, rows summing to 1.
-        joint_map: ``{rig joint index: canonical index}`` for the 22 canonical joints.
+        joint_map: ``{rig joint index: canonical index}``: every canonical joint once, but those of
+            :data:`~retarget_lib.core.virtual_joints.MAY_BE_ABSENT` the rig may lack (a joint map's
+            ``null``), which the canonical views insert as virtual joints.
         meta: where it came from (file, rig naming that matched, ...).
     """
 
@@ -58,8 +61,11 @@ class Rig:
         if self.rest_vertices.shape != (nv, 3) or self.weights.shape != (nv, nj):
             raise ValueError(f"rig {self.name!r}: rest_vertices {self.rest_vertices.shape} and weights "
                              f"{self.weights.shape} must be (V, 3) and (V, {nj})")
-        if sorted(self.joint_map.values()) != list(range(22)):
-            raise ValueError(f"rig {self.name!r}: joint_map must cover the canonical 22 joints once each")
+        mapped = sorted(self.joint_map.values())
+        absent = {CANONICAL22[c] for c in set(range(22)) - set(mapped)}
+        if len(set(mapped)) != len(mapped) or not absent <= set(MAY_BE_ABSENT):
+            raise ValueError(f"rig {self.name!r}: joint_map must give each canonical joint once; only "
+                             f"{', '.join(MAY_BE_ABSENT)} may be absent (missing: {sorted(absent)})")
 
     @classmethod
     def from_character(cls, character: Character) -> "Rig":
@@ -79,11 +85,19 @@ class Rig:
                 out[j] = out[p]
         return out
 
+    def _with_virtual_joints(self, motion: Motion) -> tuple[Motion, dict[int, int]]:
+        """``motion`` on the rig's joints with the absent canonical ones inserted, and the full map."""
+        return with_virtual_joints(motion, self.joint_map)
+
     def character(self) -> Character:
         """The canonical-22 :class:`~retarget_lib.core.character.Character` the methods use:
-        mapped joints' rest positions, weights of unmapped joints folded (:meth:`canonical_of`)."""
-        rest = self.skeleton.rest_positions()
-        file_of = {c: j for j, c in self.joint_map.items()}
+        mapped joints' rest positions (absent ones placed as virtual joints), weights of unmapped
+        joints folded (:meth:`canonical_of`)."""
+        rest_motion = Motion(self.skeleton, np.tile([1.0, 0.0, 0.0, 0.0], (1, self.skeleton.num_joints, 1)),
+                             self.skeleton.offsets[:1].copy(), 30.0)
+        augmented, full = self._with_virtual_joints(rest_motion)
+        rest = augmented.skeleton.rest_positions()
+        file_of = {c: j for j, c in full.items()}
         rest22 = rest[[file_of[c] for c in range(22)]]
         offsets = rest22.copy()
         offsets[1:] -= rest22[list(CANONICAL22_PARENTS[1:])]
@@ -93,8 +107,10 @@ class Rig:
                          weights, style=dict(self.meta))
 
     def motion_to_canonical(self, motion: Motion) -> Motion:
-        """Fold a motion on the rig's joints onto the canonical 22 (see ``to_canonical22``)."""
-        return to_canonical22(motion, joint_map=self.joint_map)
+        """Fold a motion on the rig's joints onto the canonical 22 (see ``to_canonical22``; absent
+        joints inserted as virtual ones first)."""
+        augmented, full = self._with_virtual_joints(motion)
+        return to_canonical22(augmented, joint_map=full)
 
     def motion_from_canonical(self, motion: Motion) -> Motion:
         """A canonical-22 motion on the rig's joints: mapped joints take the canonical rotations,

@@ -63,6 +63,7 @@ import torch
 
 from ..core.motion import Motion
 from ..core.rig import Rig
+from ..core.virtual_joints import MAY_BE_ABSENT
 from ..core.rotations import matrix_to_quat, quat_slerp, quat_to_matrix
 from ..core.skeleton import J, Skeleton
 from ..errors import GLTFError, LimitError
@@ -670,7 +671,8 @@ def _armature(doc: GLTFDocument, tree: _Skeleton, mapping) -> tuple[Skeleton, di
         user, source = dict(mapping or {}), "the mapping"
     vrm = _vrm_mapping(doc, tree)
     joint_map, rig_name = map_joints(tree.names, tree.parents, vrm | user, what=str(doc.path),
-                                     mapping_source=source if user else "the VRM humanoid")
+                                     mapping_source=source if user else "the VRM humanoid",
+                                     may_be_absent=MAY_BE_ABSENT)
     turn = _upright(rest, joint_map)
     if not np.array_equal(turn, np.eye(3)):  # once: read again in the library's axes
         doc.frame = turn @ doc.frame

@@ -124,7 +124,7 @@ def map_joints(names: Sequence[str], parents: Sequence[int], mapping: Mapping[st
         what: the file, for messages.
         mapping_source: where ``mapping`` comes from (a joint map file), for messages.
         may_be_absent: canonical joints the caller can do without (it inserts them:
-            :mod:`~retarget_lib.io.joint_maps`); a ``None`` entry for another joint is an error.
+            :mod:`~retarget_lib.core.virtual_joints`); a ``None`` entry for another joint is an error.
 
     Returns:
         ``({file joint index: canonical index} for the canonical joints the rig has: all 22 but

@@ -44,7 +44,8 @@ from ..io import fbx
 from ..io.amass import load_amass, smplx_skeleton
 from ..io.bvh import load_bvh
 from ..io.gltf import NoSkinError, load_gltf_animation, load_gltf_motion, load_gltf_rig
-from ..io.joint_maps import fold_with_map, present_map, with_virtual_joints
+from ..core.virtual_joints import with_virtual_joints
+from ..io.joint_maps import fold_with_map, present_map
 from ..io.rig_maps import load_mapping_file
 from ..io.shape import SHAPE_KEYS, ShapeError, load_shape_npz
 from ..io.untrusted import npz_keys
