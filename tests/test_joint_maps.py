@@ -261,3 +261,33 @@ def test_a_glb_rig_without_clavicles_and_one_spine_joint_is_retargeted_and_keeps
     back = written.motion_to_canonical(motion)
     assert back.num_frames == 40
     assert back.global_positions()[..., 1].min() > -0.03  # on the floor
+
+
+def test_a_bvh_whose_rest_pose_lies_along_x_is_read_standing(tmp_path):
+    # the rest skeleton turned by a quarter about Z (lying, its head towards -X), the frames
+    # turning it back up: the world poses are those of a standing clip; a source read from it
+    # must stand (hips to head along +Y) so that copying its rotations keeps the target standing
+    from retarget_lib.core.canonical import stand_upright
+    from retarget_lib.core.rotations import quat_from_axis_angle, quat_mul
+    from retarget_lib.core.skeleton import J
+    from retarget_lib.data.synthetic.characters import make_character
+    from retarget_lib.methods.copy import copy_rotations
+    import torch
+
+    standing = make_character("ada").skeleton
+    clip = Motion(standing.copy(), np.tile([1.0, 0.0, 0.0, 0.0], (5, 22, 1)),
+                  np.tile(standing.offsets[0], (5, 1)), 30.0)
+    turn = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])  # +90 degrees about Z: up -> -X
+    q = quat_from_axis_angle(torch.tensor([0.0, 0.0, np.pi / 2], dtype=torch.float64))
+    lying = clip.copy(skeleton=Skeleton(standing.joint_names, standing.parents, standing.offsets @ turn.T))
+    rot = torch.from_numpy(lying.rotations)
+    rot[:, 0] = quat_mul(rot[:, 0], torch.cat([q[:1], -q[1:]]).expand_as(rot[:, 0]))  # frames undo the lie
+    lying.rotations = rot.numpy()
+    np.testing.assert_allclose(lying.global_positions(), clip.global_positions(), atol=1e-9)  # float64 FK
+    upright = stand_upright(lying)
+    np.testing.assert_allclose(upright.global_positions(), clip.global_positions(), atol=1e-9)
+    rest = upright.skeleton.rest_positions()
+    assert rest[J["Head"], 1] - rest[J["Hips"], 1] > 0.4  # the rest pose stands
+    copied = copy_rotations(upright, make_character("bram").skeleton).global_positions()
+    assert copied[0, J["Head"], 1] > copied[0, J["Hips"], 1] + 0.4  # and so does the copy
+    assert stand_upright(clip) is clip  # a standing rest pose is left alone

@@ -305,3 +305,58 @@ def from_canonical22(motion: Motion, skeleton: Skeleton, convention: str | None 
     root = motion.root_positions - (rest[hips] - rest[0])
     return Motion(skeleton.copy(), out, root, motion.fps, name=motion.name,
                   meta={"converted_from": "canonical22"})
+
+
+def _snap(v: np.ndarray) -> np.ndarray:
+    """The signed coordinate axis nearest to ``v``."""
+    axis = np.zeros(3)
+    k = int(np.argmax(np.abs(v)))
+    axis[k] = np.sign(v[k]) or 1.0
+    return axis
+
+
+def upright_rotation(hips: np.ndarray, head: np.ndarray, left_hip: np.ndarray, right_hip: np.ndarray) -> np.ndarray:
+    """``(3, 3)`` the quarter turns that stand a rest pose up in the library's axes: its hips-to-head
+    direction onto +Y and its right-to-left hip direction onto +X (so that it faces +Z), each
+    snapped to the nearest coordinate axis first; the identity for a rest pose that already does,
+    or when the hips lie on the up axis (nothing to tell the facing by).
+
+    Args:
+        hips, head, left_hip, right_hip: ``(3,)`` rest positions of those joints.
+    """
+    up = _snap(head - hips)
+    across = left_hip - right_hip
+    across = across - (across @ up) * up
+    left = _snap(across) if np.linalg.norm(across) > 0 else np.array([1.0, 0.0, 0.0])
+    if abs(left @ up) > 0.5:
+        return np.eye(3)
+    # rows: the rest pose's left, up and forward (left x up, as +X x +Y = +Z)
+    return np.stack([left, up, np.cross(left, up)])
+
+
+def stand_upright(motion: Motion) -> Motion:
+    """A canonical-22 motion whose **rest pose** is turned to stand up (:func:`upright_rotation`),
+    every frame's world pose unchanged.
+
+    Some mocap files define their rest pose lying down or turned (a BVH whose rest skeleton lies
+    along +X, the frames' root rotation standing it up). Rotation-copying methods carry the root
+    rotation over, so such a rest pose would lay the target down. With ``R`` the turn, the rest
+    offsets become ``R o`` and the global rotations ``G R^-1``: the root's local rotation is
+    ``q_0 R^-1``, every other joint's ``R q_j R^-1``; world positions stay the same.
+    """
+    if not motion.skeleton.is_canonical22():
+        raise JointSetError("stand_upright needs a canonical-22 motion")
+    rest = motion.skeleton.rest_positions()
+    turn = upright_rotation(rest[J["Hips"]], rest[J["Head"]], rest[J["LeftUpLeg"]], rest[J["RightUpLeg"]])
+    if np.array_equal(turn, np.eye(3)):
+        return motion
+    q_turn = matrix_to_quat(torch.from_numpy(turn))
+    rot = torch.from_numpy(motion.rotations)
+    turned = quat_mul(quat_mul(q_turn.expand_as(rot), rot), quat_conjugate(q_turn).expand_as(rot))
+    turned[:, 0] = quat_mul(rot[:, 0], quat_conjugate(q_turn).expand_as(rot[:, 0]))
+    offsets = motion.skeleton.offsets @ turn.T
+    offsets[0] = 0.0
+    offsets[0, 1] = -canonical22_skeleton(offsets).rest_positions()[:, 1].min()  # the turned rest stands on y = 0
+    return motion.copy(skeleton=canonical22_skeleton(offsets), rotations=turned.numpy(),
+                       meta=dict(motion.meta, rest_turned=turn.tolist()))
+

@@ -61,6 +61,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from ..core.canonical import upright_rotation
 from ..core.motion import Motion
 from ..core.rig import Rig
 from ..core.virtual_joints import MAY_BE_ABSENT
@@ -393,30 +394,12 @@ def _framed(local: dict[int, np.ndarray], node_parent: list[int], frame: np.ndar
 FLOOR_TOLERANCE_M = 1e-4
 
 
-def _snap(v: np.ndarray) -> np.ndarray:
-    """The signed coordinate axis nearest to ``v`` (a unit vector)."""
-    axis = np.zeros(3)
-    k = int(np.argmax(np.abs(v)))
-    axis[k] = np.sign(v[k]) or 1.0
-    return axis
-
-
 def _upright(rest: np.ndarray, joint_map: dict[int, int]) -> np.ndarray:
-    """``(3, 3)`` the quarter turns that stand a rig's rest pose up in the library's axes: its
-    hips-to-head direction onto +Y and its right-to-left hip direction onto +X (so it faces +Z),
-    each snapped to the nearest axis first. A Z-up FBX (Unreal, 3ds Max), a VRM 0.x avatar (facing
-    -Z) or an export turned by a quarter are read standing, facing +Z; the identity for a rig that
-    already does."""
+    """``(3, 3)`` the quarter turns that stand a rig's rest pose up in the library's axes
+    (:func:`~retarget_lib.core.canonical.upright_rotation`): a Z-up FBX (Unreal, 3ds Max), a VRM
+    0.x avatar (facing -Z) or an export turned by a quarter are read standing, facing +Z."""
     file_of = {c: j for j, c in joint_map.items()}
-    up = _snap(rest[file_of[J["Head"]]] - rest[file_of[J["Hips"]]])
-    across = rest[file_of[J["LeftUpLeg"]]] - rest[file_of[J["RightUpLeg"]]]
-    across = across - (across @ up) * up
-    left = _snap(across) if np.linalg.norm(across) > 0 else np.array([1.0, 0.0, 0.0])
-    if abs(left @ up) > 0.5:  # degenerate (hips on the up axis): keep the file's facing
-        return np.eye(3)
-    # rows: the file's left, up and forward (left x up, as +X x +Y = +Z): the rotation taking
-    # each onto +X, +Y, +Z
-    return np.stack([left, up, np.cross(left, up)])
+    return upright_rotation(*(rest[file_of[J[n]]] for n in ("Hips", "Head", "LeftUpLeg", "RightUpLeg")))
 
 
 def _with_ancestors(nodes: list[int], node_parent: list[int]) -> list[int]:

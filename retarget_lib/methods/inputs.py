@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.canonical import canonical_name_map, to_canonical22
+from ..core.canonical import canonical_name_map, stand_upright, to_canonical22
 from ..core.character import Character
 from ..core.motion import Motion
 from ..core.rig import Rig
@@ -116,7 +116,7 @@ def load_source(path: str | os.PathLike, joint_map: str | os.PathLike | None = N
                                  f"file's joints have fixed names), not {path}")
     if suffix == ".bvh":
         raw = load_bvh(path)
-        return Source(_bvh_to_canonical(raw, path, joint_map), raw.meta, None)
+        return Source(stand_upright(_bvh_to_canonical(raw, path, joint_map)), raw.meta, None)
     if suffix == ".npz":
         motion = load_amass(path)
         return Source(motion, {}, None)
@@ -127,7 +127,8 @@ def load_source(path: str | os.PathLike, joint_map: str | os.PathLike | None = N
         except NoSkinError:  # a clip downloaded "Without Skin": joints and animation only
             motion, ids = (load_gltf_animation(path, mapping=joint_map) if suffix in _GLTF
                            else fbx.load_fbx_animation(path, mapping=joint_map))
-            return Source(to_canonical22(motion, joint_map=ids), {}, None)
+            augmented, full = with_virtual_joints(motion, ids)  # joints the map marks absent (null)
+            return Source(to_canonical22(augmented, joint_map=full), {}, None)
         return Source(rig.motion_to_canonical(motion), {}, rig.character())
     raise InputFileError(f"{path}: cannot read a {suffix or 'suffix-less'} source; supported: "
                          f"{', '.join(SOURCE_SUFFIXES)}")
