@@ -610,7 +610,7 @@ def cryptovoxels(src: Path) -> Doc:
     return doc
 
 
-def quaternius(src: Path) -> Doc:
+def quaternius(src: Path, scale: float = 0.004) -> Doc:
     """A Quaternius "Animated Men/Women Characters" FBX (Blender rig, Feb 2019): the feet are IK
     bones under the armature's root, not under the shins; each foot is re-parented under its
     ``LowerLeg`` (world transform kept), and a toe joint ``Toe.L/R_inserted`` is added at the
@@ -622,7 +622,25 @@ def quaternius(src: Path) -> Doc:
     for side in "LR":
         doc.reparent(f"Foot.{side}", f"LowerLeg.{side}")
         doc.insert_joint(f"Toe.{side}_inserted", f"Foot.{side}", [], at=w[doc.index(f"Foot.{side}_end")][:3, 3])
-    doc.scale(0.004)
+    doc.scale(scale)
+    return doc
+
+
+def quaternius_cowboy(src: Path) -> Doc:
+    """The Quaternius Cowboy (Cowboy Pack, Blender rig as the Feb 2019 characters but with the foot
+    deform bones named ``FootIK.L/R``, under the armature's root): each ``FootIK`` is re-parented
+    under its ``LowerLeg`` and a toe ``Toe.L/R_inserted`` added at its end, as :func:`quaternius`.
+    The hat is a second armature's skin (``HatArmature``): it is dropped, keeping one skeleton. The
+    file is facing +X in centimetres x10 (1852 units tall): scaled by 0.001 (about 1.85 m, an
+    assumption); the reader turns it to face +Z."""
+    doc = via_assimp(src)
+    hat = doc.index("Hat")
+    doc.nodes[hat].mesh, doc.nodes[hat].skin = None, None
+    w = doc.world()
+    for side in "LR":
+        doc.reparent(f"FootIK.{side}", f"LowerLeg.{side}")
+        doc.insert_joint(f"Toe.{side}_inserted", f"FootIK.{side}", [], at=w[doc.index(f"FootIK.{side}_end")][:3, 3])
+    doc.scale(0.001)
     return doc
 
 
@@ -637,6 +655,10 @@ RECIPES = {
     "cryptovoxels": (cryptovoxels, "cryptovoxels.vrm (madjin/vrm-samples)"),
     "quaternius_female_dress": (quaternius, "Female_Dress.fbx (beep2bleep/FreeAssetsByKenneyNLandQuaternius)"),
     "quaternius_male_casual": (quaternius, "Male_Casual.fbx (beep2bleep/FreeAssetsByKenneyNLandQuaternius)"),
+    # the goblin as written is as tall as the men (2.3 m at their scale): scaled to about 1.2 m, a
+    # short character (its proportions, long arms and a long trunk, are the file's)
+    "quaternius_goblin": (lambda p: quaternius(p, scale=0.0021), "Goblin.fbx (beep2bleep/FreeAssetsByKenneyNLandQuaternius)"),
+    "quaternius_cowboy": (quaternius_cowboy, "Cowboy.fbx (beep2bleep/FreeAssetsByKenneyNLandQuaternius)"),
 }
 
 
