@@ -134,6 +134,7 @@ TDCN: dict[str, Any] = {
     "data": {"window": WINDOW, "same_fraction": FRACTION, "scale_range": SCALE_RANGE, "scale_targets": BOOL,
              "mirror": BOOL, "random_yaw": BOOL,
              "rest_jitter_deg": Rule("a number of degrees in [0, 180]", lambda v: _is_num(v) and 0 <= v <= 180),
+             "rest_arm_drop_deg": Rule("a number of degrees in [0, 180]", lambda v: _is_num(v) and 0 <= v <= 180),
              "source": lazy_choice("synthetic, mixamo-convention, synthetic+mixamo-convention, mixamo-local "
                                    "($RETARGET_MIXAMO) or mixamo-local+synthetic", _data_sources)},
     "loss": {"gan": choice("lsgan", "sigmoid_ce"), "twist_alpha_deg": NONNEG_NUM, "twist_exclude_root": BOOL,

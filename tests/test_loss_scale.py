@@ -74,3 +74,28 @@ def test_the_code_scale_config_is_a_small_delta_over_the_paper_config():
     code = load_config("configs/tdcn_paper_code_scale.yaml", profile="fast")
     assert code["loss"]["reduction"] == "frame_sum" and code["loss"]["standardize"] is True
     assert {k: v for k, v in code["loss"].items() if k not in ("reduction", "standardize")} == base["loss"]
+
+
+def test_the_arm_drop_augmentation_lowers_both_upper_arms_by_the_same_drawn_angle():
+    from retarget_lib.core.skeleton import J
+    from retarget_lib.core.transfer import change_rest_pose
+    from retarget_lib.data.synthetic.characters import make_character
+    from retarget_lib.training.tdcn import WindowSampler
+
+    offsets = torch.as_tensor(make_character("kato").skeleton.offsets, dtype=torch.float32)[None].repeat(64, 1, 1)
+    sampler = WindowSampler.__new__(WindowSampler)  # only the rest turns are exercised
+    sampler.rest_jitter_deg, sampler.rest_arm_drop_deg = 0.0, 70.0
+    turns = sampler._rest_turns(offsets, torch.Generator().manual_seed(0))
+    q = torch.zeros(64, 1, 22, 4)
+    q[..., 0] = 1.0
+    _, turned = change_rest_pose(q, offsets, turns)
+
+    def below_horizontal(bone):  # degrees
+        return torch.rad2deg(torch.asin(-bone[:, 1] / bone.norm(dim=-1)))
+
+    rest = below_horizontal(offsets[:, J["LeftForeArm"]])
+    left, right = below_horizontal(turned[:, J["LeftForeArm"]]), below_horizontal(turned[:, J["RightForeArm"]])
+    drop = left - rest
+    assert torch.allclose(left, right, atol=1e-3)  # symmetric (float32 rotations)
+    assert (drop >= -1e-3).all() and drop.max() <= 70.0 + 1e-3 and drop.max() > 35.0
+    assert 10 < int((drop.abs() < 1e-3).sum()) < 54  # about half the skeletons keep their rest

@@ -232,8 +232,10 @@ MEASURES = ("identity_pct", "skate_pct_per_s", "under_floor_pct", "float_pct", "
 
 
 def real_table(per_case: pd.DataFrame) -> pd.DataFrame:
-    """Mean over characters and clips of each measure, one row per method (table order)."""
-    order = [m for m in REAL_METHODS if m in set(per_case["method"])]
+    """Mean over characters and clips of each measure, one row per method (:data:`REAL_METHODS`
+    order, then any other method in the order it first appears)."""
+    present = list(dict.fromkeys(per_case["method"]))
+    order = [m for m in REAL_METHODS if m in present] + [m for m in present if m not in REAL_METHODS]
     return per_case.groupby("method")[list(MEASURES)].mean().loc[order]
 
 

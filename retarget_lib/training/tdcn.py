@@ -100,6 +100,7 @@ this CPU — a GPU job.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, fields
 from functools import lru_cache
 from pathlib import Path
@@ -110,7 +111,7 @@ import torch
 from ..config_schema import DATA_SOURCES
 from ..core.motion import Motion
 from ..core.rotations import quat_from_axis_angle, quat_mul, quat_rotate
-from ..core.skeleton import Skeleton
+from ..core.skeleton import J, Skeleton
 from ..core.transfer import change_rest_pose, random_rest_rotations, retarget_ground_truth
 from ..data.checkpoints import save_state
 from ..data.manifest import mixamo_local_dir
@@ -323,11 +324,16 @@ class WindowSampler:
             every joint stays where it was). The synthetic characters mostly share straight-leg
             rest poses, real files do not (CMU's legs are splayed by 20°), and a network that
             must compensate rest poses has to see them vary. ``A = B`` pairs share one rest pose.
+        rest_arm_drop_deg: our augmentation (0 = off): a skeleton that gets a random rest pose
+            also has both upper arms lowered from their rest by an angle uniform in
+            ``[0, rest_arm_drop_deg]`` (about the forward axis). Real rigs rest with their arms
+            anywhere from a T-pose to hanging 70-83° below the horizontal
+            (``data/real_characters/proportions.csv``), the synthetic characters at most 50°.
     """
 
     def __init__(self, clips: TrainingClips, window: int = 81, same_fraction: float = 0.5,
                  scale_range: tuple[float, float] | None = (0.5, 1.5), scale_targets: bool = True,
-                 random_yaw: bool = False, rest_jitter_deg: float = 0.0):
+                 random_yaw: bool = False, rest_jitter_deg: float = 0.0, rest_arm_drop_deg: float = 0.0):
         if len(clips.characters) < 2:
             raise ValueError("need at least two training characters")
         if not 0.0 <= same_fraction <= 1.0:
@@ -341,6 +347,9 @@ class WindowSampler:
         if not 0.0 <= float(rest_jitter_deg) <= 180.0:
             raise ValueError(f"rest_jitter_deg must be in [0, 180], got {rest_jitter_deg}")
         self.rest_jitter_deg = float(rest_jitter_deg)
+        if not 0.0 <= float(rest_arm_drop_deg) <= 180.0:
+            raise ValueError(f"rest_arm_drop_deg must be in [0, 180], got {rest_arm_drop_deg}")
+        self.rest_arm_drop_deg = float(rest_arm_drop_deg)
         self.starts = clips.window_starts(self.window)
 
     def _scales(self, batch: int, generator: torch.Generator | None) -> Tensor:
@@ -376,7 +385,7 @@ class WindowSampler:
         q_real, r_real = self._windows(target, scale_b, generator)
         off = self.clips.offsets
         off_a, off_b = off[source] * scale_a[:, None, None], off[target] * scale_b[:, None, None]
-        if self.rest_jitter_deg > 0:
+        if self.rest_jitter_deg > 0 or self.rest_arm_drop_deg > 0:
             turn_a, turn_b = (self._rest_turns(o, generator) for o in (off_a, off_b))
             turn_b = torch.where(same[:, None, None], turn_a, turn_b)
             (q_a, off_a), (q_real, off_b) = change_rest_pose(q_a, off_a, turn_a), change_rest_pose(q_real, off_b, turn_b)
@@ -385,6 +394,12 @@ class WindowSampler:
     def _rest_turns(self, offsets: Tensor, generator: torch.Generator | None) -> Tensor:
         """``(B, J, 4)``: random rest-pose turns for half the samples, identity for the others."""
         turns = random_rest_rotations(offsets, self.rest_jitter_deg, generator)
+        if self.rest_arm_drop_deg > 0:
+            drop = torch.rand(len(offsets), generator=generator) * math.radians(self.rest_arm_drop_deg)
+            for arm, side in ((J["LeftArm"], -1.0), (J["RightArm"], 1.0)):  # the left arm points +X: about -Z
+                lower = quat_from_axis_angle(torch.stack([torch.zeros_like(drop), torch.zeros_like(drop),
+                                                          side * drop], dim=-1))
+                turns[:, arm] = quat_mul(lower, turns[:, arm])
         keep = torch.rand(len(offsets), generator=generator) < 0.5
         return torch.where(keep[:, None, None], torch.tensor([1.0, 0.0, 0.0, 0.0]), turns)
 
@@ -485,7 +500,7 @@ class RetargetTraining:
             clips = training_clips(bool(data.get("mirror", False)), source, root)
         self.sampler = WindowSampler(clips, data["window"], data["same_fraction"], data["scale_range"],
                                      data["scale_targets"], bool(data.get("random_yaw", False)),
-                                     float(data.get("rest_jitter_deg", 0.0)))
+                                     float(data.get("rest_jitter_deg", 0.0)), float(data.get("rest_arm_drop_deg", 0.0)))
         if self.resolved["normalize_inputs"]:
             self._fit_normalizer()
         self.position_scale = self._fit_position_scale() if loss.get("standardize", False) else None
