@@ -225,14 +225,23 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
 
 def _evaluate_real(args: argparse.Namespace, command: str | None = None) -> int:
     """``--table real``: every method on the real-character set (retarget_lib.evaluation.real)."""
+    import numpy as np
+
+    from . import viz
     from .evaluation.real import run_real_evaluation
 
     if args.runs or args.data != "synthetic":
         raise RetargetInputError("--table real scores the shipped checkpoints on data/real_characters: leave out "
                                  "--runs and --data")
-    table = run_real_evaluation(args.out, args.device, command=command or f"retarget evaluate --table real --out {args.out}")
+    table, worst = run_real_evaluation(args.out, args.device,
+                                       command=command or f"retarget evaluate --table real --out {args.out}")
     print(table.round(3).to_string())
-    print(f"wrote {args.out}/real.csv, real.md, real_cases.csv (with .provenance.json)")
+    scenes = [viz.Scene(vertices=w.vertices, faces=w.faces,
+                        vertex_colors=np.where(w.inside[:, None], (0.85, 0.15, 0.1), (0.72, 0.72, 0.72)),
+                        title=f"{w.method}: {w.character}\n{w.clip}, frame {w.frame}") for w in worst]
+    viz.save_png(viz.render_side_by_side(scenes, ncols=3, window_size=(1260, 440)), f"{args.out}/real_worst.png")
+    print(f"wrote {args.out}/real.csv, real.md, real_cases.csv (with .provenance.json), real_worst.png (each "
+          "method's case with the most arm vertices inside the body, those vertices red)")
     return 0
 
 

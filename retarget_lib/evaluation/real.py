@@ -54,14 +54,14 @@ from ..data.sources.real_characters import load_real_character, real_character_n
 from ..data.synthetic.dataset import load_synthetic
 from ..files import atomic_write
 from ..geometry.contacts import authored_contact_frames
-from ..geometry.penetration import penetration_rate
+from ..geometry.penetration import limb_vertices_inside, penetration_rate
 from ..methods.registry import get_method
 from ..methods.retarget import on_the_ground
 from .results import StoredResult, load_result, write_result
 from .tdcn import markdown_table
 
-__all__ = ["REAL_METHODS", "RealClip", "real_clips", "real_measures", "run_real_evaluation", "stored_real_results",
-           "welded"]
+__all__ = ["REAL_METHODS", "RealClip", "WorstCase", "real_clips", "real_measures", "run_real_evaluation",
+           "stored_real_results", "welded", "worst_cases"]
 
 #: table row -> (registry method, Table 4 row whose shipped checkpoint it loads, None = the
 #: method's default)
@@ -226,6 +226,52 @@ def evaluate_real(methods: Mapping[str, tuple[Retarget, bool]], clips: Sequence[
     return pd.DataFrame(rows)
 
 
+@dataclass
+class WorstCase:
+    """The posed mesh of one method's worst real-character case, for a render.
+
+    Attributes:
+        method, character, clip, frame: which case and frame (30 fps).
+        vertices: ``(V, 3)`` the skinned mesh at that frame; faces: ``(F, 3)``.
+        inside: ``(V,)`` bool, arm vertices inside the body
+            (:func:`~retarget_lib.geometry.penetration.limb_vertices_inside`).
+        penetration: the case's ``arm_penetration``.
+    """
+
+    method: str
+    character: str
+    clip: str
+    frame: int
+    vertices: np.ndarray
+    faces: np.ndarray
+    inside: np.ndarray
+    penetration: float
+
+
+def worst_cases(per_case: pd.DataFrame, methods: Mapping[str, tuple[Retarget, bool]],
+                clips: Sequence[RealClip]) -> list[WorstCase]:
+    """Per method, the (character, clip) with the largest ``arm_penetration`` in ``per_case``,
+    retargeted again, at the measured frame with the most arm vertices inside the body."""
+    by_name = {c.name: c for c in clips}
+    out = []
+    for row, (fn, needs_mesh) in methods.items():
+        cases = per_case[per_case["method"] == row]
+        if cases.empty:
+            continue
+        worst = cases.loc[cases["arm_penetration"].idxmax()]
+        clip = by_name[worst["clip"]]
+        character = welded(load_real_character(worst["character"]).character())
+        result = on_the_ground(_run(fn, needs_mesh, clip.motion, character, clip.character), clip.motion,
+                               character, clip.character)
+        frames = np.arange(0, result.num_frames, PENETRATION_EVERY)
+        verts = character.skinned(result.rotations[frames], result.root_positions[frames])
+        inside = [limb_vertices_inside(v, character.faces, character.weights, ARMS) for v in verts]
+        k = int(np.argmax([m.sum() for m in inside]))
+        out.append(WorstCase(row, worst["character"], worst["clip"], int(frames[k]), verts[k], character.faces,
+                             inside[k], float(worst["arm_penetration"])))
+    return out
+
+
 #: the table's columns, in order
 MEASURES = ("identity_pct", "skate_pct_per_s", "under_floor_pct", "float_pct", "arm_penetration", "hand_gap_pct",
             "jitter_ratio")
@@ -241,12 +287,14 @@ def real_table(per_case: pd.DataFrame) -> pd.DataFrame:
 
 def run_real_evaluation(out_dir: str | Path, device: str | None = None, only: Sequence[str] | None = None,
                         characters: Sequence[str] | None = None,
-                        command: str = "retarget evaluate --table real --out DIR") -> pd.DataFrame:
-    """Evaluate, write ``real_cases`` (with provenance), ``real.csv`` and ``real.md``; return the table."""
+                        command: str = "retarget evaluate --table real --out DIR") -> tuple[pd.DataFrame, list[WorstCase]]:
+    """Evaluate, write ``real_cases`` (with provenance), ``real.csv`` and ``real.md``; return the
+    table and each method's :func:`worst_cases` (for a render)."""
     methods = _methods(only, device)
     checkpoints = {row: entry for row, entry in real_checkpoints().items() if row in methods}
     t0 = time.perf_counter()
-    per_case = evaluate_real(methods, real_clips(), characters or real_character_names())
+    clips = real_clips()
+    per_case = evaluate_real(methods, clips, characters or real_character_names())
     write_result(per_case, out_dir, "real_cases", command=command, checkpoints=checkpoints,
                  profile="fast", seconds=time.perf_counter() - t0)
     table = real_table(per_case)
@@ -258,7 +306,7 @@ def run_real_evaluation(out_dir: str | Path, device: str | None = None, only: Se
                 f"(CMU 01_01, 01_03, synthetic clap_008; {CLIP_FRAMES} frames each). Lengths in % of the target's "
                 "height; lower is better in every column (identity: 0 is exact; jitter: 1 is the source's).\n\n"
                 + markdown_table(table, 3) + "\n")
-    return table
+    return table, worst_cases(per_case, methods, clips)
 
 
 #: relative tolerance of a re-run of the stored real table: the methods are feed-forward (float32

@@ -49,6 +49,7 @@ __all__ = [
     "geodesic_distances",
     "geodesic_pair_weights",
     "interpenetration_energy",
+    "limb_vertices_inside",
     "interpenetration_score",
     "penetration_rate",
     "ray_winding_numbers",
@@ -553,10 +554,30 @@ def penetration_rate(vertices, faces, weights, limbs: Mapping[str, Sequence[str]
         if not in_limb.any():
             rates[name] = float("nan")
             continue
-        body_faces = faces[~in_limb[faces].any(1)]
-        inside = []
-        for frame in frames:
-            body_vertices, body_closed = cap_holes(frame, body_faces)
-            inside.append(ray_winding_numbers(frame[in_limb], body_vertices, body_closed) >= 1)
-        rates[name] = float(np.mean(inside))
+        rates[name] = float(np.mean([_inside_body(frame, faces, in_limb) for frame in frames]))
     return rates
+
+
+def _inside_body(vertices: np.ndarray, faces: np.ndarray, in_limb: np.ndarray) -> np.ndarray:
+    """``(K,)`` bool: which of the limb's ``K`` vertices lie inside the rest of the body (the mesh
+    without the limb's faces, its holes capped; winding number >= 1)."""
+    body_vertices, body_closed = cap_holes(vertices, faces[~in_limb[faces].any(1)])
+    return ray_winding_numbers(vertices[in_limb], body_vertices, body_closed) >= 1
+
+
+def limb_vertices_inside(vertices, faces, weights, limbs: Mapping[str, Sequence[str]] | None = None) -> np.ndarray:
+    """``(V,)`` bool: the vertices of one posed mesh that :func:`penetration_rate` counts as inside
+    the body (a limb vertex inside the rest of the body); every other vertex is ``False``.
+
+    Args:
+        vertices: ``(V, 3)`` metres; faces, weights, limbs: as :func:`penetration_rate`.
+    """
+    vertices = np.asarray(vertices, dtype=np.float64)
+    faces = as_face_array(faces, len(vertices))
+    owner = np.asarray(weights).argmax(1)
+    out = np.zeros(len(vertices), dtype=bool)
+    for joints in (DEFAULT_LIMBS if limbs is None else limbs).values():
+        in_limb = np.isin(owner, [CANONICAL22.index(j) for j in joints])
+        if in_limb.any():
+            out[np.flatnonzero(in_limb)[_inside_body(vertices, faces, in_limb)]] = True
+    return out
