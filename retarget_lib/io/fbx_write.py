@@ -53,6 +53,7 @@ import zlib
 import numpy as np
 import torch
 
+from ..core.mesh import vertex_normals
 from ..core.motion import Motion
 from ..core.rig import Rig
 from ..core.rotations import quat_to_euler
@@ -217,17 +218,6 @@ def _matrix(rotation: np.ndarray | None, translation: np.ndarray) -> np.ndarray:
     return m.T.ravel().copy()
 
 
-def _vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """``(V, 3)`` unit area-weighted vertex normals (+Y for a vertex on no triangle)."""
-    v = vertices[faces]
-    face_n = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
-    normals = np.zeros_like(vertices)
-    for k in range(3):
-        np.add.at(normals, faces[:, k], face_n)
-    length = np.linalg.norm(normals, axis=1, keepdims=True)
-    return np.where(length > 1e-20, normals / np.maximum(length, 1e-20), [0.0, 1.0, 0.0])
-
-
 def _continuous_euler_xyz(rotations: np.ndarray) -> np.ndarray:
     """``(T, J, 3)`` FBX ``eEulerXYZ`` angles in degrees (``R = Rz(z) Ry(y) Rx(x)``) of wxyz
     quaternions ``(T, J, 4)``, each frame choosing, of the two equivalent triples and their 360°
@@ -357,7 +347,7 @@ def _add_mesh(scene: _Scene, rig: Rig, joint_ids: list[int]) -> None:
     normals.add("Name", "")
     normals.add("MappingInformationType", "ByVertice")
     normals.add("ReferenceInformationType", "Direct")
-    normals.add("Normals", _vertex_normals(vertices, faces).ravel())
+    normals.add("Normals", vertex_normals(vertices, faces).ravel())
     layer = geo.add("Layer", _i32(0))
     layer.add("Version", _i32(100))
     element = layer.add("LayerElement")

@@ -28,6 +28,7 @@ from matplotlib import colormaps
 from matplotlib.colors import to_rgb
 from PIL import Image
 
+from ..core.mesh import vertex_normals
 from ..core.skeleton import CANONICAL22
 
 #: camera presets: name -> (azimuth from +Z towards +X, elevation), degrees
@@ -286,17 +287,6 @@ class _Geometry:
         return pts, nrm
 
 
-def _vertex_normals(v: np.ndarray, f: np.ndarray) -> np.ndarray:
-    """``(V, 3)`` area-weighted unit vertex normals of mesh ``v (V, 3)``, ``f (F, 3)``."""
-    fn = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
-    n = np.zeros_like(v)
-    for c in range(3):
-        idx = f[:, c]
-        for k in range(3):
-            n[:, k] += np.bincount(idx, fn[:, k], minlength=len(v))
-    return n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
-
-
 def _polydata(points: np.ndarray, faces: np.ndarray):
     import pyvista as pv
 
@@ -483,7 +473,7 @@ class SceneRenderer:
                 it["skel"] = m
             if s.vertices is not None:
                 m = _polydata(s.vertices, s.faces)
-                m.point_data["Normals"] = _vertex_normals(s.vertices, s.faces)
+                m.point_data["Normals"] = vertex_normals(s.vertices, s.faces)
                 m.point_data.active_normals_name = "Normals"
                 op = s.mesh_opacity if s.mesh_opacity is not None else (0.45 if s.positions is not None else 1.0)
                 kw = dict(opacity=op, specular=0.15, smooth_shading=s.smooth_shading, show_scalar_bar=False)
@@ -587,7 +577,7 @@ class SceneRenderer:
                 _set_points(it["skel"], pts, nrm)
                 parts.append(pts)
             if "mesh" in it:
-                nrm = _vertex_normals(s.vertices, s.faces)
+                nrm = vertex_normals(s.vertices, s.faces)
                 _set_points(it["mesh"], s.vertices, nrm)
                 parts.append(s.vertices)
                 if "hl" in it:
