@@ -102,7 +102,12 @@ def _evaluate_contact(args: argparse.Namespace, runs) -> int:
     else:
         from .evaluation.contact import run_contact_evaluation
 
-        tables, missing = run_contact_evaluation(args.out, args.profile or "fast", device=args.device, runs=runs)
+        rows = tuple(args.rows) if args.rows else None
+        profile = args.profile or "fast"
+        command = f"retarget evaluate --table contact --profile {profile} --out {args.out}" + (
+            " --rows " + " ".join(repr(r) for r in rows) if rows else "")
+        tables, missing = run_contact_evaluation(args.out, profile, rows=rows, device=args.device, runs=runs,
+                                                 command=command)
     for name, table in tables.items():
         print(f"{name}:\n{table.filter(like='ours').round(3).to_string()}\n")
     if missing:
@@ -200,6 +205,8 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         raise RetargetInputError("retarget evaluate: give --table tdcn|contact|real, --all or --status")
     if args.data != "mixamo-local" and (args.mixamo or args.methods or args.checkpoint):
         raise RetargetInputError("--mixamo, --methods and --checkpoint need --data mixamo-local")
+    if args.rows and (args.table != "contact" or args.data != "synthetic"):
+        raise RetargetInputError("--rows recomputes rows of the stored contact tables: use it with --table contact")
     if args.table == "contact" and args.checkpoint:
         raise RetargetInputError("--checkpoint adds a TDCN/NKN row: use it with --table tdcn")
     if args.data == "mixamo-local" and args.runs:
@@ -405,6 +412,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "contact: e.g. copy copy-rest 'Ours (residual)')")
     p.add_argument("--checkpoint", action="append", metavar="PATH",
                    help="with --table tdcn --data mixamo-local: also evaluate this TDCN/NKN checkpoint (repeatable)")
+    p.add_argument("--rows", nargs="+", metavar="ROW",
+                   help="with --table contact: recompute only these rows (e.g. TDCN after retraining the default "
+                        "TDCN) and merge them into --out's contact_cases.csv; the provenance says which rows are new")
     p.add_argument("--out", help="output folder")
     p.add_argument("--runs", help="a `retarget sweep` folder: its finished rows replace the shipped checkpoints")
     _device_option(p)

@@ -6,6 +6,7 @@ import pytest
 
 from retarget_lib.core.transfer import retarget_ground_truth
 from retarget_lib.data.manifest import table_checkpoints
+from retarget_lib.data.synthetic.mixamo_convention import generate
 from retarget_lib.evaluation.paper import PAPER_TABLE4, TABLE4_COLUMNS
 from retarget_lib.evaluation.tdcn import (markdown_table, normalized_mse, ordering_checks, paper_comparison,
                                           tdcn_cases, tdcn_table, write_table)
@@ -68,11 +69,18 @@ def test_cli_evaluate_writes_every_table4_row_with_provenance(tmp_path, capsys, 
     every, real = tdcn.tdcn_cases(), tdcn.cmu_cases()[:1]
     monkeypatch.setattr(tdcn, "tdcn_cases", lambda: tdcn.rerun_subset(every))
     monkeypatch.setattr(tdcn, "cmu_cases", lambda: real)
+    # the Mixamo-convention profile: one pair of two of its characters in every scenario, authored
+    # here (the whole profile is built on first use by `make tables`, 3.5 min)
+    two = generate(count=2, clip_ids=[("walk", 8)])
+    walk = two.clips["walk_008"]
+    mc = [tdcn.EvalCase(s, "tp01", "tp02", "walk_008", walk["tp01"], two.characters["tp02"].skeleton, walk["tp02"])
+          for s in (1, 2, 3, 4)]
+    monkeypatch.setattr(tdcn, "mixamo_convention_cases", lambda: mc)
     assert main(["evaluate", "--table", "tdcn", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     assert "no trained checkpoint yet for:" not in out  # every Table 4 row ships a checkpoint
     for name in ("table4.csv", "table4.md", "table4_h2.csv", "table4_cases.csv", "table4_cmu_cases.csv",
-                 "table4_windowed_cases.csv"):
+                 "table4_windowed_cases.csv", "table4_mixamo_convention.md", "table4_mixamo_convention_cases.csv"):
         assert (tmp_path / name).exists()
     t = pd.read_csv(tmp_path / "table4.csv", index_col=0)
     assert set(PAPER_TABLE4) <= set(t.index), set(PAPER_TABLE4) - set(t.index)
@@ -85,6 +93,16 @@ def test_cli_evaluate_writes_every_table4_row_with_provenance(tmp_path, capsys, 
     assert load_result("table4_cmu_cases", results_dir=tmp_path).frame["clip"].nunique() == 1
     windowed = load_result("table4_windowed_cases", results_dir=tmp_path)
     assert list(windowed.provenance["checkpoints"]) == [tdcn.WINDOWED_ROW]
+    mc_stored = load_result("table4_mixamo_convention_cases", rows=tdcn.mixamo_convention_checkpoints(),
+                            results_dir=tmp_path)
+    assert mc_stored.stale == [] and {"copy", "copy-rest", "ours", "ours-residual"} <= set(mc_stored.frame["method"])
+
+
+def test_contact_rows_can_be_recomputed_alone_only_for_the_contact_tables(tmp_path, capsys):
+    from retarget_lib.cli import main
+
+    assert main(["evaluate", "--table", "tdcn", "--rows", "TDCN", "--out", str(tmp_path)]) == 2
+    assert "--rows recomputes rows of the stored contact tables" in capsys.readouterr().err
 
 
 def test_ordering_checks_compare_directions_with_the_paper():

@@ -39,6 +39,7 @@ Interpenetration and the penetration rate are evaluated on every ``eval_every``-
 
 from __future__ import annotations
 
+import json
 import time
 from dataclasses import dataclass
 from functools import lru_cache
@@ -459,6 +460,11 @@ def run_contact_evaluation(out_dir: str | Path, profile: str = "fast", rows: tup
     if rows and (out / "contact_cases.csv").exists():
         old = pd.read_csv(out / "contact_cases.csv")
         per_case = pd.concat([old[~old["method"].isin(per_case["method"].unique())], per_case], ignore_index=True)
+        previous = out / "contact_cases.provenance.json"
+        if previous.exists():  # say which rows are new and where the others come from
+            before = json.loads(previous.read_text())
+            command += (f" [rows {', '.join(sorted(set(methods)))} recomputed; the others kept from commit "
+                        f"{before['commit'][:12]}, {before['date']}]")
     note = (f"Contact-aware retargeting, profile {profile}: source {CONTACT_SOURCE} (unseen), {len(cases)} cases "
             f"(targets {CONTACT_TARGETS}); interpenetration x1000, vertex contact MSE and global position MSE "
             "in cm^2/cm; 'paper' columns: Villegas et al. 2021 (Mixamo). "
