@@ -381,8 +381,10 @@ MIXAMO_CONVENTION_TABLE = "tdcn-mixamo-convention"
 
 def mixamo_convention_checkpoints() -> dict[str, CheckpointEntry]:
     """Row -> checkpoint of the Mixamo-convention Table 4: every checkpoint trained on that
-    profile (``table: tdcn-mixamo-convention`` in the manifest), then the default TDCN (trained
-    on whatever its entry says) under its own row name."""
+    profile (``table: tdcn-mixamo-convention`` in the manifest), then the registry methods' default
+    checkpoints of Table 4 (``--method tdcn``'s residual default, ``--method nkn``'s Baseline;
+    trained on whatever their entries say) under their own row names, where no row of the profile
+    has that name."""
     rows = dict(table_checkpoints(MIXAMO_CONVENTION_TABLE))
     for row, entry in table_checkpoints("tdcn").items():
         if entry.default and row not in rows:
@@ -511,7 +513,8 @@ def run_tdcn_evaluation(out_dir: str | Path, device: str | None = None, runs: Ma
     write_table(mc_table, out_dir, "table4_mixamo_convention",
                 "Normalised MSE (as table4.md) on the Mixamo-convention synthetic profile: every character in "
                 "one T-pose rest, each clip authored on every character (its own version is the ground truth), "
-                "as on Mixamo. Rows trained on this profile, and the default TDCN.")
+                "as on Mixamo. Rows trained on this profile, and the default checkpoints of `--method tdcn` "
+                "(ours-residual) and `--method nkn` (Baseline) as the manifest describes their training.")
     write_result(mc_per_case, out_dir, "table4_mixamo_convention_cases", command=command,
                  checkpoints=mixamo_convention_checkpoints(), profile="fast", seconds=time.perf_counter() - t0)
     return table, missing
