@@ -513,8 +513,7 @@ def run_tdcn_evaluation(out_dir: str | Path, device: str | None = None, runs: Ma
     write_table(mc_table, out_dir, "table4_mixamo_convention",
                 "Normalised MSE (as table4.md) on the Mixamo-convention synthetic profile: every character in "
                 "one T-pose rest, each clip authored on every character (its own version is the ground truth), "
-                "as on Mixamo. Rows trained on this profile, and the default checkpoints of `--method tdcn` "
-                "(ours-residual) and `--method nkn` (Baseline) as the manifest describes their training.")
+                "as on Mixamo. Rows trained on this profile, and the default TDCN.")
     write_result(mc_per_case, out_dir, "table4_mixamo_convention_cases", command=command,
                  checkpoints=mixamo_convention_checkpoints(), profile="fast", seconds=time.perf_counter() - t0)
     return table, missing
