@@ -20,9 +20,10 @@ Measures, per (character, method, clip); lengths as a percentage of the target's
 * ``arm_penetration``: the share of arm vertices inside the rest of the body (mean of both arms,
   :func:`~retarget_lib.geometry.penetration.penetration_rate`, winding numbers on the skinned real
   mesh), every :data:`PENETRATION_EVERY`-th frame.
-* ``hand_gap_pct``: on a clip with labelled hand-hand contacts (clap), the mean distance between
-  the two hand joints in the labelled frames minus that distance on the source (scaled by the
-  height ratio): how far apart hands that touch end up. ``nan`` for clips without labels.
+* ``hand_gap_pct``: on a clip with labelled hand-hand contacts (clap), the mean absolute
+  difference, over the labelled frames, between the distance of the two hand joints and that
+  distance on the source (scaled by the height ratio): how far hands that touch end up from
+  touching as the source's do. ``nan`` for clips without labels.
 * ``jitter_ratio``: mean joint acceleration of the result over the source's, both over ``H``.
 
 Bone lengths are not scored: every method outputs rotations on the target's skeleton, so they
