@@ -13,6 +13,7 @@ from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.data.synthetic.motions import make_motion
 from retarget_lib.geometry.penetration import InterpenetrationEnergy
 from retarget_lib.losses.contact import ContactEnergyWeights
+from retarget_lib.methods import eso as eso_module
 from retarget_lib.methods.eso import (TERMS, encoder_space_optimization, eso_source, eso_throughput,
                                       reachable_pairs, reached_joints)
 from retarget_lib.models.georet import GeometryConditionedRNN, motion_features, pose_outputs
@@ -181,6 +182,24 @@ def test_eso_with_only_eint_lowers_the_penetration(redetect_every):
     assert result.terms["int"][0, -1] < 0.99 * result.terms["int"][0, 0]
     torch.testing.assert_close(result.energies, result.terms["int"] + result.terms["weak"])  # + root term
 
+
+
+def test_eso_skinning_only_the_vertices_it_reads_gives_the_whole_mesh_result(monkeypatch):
+    # each step skins the colliding faces' vertices and their neighbours only; forcing the whole
+    # mesh must give the same optimisation (float32 sums in another order: 1e-5)
+    character = _point_character(n=300)
+    eint = InterpenetrationEnergy(character.faces, character.rest_vertices)
+    model = _model(rotation_std=0.1)
+    feats, source = _rest_source(character.skeleton, 2)
+    only_int = ContactEnergyWeights(lambda_j2j=0.0, beta_int=1.0, gamma_foot=0.0, rho=1.0, omega=0.0, hold=0.0)
+    run = lambda: encoder_space_optimization(model, feats, character, source, np.zeros((2, 4), bool), 1.0,  # noqa: E731
+                                             interpenetration=eint, weights=only_int, iterations=5)
+    subset = run()
+    monkeypatch.setattr(eso_module._Frame, "mesh_vertices", lambda self, redetect_every: True)
+    whole = run()
+    assert subset.colliding_pairs[0] > 100 and subset.terms["int"][0, -1] < subset.terms["int"][0, 0]
+    torch.testing.assert_close(subset.energies, whole.energies, rtol=1e-5, atol=1e-6)
+    torch.testing.assert_close(subset.rotations, whole.rotations, rtol=1e-5, atol=1e-6)
 
 def test_reachable_pairs_and_reached_joints_by_hand():
     verts = torch.tensor([[0.0, 0, 0], [0.1, 0, 0], [0.0, 0.5, 0], [0.3, 0, 0]])

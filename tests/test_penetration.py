@@ -9,9 +9,10 @@ import torch
 import trimesh
 
 from retarget_lib.core.skeleton import J
+from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.geometry.collision import (TriangleBVH, brute_force_candidate_pairs,
                                              colliding_triangle_pairs, triangles_intersect)
-from retarget_lib.geometry.penetration import (InterpenetrationEnergy, cap_holes, circumcircle,
+from retarget_lib.geometry.penetration import (GeodesicDistances, InterpenetrationEnergy, cap_holes, circumcircle,
                                                cone_distance_field, geodesic_distances, geodesic_pair_weights,
                                                interpenetration_energy, interpenetration_score,
                                                penetration_rate, ray_winding_numbers, vertex_normals)
@@ -168,6 +169,29 @@ def test_geodesic_pair_weights_eq5():
     np.testing.assert_allclose(geodesic_pair_weights([[0, 2]], f, d, eta=2.0), [0.5])
 
 
+
+def test_geodesic_distances_on_demand_match_the_table():
+    # the strip: eta = D(v4, v3) = 4 on the big piece (the lone triangle's diameter is 1.41)
+    v, f = strip()
+    lazy = GeodesicDistances(v, f)
+    assert lazy.eta == pytest.approx(4.0) and lazy.cached_bytes == 0
+    np.testing.assert_allclose(geodesic_pair_weights([[0, 2], [2, 3], [0, 6]], f, lazy), [0.25, 0.5, 1.0])
+    assert lazy.cached_bytes == 2 * 4 * len(v)  # faces 0 and 2 searched once each, 4 bytes a vertex
+
+
+def test_geodesic_eta_is_the_exact_diameter_on_a_body():
+    # the eccentricity bounds give the all-pairs maximum (farthest-point sweeps alone fall short by
+    # 0.3-1% on these bodies); weights agree to float32 rounding of the table (1e-7 relative)
+    for name in ("ada", "bram"):
+        c = make_character(name)
+        table, lazy = geodesic_distances(c.rest_vertices, c.faces), GeodesicDistances(c.rest_vertices, c.faces)
+        assert lazy.eta == pytest.approx(float(table[np.isfinite(table)].max()), rel=1e-6)
+        pairs = np.random.default_rng(0).integers(0, len(c.faces), (200, 2))
+        np.testing.assert_allclose(geodesic_pair_weights(pairs, c.faces, lazy),
+                                   geodesic_pair_weights(pairs, c.faces, table), rtol=1e-6, atol=1e-7)
+    with pytest.raises(ValueError, match="other faces"):
+        geodesic_pair_weights([[0, 1]], c.faces[:-1], lazy)
+
 # ----------------------------------------------------------------------------- energy
 def boxes(depth):
     """A 1 m box (subdivided to 0.125 m triangles) and a 0.2 m box pushed ``depth`` into its +x face."""
@@ -195,6 +219,22 @@ def test_box_pushed_in_energy_grows_with_depth_and_gradient_pushes_it_out():
     assert float(energy(verts.detach() + step)) < float(e0.detach())
     assert step[n_big:, 0].mean() > 0                       # out of the big box, along +x
 
+
+
+def test_eint_reads_only_its_support():
+    # ESO skins only support(pairs): Eq. 4 on a mesh where every other vertex is zeroed is unchanged,
+    # and the support holds more than the pairs' corners (their normals need the faces around them)
+    v, f = boxes(0.05)
+    energy = InterpenetrationEnergy(f, v)
+    pairs = energy.pairs(v)
+    support = energy.support(pairs)
+    assert len(support) > len(np.unique(f[pairs]))
+    masked = torch.zeros(len(v), 3, dtype=torch.float64)
+    masked[support] = torch.tensor(v[support])
+    whole = energy.energy_of_pairs(torch.tensor(v)[None], [pairs])
+    assert float(whole) > 0
+    torch.testing.assert_close(energy.energy_of_pairs(masked[None], [pairs]), whole)
+    assert len(energy.support(np.zeros((0, 2), np.int64))) == 0
 
 def test_energy_class_matches_function_and_batches():
     v, f = boxes(0.05)
