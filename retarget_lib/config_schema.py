@@ -105,8 +105,9 @@ def _table4_rows():
 DATA_SOURCES = ("synthetic", "mixamo-convention", "synthetic+mixamo-convention", "mixamo-local",
                 "mixamo-local+synthetic")
 
-#: ``data.source`` values of the contact-aware method (the Mixamo-convention profile is TDCN's so far)
-CONTACT_DATA_SOURCES = ("synthetic", "mixamo-local", "mixamo-local+synthetic")
+#: ``data.source`` values of the contact-aware method (no Mixamo-local-only mix with the Mixamo-convention profile)
+CONTACT_DATA_SOURCES = ("synthetic", "mixamo-local", "mixamo-local+synthetic", "mixamo-convention",
+                        "synthetic+mixamo-convention")
 
 
 def _data_sources():

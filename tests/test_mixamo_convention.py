@@ -1,10 +1,12 @@
 """The Mixamo-convention synthetic profile (retarget_lib/data/synthetic/mixamo_convention.py)."""
 
 import csv
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
+from retarget_lib.config import load_config
 from retarget_lib.core.skeleton import canonical22_skeleton
 from retarget_lib.data.sources.real_characters import REAL_DIR, skeleton_proportions
 from retarget_lib.data.synthetic.characters import _scale, _unscaled_offsets
@@ -12,7 +14,9 @@ from retarget_lib.data.synthetic.mixamo_convention import (N_CHARACTERS, RANGE_M
                                                            generate,
                                                            mixamo_convention_names, mixamo_convention_spec,
                                                            mixamo_convention_split)
+from retarget_lib.data.splits import MotionId
 from retarget_lib.methods.copy import copy_rotations
+from retarget_lib.training import contact as contact_training
 
 
 def test_the_ranges_are_those_measured_on_the_real_rigs():
@@ -59,3 +63,24 @@ def test_each_character_performs_its_own_version_of_a_clip():
     walk = data.clips["walk_000"]["tp02"]
     feet = walk.global_positions()[:, [b.skeleton.index("LeftToeBase"), b.skeleton.index("RightToeBase")], 1]
     assert feet.min() > -0.01  # planted on its own floor (1 cm: the toe joint's rest height above the sole)
+
+
+def test_contact_training_takes_the_profile_on_its_own_bodies(monkeypatch, tmp_path):
+    # a two-character, two-clip profile in place of the cached one: each train clip is performed by
+    # one train character in turn on its own body, seeds from held_out_seed on are left out, and
+    # the targets are the split's train characters
+    monkeypatch.setenv("RETARGET_CACHE", str(tmp_path / "cache"))
+    tiny = generate(2, [("walk", 0), ("walk", 9)])
+    names = tuple(tiny.characters)
+    split = SimpleNamespace(train_characters=names,
+                            train_motions=(MotionId("walk", 0), MotionId("walk", 9)))
+    monkeypatch.setattr(contact_training, "load_mixamo_convention", lambda: tiny)
+    monkeypatch.setattr(contact_training, "mixamo_convention_split", lambda: split)
+    monkeypatch.setattr(contact_training, "mixamo_convention_path", lambda: tmp_path / "mc.npz")
+    monkeypatch.setattr(contact_training, "fingerprint_of", lambda path: "0" * 64)
+    config = load_config("configs/contact_residual_mixed.yaml", ["data.source=mixamo-convention"])
+    assert config["data"]["held_out_seed"] == 8
+    clips, targets = contact_training.training_clips(config)
+    assert sorted(targets) == sorted(names)
+    assert [(c.name, c.character.name) for c in clips] == [("walk_000", names[0])]
+    assert clips[0].motion is tiny.clips["walk_000"][names[0]]

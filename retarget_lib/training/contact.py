@@ -23,7 +23,8 @@ and hand contacts are detected once per clip and cached (``.cache/contact_traini
 With ``data.source: mixamo-local`` the sources and targets come from a reviewer's Mixamo folder
 instead (:func:`~retarget_lib.data.mixamo_splits.mixamo_contact_training_set`: the training
 characters' own meshes and clips, the appendix's test motions and Y Bot held out);
-``mixamo-local+synthetic`` uses both.
+``mixamo-local+synthetic`` uses both. ``mixamo-convention`` trains on the T-pose characters
+proportioned like the real rigs (:func:`training_clips`), alone or ``synthetic+mixamo-convention``.
 
 **Epochs.** The paper trains 10 epochs with a learning-rate decay of 0.95 per epoch; here an
 "epoch" is ``train.steps / train.epochs`` steps, so the decay and the Efoot ramp follow the same
@@ -45,6 +46,8 @@ from ..data.checkpoints import save_state
 from ..data.manifest import mixamo_local_dir
 from ..data.mixamo_splits import mixamo_contact_training_set
 from ..data.synthetic.dataset import dataset_path, fingerprint_of, load_synthetic
+from ..data.synthetic.mixamo_convention import data_path as mixamo_convention_path
+from ..data.synthetic.mixamo_convention import load_mixamo_convention, mixamo_convention_split
 from ..geometry.contacts import vertex_correspondence
 from ..geometry.penetration import InterpenetrationEnergy
 from ..losses.contact import ContactEnergyWeights, foot_contact_energy, self_contact_energy, skeleton_energy
@@ -67,20 +70,24 @@ def training_clips(config: dict) -> tuple[list[ContactClip], dict[str, Character
     """The training sources and targets of ``config["data"]`` (see the module docstring).
 
     ``data.source``: ``synthetic`` (default), ``mixamo-local`` (the reviewer's folder,
-    :func:`~retarget_lib.data.mixamo_splits.mixamo_contact_training_set`) or both
-    (``mixamo-local+synthetic``).
+    :func:`~retarget_lib.data.mixamo_splits.mixamo_contact_training_set`), ``mixamo-convention``
+    (the T-pose characters of :mod:`~retarget_lib.data.synthetic.mixamo_convention`, proportioned like
+    the real rigs: the train characters of its split, each train clip performed by one of them in turn,
+    on its own body) or a ``+``-joined pair of them.
 
     Returns:
-        ``(clips, targets)``: clips performed by the training characters (synthetic: seeds below
-        ``held_out_seed``), and the training characters by name.
+        ``(clips, targets)``: clips performed by the training characters (synthetic clips: seeds
+        below ``held_out_seed``, the contact test protocol's seeds being the same motions on every
+        profile), and the training characters by name.
     """
     data = config["data"]
-    source = data.get("source", "synthetic")
+    parts = set(data.get("source", "synthetic").split("+"))
+    held_out = int(data["held_out_seed"])
     clips, targets = [], {}
-    if source != "synthetic":
+    if "mixamo-local" in parts:
         targets, mixamo = mixamo_contact_training_set(mixamo_local_dir())
         clips = [contact_clip(motion, targets[name], key) for name, key, motion in mixamo]
-    if source != "mixamo-local":
+    if "synthetic" in parts:
         ds = load_synthetic()
         names = list(data["train_characters"])
         unknown = [n for n in names if n not in ds.characters]
@@ -88,8 +95,17 @@ def training_clips(config: dict) -> tuple[list[ContactClip], dict[str, Character
             raise ValueError(f"data.train_characters: unknown characters {unknown}; known: {sorted(ds.characters)}")
         key = fingerprint_of(dataset_path())[:12]
         clips += [contact_clip(c.motion, ds.characters[c.performer], f"{key}_{c.name}")
-                  for c in ds.clips if c.performer in names and int(c.name.rsplit("_", 1)[1]) < int(data["held_out_seed"])]
+                  for c in ds.clips if c.performer in names and int(c.name.rsplit("_", 1)[1]) < held_out]
         targets.update({n: ds.characters[n] for n in names})
+    if "mixamo-convention" in parts:
+        mc, split = load_mixamo_convention(), mixamo_convention_split()
+        key = "mc" + fingerprint_of(mixamo_convention_path())[:12]
+        motions = [m for m in split.train_motions if m.seed < held_out]
+        for k, m in enumerate(motions):
+            performer = split.train_characters[k % len(split.train_characters)]
+            name = f"{m.family}_{m.seed:03d}"
+            clips.append(contact_clip(mc.clips[name][performer], mc.characters[performer], f"{key}_{performer}_{name}"))
+        targets.update({n: mc.characters[n] for n in split.train_characters})
     if not clips:
         raise ValueError("no training clip: no clip of the training characters below data.held_out_seed")
     return clips, targets
