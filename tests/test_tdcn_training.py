@@ -31,7 +31,9 @@ ROWS = {"tdcn_baseline": "Baseline", "tdcn_baseline_dense": "Baseline-dense",
         "tdcn_a4_disc81": "A4", "tdcn_a5_causal": "A5", "tdcn_ours_residual": "ours-residual"}
 #: configs that train a row's model another way (loss scale, data profile): stem -> the row's model
 VARIANTS = {"tdcn_paper_code_scale": "ours", "tdcn_ours_mixamo_convention": "ours",
-            "tdcn_ours_residual_mixed": "ours-residual"}
+            "tdcn_ours_residual_mixed": "ours-residual",
+            **{f"{stem}_mixamo_convention": row for stem, row in ROWS.items()
+               if stem not in ("tdcn_paper", "tdcn_ours_residual")}}
 # train.compile=false: these tiny runs test the training mechanics; the compiled GRU decoder is tested
 # against the eager one in test_models.py (compiling it costs ~1 min of CPU per config)
 TINY = ["model.channels=16", "model.disc_channels=16", "train.batch=4", "train.compile=false"]
@@ -73,6 +75,12 @@ def test_paper_settings_and_every_table4_row_config():
         assert run.generator.config["row"] == row
         assert run.gan == ("sigmoid_ce" if kind == "nkn" else "lsgan")
     assert config("tdcn_a3_no_height")["loss"]["lambda_h"] == 0
+    for stem in (s for s in VARIANTS if s.endswith("_mixamo_convention")):  # each row as the papers train it
+        mc, own = config(stem), config(stem.removesuffix("_mixamo_convention").replace("tdcn_ours", "tdcn_paper"))
+        assert mc["data"].pop("source") == "mixamo-convention" and own["data"].pop("source") == "synthetic"
+        assert (mc["loss"].pop("reduction"), mc["loss"].pop("standardize")) == ("frame_sum", True)
+        assert (mc["data"], mc["loss"], mc["model"]) == (own["data"], {k: v for k, v in own["loss"].items()
+                                                         if k not in ("reduction", "standardize")}, own["model"])
     assert config("tdcn_a2_unbalanced")["data"]["scale_range"] is None
     assert RetargetTraining(config("tdcn_a4_disc81")).discriminator.receptive_field == 81
 
