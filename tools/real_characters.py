@@ -588,12 +588,17 @@ def bcn_epileptic(src: Path) -> Doc:
 def mrfixit(src: Path) -> Doc:
     """Sauerbraten's Mr. Fixit (IQM): unitless, scaled by 0.24 (about 1.8 m tall: an assumption);
     the two IK pole joints (``ElbowRot.L/R``, roots of their own, no skin weight) are hung under
-    ``Root``; the rig has two spine joints and no clavicles, so ``Spine1_inserted`` (midway between
-    ``Spine1`` and ``Spine2``) and ``Clavicle.L/R_inserted`` (midway between ``Spine2`` and each
-    upper arm) are inserted without weights."""
+    ``Root``; the hands and fingers are skinned to the IK goals ``HandGoal.L/R``, which hang from the
+    chest (``ArmIK.L/R`` under ``Spine1``), not to the unweighted ``Hand.L/R`` under the forearms:
+    each goal is re-parented under its ``LowerArm`` (the map names it the hand), so the hand follows
+    the arm instead of the chest. The rig has two spine joints and no clavicles, so ``Spine1_inserted``
+    (midway between ``Spine1`` and ``Spine2``) and ``Clavicle.L/R_inserted`` (midway between ``Spine2``
+    and each upper arm) are inserted without weights."""
     doc = read_iqm(src, scale=0.24)
     doc.reparent("ElbowRot.L", "Root")
     doc.reparent("ElbowRot.R", "Root")
+    doc.reparent("HandGoal.L", "LowerArm.L")
+    doc.reparent("HandGoal.R", "LowerArm.R")
     doc.insert_joint("Spine1_inserted", "Spine1", ["Spine2"], at=_midpoint(doc, "Spine1", "Spine2"))
     for side in "LR":
         doc.insert_joint(f"Clavicle.{side}_inserted", "Spine2", [f"UpperArm.{side}"],
