@@ -55,7 +55,7 @@ from ..data.sources.real_characters import load_real_character, real_character_n
 from ..data.synthetic.dataset import load_synthetic
 from ..files import atomic_write
 from ..geometry.contacts import authored_contact_frames
-from ..geometry.penetration import limb_vertices_inside, penetration_rate
+from ..geometry.penetration import DEFAULT_LIMBS, limb_vertices_inside, penetration_rate
 from ..methods.registry import get_method
 from ..methods.retarget import on_the_ground
 from .results import StoredResult, load_result, write_result
@@ -79,7 +79,7 @@ CLIP_FRAMES = 60
 #: penetration is measured on every n-th frame (winding numbers on a real mesh cost ~0.1 s a frame)
 PENETRATION_EVERY = 10
 #: the arms of :data:`~retarget_lib.geometry.penetration.DEFAULT_LIMBS`
-ARMS = {"left_arm": ("LeftArm", "LeftForeArm", "LeftHand"), "right_arm": ("RightArm", "RightForeArm", "RightHand")}
+ARMS = {limb: DEFAULT_LIMBS[limb] for limb in ("left_arm", "right_arm")}
 
 
 @dataclass
