@@ -4,6 +4,9 @@ Every GLB written here is checked by the Khronos glTF validator (0 errors); the 
 it skip, naming the reason, only when Node or the npm package is missing.
 """
 
+import json
+import struct
+
 import numpy as np
 import pygltflib
 import pytest
@@ -14,7 +17,7 @@ from hypothesis import strategies as st
 from retarget_lib.core.motion import Motion
 from retarget_lib.core.rig import Rig
 from retarget_lib.core.rotations import matrix_to_quat, quat_from_euler, quat_to_matrix
-from retarget_lib.core.skeleton import CANONICAL22, JointSetError, Skeleton
+from retarget_lib.core.skeleton import CANONICAL22, J, JointSetError, Skeleton
 from retarget_lib.data.sources.mannequin import load_mannequin
 from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.errors import GLTFError, RetargetInputError
@@ -333,3 +336,75 @@ def test_key_rate_of_baked_keys():
     assert key_rate([np.array([0.0, 1.0])]) is None                  # two keys: no grid
     assert key_rate([np.array([0.0, 0.1, 0.25, 0.3])]) is None        # keys off any one grid
     assert key_rate([frames * 33.3]) is None                         # 0.03 fps: not a frame rate
+
+
+def _with_prop_armature(src, dst, at, joints=1):
+    """``src`` plus a prop rigged to its own armature (as Blender exports a hat): a chain of
+    ``joints`` nodes at the scene root starting at ``at``, its own skin, and a triangle skinned to
+    the chain's first joint."""
+    data = src.read_bytes()
+    json_len = struct.unpack_from("<I", data, 12)[0]
+    gltf = json.loads(data[20:20 + json_len])
+    binary = bytearray(data[20 + json_len + 8:])
+
+    def add(array, target=None):
+        while len(binary) % 4:
+            binary.append(0)
+        view = {"buffer": 0, "byteOffset": len(binary), "byteLength": array.nbytes}
+        binary.extend(array.tobytes())
+        gltf["bufferViews"].append(view)
+        return len(gltf["bufferViews"]) - 1
+
+    def accessor(array, kind, component, **extra):
+        gltf["accessors"].append({"bufferView": add(array), "componentType": component, "count": len(array),
+                                  "type": kind, **extra})
+        return len(gltf["accessors"]) - 1
+
+    tri = np.array([[0.0, 0.0, 0.0], [0.1, 0.0, 0.0], [0.0, 0.05, 0.1]], np.float32)
+    position = accessor(tri, "VEC3", 5126, min=tri.min(0).tolist(), max=tri.max(0).tolist())
+    joint_ids = accessor(np.zeros((3, 4), np.uint8), "VEC4", 5121)
+    weights = accessor(np.tile(np.array([1, 0, 0, 0], np.float32), (3, 1)), "VEC4", 5126)
+    indices = accessor(np.array([0, 1, 2], np.uint16), "SCALAR", 5123)
+    gltf["meshes"].append({"primitives": [{"attributes": {"POSITION": position, "JOINTS_0": joint_ids,
+                                                          "WEIGHTS_0": weights}, "indices": indices}]})
+    first = len(gltf["nodes"])
+    chain = [{"name": f"PropBone{k}", "translation": list(map(float, at)) if k == 0 else [0.0, 0.05, 0.0]}
+             for k in range(joints)]
+    for k in range(joints - 1):
+        chain[k]["children"] = [first + k + 1]
+    gltf["nodes"] += chain + [{"name": "Prop", "mesh": len(gltf["meshes"]) - 1, "skin": len(gltf["skins"])}]
+    gltf["skins"].append({"joints": list(range(first, first + joints))})
+    gltf["scenes"][gltf.get("scene", 0)]["nodes"] += [first, first + joints]
+    gltf["buffers"][0]["byteLength"] = len(binary)
+    text = json.dumps(gltf).encode()
+    text += b" " * (-len(text) % 4)
+    while len(binary) % 4:
+        binary.append(0)
+    out = struct.pack("<III", 0x46546C67, 2, 12 + 8 + len(text) + 8 + len(binary))
+    out += struct.pack("<II", len(text), 0x4E4F534A) + text + struct.pack("<II", len(binary), 0x004E4942) + binary
+    dst.write_bytes(out)
+
+
+def test_a_prop_on_its_own_armature_hangs_under_the_nearest_joint(tmp_path):
+    # a hat rigged to a second armature (two joint trees) is read as part of the character: its
+    # bone's parent is the joint nearest to it (the head), nothing moves, and the hat's vertices
+    # follow the head; a second tree as large as the skeleton is another character and is refused
+    character = make_character("hana")
+    src = tmp_path / "hana.glb"
+    save_glb(Rig.from_character(character), src)
+    head = character.skeleton.rest_positions()[J["Head"]] + [0.0, 0.12, 0.0]
+    hat = tmp_path / "hat.glb"
+    _with_prop_armature(src, hat, head)
+    assert_valid(hat)
+    rig = load_gltf_rig(hat)
+    names = rig.skeleton.joint_names
+    assert names[rig.skeleton.parents[names.index("PropBone0")]] == "Head"
+    np.testing.assert_allclose(rig.skeleton.rest_positions()[names.index("PropBone0")], head, atol=F32_POS)
+    body = rig.character()
+    assert body.num_vertices == character.num_vertices + 3
+    np.testing.assert_allclose(body.rest_vertices[-3:] - head, [[0, 0, 0], [0.1, 0, 0], [0, 0.05, 0.1]], atol=F32_POS)
+    np.testing.assert_allclose(body.weights[-3:, J["Head"]], 1.0)
+    twin = tmp_path / "twin.glb"
+    _with_prop_armature(src, twin, head, joints=len(CANONICAL22))
+    with pytest.raises(GLTFError, match=r"twin.glb: the skin's joints form 2 trees .* a character needs one skeleton"):
+        load_gltf_rig(twin)

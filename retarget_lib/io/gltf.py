@@ -10,7 +10,8 @@ conventions are the library's: metres, +Y up, the asset facing +Z, quaternions s
 What is read (:func:`load_gltf_rig`):
 
 * **Skeleton** = the union of the joints of every skin used by a mesh node, as one tree (the
-  nearest joint ancestor of a joint is its parent; exactly one root). Rest pose = the nodes' own
+  nearest joint ancestor of a joint is its parent; one root: a second, smaller tree, a prop rigged
+  to its own armature, is hung under the skeleton's nearest joint, :func:`_hang_small_trees`). Rest pose = the nodes' own
   transforms (the file as it shows without animation), including any non-joint ancestors such as
   an ``Armature`` node with a 0.01 scale: rest joint positions are world positions. Joints
   themselves must not scale (scale 1 within 1e-3, else :class:`~retarget_lib.errors.GLTFError`).
@@ -480,9 +481,8 @@ def _tree_of(doc: GLTFDocument, joint_set: set[int], order_hint: list[int], what
         p = node_parent[n]
         joint_parent[n] = -1 if p < 0 else (p if p in joint_set else joint_parent[p])
     roots = sorted(j for j in joint_set if joint_parent[j] < 0)
-    if len(roots) != 1:
-        names = [g.nodes[r].name or f"node{r}" for r in roots]
-        raise doc.error(f"{what} form {len(roots)} trees (roots {names}); a character needs one skeleton")
+    if len(roots) > 1:
+        roots = _hang_small_trees(doc, joint_set, joint_parent, node_parent, roots, what)
     # parents first, otherwise in the hint's order (the skins' joint order: a file's own order survives a round trip)
     rank = {j: k for k, j in enumerate(order_hint)}
     kids: dict[int, list[int]] = {}
@@ -504,6 +504,42 @@ def _tree_of(doc: GLTFDocument, joint_set: set[int], order_hint: list[int], what
         names.append(name)
         seen.add(name)
     return _Skeleton(order, parents, names, node_parent)
+
+
+#: a second joint tree smaller than this fraction of the largest is a prop's armature (a hat, a
+#: weapon) and is hung under the skeleton; a larger one is another character
+PROP_TREE_FRACTION = 0.5
+
+
+def _hang_small_trees(doc: GLTFDocument, joint_set: set[int], joint_parent: list[int], node_parent: list[int],
+                      roots: list[int], what: str) -> list[int]:
+    """Make one tree of several: the largest is the skeleton, and the root of every tree with fewer
+    than :data:`PROP_TREE_FRACTION` of its joints (a prop's own armature, as Blender exports a hat
+    rigged to a second armature) is given as parent the skeleton's joint nearest to it in the rest
+    pose (world positions; nothing moves). Refused when another tree is as large: two characters.
+    Edits ``joint_parent`` in place; returns ``[root]``."""
+    g = doc.gltf
+    tree = {}
+    for j in joint_set:  # the root of each joint's tree
+        k = j
+        while joint_parent[k] >= 0:
+            k = joint_parent[k]
+        tree[j] = k
+    size = {r: sum(1 for j in joint_set if tree[j] == r) for r in roots}
+    main = max(roots, key=lambda r: (size[r], -r))
+    large = [r for r in roots if r != main and size[r] >= PROP_TREE_FRACTION * size[main]]
+    if large:
+        names = [g.nodes[r].name or f"node{r}" for r in roots]
+        raise doc.error(f"{what} form {len(roots)} trees (roots {names}) of {sorted(size.values(), reverse=True)} "
+                        "joints; a character needs one skeleton (a tree under half the largest's size is taken "
+                        "as a prop's armature and hung under the nearest joint)")
+    world = _world(node_parent, {n: _local_matrix(g.nodes[n]) for n in range(len(g.nodes))}, sorted(joint_set))
+    skeleton = sorted(j for j in joint_set if tree[j] == main)
+    at = np.array([world[j][:3, 3] for j in skeleton])
+    for r in roots:
+        if r != main:
+            joint_parent[r] = skeleton[int(np.argmin(np.linalg.norm(at - world[r][:3, 3], axis=1)))]
+    return [main]
 
 
 def _rotation_part(m: np.ndarray, doc: GLTFDocument, what: str) -> np.ndarray:
