@@ -408,3 +408,38 @@ def test_a_prop_on_its_own_armature_hangs_under_the_nearest_joint(tmp_path):
     _with_prop_armature(src, twin, head, joints=len(CANONICAL22))
     with pytest.raises(GLTFError, match=r"twin.glb: the skin's joints form 2 trees .* a character needs one skeleton"):
         load_gltf_rig(twin)
+
+
+def test_a_biped_style_clip_without_a_skin(tmp_path):
+    """3ds Max's Biped exported without a skin (assimp's ASE motion capture): every bone carries a
+    box mesh and no skin, one inner bone (the neck) has no channel of its own, an end site is
+    mirrored (scale -1), and a prop mesh hangs unanimated from a hand. The bones are the joints,
+    the mirrored end site is kept, the prop is not a joint, and the motion is the file's."""
+    rig = Rig.from_character(make_character("hana"))
+    motion = random_motion(rig.skeleton, frames=8)
+    skinned, path = tmp_path / "skinned.glb", tmp_path / "biped.glb"
+    save_glb(rig, skinned, motion)
+    gltf = pygltflib.GLTF2().load(str(skinned))
+    body = next(n for n, node in enumerate(gltf.nodes) if node.mesh is not None)
+    box = gltf.nodes[body].mesh
+    gltf.scenes[0].nodes = [n for n in gltf.scenes[0].nodes if n != body]
+    gltf.nodes[body].mesh = gltf.nodes[body].skin = None
+    gltf.skins = []
+    names = [node.name for node in gltf.nodes]
+    for name in CANONICAL22:
+        gltf.nodes[names.index(name)].mesh = box  # each bone drawn as a mesh
+    neck = names.index("Neck")
+    anim = gltf.animations[0]
+    anim.channels = [c for c in anim.channels if c.target.node != neck]  # the neck is never keyed
+    hand = names.index("LeftHand")
+    gltf.nodes.append(pygltflib.Node(name="LeftHandNub", translation=[0.0, 0.05, 0.0], scale=[-1.0, -1.0, -1.0]))
+    gltf.nodes.append(pygltflib.Node(name="Sword", mesh=box, translation=[0.0, 0.1, 0.0]))
+    gltf.nodes[hand].children = list(gltf.nodes[hand].children or []) + [len(gltf.nodes) - 2, len(gltf.nodes) - 1]
+    gltf.save(str(path))
+    read, joint_map = load_gltf_animation(path)
+    assert set(read.skeleton.joint_names) == set(CANONICAL22) | {"LeftHandNub"}
+    assert joint_map == {read.skeleton.joint_names.index(n): c for c, n in enumerate(CANONICAL22)}
+    still = motion.copy()
+    still.rotations[:, J["Neck"]] = [1.0, 0.0, 0.0, 0.0]  # unkeyed: its rest rotation throughout
+    got = read.global_positions()[:, [read.skeleton.joint_names.index(n) for n in CANONICAL22]]
+    np.testing.assert_allclose(got, still.global_positions(), atol=F32_FK)

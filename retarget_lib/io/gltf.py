@@ -451,7 +451,8 @@ def _joint_tree(doc: GLTFDocument, skinned: list[int]) -> _Skeleton:
 def _animated_tree(doc: GLTFDocument, animation: int) -> _Skeleton:
     """The joint tree of a file without a skin (an armature and its animation, e.g. a Mixamo clip
     downloaded "Without Skin"): every node an animation channel of ``animation`` moves, and every
-    node below one, except mesh nodes and assimp's FBX pivot helpers (``..._$AssimpFbx$_...``),
+    node below one (bones drawn as meshes, as 3ds Max's Biped exports them, included), except
+    unanimated mesh leaves there (props) and assimp's FBX pivot helpers (``..._$AssimpFbx$_...``),
     which stay non-joint ancestors (their transforms are still applied)."""
     g = doc.gltf
     if not 0 <= animation < len(g.animations):
@@ -463,8 +464,8 @@ def _animated_tree(doc: GLTFDocument, animation: int) -> _Skeleton:
     below = [False] * len(g.nodes)  # the node or an ancestor is animated
     for n in _parents_first(node_parent):
         below[n] = n in animated or (node_parent[n] >= 0 and below[node_parent[n]])
-    joint_set = {n for n in range(len(g.nodes))
-                 if below[n] and g.nodes[n].mesh is None and _ASSIMP_HELPER not in (g.nodes[n].name or "")}
+    joint_set = {n for n in range(len(g.nodes)) if below[n] and _ASSIMP_HELPER not in (g.nodes[n].name or "")
+                 and (g.nodes[n].mesh is None or n in animated or g.nodes[n].children)}
     if not joint_set:
         raise doc.error(f"has no skin and animation {animation} moves no node; it is not a character's motion")
     return _tree_of(doc, joint_set, sorted(joint_set), f"the joints animation {animation} moves")
@@ -669,13 +670,21 @@ def _vrm_mapping(doc: GLTFDocument, tree: _Skeleton) -> dict[str, str]:
             if b and joint_key(b) in canon and n in name_of}
 
 
-def _armature(doc: GLTFDocument, tree: _Skeleton, mapping) -> tuple[Skeleton, dict[int, int], str, np.ndarray, dict]:
+def _armature(doc: GLTFDocument, tree: _Skeleton, mapping, skinless: bool = False,
+              ) -> tuple[Skeleton, dict[int, int], str, np.ndarray, dict]:
     """The rest skeleton of ``tree``, its map onto the canonical 22 (and the rig naming that
-    matched), the ``(J, 3, 3)`` rest world rotations of the joints and the rest world transforms."""
+    matched), the ``(J, 3, 3)`` rest world rotations of the joints and the rest world transforms.
+
+    Joints below the root must not scale (a rotation cannot carry it), except, in a ``skinless``
+    file, a leaf: an end site's scale moves nothing (3ds Max's Biped writes some nubs mirrored,
+    scale -1)."""
     g = doc.gltf
     local = {n: _local_matrix(g.nodes[n]) for n in _with_ancestors(tree.nodes, tree.node_parent)}
     world = _world(tree.node_parent, _framed(local, tree.node_parent, doc.frame, doc.lift), tree.nodes)
-    for n in tree.nodes[1:]:
+    has_child = set(tree.parents)
+    for k, n in enumerate(tree.nodes[1:], start=1):
+        if skinless and k not in has_child:
+            continue
         _rotation_part(local[n], doc, f"joint {g.nodes[n].name or n}")
         if abs(np.cbrt(np.linalg.det(local[n][:3, :3])) - 1.0) > _SCALE_TOL:
             raise doc.error(f"joint {g.nodes[n].name or n} is scaled; joints below the root must have scale 1")
@@ -695,7 +704,7 @@ def _armature(doc: GLTFDocument, tree: _Skeleton, mapping) -> tuple[Skeleton, di
     turn = _upright(rest, joint_map)
     if not np.array_equal(turn, np.eye(3)):  # once: read again in the library's axes
         doc.frame = turn @ doc.frame
-        return _armature(doc, tree, mapping)
+        return _armature(doc, tree, mapping, skinless)
     return skeleton, joint_map, rig_name, rest_rot, world
 
 
@@ -800,7 +809,7 @@ def animation_from(doc: GLTFDocument, fps: float | None = None, animation: int =
     g = doc.gltf
     skinned = [n for n, node in enumerate(g.nodes) if node.mesh is not None and node.skin is not None]
     tree = _joint_tree(doc, _skinned_nodes(doc)) if skinned else _animated_tree(doc, animation)
-    skeleton, joint_map, _, rest_rot, _ = _armature(doc, tree, mapping)
+    skeleton, joint_map, _, rest_rot, _ = _armature(doc, tree, mapping, skinless=not skinned)
     return _sample_motion(doc, tree, skeleton, rest_rot, fps, animation), joint_map
 
 
