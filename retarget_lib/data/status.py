@@ -22,7 +22,7 @@ from .sources.cmu import cmu_clip_path
 from .sources.model_viewer import SOURCE_ID as MODEL_VIEWER
 from .sources.model_viewer import model_viewer_path
 from .sources.mixamo_local import read_splits_file, scan_mixamo_folder
-from .sources import real_characters
+from .sources import real_characters, real_motions
 from .synthetic.dataset import dataset_path, fingerprint_of
 
 
@@ -76,6 +76,12 @@ def _check_real_characters() -> SourceStatus:
     src = source(real_characters.SOURCE_ID)
     ok, detail = real_characters.check()
     return SourceStatus(real_characters.SOURCE_ID, src["kind"], ok or "missing" not in detail, ok, detail)
+
+
+def _check_real_motions() -> SourceStatus:
+    src = source(real_motions.SOURCE_ID)
+    ok, detail = real_motions.check()
+    return SourceStatus(real_motions.SOURCE_ID, src["kind"], ok or "missing" not in detail, ok, detail)
 
 
 def _check_model_viewer() -> SourceStatus:
@@ -156,6 +162,7 @@ _CHECKS = {
     MODEL_VIEWER: _check_model_viewer,
     "mixamo-local": _check_mixamo_local,
     real_characters.SOURCE_ID: _check_real_characters,
+    real_motions.SOURCE_ID: _check_real_motions,
 }
 
 

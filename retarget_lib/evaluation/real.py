@@ -52,6 +52,7 @@ from ..data.manifest import (
 )
 from ..data.sources.cmu import load_cmu_clip
 from ..data.sources.real_characters import load_real_character, real_character_names
+from ..data.sources.real_motions import load_real_motion
 from ..data.synthetic.dataset import load_synthetic
 from ..files import atomic_write
 from ..geometry.contacts import authored_contact_frames
@@ -99,9 +100,16 @@ class RealClip:
     hands_touch: np.ndarray | None
 
 
+#: where the range-of-motion clip is cut (30 fps frames): 3-5 s, the first arm raises after the
+#: opening T-pose, both feet on the floor
+ROM_START = 90
+
+
 def real_clips(frames: int = CLIP_FRAMES) -> list[RealClip]:
-    """Two real CMU clips (01_01 jumps, 01_03 walk) and the synthetic ``clap_008`` (a held-out clap
-    with labelled hand contacts, on its performer), each cut to ``frames`` frames."""
+    """Two real CMU clips (01_01 jumps, 01_03 walk), the synthetic ``clap_008`` (a held-out clap
+    with labelled hand contacts, on its performer) and a second real mocap source's clip
+    (``motion_capture_rom`` from :data:`ROM_START`, :mod:`~retarget_lib.data.sources.real_motions`),
+    each cut to ``frames`` frames."""
     clips = [RealClip(name[:-4], _first(load_cmu_clip(name), frames), None, None) for name in ("01_01.bvh", "01_03.bvh")]
     ds = load_synthetic()
     clap = ds.clip("clap_008")
@@ -109,6 +117,8 @@ def real_clips(frames: int = CLIP_FRAMES) -> list[RealClip]:
     hand_hand = [c for c in clap.hand_contacts if c.part in ("LeftHand", "RightHand")]
     touch = authored_contact_frames(hand_hand, clap.motion.num_frames)[:motion.num_frames]
     clips.append(RealClip(clap.name, motion, ds.characters[clap.performer], touch))
+    rom = load_real_motion("motion_capture_rom")
+    clips.append(RealClip(rom.name, rom.slice(ROM_START, min(ROM_START + frames, rom.num_frames)), None, None))
     return clips
 
 
@@ -304,7 +314,7 @@ def run_real_evaluation(out_dir: str | Path, device: str | None = None, only: Se
         table.to_csv(f)
     with atomic_write(out / "real.md", "w") as f:
         f.write("Real characters (data/real_characters), no ground truth: mean over characters and clips "
-                f"(CMU 01_01, 01_03, synthetic clap_008; {CLIP_FRAMES} frames each). Lengths in % of the target's "
+                f"(CMU 01_01, 01_03, synthetic clap_008, assimp's motion capture ROM; {CLIP_FRAMES} frames each). Lengths in % of the target's "
                 "height; lower is better in every column (identity: 0 is exact; jitter: 1 is the source's).\n\n"
                 + markdown_table(table, 3) + "\n")
     return table, worst_cases(per_case, methods, clips)
