@@ -22,12 +22,13 @@ def ds():
 def test_every_source_has_id_license_origin_and_check():
     m = manifest.load_manifest()
     assert set(m["sources"]) == {"synthetic", "cmu-assimp", "mannequin-x", "model-viewer", "real-characters",
-                                 "mixamo-local"}
+                                 "real-motions", "mixamo-local"}
     for sid, src in m["sources"].items():
         assert src["license"] and src["origin"], sid
     statuses = {s.id: s for s in status.verify()}
     assert statuses["synthetic"].verified and statuses["cmu-assimp"].verified
     assert statuses["mannequin-x"].verified and statuses["model-viewer"].verified
+    assert statuses["real-characters"].verified and statuses["real-motions"].verified
 
 
 def test_missing_source_says_how_to_get_it(monkeypatch, tmp_path):
