@@ -635,12 +635,10 @@ def quaternius_cowboy(src: Path) -> Doc:
     """The Quaternius Cowboy (Cowboy Pack, Blender rig as the Feb 2019 characters but with the foot
     deform bones named ``FootIK.L/R``, under the armature's root): each ``FootIK`` is re-parented
     under its ``LowerLeg`` and a toe ``Toe.L/R_inserted`` added at its end, as :func:`quaternius`.
-    The hat is a second armature's skin (``HatArmature``): it is dropped, keeping one skeleton. The
-    file is facing +X in centimetres x10 (1852 units tall): scaled by 0.001 (about 1.85 m, an
-    assumption); the reader turns it to face +Z."""
+    The hat is a second armature's skin (``HatArmature``), kept as it is: the reader hangs that
+    small tree under the skeleton's nearest joint. The file is facing +X in centimetres x10 (1852
+    units tall): scaled by 0.001 (about 1.85 m, an assumption); the reader turns it to face +Z."""
     doc = via_assimp(src)
-    hat = doc.index("Hat")
-    doc.nodes[hat].mesh, doc.nodes[hat].skin = None, None
     w = doc.world()
     for side in "LR":
         doc.reparent(f"FootIK.{side}", f"LowerLeg.{side}")
