@@ -3,13 +3,16 @@
 import numpy as np
 import pytest
 
-from retarget_lib.core.ground import clip_floor, sole_heights
+from retarget_lib.core.ground import clip_floor, foot_positions, sole_heights, standing_feet
 from retarget_lib.core.skeleton import J
 from retarget_lib.data.sources import real_motions
+from retarget_lib.data.sources.real_characters import load_real_character, real_character_names
 from retarget_lib.data.sources.real_motions import load_real_motion, real_motion_names, real_motion_path
 from retarget_lib.evaluation.real import CLIP_FRAMES, ROM_START
 from retarget_lib.files import DataError
 from retarget_lib.io.bvh import load_bvh
+from retarget_lib.methods.registry import get_method
+from retarget_lib.methods.retarget import on_the_ground
 
 
 def test_the_range_of_motion_clip_reads_as_a_standing_person():
@@ -38,3 +41,21 @@ def test_a_changed_file_is_refused_by_name(tmp_path, monkeypatch):
         load_real_motion("motion_capture_rom")
     with pytest.raises(DataError, match="unknown real motion 'walk'; known: \\['motion_capture_rom'\\]"):
         load_real_motion("walk")
+
+
+@pytest.mark.parametrize("name", real_character_names())
+def test_the_range_of_motion_clip_stands_on_every_real_characters_floor(name):
+    # issue 28's bound: where the source stands, the target's feet are on its floor within 3 cm;
+    # here a foot joint standing in the source is within 3 cm of the target's floor (its rest mesh's
+    # soles) in at least 99 % of such frames (the measured worst is 99.4 %, a Quaternius rig)
+    source = load_real_motion("motion_capture_rom")
+    pos = source.global_positions()
+    soles = sole_heights(pos, source.skeleton)
+    standing = standing_feet(foot_positions(pos, source.skeleton), soles, clip_floor(soles), source.skeleton.height(),
+                             source.fps)
+    character = load_real_character(name).character()
+    result = on_the_ground(get_method("copy-rest").retargeter()(source, character.skeleton), source, character)
+    assert result.num_frames == source.num_frames
+    target = sole_heights(result.global_positions(), result.skeleton, character.rest_vertices)
+    best = np.where(standing, np.abs(target), np.inf).min(axis=1)[standing.any(axis=1)]
+    assert standing.any(axis=1).mean() > 0.8 and (best < 0.03).mean() >= 0.99, (best < 0.03).mean()
