@@ -11,6 +11,7 @@ from __future__ import annotations
 import importlib.util
 import zipfile
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -72,16 +73,11 @@ def _check_mannequin() -> SourceStatus:
                         str(path) if ok else f"checksum mismatch for {path}")
 
 
-def _check_real_characters() -> SourceStatus:
-    src = source(real_characters.SOURCE_ID)
-    ok, detail = real_characters.check()
-    return SourceStatus(real_characters.SOURCE_ID, src["kind"], ok or "missing" not in detail, ok, detail)
-
-
-def _check_real_motions() -> SourceStatus:
-    src = source(real_motions.SOURCE_ID)
-    ok, detail = real_motions.check()
-    return SourceStatus(real_motions.SOURCE_ID, src["kind"], ok or "missing" not in detail, ok, detail)
+def _check_repository_files(module) -> SourceStatus:
+    """A source shipped in the repository (``module``: its ``SOURCE_ID`` and ``check()``)."""
+    src = source(module.SOURCE_ID)
+    ok, detail = module.check()
+    return SourceStatus(module.SOURCE_ID, src["kind"], ok or "missing" not in detail, ok, detail)
 
 
 def _check_model_viewer() -> SourceStatus:
@@ -161,8 +157,8 @@ _CHECKS = {
     "mannequin-x": _check_mannequin,
     MODEL_VIEWER: _check_model_viewer,
     "mixamo-local": _check_mixamo_local,
-    real_characters.SOURCE_ID: _check_real_characters,
-    real_motions.SOURCE_ID: _check_real_motions,
+    real_characters.SOURCE_ID: partial(_check_repository_files, real_characters),
+    real_motions.SOURCE_ID: partial(_check_repository_files, real_motions),
 }
 
 
