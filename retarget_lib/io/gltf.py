@@ -534,7 +534,8 @@ def _hang_small_trees(doc: GLTFDocument, joint_set: set[int], joint_parent: list
         raise doc.error(f"{what} form {len(roots)} trees (roots {names}) of {sorted(size.values(), reverse=True)} "
                         "joints; a character needs one skeleton (a tree under half the largest's size is taken "
                         "as a prop's armature and hung under the nearest joint)")
-    world = _world(node_parent, {n: _local_matrix(g.nodes[n]) for n in range(len(g.nodes))}, sorted(joint_set))
+    joints = sorted(joint_set)
+    world = _world(node_parent, {n: _local_matrix(g.nodes[n]) for n in _with_ancestors(joints, node_parent)}, joints)
     skeleton = sorted(j for j in joint_set if tree[j] == main)
     at = np.array([world[j][:3, 3] for j in skeleton])
     for r in roots:
