@@ -195,7 +195,8 @@ def test_eso_skinning_only_the_vertices_it_reads_gives_the_whole_mesh_result(mon
     run = lambda: encoder_space_optimization(model, feats, character, source, np.zeros((2, 4), bool), 1.0,  # noqa: E731
                                              interpenetration=eint, weights=only_int, iterations=5)
     subset = run()
-    monkeypatch.setattr(eso_module._Frame, "mesh_vertices", lambda self, redetect_every: True)
+    monkeypatch.setattr(eso_module._Frame, "mesh_vertices",
+                        lambda self, pairs, collisions: np.arange(len(character.rest_vertices)))
     whole = run()
     assert subset.colliding_pairs[0] > 100 and subset.terms["int"][0, -1] < subset.terms["int"][0, 0]
     torch.testing.assert_close(subset.energies, whole.energies, rtol=1e-5, atol=1e-6)
@@ -247,3 +248,38 @@ def test_eso_keeps_every_iterate_on_request():
     torch.testing.assert_close(result.iterate_rotations[0, 0], out.rotations[0, 0])  # frame 0 before any step
     torch.testing.assert_close(result.rotations, plain.rotations)                   # keeping them changes nothing
     assert (result.iterate_rotations[0, 1:] - result.iterate_rotations[0, :1]).abs().max() > 0  # it moved
+
+
+@pytest.mark.slow
+def test_compiled_steps_optimise_as_the_eager_ones():
+    # the same energy compiled (torch.compile, sizes dynamic, pairs padded with zero weight): frames
+    # with and without colliding pairs, contact pairs on some frames only; float32 fused in another
+    # order, so agreement to 1e-4 relative over 3 frames x 8 steps
+    character = _point_character(n=300)
+    eint = InterpenetrationEnergy(character.faces, character.rest_vertices)
+    model = _model(rotation_std=0.1)
+    feats, source = _rest_source(character.skeleton, 3)
+    _, _, verts = _initial_vertices(model, character, feats)
+    pairs, _ = _pair_at(verts[0], character, 0.05)
+    run = lambda compile: encoder_space_optimization(  # noqa: E731
+        model, feats, character, source, np.zeros((3, 4), bool), 1.0, contacts=[pairs, pairs[:0], pairs[:1]],
+        interpenetration=eint, iterations=8, compile=compile)
+    eager, compiled = run(False), run(True)
+    assert eager.colliding_pairs.min() > 0 and eager.terms["j2j"][0, 0] > 0 and eager.terms["int"][0, 0] > 0
+    torch.testing.assert_close(compiled.energies, eager.energies, rtol=1e-4, atol=1e-6)
+    torch.testing.assert_close(compiled.rotations, eager.rotations, rtol=1e-4, atol=1e-5)
+    for name in TERMS:  # a single term (up to ~60 here) carries more of the reordering: 1e-3
+        torch.testing.assert_close(compiled.terms[name], eager.terms[name], rtol=1e-3, atol=1e-5)
+
+
+def test_compiling_is_chosen_for_long_clips_and_never_without_a_compiler(monkeypatch):
+    monkeypatch.setattr(eso_module, "_have_compiler", lambda: True)
+    monkeypatch.setattr(eso_module, "_compiled_in_process", lambda: False)
+    assert not eso_module.use_compiled(60) and eso_module.use_compiled(eso_module.COMPILE_FROM_FRAMES)
+    assert eso_module.use_compiled(60, compile=True) and not eso_module.use_compiled(10_000, compile=False)
+    monkeypatch.setattr(eso_module, "_have_compiler", lambda: False)
+    with pytest.warns(UserWarning, match="C\\+\\+ compiler"):
+        assert not eso_module.use_compiled(10_000)
+    monkeypatch.setattr(eso_module, "_have_compiler", lambda: True)
+    monkeypatch.setattr(eso_module, "_compiled_in_process", lambda: True)  # compiled already: reuse it
+    assert eso_module.use_compiled(60)

@@ -89,6 +89,10 @@ def test_eso_self_contact_starts_at_blend_times_the_gap_and_vanishes_at_the_rela
     moved[0, 0] = 0.3 * 0.05          # 0.7 of its own start + 0.3 of its partner
     moved[1, 0] = 0.7 * 0.05          # and the partner likewise
     assert eso_self_contact_energy(moved, [[0, 1]], v0, blend=0.3).item() == pytest.approx(0.0, abs=1e-15)
+    # a masked (padding) pair counts for nothing: ESO's compiled step pads to fixed minimum sizes
+    mask = torch.tensor([1.0, 0.0], dtype=F64)
+    assert eso_self_contact_energy(v0, [[0, 1], [1, 0]], v0, 0.3, mask).item() == pytest.approx(0.3 * 0.05)
+    assert eso_self_contact_energy(v0, [[0, 1], [0, 1]], v0, 0.3, mask * 0).item() == 0.0
 
 
 def test_eso_self_contact_rejects_bad_blend():
@@ -104,6 +108,10 @@ def test_reach_hold_is_the_mean_drift_of_the_held_joints():
     g[J["Hips"], 0] = 0.04
     assert reach_hold_energy(g, g0, [J["Head"], J["Hips"]]).item() == pytest.approx(0.03)
     assert reach_hold_energy(g, g0, []).item() == 0.0
+    held = torch.zeros(22, dtype=F64)
+    held[[J["Head"], J["Hips"]]] = 1.0  # the same as a (22,) mask
+    assert reach_hold_energy(g, g0, held).item() == pytest.approx(0.03)
+    assert reach_hold_energy(g, g0, held * 0).item() == 0.0
 
 
 # ----------------------------------------------------------------------------- Efoot (Eq. 6)

@@ -15,7 +15,8 @@ from retarget_lib.geometry.collision import (TriangleBVH, brute_force_candidate_
 from retarget_lib.geometry.penetration import (GeodesicDistances, InterpenetrationEnergy, cap_holes, circumcircle,
                                                cone_distance_field, geodesic_distances, geodesic_pair_weights,
                                                interpenetration_energy, interpenetration_score,
-                                               penetration_rate, ray_winding_numbers, vertex_normals)
+                                               penetration_rate, plan_energy, ray_winding_numbers,
+                                               vertex_normals)
 
 FLAT = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]  # normal +z, circumcentre (.5, .5, 0)
 # a vertical triangle in the plane y = 0.25 whose edge x = z-axis-parallel pierces FLAT at (0.25, 0.25, 0)
@@ -235,6 +236,28 @@ def test_eint_reads_only_its_support():
     assert float(whole) > 0
     torch.testing.assert_close(energy.energy_of_pairs(masked[None], [pairs]), whole)
     assert len(energy.support(np.zeros((0, 2), np.int64))) == 0
+
+def test_a_plan_on_the_support_alone_padded_gives_the_same_energy_and_gradient():
+    # ESO plans Eq. 4 once per frame on the vertices it skins (the support, renumbered) and pads
+    # the pairs with zero-weight copies for a compiled step: neither changes the energy or its gradient
+    v, f = boxes(0.05)
+    energy = InterpenetrationEnergy(f, v)
+    pairs = energy.pairs(v)
+    whole = torch.tensor(v, requires_grad=True)
+    reference = energy.energy_of_pairs(whole[None], [pairs])
+    reference.sum().backward()
+    support = energy.support(pairs)
+    where = np.full(len(v), -1)
+    where[support] = np.arange(len(support))
+    part = torch.tensor(v[support], requires_grad=True)
+    plan = energy.plan([pairs], vertex_index=where, min_pairs=len(pairs) + 3)
+    assert plan.weights.shape == (len(pairs) + 3,) and (plan.weights[len(pairs):] == 0).all()
+    planned = plan_energy(part[None], plan, energy.cone)
+    planned.sum().backward()
+    torch.testing.assert_close(planned, reference)
+    torch.testing.assert_close(part.grad, whole.grad[support])
+    assert float(whole.grad.abs().sum()) > 0 and not whole.grad[np.setdiff1d(np.arange(len(v)), support)].any()
+
 
 def test_energy_class_matches_function_and_batches():
     v, f = boxes(0.05)

@@ -21,6 +21,7 @@ sequential joint steps.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from functools import lru_cache
 from typing import NamedTuple, Sequence
@@ -115,7 +116,7 @@ def forward_kinematics(
             np.asarray(root_positions) if isinstance(root_positions, np.ndarray) else root_positions,
             dtype=dtype, device=device)
         lead = torch.broadcast_shapes(lead, root_positions.shape[:-1])
-    n = int(np.prod(lead)) if len(lead) else 1
+    n = math.prod(lead)
     plan = _plan(parents)
     order = torch.tensor(plan.order, device=device)
 

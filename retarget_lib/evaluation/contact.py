@@ -249,8 +249,10 @@ def _ik_method(model) -> ContactMethod:
 
 
 def _eso_method(model, eso_config: Mapping) -> ContactMethod:
+    """A row that runs ESO: compiled (hundreds of frames per table repay the compilation)."""
     return lambda case, eint: retarget_with_eso(model, eso_config, case.source, case.target, case.contacts, eint,
-                                                case.foot_contacts, name=f"{case.clip}->{case.target.name}")
+                                                case.foot_contacts, name=f"{case.clip}->{case.target.name}",
+                                                compile=True)
 
 
 def _skeleton_method(fn) -> ContactMethod:

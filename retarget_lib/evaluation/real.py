@@ -209,8 +209,8 @@ def _methods(only: Sequence[str] | None, device: str | None) -> dict[str, tuple[
 
 
 def _run(fn: Retarget, needs_mesh: bool, motion: Motion, character: Character, source: Character | None) -> Motion:
-    if needs_mesh:
-        return fn(motion, character, source_character=source)
+    if needs_mesh:  # the contact method: its ESO compiled (every case of the table repays it)
+        return fn(motion, character, source_character=source, compile=True)
     return fn(motion, character.skeleton)
 
 

@@ -27,7 +27,7 @@ Units: metres; ``psi`` is a length (metres), ``E_int`` is in square metres.
 
 from __future__ import annotations
 
-from typing import Mapping, Sequence
+from typing import Mapping, NamedTuple, Sequence
 
 import numpy as np
 import scipy.sparse
@@ -43,6 +43,7 @@ Tensor = torch.Tensor
 __all__ = [
     "DEFAULT_LIMBS",
     "InterpenetrationEnergy",
+    "PairPlan",
     "cap_holes",
     "circumcircle",
     "cone_distance_field",
@@ -53,6 +54,7 @@ __all__ = [
     "limb_vertices_inside",
     "interpenetration_score",
     "penetration_rate",
+    "plan_energy",
     "ray_winding_numbers",
     "vertex_normals",
 ]
@@ -330,20 +332,81 @@ def _vertex_face_csr(faces: np.ndarray, num_vertices: int) -> tuple[np.ndarray, 
     return ptr, np.argsort(corners, kind="stable") // 3
 
 
+def _faces_around(faces: np.ndarray, csr: tuple[np.ndarray, np.ndarray],
+                  corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The faces around each of the ``corners (U,)`` vertices: ``(K, 3)`` their vertex ids and
+    ``(K,)`` the index (``0..U-1``) of the corner each one is around."""
+    ptr, ids = csr
+    counts = ptr[corners + 1] - ptr[corners]
+    segment = np.repeat(np.arange(len(corners)), counts)
+    within = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
+    return faces[ids[np.repeat(ptr[corners], counts) + within]], segment
+
+
+def _area_weighted_normals(vertices: Tensor, around: Tensor, segment: Tensor, count: int) -> Tensor:
+    """``(..., count, 3)`` unit normals summed from the ``around (K, 3)`` faces of each corner
+    (``segment (K,)``, :func:`_faces_around`), each face weighted by its area."""
+    tri = vertices[..., around, :]
+    face_normal = torch.cross(tri[..., 1, :] - tri[..., 0, :], tri[..., 2, :] - tri[..., 0, :], dim=-1)
+    summed = vertices.new_zeros(*vertices.shape[:-2], count, 3).index_add(-2, segment, face_normal)
+    return summed / summed.norm(dim=-1, keepdim=True).clamp(min=1e-12)
+
+
 def _normals_at(vertices: Tensor, faces: np.ndarray, csr: tuple[np.ndarray, np.ndarray],
                 needed: np.ndarray) -> Tensor:
     """``(..., U, 3)`` area-weighted unit normals of the ``needed (U,)`` vertices, from their own
     faces only (a colliding frame needs a few hundred vertices' normals, not all of them)."""
-    ptr, ids = csr
-    counts = ptr[needed + 1] - ptr[needed]
-    segment = np.repeat(np.arange(len(needed)), counts)
-    within = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
-    around = faces[ids[np.repeat(ptr[needed], counts) + within]]  # (K, 3)
-    tri = vertices[..., torch.as_tensor(around, device=vertices.device), :]
-    face_normal = torch.cross(tri[..., 1, :] - tri[..., 0, :], tri[..., 2, :] - tri[..., 0, :], dim=-1)
-    summed = vertices.new_zeros(*vertices.shape[:-2], len(needed), 3).index_add(
-        -2, torch.as_tensor(segment, device=vertices.device), face_normal)
-    return summed / summed.norm(dim=-1, keepdim=True).clamp(min=1e-12)
+    around, segment = _faces_around(faces, csr, needed)
+    device = vertices.device
+    return _area_weighted_normals(vertices, torch.as_tensor(around, device=device),
+                                  torch.as_tensor(segment, device=device), len(needed))
+
+
+class PairPlan(NamedTuple):
+    """Eq. 4's index arrays for fixed colliding pairs (:meth:`InterpenetrationEnergy.plan`), so an
+    optimisation that keeps its pairs for many steps does the NumPy bookkeeping once and each step
+    is tensor operations only (:func:`plan_energy`; ``torch.compile`` can fuse them).
+
+    Vertex ids index the vertices handed to :func:`plan_energy`: the whole mesh, or the subset the
+    plan was made for (``vertex_index``).
+
+    Attributes:
+        frame: ``(P,)`` int64, the batch element of each pair.
+        tri_r, tri_i: ``(P, 3)`` int64 vertex ids of each pair's two triangles.
+        around: ``(K, 3)`` int64 vertex ids of the faces around each pair corner (its normal).
+        segment: ``(K,)`` int64 the corner (``0..U-1``) each of those faces is around.
+        corners: ``(U,)`` int64 mesh ids of the corners (their count sizes the normals).
+        corner_r, corner_i: ``(P, 3)`` int64 each triangle vertex's corner (``0..U-1``).
+        weights: ``(P,)`` ``w_ri`` (Eq. 5; 0 on padding pairs).
+    """
+
+    frame: Tensor
+    tri_r: Tensor
+    tri_i: Tensor
+    around: Tensor
+    segment: Tensor
+    corners: Tensor
+    corner_r: Tensor
+    corner_i: Tensor
+    weights: Tensor
+
+
+def plan_energy(vertices: Tensor, plan: PairPlan, cone: Mapping[str, float]) -> Tensor:
+    """Eq. 4 per batch element for the pairs of ``plan`` (detection and bookkeeping done).
+
+    Args:
+        vertices: ``(B, V, 3)`` metres (differentiable), indexed as the plan's vertex ids.
+        plan: :class:`PairPlan`.
+        cone: keyword arguments of :func:`cone_distance_field`.
+
+    Returns:
+        ``(B,)`` square metres.
+    """
+    normals = _area_weighted_normals(vertices, plan.around, plan.segment, plan.corners.shape[0])
+    fr = plan.frame[:, None]
+    terms = _pair_terms(vertices[fr, plan.tri_r], vertices[fr, plan.tri_i], normals[fr, plan.corner_r],
+                        normals[fr, plan.corner_i], cone)
+    return vertices.new_zeros(vertices.shape[0]).index_add(0, plan.frame, terms * plan.weights.to(vertices.dtype))
 
 
 def _pair_terms(tri_r: Tensor, tri_i: Tensor, normals_r: Tensor, normals_i: Tensor, cone: dict) -> Tensor:
@@ -457,10 +520,8 @@ class InterpenetrationEnergy:
     def support(self, pairs: np.ndarray) -> np.ndarray:
         """``(U,)`` sorted ids of the vertices Eq. 4 reads for these colliding face pairs: every
         vertex of every face around a corner of a pair (the corners' area-weighted normals)."""
-        ptr, ids = self._vertex_faces
         corners = np.unique(self.faces[_as_pairs(pairs, len(self.faces))])
-        around = ids[np.concatenate([np.arange(ptr[v], ptr[v + 1]) for v in corners])] if len(corners) else ids[:0]
-        return np.unique(self.faces[around])
+        return np.unique(_faces_around(self.faces, self._vertex_faces, corners)[0])
 
     def penetrating_faces(self, vertices) -> np.ndarray:
         """Sorted face indices involved in any collision of one frame ``(V, 3)``."""
@@ -484,9 +545,47 @@ class InterpenetrationEnergy:
         per_frame = [self.pairs(f) for f in batch.detach().cpu().numpy()]
         return self.energy_of_pairs(batch, per_frame).reshape(vertices.shape[:-2])
 
+    def plan(self, per_frame: Sequence[np.ndarray], vertex_index: np.ndarray | None = None,
+             min_pairs: int = 0, device: torch.device | str | None = None) -> PairPlan:
+        """Eq. 4's :class:`PairPlan` for given colliding pairs of each batch element.
+
+        Args:
+            per_frame: ``B`` arrays ``(P_b, 2)`` of colliding face pairs (:meth:`pairs`).
+            vertex_index: ``(V,)`` int, where each mesh vertex sits in the vertices the plan will be
+                evaluated on (a subset holding at least :meth:`support` of the pairs); default the
+                whole mesh.
+            min_pairs: pad with zero-weight pairs (faces 0 and 1, frame 0) to at least this many
+                (fixed minimum sizes keep a compiled energy from specialising on 0 or 1 pairs).
+            device: of the tensors.
+
+        Returns:
+            :class:`PairPlan`.
+        """
+        frame = np.repeat(np.arange(len(per_frame)), [len(p) for p in per_frame])
+        pairs = np.concatenate([_as_pairs(p, len(self.faces)) for p in per_frame]) if len(per_frame) else \
+            np.zeros((0, 2), np.int64)
+        weights = self.pair_weights(pairs)
+        pad = max(min_pairs - len(pairs), 0)
+        if pad:
+            if len(self.faces) < 2:
+                raise ValueError("padding needs a mesh of at least two faces")
+            pairs = np.concatenate([pairs, np.tile([[0, 1]], (pad, 1))])
+            frame = np.concatenate([frame, np.zeros(pad, np.int64)])
+            weights = np.concatenate([weights, np.zeros(pad)])
+        corners, local = np.unique(self.faces[pairs], return_inverse=True)  # pair corners -> normals
+        local = local.reshape(len(pairs), 2, 3)
+        around, segment = _faces_around(self.faces, self._vertex_faces, corners)
+        where = np.arange(self.num_vertices) if vertex_index is None else np.asarray(vertex_index)
+        as_tensor = lambda a, dtype=torch.int64: torch.as_tensor(a, dtype=dtype, device=device)  # noqa: E731
+        return PairPlan(as_tensor(frame), as_tensor(where[self.faces[pairs[:, 0]]]),
+                        as_tensor(where[self.faces[pairs[:, 1]]]), as_tensor(where[around]), as_tensor(segment),
+                        as_tensor(corners), as_tensor(local[:, 0]), as_tensor(local[:, 1]),
+                        as_tensor(weights, torch.float64))
+
     def energy_of_pairs(self, batch: Tensor, per_frame: Sequence[np.ndarray]) -> Tensor:
         """Eq. 4 per frame for given colliding pairs (detection skipped, e.g. pairs found once and
-        reused for a few optimisation steps).
+        reused for a few optimisation steps; :meth:`plan` once and :func:`plan_energy` per step
+        skips the bookkeeping too).
 
         Args:
             batch: ``(B, V, 3)`` metres (differentiable).
@@ -495,25 +594,12 @@ class InterpenetrationEnergy:
         Returns:
             ``(B,)`` square metres.
         """
-        nb, nv = batch.shape[:2]
+        nb = batch.shape[0]
         if len(per_frame) != nb:
             raise ValueError(f"need one pair array per frame: {nb} frames, {len(per_frame)} arrays")
-        frame = np.repeat(np.arange(nb), [len(p) for p in per_frame])
-        pairs = np.concatenate(per_frame) if nb else np.zeros((0, 2), np.int64)
-        energy = batch.new_zeros(nb)
-        if not len(pairs):
-            return energy + batch.sum((-1, -2)) * 0.0
-        device = batch.device
-        needed, local = np.unique(self.faces[pairs], return_inverse=True)  # over all frames
-        local = torch.as_tensor(local.reshape(len(pairs), 2, 3), device=device)
-        normals = _normals_at(batch, self.faces, self._vertex_faces, needed)  # (B, U, 3)
-        fr = torch.as_tensor(frame, device=device)
-        idx_r = torch.as_tensor(self.faces[pairs[:, 0]], device=device)
-        idx_i = torch.as_tensor(self.faces[pairs[:, 1]], device=device)
-        terms = _pair_terms(batch[fr[:, None], idx_r], batch[fr[:, None], idx_i], normals[fr[:, None], local[:, 0]],
-                            normals[fr[:, None], local[:, 1]], self.cone)
-        weights = torch.as_tensor(self.pair_weights(pairs), dtype=batch.dtype, device=device)
-        return energy.index_add(0, fr, terms * weights)
+        if not sum(len(p) for p in per_frame):
+            return batch.new_zeros(nb) + batch.sum((-1, -2)) * 0.0
+        return plan_energy(batch, self.plan(per_frame, device=batch.device), self.cone)
 
 
 def interpenetration_score(energy: InterpenetrationEnergy, vertices, height: float) -> float:

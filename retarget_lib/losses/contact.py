@@ -254,7 +254,7 @@ def self_contact_energy(vertices: Tensor, pairs: Tensor | np.ndarray, mask: Tens
 
 
 def eso_self_contact_energy(vertices: Tensor, pairs: Tensor | np.ndarray, initial_vertices: Tensor,
-                            blend: float = 0.3) -> Tensor:
+                            blend: float = 0.3, mask: Tensor | None = None) -> Tensor:
     """ESO's relaxed self-contact term (App. B.1), our reading explained in the module docstring.
 
     For a pair ``(i, j)`` with initial (pre-ESO) positions ``v⁰``, vertex ``i`` is pulled towards
@@ -269,9 +269,10 @@ def eso_self_contact_energy(vertices: Tensor, pairs: Tensor | np.ndarray, initia
         pairs: ``(K, 2)`` vertex index pairs.
         initial_vertices: ``(..., V, 3)`` the network's initial output (constants).
         blend: the fraction of the gap to close (paper: 0.3).
+        mask: optional ``(K,)`` the pairs that count (1) and padding (0).
 
     Returns:
-        ``(...)`` metres; 0 for no pairs.
+        ``(...)`` metres; 0 for no (unmasked) pairs.
     """
     if not 0.0 <= blend <= 1.0:
         raise ValueError(f"blend must lie in [0, 1], got {blend}")
@@ -279,20 +280,23 @@ def eso_self_contact_energy(vertices: Tensor, pairs: Tensor | np.ndarray, initia
     ui, uj = _pair_vertices(initial_vertices.detach(), pairs)
     gi, gj = torch.lerp(ui, uj, blend), torch.lerp(uj, ui, blend)
     dist = torch.cat(((vi - gi).norm(dim=-1), (vj - gj).norm(dim=-1)), dim=-1)
-    return _masked_mean(dist, None)
+    return _masked_mean(dist, None if mask is None else torch.cat((mask, mask), dim=-1))
 
 
-def reach_hold_energy(positions: Tensor, initial_positions: Tensor, joints: Sequence[int]) -> Tensor:
+def reach_hold_energy(positions: Tensor, initial_positions: Tensor, joints: Sequence[int] | Tensor) -> Tensor:
     """Mean distance of the joints the hands touch from their initial positions (App. B.1).
 
     Args:
         positions: ``(..., 22, 3)`` current global joint positions (metres).
         initial_positions: ``(..., 22, 3)`` the network's initial output (constants).
-        joints: joint ids to hold (empty → 0).
+        joints: joint ids to hold (empty → 0), or a ``(22,)`` mask tensor (1 = held).
 
     Returns:
         ``(...)`` metres.
     """
+    if isinstance(joints, Tensor):
+        drift = (positions - initial_positions.detach()).norm(dim=-1)
+        return _masked_mean(drift, joints)
     idx = list(joints)
     drift = (positions[..., idx, :] - initial_positions.detach()[..., idx, :]).norm(dim=-1)
     return _masked_mean(drift, None)

@@ -29,7 +29,7 @@ from ..files import atomic_write, cache_dir, quantised_sha256
 from ..geometry.contacts import SelfContacts, detect_foot_contacts, detect_self_contacts, transfer_contacts
 from ..geometry.penetration import InterpenetrationEnergy
 from ..models.georet import GeometryConditionedRNN, ResidualBase, motion_features, pose_outputs
-from .eso import encoder_space_optimization, eso_source
+from .eso import encoder_space_optimization, eso_source, use_compiled
 
 Tensor = torch.Tensor
 
@@ -174,7 +174,8 @@ def retarget_with_network(model: GeometryConditionedRNN, source: Motion, target:
 
 
 def retarget_contact_with(model: GeometryConditionedRNN, config: dict, source: Motion, target: Character,
-                          source_character: Character | None = None, eso: bool = True) -> Motion:
+                          source_character: Character | None = None, eso: bool = True,
+                          compile: bool | None = None) -> Motion:
     """Contact-aware retargeting (Villegas et al. 2021): the geometry-conditioned RNN, then
     encoder-space optimisation with the source's detected contacts.
 
@@ -186,6 +187,8 @@ def retarget_contact_with(model: GeometryConditionedRNN, config: dict, source: M
             without it no hand self-contacts can be detected, and only foot contacts,
             interpenetration and the skeleton terms guide ESO.
         eso: run ESO (App. B.1 settings from the checkpoint's config); ``False`` = network only.
+        compile: run ESO's steps compiled (:func:`~retarget_lib.methods.eso.use_compiled`;
+            ``None``: for long clips).
 
     Returns:
         The motion on ``target.skeleton``.
@@ -201,12 +204,13 @@ def retarget_contact_with(model: GeometryConditionedRNN, config: dict, source: M
         clip = contact_clip(source, source_character)
         contacts = transfer_contacts(clip.self_contacts, source_character, target)
     return retarget_with_eso(model, config["eso"], source, target, contacts,
-                             InterpenetrationEnergy(target.faces, target.rest_vertices))
+                             InterpenetrationEnergy(target.faces, target.rest_vertices), compile=compile)
 
 
 def retarget_with_eso(model: GeometryConditionedRNN, eso_config: Mapping, source: Motion, target: Character,
                       contacts: SelfContacts | None, interpenetration: InterpenetrationEnergy,
-                      foot_contacts: np.ndarray | None = None, name: str | None = None) -> Motion:
+                      foot_contacts: np.ndarray | None = None, name: str | None = None,
+                      compile: bool | None = None) -> Motion:
     """The network's output refined by encoder-space optimisation (Sec. 3.3) with the App. B.1
     settings of a checkpoint's config.
 
@@ -219,6 +223,8 @@ def retarget_with_eso(model: GeometryConditionedRNN, eso_config: Mapping, source
         interpenetration: the target's Eint.
         foot_contacts: ``(T, 4)`` the source's foot contacts (default: detected on the source).
         name: the result's name (default the source's).
+        compile: run ESO's steps compiled (:func:`~retarget_lib.methods.eso.use_compiled`;
+            ``None``: for long clips, or when this process compiled them already).
 
     Returns:
         The motion on ``target.skeleton``.
@@ -227,7 +233,8 @@ def retarget_with_eso(model: GeometryConditionedRNN, eso_config: Mapping, source
     res = encoder_space_optimization(model, src.features, target, src.quantities, src.foot_contacts, src.leg_ratio,
                                      contacts=contacts, interpenetration=interpenetration,
                                      iterations=int(eso_config["iterations"]), lr=float(eso_config["lr"]),
-                                     reach=float(eso_config["reach"]), blend=float(eso_config["blend"]))
+                                     reach=float(eso_config["reach"]), blend=float(eso_config["blend"]),
+                                     compile=use_compiled(source.num_frames, compile))
     return Motion(target.skeleton, res.rotations.double().numpy(), res.root_positions.double().numpy(), source.fps,
                   name=source.name if name is None else name)
 

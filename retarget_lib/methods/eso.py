@@ -51,8 +51,11 @@ detect once per frame. ESO runs single-threaded (``num_threads``): its tensors a
 
 from __future__ import annotations
 
+import functools
+import shutil
 import time
-from typing import Any, NamedTuple, Sequence
+import warnings
+from typing import Any, Callable, NamedTuple
 
 import numpy as np
 import torch
@@ -64,16 +67,17 @@ from ..core.quantities import (MotionQuantities, foot_ground_heights, leg_ratio 
 from ..core.skeleton import J
 from ..core.skinning import linear_blend_skinning
 from ..geometry.contacts import detect_foot_contacts
-from ..geometry.penetration import InterpenetrationEnergy
+from ..geometry.penetration import InterpenetrationEnergy, PairPlan, plan_energy
 from ..losses.contact import (ContactEnergyWeights, eso_self_contact_energy, end_effector_energy_per_frame,
                               foot_contact_energy_per_frame, reach_hold_energy, self_contact_energy,
                               weak_energy)
+from ..models.compiling import compile_function
 from ..models.georet import DecoderState, GeometryConditionedRNN, ResidualBase, TargetContext, motion_features
 
 Tensor = torch.Tensor
 
-__all__ = ["EsoResult", "EsoSource", "TERMS", "encoder_space_optimization", "eso_source", "eso_throughput",
-           "reachable_pairs", "reached_joints"]
+__all__ = ["COMPILE_FROM_FRAMES", "EsoResult", "EsoSource", "TERMS", "encoder_space_optimization", "eso_source",
+           "eso_throughput", "reachable_pairs", "reached_joints", "use_compiled"]
 
 #: energy terms logged per frame and iteration (``j2j_distance`` is a diagnostic, not in the total)
 TERMS: tuple[str, ...] = ("j2j", "hold", "int", "foot", "ee", "weak", "j2j_distance")
@@ -194,74 +198,183 @@ class _Pose(NamedTuple):
     rotations: Tensor  # (1, 22, 4)
     state: DecoderState  # after frame t: its root_position is r_t, its root_velocity o_t
     positions: Tensor  # (1, 22, 3) global
-    vertices: Tensor | None  # (1, V, 3)
+    vertices: Tensor | None  # (1, U, 3): the skinned vertices (_FrameInputs.vertex_ids), or None
+
+
+class _Constants(NamedTuple):
+    """The tensors every frame's energy shares (scalars as 0-d tensors, so a compiled energy does
+    not specialise on one character's height)."""
+
+    context: TargetContext
+    rest_joints: Tensor  # (22, 3)
+    ground_heights: Tensor  # (4,)
+    height: Tensor  # () h_B
+    source_height: Tensor  # () h_A
+    leg_ratio: Tensor  # ()
+
+
+class _FrameInputs(NamedTuple):
+    """One frame's fixed inputs of ``Efull(t)``, as tensors (:meth:`_Frame.inputs`): built once
+    per frame (and after each re-detection), read by every step's :func:`_frame_terms`."""
+
+    state: DecoderState  # before frame t
+    base: ResidualBase | None  # frame t's (residual networks)
+    rest_vertices: Tensor  # (U, 3) the vertices the energy reads, at rest
+    skin_weights: Tensor  # (U, 22)
+    pairs: Tensor  # (K, 2) contact pairs as positions in those U vertices
+    pair_mask: Tensor  # (K,) 1, or 0 on padding
+    initial_vertices: Tensor  # (U, 3) the initial output's
+    hold: Tensor  # (22,) 1 on the joints the hands touch
+    initial_positions: Tensor  # (22, 3)
+    eint: PairPlan | None  # Eq. 4's colliding pairs, vertex ids as positions in the U vertices
+    previous: Tensor  # (1, 22, 3) frame t−1's final joints
+    src_positions: Tensor  # (1, 2, 22, 3) source joints at t − 1, t
+    src_rotations: Tensor  # (1, 22, 4) θ^A_t
+    src_prev_velocity: Tensor  # (1, 3) o^A_(t−1)
+    foot_contacts: Tensor  # (1, 2, 4) float
+
+
+def _frame_terms(model: GeometryConditionedRNN, weights: ContactEnergyWeights, blend: float,
+                 cone: dict[str, float], constants: _Constants, frame: _FrameInputs, h_enc: Tensor,
+                 o_prev: Tensor) -> tuple[Tensor, _Pose]:
+    """Decode frame ``t`` from ``h^enc_t`` with ``o_(t−1)`` swapped into the state, pose it (FK,
+    LBS of the ``U`` vertices the energy reads) and weigh ``Efull(t)``'s terms.
+
+    Tensor operations only, so :func:`torch.compile` can fuse a whole step (``compile=True`` in
+    :func:`encoder_space_optimization`).
+
+    Returns:
+        ``((len(TERMS) + 1,)`` the weighted :data:`TERMS` and the total last, the pose).
+    """
+    w = weights
+    pose = _decode(model, constants, frame.state, frame.base, h_enc, o_prev, frame.rest_vertices,
+                   frame.skin_weights)
+    rot, pos, verts = pose.rotations, pose.positions, pose.vertices
+    terms = dict.fromkeys(TERMS, pos.new_zeros(()))
+    if verts is not None and w.j2j_weight > 0:
+        relaxed = eso_self_contact_energy(verts[0], frame.pairs, frame.initial_vertices, blend, frame.pair_mask)
+        terms["j2j"] = w.lambda_j2j * w.in_units("j2j", relaxed)
+        terms["j2j_distance"] = self_contact_energy(verts[0], frame.pairs, frame.pair_mask).detach()
+    if w.hold > 0:
+        drift = reach_hold_energy(pos[0], frame.initial_positions, frame.hold)
+        terms["hold"] = w.hold * w.in_units("hold", drift)
+    if verts is not None and frame.eint is not None:
+        terms["int"] = w.int_weight * w.in_units("int", plan_energy(verts, frame.eint, cone)[0])
+    window = torch.stack((frame.previous[0], pos[0]))[None]  # (1, 2, 22, 3)
+    if w.foot_weight > 0:
+        foot = foot_contact_energy_per_frame(window, frame.foot_contacts, constants.ground_heights,
+                                             constants.height)[0, 1]
+        terms["foot"] = w.foot_weight * w.in_units("foot", foot)
+    if w.omega > 0:
+        terms["ee"] = w.omega * end_effector_energy_per_frame(window, frame.src_positions, constants.height,
+                                                              constants.source_height)[0, 1]
+    unit = w.length_unit
+    terms["weak"] = weak_energy(rot, frame.src_rotations, o_prev / unit, frame.src_prev_velocity / unit,
+                                constants.leg_ratio, w.rho)[0]
+    total = sum(v for k, v in terms.items() if k != "j2j_distance")
+    return torch.stack([terms[k] for k in TERMS] + [total]), pose
+
+
+#: the fewest contact pairs and colliding pairs a compiled step sees (padding with zero weight):
+#: ``torch.compile`` specialises sizes 0 and 1, so smaller counts would compile again
+_COMPILED_MIN = 2
+
+
+def _decode(model: GeometryConditionedRNN, constants: _Constants, state: DecoderState, base: ResidualBase | None,
+            h_enc: Tensor, o_prev: Tensor, rest_vertices: Tensor, skin_weights: Tensor) -> _Pose:
+    """Decode frame ``t`` from ``h^enc_t`` with ``o_(t−1)`` swapped into ``state``, then FK and the
+    LBS of the given ``(U, 3)`` rest vertices (none when ``U = 0``)."""
+    rot, _, new_state = model.decode_step(h_enc, state._replace(root_velocity=o_prev), constants.context, base)
+    pos = new_state.local_positions + new_state.root_position[:, None]  # Eq. 18
+    verts = None
+    if rest_vertices.shape[0]:
+        verts = linear_blend_skinning(rest_vertices, skin_weights, constants.rest_joints,
+                                      new_state.global_rotations, pos)
+    return _Pose(rot, new_state, pos, verts)
 
 
 class _Frame:
-    """The fixed data of one frame's ESO problem and its energy ``Efull(t)``."""
+    """The fixed data of one frame's ESO problem: its state, contacts, held joints, colliding pairs."""
 
-    def __init__(self, t: int, initial: _Pose, previous: Tensor, problem: "_Problem"):
+    def __init__(self, t: int, problem: "_Problem", constants: _Constants, state: DecoderState,
+                 h_enc: Tensor, previous: "_Pose | None", redetect_every: int, padded: bool):
         p = problem
-        self.problem, self.initial = p, initial
+        self.t, self.problem = t, p
+        self.state = state
+        self.base = p.base.frame(t)
+        self.redetect_every, self.padded = redetect_every, padded
+        with torch.no_grad():
+            self.initial = _decode(p.model, constants, state, self.base, h_enc, state.root_velocity,
+                                   p.rest_vertices, p.skin_weights_t)
+        self.previous = (previous or self.initial).positions  # (1, 22, 3); frame t's own at t = 0
         pairs = p.contacts_at(t) if p.weights.j2j_weight > 0 else np.zeros((0, 2), np.int64)
-        self.pairs = reachable_pairs(pairs, initial.vertices[0], p.reach) if len(pairs) else pairs
+        self.pairs = reachable_pairs(pairs, self.initial.vertices[0], p.reach) if len(pairs) else pairs
         self.reached = reached_joints(self.pairs, p.skin_weights) if p.weights.hold > 0 else []
         self.collisions = np.zeros((0, 2), np.int64)
         self.uses_int = p.interpenetration is not None and p.weights.int_weight > 0
         if self.uses_int:
-            self.detect(initial.vertices[0])
-        self.previous = previous  # (1, 22, 3) frame t−1's final joints (or frame t's initial ones at t = 0)
-        src = p.source
-        self.src_positions = torch.stack((src.positions[max(t - 1, 0)], src.positions[t]))[None]
-        self.src_rotations = src.rotations[t][None]
-        self.src_prev_velocity = src.root_velocity[t - 1][None] if t > 0 else src.root_velocity.new_zeros(1, 3)
-        contact = torch.as_tensor(p.foot_contacts[t], device=p.offsets.device)
-        self.foot_contacts = torch.stack((contact, contact))[None]
+            self.detect(self.initial.vertices[0])
 
     def detect(self, vertices: Tensor) -> None:
+        """Colliding triangle pairs of ``(V, 3)`` vertices (the whole mesh), kept for Eint."""
         self.collisions = self.problem.interpenetration.pairs(vertices.detach())
 
-    def mesh_vertices(self, redetect_every: int) -> "np.ndarray | bool":
-        """Which vertices the energy reads, so each step skins only those: ``False`` (none),
-        ``True`` (all: re-detection needs the whole mesh) or the ``(U,)`` sorted vertex ids of the
-        contact pairs and of Eint's colliding faces with the faces around their corners (normals).
-        On a 13,000-vertex body a colliding frame reads a few hundred."""
-        if self.uses_int and redetect_every > 0:
-            return True
-        if not len(self.pairs) and not len(self.collisions):
-            return False
-        parts = [self.pairs.reshape(-1)]
-        if len(self.collisions):
-            parts.append(self.problem.interpenetration.support(self.collisions))
-        return np.unique(np.concatenate(parts))
+    def mesh_vertices(self, pairs: np.ndarray, collisions: np.ndarray) -> np.ndarray:
+        """The ``(U,)`` sorted vertex ids the energy reads, so each step skins only those: all of
+        them when re-detecting (detection needs the whole mesh), else the contact pairs' and Eint's
+        colliding faces with the faces around their corners (normals). On a 13,000-vertex body a
+        colliding frame reads a few hundred."""
+        if self.uses_int and self.redetect_every > 0:
+            return np.arange(len(self.problem.rest_vertices))
+        parts = [pairs.reshape(-1)]
+        if len(collisions):
+            parts.append(self.problem.interpenetration.support(collisions))
+        return np.unique(np.concatenate(parts)).astype(np.int64)
 
-    def energy(self, pose: _Pose, o_prev: Tensor) -> dict[str, Tensor]:
-        """Weighted terms of ``Efull(t)`` (:data:`TERMS`) and ``"total"``, each a scalar."""
-        p, w = self.problem, self.problem.weights
-        zero = pose.positions.new_zeros(())
-        terms = dict.fromkeys(TERMS, zero)
-        if len(self.pairs):
-            relaxed = eso_self_contact_energy(pose.vertices[0], self.pairs, self.initial.vertices[0], p.blend)
-            terms["j2j"] = w.lambda_j2j * w.in_units("j2j", relaxed)
-            terms["j2j_distance"] = self_contact_energy(pose.vertices[0], self.pairs).detach()
-        if self.reached:
-            drift = reach_hold_energy(pose.positions[0], self.initial.positions[0], self.reached)
-            terms["hold"] = w.hold * w.in_units("hold", drift)
-        if len(self.collisions):
-            e_int = p.interpenetration.energy_of_pairs(pose.vertices, [self.collisions])[0]
-            terms["int"] = w.int_weight * w.in_units("int", e_int)
-        window = torch.stack((self.previous[0], pose.positions[0]))[None]  # (1, 2, 22, 3)
-        if w.foot_weight > 0:
-            foot = foot_contact_energy_per_frame(window, self.foot_contacts, p.ground_heights, p.height)[0, 1]
-            terms["foot"] = w.foot_weight * w.in_units("foot", foot)
-        if w.omega > 0:
-            terms["ee"] = w.omega * end_effector_energy_per_frame(
-                window, self.src_positions, p.height, p.source.height)[0, 1]
-        unit = w.length_unit
-        terms["weak"] = weak_energy(pose.rotations, self.src_rotations, o_prev / unit,
-                                    self.src_prev_velocity / unit, p.leg_ratio, w.rho)[0]
-        terms["total"] = sum(v for k, v in terms.items() if k != "j2j_distance")
-        return terms
+    def inputs(self) -> _FrameInputs:
+        """This frame's :class:`_FrameInputs` for the current pairs. When ``padded`` (a compiled
+        step) there are at least :data:`_COMPILED_MIN` contact and colliding pairs, the extra
+        ones with zero weight, so every frame runs the same compiled code."""
+        p, device, dtype = self.problem, self.problem.offsets.device, self.problem.offsets.dtype
+        nv = len(p.rest_vertices)
+        pairs, collisions = self.pairs.reshape(-1, 2), self.collisions
+        mask = np.ones(len(pairs))
+        uses_int = self.uses_int and bool(self.padded or len(collisions))
+        if self.padded:
+            extra = max(_COMPILED_MIN - len(pairs), 0)
+            pairs = np.concatenate([pairs, np.tile([[0, min(1, nv - 1)]], (extra, 1))])
+            mask = np.concatenate([mask, np.zeros(extra)])
+            if uses_int:  # the plan's own padding pairs are faces 0 and 1
+                collisions = np.concatenate([collisions, np.tile([[0, 1]], (_COMPILED_MIN, 1))])
+        ids = self.mesh_vertices(pairs, collisions if uses_int else collisions[:0])
+        where = np.full(nv, -1, np.int64)
+        where[ids] = np.arange(len(ids))
+        index = torch.as_tensor(ids, device=device)
+        hold = torch.zeros(J_COUNT, dtype=dtype, device=device)
+        hold[list(self.reached)] = 1.0
+        eint = None
+        if uses_int:
+            eint = p.interpenetration.plan([self.collisions], vertex_index=where,
+                                           min_pairs=_COMPILED_MIN if self.padded else 0, device=device)
+        src, t = p.source, self.t
+        contact = torch.as_tensor(p.foot_contacts[t], device=device).to(dtype)
+        return _fresh(_FrameInputs(
+            self.state, self.base, p.rest_vertices[index], p.skin_weights_t[index],
+            torch.as_tensor(where[pairs], device=device), torch.as_tensor(mask, dtype=dtype, device=device),
+            self.initial.vertices[0][index], hold, self.initial.positions[0], eint, self.previous,
+            torch.stack((src.positions[max(t - 1, 0)], src.positions[t]))[None], src.rotations[t][None],
+            src.root_velocity[t - 1][None] if t > 0 else src.root_velocity.new_zeros(1, 3),
+            torch.stack((contact, contact))[None]))
+
+
+def _fresh(inputs: Any) -> Any:
+    """Every tensor of a (nested) named tuple as its own contiguous copy: a compiled step guards
+    on strides and storage offsets, which views of the clip's tensors would change every frame."""
+    if isinstance(inputs, Tensor):
+        return inputs.detach().clone(memory_format=torch.contiguous_format)
+    if isinstance(inputs, tuple):
+        return type(inputs)(*(_fresh(x) for x in inputs))
+    return inputs
 
 
 class _Problem:
@@ -287,33 +400,18 @@ class _Problem:
         self.foot_contacts = np.asarray(foot_contacts, dtype=bool)
         self.contacts = contacts
         self.interpenetration = interpenetration
+        self.cone = dict(interpenetration.cone) if interpenetration is not None else {}
+
+    def constants(self, context: TargetContext) -> _Constants:
+        scalar = lambda x: torch.tensor(x, dtype=self.offsets.dtype, device=self.offsets.device)  # noqa: E731
+        return _Constants(context, self.rest_joints, self.ground_heights, scalar(self.height),
+                          scalar(self.source.height), scalar(self.leg_ratio))
 
     def contacts_at(self, t: int) -> np.ndarray:
         if self.contacts is None:
             return np.zeros((0, 2), np.int64)
         pairs = self.contacts.at(t) if hasattr(self.contacts, "at") else self.contacts[t]
         return np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
-
-    def pose(self, t: int, h_enc: Tensor, o_prev: Tensor, state: DecoderState, context: TargetContext,
-             mesh: "bool | np.ndarray") -> _Pose:
-        """Decode frame ``t`` from ``h^enc_t`` with ``o_(t−1)`` swapped into the state, then FK (+ LBS).
-
-        ``mesh``: skin no vertex (``False``), all (``True``), or only the ``(U,)`` given ones
-        (:meth:`_Frame.mesh_vertices`; the others stay at 0 in the ``(1, V, 3)`` result, read by nothing).
-        """
-        rot, _, new_state = self.model.decode_step(h_enc, state._replace(root_velocity=o_prev), context,
-                                                   self.base.frame(t))
-        pos = new_state.local_positions + new_state.root_position[:, None]  # Eq. 18
-        verts = None
-        if mesh is True:
-            verts = linear_blend_skinning(self.rest_vertices, self.skin_weights_t, self.rest_joints,
-                                          new_state.global_rotations, pos)
-        elif mesh is not False:
-            index = torch.as_tensor(mesh, device=pos.device)
-            part = linear_blend_skinning(self.rest_vertices[index], self.skin_weights_t[index], self.rest_joints,
-                                         new_state.global_rotations, pos)
-            verts = part.new_zeros(1, len(self.rest_vertices), 3).index_copy(1, index, part)
-        return _Pose(rot, new_state, pos, verts)
 
 
 def _check_inputs(features: Tensor, source: MotionQuantities, foot_contacts: np.ndarray) -> int:
@@ -333,7 +431,8 @@ def encoder_space_optimization(model: GeometryConditionedRNN, source_features: T
                                weights: ContactEnergyWeights | None = None, iterations: int = 30,
                                lr: float = 0.01, reach: float = 0.15, blend: float = 0.3,
                                start: Tensor | None = None, redetect_every: int = 0,
-                               num_threads: int | None = 1, keep_iterates: bool = False) -> EsoResult:
+                               num_threads: int | None = 1, keep_iterates: bool = False,
+                               compile: bool = False) -> EsoResult:
     """Retarget with the RNN and refine every frame by ESO (Sec. 3.3, Eqs. 10-11, App. B.1).
 
     Args:
@@ -364,6 +463,10 @@ def encoder_space_optimization(model: GeometryConditionedRNN, source_features: T
             overhead: on the 2-core workshop machine, under load, 2 threads ran 10x slower than 1.
         keep_iterates: also return every frame's pose after each of its steps
             (``EsoResult.iterate_rotations`` / ``iterate_roots``; e.g. to show ESO's progress).
+        compile: run each step (decoder, FK, skinning, energy and their backward) compiled by
+            ``torch.compile`` (inductor: needs a C++ compiler): the same energy, several times
+            faster per step, after a one-off compilation (about half a minute, then cached on
+            disk); contact and colliding pairs are padded to at least two with zero weight.
 
     Runs on the model's device (move the model with ``.to(device)``); the per-frame contact and
     collision detection stay on the CPU; the result's tensors are on the CPU.
@@ -380,6 +483,7 @@ def encoder_space_optimization(model: GeometryConditionedRNN, source_features: T
                        reach, blend)
     if start is None:
         start = problem.leg_ratio * problem.source.positions[0, 0]
+    step = _compiled_frame_terms() if compile else _frame_terms
     was_training, threads = model.training, torch.get_num_threads()
     grad_flags = [p.requires_grad for p in model.parameters()]
     model.eval().requires_grad_(False)
@@ -391,12 +495,14 @@ def encoder_space_optimization(model: GeometryConditionedRNN, source_features: T
             h_enc = model.encode(features.to(problem.offsets.device, problem.offsets.dtype))[0]
             context = model.target_context(problem.offsets, problem.rest_vertices[None],
                                            problem.skin_weights_t[None], problem.height)
+        constants = problem.constants(context)
         state = model.initial_state(context, start)
         log = _Log(num_frames, iterations, keep_iterates)
         frames: list[_Pose] = []
         for t in range(num_frames):
-            pose = _optimise_frame(t, problem, h_enc[t:t + 1], state, context, frames, iterations, lr,
-                                   redetect_every, log)
+            frame = _Frame(t, problem, constants, state, h_enc[t:t + 1], frames[-1] if frames else None,
+                           redetect_every, padded=compile)
+            pose = _optimise_frame(frame, constants, h_enc[t:t + 1], iterations, lr, log, step)
             frames.append(pose)
             state = pose.state
     finally:
@@ -406,59 +512,95 @@ def encoder_space_optimization(model: GeometryConditionedRNN, source_features: T
             p.requires_grad_(flag)
     return EsoResult(torch.cat([f.rotations for f in frames]).cpu(),
                      torch.cat([f.state.root_position for f in frames]).cpu(),
-                     torch.cat([f.positions for f in frames]).cpu(), log.energies, log.terms,
+                     torch.cat([f.positions for f in frames]).cpu(), log.values[..., -1],
+                     {k: log.values[..., i] for i, k in enumerate(TERMS)},
                      torch.as_tensor(log.active), torch.as_tensor(log.collisions), time.perf_counter() - began,
                      log.rotations, log.roots)
 
 
+#: from this many frames, :func:`use_compiled` compiles ESO's step by default: the one-off
+#: compilation (about 35 s, 8 s from inductor's disk cache) is then repaid by the faster steps
+#: (0.26 -> 0.11 s a frame on the 13,380-vertex MakeHuman body, one thread; ``retarget bench --only eso``)
+COMPILE_FROM_FRAMES = 240
+
+
+def use_compiled(frames: int, compile: bool | None = None) -> bool:
+    """Whether ESO on a clip of ``frames`` should run compiled: ``compile`` when given, else
+    (``None``) when the clip has :data:`COMPILE_FROM_FRAMES` frames or this process has compiled
+    it already. Never without a C++ compiler (inductor's requirement; a warning says so once).
+    """
+    wanted = compile if compile is not None else (
+        frames >= COMPILE_FROM_FRAMES or _compiled_in_process())
+    if wanted and not _have_compiler():
+        warnings.warn("no C++ compiler (g++, c++ or clang++) on PATH: ESO runs uncompiled", stacklevel=2)
+        return False
+    return wanted
+
+
+def _compiled_in_process() -> bool:
+    return _compiled_frame_terms.cache_info().currsize > 0
+
+
+@functools.lru_cache(maxsize=1)
+def _have_compiler() -> bool:
+    return any(shutil.which(name) for name in ("g++", "c++", "clang++"))
+
+
+@functools.lru_cache(maxsize=1)
+def _compiled_frame_terms() -> Callable[..., tuple[Tensor, _Pose]]:
+    """:func:`_frame_terms` compiled once per process (sizes dynamic: one compilation serves every
+    frame, character and pair count; inductor caches it on disk for the next process)."""
+    return compile_function(_frame_terms, dynamic=True)
+
+
 class _Log:
     def __init__(self, frames: int, iterations: int, keep_iterates: bool = False):
-        self.energies = torch.zeros(frames, iterations + 1)
-        self.terms = {k: torch.zeros(frames, iterations + 1) for k in TERMS}
+        self.values = torch.zeros(frames, iterations + 1, len(TERMS) + 1)  # the terms, then the total
         self.active = [0] * frames
         self.collisions = [0] * frames
         self.rotations = torch.zeros(frames, iterations + 1, J_COUNT, 4) if keep_iterates else None
         self.roots = torch.zeros(frames, iterations + 1, 3) if keep_iterates else None
 
-    def record(self, t: int, n: int, terms: dict[str, Tensor], pose: "_Pose | None" = None) -> None:
-        self.energies[t, n] = float(terms["total"].detach())
-        for k in TERMS:
-            self.terms[k][t, n] = float(terms[k].detach())
-        if self.rotations is not None and pose is not None:
+    def record(self, t: int, n: int, values: Tensor, pose: _Pose) -> None:
+        self.values[t, n] = values.detach().cpu()
+        if self.rotations is not None and self.roots is not None:
             self.rotations[t, n] = pose.rotations[0].detach().cpu()
             self.roots[t, n] = pose.state.root_position[0].detach().cpu()
 
 
-def _optimise_frame(t: int, problem: _Problem, h_enc: Tensor, state: DecoderState, context: TargetContext,
-                    frames: Sequence[_Pose], iterations: int, lr: float, redetect_every: int, log: _Log) -> _Pose:
-    """Steps 1-4 of the module docstring for frame ``t``; returns the kept pose (its state carried on)."""
+def _optimise_frame(frame: _Frame, constants: _Constants, h_enc: Tensor, iterations: int, lr: float, log: _Log,
+                    step: Callable[..., tuple[Tensor, _Pose]]) -> _Pose:
+    """Steps 3-4 of the module docstring for one frame (steps 1-2: :class:`_Frame`); returns the
+    kept pose (its state carried on)."""
+    p, t = frame.problem, frame.t
     h = h_enc.clone().requires_grad_(True)
-    o_prev = state.root_velocity.clone().requires_grad_(True)
-    with torch.no_grad():
-        initial = problem.pose(t, h, o_prev, state, context, mesh=True)
-    previous = frames[-1].positions if frames else initial.positions
-    frame = _Frame(t, initial, previous, problem)
+    o_prev = frame.state.root_velocity.clone().requires_grad_(True)
     log.active[t], log.collisions[t] = len(frame.pairs), len(frame.collisions)
     optimiser = torch.optim.Adam([h, o_prev], lr=lr, betas=(0.5, 0.999), eps=1e-8)
-    mesh = frame.mesh_vertices(redetect_every)
+    inputs = frame.inputs()
+    redetect = frame.redetect_every if frame.uses_int else 0
     for n in range(iterations):
         optimiser.zero_grad(set_to_none=True)
-        pose = problem.pose(t, h, o_prev, state, context, mesh)
-        if frame.uses_int and redetect_every and n and n % redetect_every == 0:
-            frame.detect(pose.vertices[0])
-        terms = frame.energy(pose, o_prev)
-        terms["total"].backward()
+        if redetect and n and n % redetect == 0:
+            with torch.no_grad():
+                current = _decode(p.model, constants, frame.state, frame.base, h, o_prev, p.rest_vertices,
+                                  p.skin_weights_t)
+            frame.detect(current.vertices[0])
+            inputs = frame.inputs()
+        values, pose = step(p.model, p.weights, p.blend, p.cone, constants, inputs, h, o_prev)
+        values[-1].backward()
         optimiser.step()
-        log.record(t, n, terms, pose)
-    with torch.no_grad():
-        final = problem.pose(t, h, o_prev, state, context, mesh)
-        log.record(t, iterations, frame.energy(final, o_prev), final)
-    return final._replace(vertices=None)
+        log.record(t, n, values, pose)
+    # with gradients on, as every step: a compiled step would compile again for another grad mode
+    values, final = step(p.model, p.weights, p.blend, p.cone, constants, inputs, h, o_prev)
+    log.record(t, iterations, values, final)
+    detached = DecoderState(*(x.detach() for x in final.state))
+    return _Pose(final.rotations.detach(), detached, final.positions.detach(), None)
 
 
 def eso_throughput(model: GeometryConditionedRNN, motion: Motion, target: Any, frames: int = 10,
                    iterations: int = 30, interpenetration: InterpenetrationEnergy | None = None,
-                   contacts: Any = None, redetect_every: int = 0) -> dict[str, float]:
+                   contacts: Any = None, redetect_every: int = 0, compile: bool = False) -> dict[str, float]:
     """Frames per second of :func:`encoder_space_optimization` on the first ``frames`` of a clip.
 
     Args:
@@ -471,6 +613,8 @@ def eso_throughput(model: GeometryConditionedRNN, motion: Motion, target: Any, f
             table takes 1-2 s and is not part of the per-frame cost), or ``None``.
         contacts: target self-contacts (see :func:`encoder_space_optimization`).
         redetect_every: see :func:`encoder_space_optimization`.
+        compile: compiled steps (see :func:`encoder_space_optimization`; the compilation is
+            done by the untimed warm-up run).
 
     Returns:
         ``{"frames", "iterations", "vertices", "seconds", "frames_per_second", "colliding_pairs"}``
@@ -481,11 +625,18 @@ def eso_throughput(model: GeometryConditionedRNN, motion: Motion, target: Any, f
     clip = motion.copy(rotations=motion.rotations[:frames], root_positions=motion.root_positions[:frames])
     src = eso_source(clip, target)
     warm_up = src.quantities._replace(**{k: v[:1] for k, v in src.quantities._asdict().items() if k != "height"})
+    # first-call costs (lazy imports in torch.optim; the compilation) not timed
     encoder_space_optimization(model, src.features[:, :1], target, warm_up, src.foot_contacts[:1], src.leg_ratio,
-                               iterations=1)  # first-call costs (lazy imports in torch.optim) not timed
+                               contacts=None if contacts is None else [_first_pairs(contacts)],
+                               interpenetration=interpenetration, iterations=2, compile=compile)
     result = encoder_space_optimization(model, src.features, target, src.quantities, src.foot_contacts,
                                         src.leg_ratio, contacts=contacts, interpenetration=interpenetration,
-                                        iterations=iterations, redetect_every=redetect_every)
+                                        iterations=iterations, redetect_every=redetect_every, compile=compile)
     return {"frames": float(frames), "iterations": float(iterations), "vertices": float(len(target.rest_vertices)),
             "seconds": result.seconds, "frames_per_second": result.frames_per_second,
             "colliding_pairs": float(result.colliding_pairs.float().mean())}
+
+
+def _first_pairs(contacts: Any) -> np.ndarray:
+    """Frame 0's contact pairs of a ``SelfContacts`` or a sequence of pair arrays."""
+    return np.asarray(contacts.at(0) if hasattr(contacts, "at") else contacts[0], dtype=np.int64).reshape(-1, 2)
