@@ -10,7 +10,7 @@ import trimesh
 
 from retarget_lib.core.skeleton import J
 from retarget_lib.data.synthetic.characters import make_character
-from retarget_lib.geometry.collision import (TriangleBVH, brute_force_candidate_pairs,
+from retarget_lib.geometry.collision import (SPLIT_DEPTH, TriangleBVH, brute_force_candidate_pairs,
                                              colliding_triangle_pairs, triangles_intersect)
 from retarget_lib.geometry.penetration import (GeodesicDistances, InterpenetrationEnergy, cap_holes, circumcircle,
                                                cone_distance_field, geodesic_distances, geodesic_pair_weights,
@@ -353,3 +353,14 @@ def test_bench_eint_rows():
     rows = bench_eint(quick=True)
     assert [r.reference_seconds is not None for r in rows[:4]] == [True, True, False, False]
     assert all(r.seconds > 0 for r in rows) and rows[1].speedup > 1
+
+
+def test_detection_on_two_threads_finds_the_same_pairs():
+    # the hierarchy's lower levels dealt to two threads: the same sorted pairs as one thread
+    v, f = boxes(0.05)
+    bvh = TriangleBVH(f, v)
+    assert bvh.depth > SPLIT_DEPTH
+    one = colliding_triangle_pairs(v, f, bvh)
+    assert len(one) > 10
+    np.testing.assert_array_equal(colliding_triangle_pairs(v, f, bvh, workers=2), one)
+    np.testing.assert_array_equal(colliding_triangle_pairs(v, f, bvh, workers=3), one)

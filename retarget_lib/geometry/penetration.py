@@ -334,21 +334,26 @@ def _vertex_face_csr(faces: np.ndarray, num_vertices: int) -> tuple[np.ndarray, 
 
 def _faces_around(faces: np.ndarray, csr: tuple[np.ndarray, np.ndarray],
                   corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The faces around each of the ``corners (U,)`` vertices: ``(K, 3)`` their vertex ids and
-    ``(K,)`` the index (``0..U-1``) of the corner each one is around."""
+    """The faces around each of the ``corners (U,)`` vertices, padded to the largest count ``M``:
+    ``(U, M, 3)`` their vertex ids and ``(U, M)`` bool, which slots hold a face (a padding slot
+    repeats the corner's first face)."""
     ptr, ids = csr
     counts = ptr[corners + 1] - ptr[corners]
-    segment = np.repeat(np.arange(len(corners)), counts)
-    within = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
-    return faces[ids[np.repeat(ptr[corners], counts) + within]], segment
+    slots = np.arange(counts.max(initial=0))
+    present = slots[None] < counts[:, None]
+    first = np.minimum(ptr[corners], len(ids) - 1)[:, None]
+    face = ids[np.where(present, ptr[corners][:, None] + slots[None], first)] if len(ids) else \
+        np.zeros(present.shape, np.int64)
+    return faces[face], present
 
 
-def _area_weighted_normals(vertices: Tensor, around: Tensor, segment: Tensor, count: int) -> Tensor:
-    """``(..., count, 3)`` unit normals summed from the ``around (K, 3)`` faces of each corner
-    (``segment (K,)``, :func:`_faces_around`), each face weighted by its area."""
-    tri = vertices[..., around, :]
+def _area_weighted_normals(vertices: Tensor, around: Tensor, present: Tensor) -> Tensor:
+    """``(..., U, 3)`` unit normals summed from the faces around each corner (``around (U, M, 3)``,
+    ``present (U, M)``, :func:`_faces_around`), each face weighted by its area. Gathers and sums
+    only (no scatter), so a compiled step has no atomic writes."""
+    tri = vertices[..., around, :]  # (..., U, M, 3, 3)
     face_normal = torch.cross(tri[..., 1, :] - tri[..., 0, :], tri[..., 2, :] - tri[..., 0, :], dim=-1)
-    summed = vertices.new_zeros(*vertices.shape[:-2], count, 3).index_add(-2, segment, face_normal)
+    summed = (face_normal * present.to(vertices.dtype)[..., None]).sum(-2)
     return summed / summed.norm(dim=-1, keepdim=True).clamp(min=1e-12)
 
 
@@ -356,10 +361,10 @@ def _normals_at(vertices: Tensor, faces: np.ndarray, csr: tuple[np.ndarray, np.n
                 needed: np.ndarray) -> Tensor:
     """``(..., U, 3)`` area-weighted unit normals of the ``needed (U,)`` vertices, from their own
     faces only (a colliding frame needs a few hundred vertices' normals, not all of them)."""
-    around, segment = _faces_around(faces, csr, needed)
+    around, present = _faces_around(faces, csr, needed)
     device = vertices.device
     return _area_weighted_normals(vertices, torch.as_tensor(around, device=device),
-                                  torch.as_tensor(segment, device=device), len(needed))
+                                  torch.as_tensor(present, device=device))
 
 
 class PairPlan(NamedTuple):
@@ -373,9 +378,9 @@ class PairPlan(NamedTuple):
     Attributes:
         frame: ``(P,)`` int64, the batch element of each pair.
         tri_r, tri_i: ``(P, 3)`` int64 vertex ids of each pair's two triangles.
-        around: ``(K, 3)`` int64 vertex ids of the faces around each pair corner (its normal).
-        segment: ``(K,)`` int64 the corner (``0..U-1``) each of those faces is around.
-        corners: ``(U,)`` int64 mesh ids of the corners (their count sizes the normals).
+        around: ``(U, M, 3)`` int64 vertex ids of the faces around each pair corner (its normal),
+            padded to the largest count ``M``.
+        present: ``(U, M)`` bool, the slots of ``around`` that hold a face.
         corner_r, corner_i: ``(P, 3)`` int64 each triangle vertex's corner (``0..U-1``).
         weights: ``(P,)`` ``w_ri`` (Eq. 5; 0 on padding pairs).
     """
@@ -384,8 +389,7 @@ class PairPlan(NamedTuple):
     tri_r: Tensor
     tri_i: Tensor
     around: Tensor
-    segment: Tensor
-    corners: Tensor
+    present: Tensor
     corner_r: Tensor
     corner_i: Tensor
     weights: Tensor
@@ -402,11 +406,12 @@ def plan_energy(vertices: Tensor, plan: PairPlan, cone: Mapping[str, float]) -> 
     Returns:
         ``(B,)`` square metres.
     """
-    normals = _area_weighted_normals(vertices, plan.around, plan.segment, plan.corners.shape[0])
+    normals = _area_weighted_normals(vertices, plan.around, plan.present)
     fr = plan.frame[:, None]
     terms = _pair_terms(vertices[fr, plan.tri_r], vertices[fr, plan.tri_i], normals[fr, plan.corner_r],
                         normals[fr, plan.corner_i], cone)
-    return vertices.new_zeros(vertices.shape[0]).index_add(0, plan.frame, terms * plan.weights.to(vertices.dtype))
+    in_frame = (plan.frame[:, None] == torch.arange(vertices.shape[0], device=vertices.device)).to(vertices.dtype)
+    return ((terms * plan.weights.to(vertices.dtype))[:, None] * in_frame).sum(0)  # (B,): a sum per frame
 
 
 def _pair_terms(tri_r: Tensor, tri_i: Tensor, normals_r: Tensor, normals_i: Tensor, cone: dict) -> Tensor:
@@ -497,11 +502,12 @@ class InterpenetrationEnergy:
             self.eta = self.geodesic.eta
         self._vertex_faces = _vertex_face_csr(self.faces, self.num_vertices)
 
-    def pairs(self, vertices) -> np.ndarray:
+    def pairs(self, vertices, workers: int = 1) -> np.ndarray:
         """Colliding face pairs of one frame.
 
         Args:
             vertices: ``(V, 3)`` metres (NumPy or tensor; no gradient).
+            workers: threads detecting (:func:`~retarget_lib.geometry.collision.colliding_triangle_pairs`).
 
         Returns:
             ``(P, 2)`` int64 ``(r, i)``, ``r < i``.
@@ -509,7 +515,7 @@ class InterpenetrationEnergy:
         vertices = as_vertex_array(vertices)
         if len(vertices) != self.num_vertices:
             raise ValueError(f"expected {self.num_vertices} vertices, got {len(vertices)}")
-        return colliding_triangle_pairs(vertices, self.faces, self.bvh)
+        return colliding_triangle_pairs(vertices, self.faces, self.bvh, workers)
 
     def pair_weights(self, pairs: np.ndarray) -> np.ndarray:
         """``(P,)`` Eq. 5 weights of ``pairs`` (all 1 without geodesic weights)."""
@@ -574,12 +580,12 @@ class InterpenetrationEnergy:
             weights = np.concatenate([weights, np.zeros(pad)])
         corners, local = np.unique(self.faces[pairs], return_inverse=True)  # pair corners -> normals
         local = local.reshape(len(pairs), 2, 3)
-        around, segment = _faces_around(self.faces, self._vertex_faces, corners)
+        around, present = _faces_around(self.faces, self._vertex_faces, corners)
         where = np.arange(self.num_vertices) if vertex_index is None else np.asarray(vertex_index)
         as_tensor = lambda a, dtype=torch.int64: torch.as_tensor(a, dtype=dtype, device=device)  # noqa: E731
         return PairPlan(as_tensor(frame), as_tensor(where[self.faces[pairs[:, 0]]]),
-                        as_tensor(where[self.faces[pairs[:, 1]]]), as_tensor(where[around]), as_tensor(segment),
-                        as_tensor(corners), as_tensor(local[:, 0]), as_tensor(local[:, 1]),
+                        as_tensor(where[self.faces[pairs[:, 1]]]), as_tensor(where[around]),
+                        as_tensor(present, torch.bool), as_tensor(local[:, 0]), as_tensor(local[:, 1]),
                         as_tensor(weights, torch.float64))
 
     def energy_of_pairs(self, batch: Tensor, per_frame: Sequence[np.ndarray]) -> Tensor:

@@ -40,18 +40,21 @@ Which side of a contact is "reached": for each reachable pair with a hand vertex
 skinning joint ``LeftHand``/``RightHand``), the dominant joint of every non-hand vertex of that
 pair (:func:`reached_joints`).
 
-Speed (:func:`eso_throughput`: full-size randomly initialised network, the 3,001-vertex bulky
-synthetic target ``otto``, a clap clip, 20 frames × 30 iterations, on the shared 2-core CPU at a
-load average of about 4): 3.7-5.5 frames/s without Eint or with triangle pairs detected once per
-frame; 2.3 frames/s re-detecting every 10 iterations and 2.0 every 5 (poses with 6-12 colliding
-pairs per frame). One iteration costs about 10 ms (decoder step, FK and their backward pass) plus
-about 5 ms for Eint (vertex normals of the whole mesh); one detection 10-30 ms. Hence the default:
-detect once per frame. ESO runs single-threaded (``num_threads``): its tensors are one frame each.
+Speed (:func:`eso_throughput`, ``retarget bench --only eso``; the shipped network, the mannequin's
+synthetic ``pray`` clip (palms together) onto MakeHuman's body decimated to 10,000 vertices, 80 colliding triangle pairs
+and 3 contact pairs a frame, 30 steps, 2-core machine): one uncompiled step is ~8,000 small tensor
+operations (decoder, FK, skinning of the vertices the energy reads, energy, backward: ~8 ms, almost
+all per-operation overhead), 0.25 s a frame; compiled (``compile=True``, the whole step fused by
+``torch.compile``) ~2.3 ms a step and 0.10 s a frame (10 frames/s), of which ~20 ms are the frame's
+collision detection (two threads) and initial decode. Detection runs once per frame by default
+(``redetect_every`` re-detects on the whole mesh). The steps run single-threaded
+(``num_threads``): their tensors are one frame each.
 """
 
 from __future__ import annotations
 
 import functools
+import os
 import shutil
 import time
 import warnings
@@ -275,6 +278,9 @@ def _frame_terms(model: GeometryConditionedRNN, weights: ContactEnergyWeights, b
     return torch.stack([terms[k] for k in TERMS] + [total]), pose
 
 
+#: threads detecting colliding triangles (ESO's own steps run on one thread)
+DETECTION_WORKERS = min(2, os.cpu_count() or 1)
+
 #: the fewest contact pairs and colliding pairs a compiled step sees (padding with zero weight):
 #: ``torch.compile`` specialises sizes 0 and 1, so smaller counts would compile again
 _COMPILED_MIN = 2
@@ -316,8 +322,9 @@ class _Frame:
             self.detect(self.initial.vertices[0])
 
     def detect(self, vertices: Tensor) -> None:
-        """Colliding triangle pairs of ``(V, 3)`` vertices (the whole mesh), kept for Eint."""
-        self.collisions = self.problem.interpenetration.pairs(vertices.detach())
+        """Colliding triangle pairs of ``(V, 3)`` vertices (the whole mesh), kept for Eint; on two
+        threads when there are two cores (the optimisation itself runs on one)."""
+        self.collisions = self.problem.interpenetration.pairs(vertices.detach(), DETECTION_WORKERS)
 
     def mesh_vertices(self, pairs: np.ndarray, collisions: np.ndarray) -> np.ndarray:
         """The ``(U,)`` sorted vertex ids the energy reads, so each step skins only those: all of
@@ -467,6 +474,7 @@ def encoder_space_optimization(model: GeometryConditionedRNN, source_features: T
             ``torch.compile`` (inductor: needs a C++ compiler): the same energy, several times
             faster per step, after a one-off compilation (about half a minute, then cached on
             disk); contact and colliding pairs are padded to at least two with zero weight.
+            Always on one thread (``num_threads`` is ignored): the compiled kernels crashed on two.
 
     Runs on the model's device (move the model with ``.to(device)``); the per-frame contact and
     collision detection stay on the CPU; the result's tensors are on the CPU.
@@ -484,6 +492,8 @@ def encoder_space_optimization(model: GeometryConditionedRNN, source_features: T
     if start is None:
         start = problem.leg_ratio * problem.source.positions[0, 0]
     step = _compiled_frame_terms() if compile else _frame_terms
+    if compile:  # inductor's parallel kernels for these dynamic sizes corrupt memory on 2 threads (torch 2.13)
+        num_threads = 1
     was_training, threads = model.training, torch.get_num_threads()
     grad_flags = [p.requires_grad for p in model.parameters()]
     model.eval().requires_grad_(False)
