@@ -76,3 +76,19 @@ def test_welding_joins_split_vertices_without_moving_the_surface():
     lo, hi = raw.rest_vertices.min(0), raw.rest_vertices.max(0)
     assert joined.rest_vertices.min(0) == pytest.approx(lo) and joined.rest_vertices.max(0) == pytest.approx(hi)
     assert joined.weights.sum(1) == pytest.approx(np.ones(len(joined.weights)))
+
+
+def test_jitter_is_zero_for_the_source_smoothness_and_symmetric_in_the_log(character):
+    # a source swaying 2 cm at 2 Hz; the result sways the same in proportion to its height (0), twice
+    # as much (ln 2) or half as much (also ln 2: smoothing a motion away is no better than shaking it)
+    source = make_character("ada")
+    t = np.arange(30) / 30.0
+    sway = np.sin(2 * np.pi * 2 * t)
+    src = _still(source.skeleton)
+    src.root_positions[:, 0] += 0.02 * sway
+    clip = RealClip("sway", src, source, None)
+    scale = character.skeleton.height() / source.skeleton.height()
+    for factor, expected in ((1.0, 0.0), (2.0, np.log(2)), (0.5, np.log(2))):
+        result = _still(character.skeleton)
+        result.root_positions[:, 0] += factor * 0.02 * scale * sway
+        assert real_measures(result, clip, character)["jitter_log_ratio"] == pytest.approx(expected, abs=1e-9)
