@@ -113,6 +113,7 @@ test-slow: data
 # pyflakes and syntax checks over the library, tests, tools and benchmarks (config: pyproject.toml)
 lint: $(STAMP)
 	$(BIN)/ruff check retarget_lib tests tools benchmarks
+	$(BIN)/mypy
 
 unit-threads: $(STAMP)
 	OMP_NUM_THREADS=2 MKL_NUM_THREADS=2 $(BIN)/pytest -q -p no:cacheprovider -m "not data and not slow" tests

@@ -137,10 +137,10 @@ def _read_arrays(path: Path) -> dict[str, np.ndarray]:
 def _frame_rate(a: dict[str, np.ndarray], fps: float | None, path: Path) -> float:
     """The file's frame rate (one number), else ``fps``."""
     key = next((k for k in ("mocap_frame_rate", "mocap_framerate") if k in a), None)
-    if key is None and fps is None:
-        raise AMASSError(f"{path}: no frame rate: the file has no 'mocap_frame_rate' or 'mocap_framerate' key; add "
-                         "it (frames per second), as AMASS files have it")
     if key is None:
+        if fps is None:
+            raise AMASSError(f"{path}: no frame rate: the file has no 'mocap_frame_rate' or 'mocap_framerate' key; "
+                             "add it (frames per second), as AMASS files have it")
         rate = float(fps)
     else:
         value = np.asarray(a[key])

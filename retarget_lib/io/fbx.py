@@ -129,7 +129,7 @@ class _Scan:
 def _properties(data: bytes, pos: int, end: int, count: int, path: Path) -> list:
     """The ``count`` properties in ``data[pos:end]``: scalars as numbers, strings as bytes, arrays
     as ``(type letter, length, encoding, payload)`` (not decoded; sizes checked)."""
-    out = []
+    out: list[int | bytes | tuple[str, int, int, bytes]] = []
     for _ in range(count):
         if pos >= end:
             raise FBXError(f"{path}: malformed FBX: a record's properties run past its end")
@@ -176,20 +176,21 @@ def _collect(scan: _Scan, name: str, parent: str, owner: int | None, props: list
     """Note what the checks need from one record; return the object id its children belong to."""
     if parent == "Objects" and props and isinstance(props[0], int):
         label = props[1] if len(props) > 1 and isinstance(props[1], bytes) else b""
-        kind = props[2] if len(props) > 2 and isinstance(props[2], bytes) else b""
+        class_name = props[2] if len(props) > 2 and isinstance(props[2], bytes) else b""
         name_part = label.split(b"\x00\x01")[0]
-        scan.objects[props[0]] = (name_part.decode("utf-8", "replace"), kind.decode("utf-8", "replace"))
+        scan.objects[props[0]] = (name_part.decode("utf-8", "replace"), class_name.decode("utf-8", "replace"))
         return props[0]
     if name == "C" and parent == "Connections" and len(props) >= 3 and props[0] == b"OO" \
             and isinstance(props[1], int) and isinstance(props[2], int):
         scan.parents.setdefault(props[1], []).append(props[2])
-    array = props[0] if owner is not None and props and isinstance(props[0], tuple) else None
-    kind = scan.objects[owner][1] if owner is not None else ""
-    if array is not None and name == "Indexes" and kind == "Cluster" and array[0] in "il":
+    if owner is None or not props or not isinstance(props[0], tuple):
+        return owner
+    array, kind = props[0], scan.objects[owner][1]
+    if name == "Indexes" and kind == "Cluster" and array[0] in "il":
         indices = _int_array(array, path)
         if indices.size:
             scan.cluster_range[owner] = (int(indices.min()), int(indices.max()))
-    elif array is not None and name == "Vertices" and kind == "Mesh":
+    elif name == "Vertices" and kind == "Mesh":
         scan.vertices[owner] = array[1] // 3
     return owner
 
@@ -206,7 +207,8 @@ def _scan_binary_fbx(data: bytes, path: Path) -> _Scan:
     version = struct.unpack_from("<I", data, 23)[0] if len(data) >= 27 else 0
     head, layout = (25, "<QQQB") if version >= 7500 else (13, "<IIIB")
     scan, records = _Scan(), 0
-    stack = [(27, len(data), 1, "", None)]  # (next record, end of the list, depth, parent name, owning object)
+    # (next record, end of the list, depth, parent name, owning object)
+    stack: list[tuple[int, int, int, str, int | None]] = [(27, len(data), 1, "", None)]
     while stack:
         pos, end, depth, parent, owner = stack[-1]
         if pos + head > end:

@@ -97,7 +97,8 @@ class _Node:
     __slots__ = ("name", "props", "children")
 
     def __init__(self, name: str, *props) -> None:
-        self.name, self.props, self.children = name, [_typed(p) for p in props], []
+        self.name, self.props = name, [_typed(p) for p in props]
+        self.children: list[_Node] = []
 
     def add(self, name: str, *props) -> "_Node":
         """Append a child record and return it."""
@@ -311,7 +312,7 @@ def _add_skeleton(scene: _Scene, rig: Rig) -> list[int]:
     """One LimbNode model (and node attribute) per joint, parented as the skeleton; their ids."""
     sk = rig.skeleton
     size = max(float(np.linalg.norm(sk.offsets[1:], axis=1).mean()) if sk.num_joints > 1 else 0.1, 1e-3)
-    ids = []
+    ids: list[int] = []
     for j, name in enumerate(sk.joint_names):
         attr_id, attr = scene.new("NodeAttribute", name, "NodeAttribute", "LimbNode")
         attr.children.append(_properties(("Size", "double", "Number", "", size * 100.0)))

@@ -196,7 +196,7 @@ class GLTFDocument:
         else:
             out = self._view(index, acc, dtype, width)
         if acc.normalized and np.issubdtype(dtype, np.integer):
-            out = np.maximum(out / np.iinfo(dtype).max, -1.0)
+            out = np.maximum(out / np.iinfo(dtype.type).max, -1.0)
         if acc.type == "MAT4":
             out = out.reshape(-1, 4, 4).transpose(0, 2, 1)  # column-major in the file
         if np.issubdtype(out.dtype, np.floating) and not np.isfinite(out).all():
@@ -236,7 +236,8 @@ def _split_glb(data: bytes, path: Path) -> tuple[bytes, bytes | None]:
         raise GLTFError(f"{path}: GLB container version {version}; only version 2 (glTF 2.0) is read")
     if length > len(data):
         raise GLTFError(f"{path}: truncated GLB file (its header declares more bytes than it has)")
-    chunks, pos = [], 12
+    chunks: list[tuple[int, bytes]] = []
+    pos = 12
     while pos + 8 <= length:
         size, kind = struct.unpack_from("<II", data, pos)
         if pos + 8 + size > length:
@@ -352,7 +353,8 @@ def _parents_of_nodes(doc: GLTFDocument) -> list[int]:
             parent[c] = n
     reaches_root = [False] * len(nodes)
     for n in range(len(nodes)):
-        path, k = [], n
+        path: list[int] = []
+        k = n
         while k >= 0 and not reaches_root[k]:
             if len(path) > len(nodes):  # every node has one parent: a longer walk goes round a cycle
                 raise doc.error(f"the node hierarchy has a cycle through node {n}")
@@ -693,7 +695,7 @@ def _armature(doc: GLTFDocument, tree: _Skeleton, mapping, skinless: bool = Fals
     rest = np.stack([world[n][:3, 3] for n in tree.nodes])
     offsets = rest.copy()
     offsets[1:] -= rest[tree.parents[1:]]
-    skeleton = Skeleton(tree.names, tree.parents, offsets)
+    skeleton = Skeleton(tuple(tree.names), tuple(tree.parents), offsets)
     if isinstance(mapping, (str, os.PathLike)):
         user, source = load_mapping_file(mapping), f"the joint map {mapping}"
     else:
@@ -833,7 +835,9 @@ def _channels(doc: GLTFDocument, animation: int) -> list[_Channel]:
     if not 0 <= animation < len(g.animations):
         raise doc.error(f"has {len(g.animations)} animations; animation {animation} does not exist")
     anim = g.animations[animation]
-    out, first, decoded = [], {}, {}
+    out: list[_Channel] = []
+    first: dict[tuple[int, str], int] = {}
+    decoded: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
     for i, c in enumerate(anim.channels):
         where = f"animation {animation} channel {i}"
         if c.target.node is None or c.target.path not in _KEY_VALUES:
@@ -849,7 +853,8 @@ def _channels(doc: GLTFDocument, animation: int) -> list[_Channel]:
         key = (s.input, s.output, c.target.path, s.interpolation or "LINEAR")
         if key not in decoded:
             decoded[key] = _keys(doc, animation, c.sampler, *key)
-        out.append(_Channel(c.target.node, c.target.path, *decoded[key], key[3]))
+        times, values = decoded[key]
+        out.append(_Channel(c.target.node, c.target.path, times, values, key[3]))
     if not out:
         raise doc.error(f"animation {animation} has no rotation or translation channels")
     return out

@@ -104,6 +104,7 @@ def save_glb(rig: Rig, path: str | os.PathLike, motion: Motion | None = None, sk
         g.nodes.append(pygltflib.Node(name=name, translation=sk.offsets[j].astype(np.float32).tolist(),
                                       children=sk.children(j) or None))
     if not skin:
+        assert motion is not None  # refused above
         g.scenes.append(pygltflib.Scene(nodes=[0]))
         g.scene = 0
         _add_animation(b, motion)

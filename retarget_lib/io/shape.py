@@ -108,7 +108,7 @@ def _check_shape(path: Path, key: str, shape: tuple[int, ...]) -> None:
         check_count(shape[0], MAX_FACES, "faces", str(path))
 
 
-def _validated(arrays: dict, path: Path) -> tuple[np.ndarray, ...]:
+def _validated(arrays: dict, path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, list[str]]:
     """Check shapes, finiteness, face indices and weight sums; return the arrays as
     ``(vertices, faces, weights, offsets, names)``."""
     vertices, faces, weights, offsets, names = (arrays[k] for k in SHAPE_KEYS)
