@@ -75,7 +75,7 @@ def _map_tensors(value: Any, fn) -> Any:
     if isinstance(value, dict):
         out = type(value)((k, _map_tensors(v, fn)) for k, v in value.items())
         if hasattr(value, "_metadata"):
-            out._metadata = value._metadata
+            out._metadata = value._metadata  # type: ignore[attr-defined]  # an OrderedDict's attribute
         return out
     if isinstance(value, (list, tuple)):
         items = [_map_tensors(v, fn) for v in value]
