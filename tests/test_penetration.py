@@ -364,3 +364,23 @@ def test_detection_on_two_threads_finds_the_same_pairs():
     assert len(one) > 10
     np.testing.assert_array_equal(colliding_triangle_pairs(v, f, bvh, workers=2), one)
     np.testing.assert_array_equal(colliding_triangle_pairs(v, f, bvh, workers=3), one)
+
+
+def test_intersections_of_the_rest_pose_can_be_left_out():
+    # a mesh built intersecting (a small box through a big one's face, as a belt through a trunk):
+    # with ignore_rest_intersections those pairs are not detected in any frame, new ones are
+    v, f = boxes(0.05)
+    kept = InterpenetrationEnergy(f, v)
+    ignored = InterpenetrationEnergy(f, v, ignore_rest_intersections=True)
+    at_rest = kept.pairs(v)
+    assert len(at_rest) > 0 and len(kept.rest_pairs) == 0
+    np.testing.assert_array_equal(ignored.rest_pairs, at_rest)
+    assert len(ignored.pairs(v)) == 0 and float(ignored(v)) == 0.0
+    deeper = v.copy()
+    small = np.arange(len(v)) >= len(box(1.0, [0.0, 0.0, 0.0], 3)[0])
+    deeper[small, 0] -= 0.1  # the small box pushed 10 cm further in: its side faces cross the big face elsewhere
+    new = ignored.pairs(deeper)
+    assert len(new) > 0
+    both = kept.pairs(deeper)
+    codes = lambda p: set(map(tuple, p))  # noqa: E731
+    assert codes(new) == codes(both) - codes(at_rest)

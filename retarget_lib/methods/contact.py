@@ -190,6 +190,9 @@ def retarget_contact_with(model: GeometryConditionedRNN, config: dict, source: M
         compile: run ESO's steps compiled (:func:`~retarget_lib.methods.eso.use_compiled`;
             ``None``: for long clips).
 
+    Face pairs that already intersect in the target's rest pose (clothing layers) are left out of
+    Eint (``InterpenetrationEnergy(ignore_rest_intersections=True)``).
+
     Returns:
         The motion on ``target.skeleton``.
     """
@@ -203,8 +206,8 @@ def retarget_contact_with(model: GeometryConditionedRNN, config: dict, source: M
     if source_character is not None:
         clip = contact_clip(source, source_character)
         contacts = transfer_contacts(clip.self_contacts, source_character, target)
-    return retarget_with_eso(model, config["eso"], source, target, contacts,
-                             InterpenetrationEnergy(target.faces, target.rest_vertices), compile=compile)
+    eint = InterpenetrationEnergy(target.faces, target.rest_vertices, ignore_rest_intersections=True)
+    return retarget_with_eso(model, config["eso"], source, target, contacts, eint, compile=compile)
 
 
 def retarget_with_eso(model: GeometryConditionedRNN, eso_config: Mapping, source: Motion, target: Character,

@@ -586,7 +586,7 @@ def _optimise_frame(frame: _Frame, constants: _Constants, h_enc: Tensor, iterati
     h = h_enc.clone().requires_grad_(True)
     o_prev = frame.state.root_velocity.clone().requires_grad_(True)
     log.active[t], log.collisions[t] = len(frame.pairs), len(frame.collisions)
-    optimiser = torch.optim.Adam([h, o_prev], lr=lr, betas=(0.5, 0.999), eps=1e-8)
+    optimiser = torch.optim.Adam([h, o_prev], lr=lr, betas=(0.5, 0.999), eps=1e-8, fused=True)  # one kernel a step
     inputs = frame.inputs()
     redetect = frame.redetect_every if frame.uses_int else 0
     for n in range(iterations):
@@ -633,7 +633,7 @@ def eso_throughput(model: GeometryConditionedRNN, motion: Motion, target: Any, f
     if motion.num_frames < frames:
         raise ValueError(f"the motion has {motion.num_frames} frames, fewer than {frames}")
     clip = motion.copy(rotations=motion.rotations[:frames], root_positions=motion.root_positions[:frames])
-    src = eso_source(clip, target)
+    src = eso_source(clip, target, rest_aligned=model.residual)  # as the contact method prepares it
     warm_up = src.quantities._replace(**{k: v[:1] for k, v in src.quantities._asdict().items() if k != "height"})
     # first-call costs (lazy imports in torch.optim; the compilation) not timed
     encoder_space_optimization(model, src.features[:, :1], target, warm_up, src.foot_contacts[:1], src.leg_ratio,
