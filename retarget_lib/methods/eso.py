@@ -45,7 +45,7 @@ synthetic ``pray`` clip (palms together) onto MakeHuman's body decimated to 10,0
 and 3 contact pairs a frame, 30 steps, 2-core machine): one uncompiled step is ~8,000 small tensor
 operations (decoder, FK, skinning of the vertices the energy reads, energy, backward: ~8 ms, almost
 all per-operation overhead), 0.25 s a frame; compiled (``compile=True``, the whole step fused by
-``torch.compile``) ~2.3 ms a step and 0.10 s a frame (10 frames/s), of which ~20 ms are the frame's
+``torch.compile``) ~2.3 ms a step and 0.10-0.11 s a frame (9.4-9.9 frames/s), of which ~20 ms are the frame's
 collision detection (two threads) and initial decode. Detection runs once per frame by default
 (``redetect_every`` re-detects on the whole mesh). The steps run single-threaded
 (``num_threads``): their tensors are one frame each.
@@ -201,7 +201,7 @@ class _Pose(NamedTuple):
     rotations: Tensor  # (1, 22, 4)
     state: DecoderState  # after frame t: its root_position is r_t, its root_velocity o_t
     positions: Tensor  # (1, 22, 3) global
-    vertices: Tensor | None  # (1, U, 3): the skinned vertices (_FrameInputs.vertex_ids), or None
+    vertices: Tensor | None  # (1, U, 3): the U vertices skinned (_FrameInputs.rest_vertices posed), or None
 
 
 class _Constants(NamedTuple):
