@@ -283,3 +283,29 @@ def test_compiling_is_chosen_for_long_clips_and_never_without_a_compiler(monkeyp
     monkeypatch.setattr(eso_module, "_have_compiler", lambda: True)
     monkeypatch.setattr(eso_module, "_compiled_in_process", lambda: True)  # compiled already: reuse it
     assert eso_module.use_compiled(60)
+
+
+def test_an_eso_step_is_torch_adam_on_the_frame_energy(monkeypatch):
+    # _adam_step writes Adam's arithmetic out (so a compiled step fuses it): on a known energy,
+    # 6 steps from the same start follow torch.optim.Adam with ESO's betas and epsilon (float32
+    # rounding in another order: ~1e-6; a missing bias correction or moment errs by ~lr = 0.05)
+    target_h, target_o = torch.linspace(-1.0, 1.0, 8)[None], torch.tensor([[0.3, -0.2, 0.1]])
+
+    def quadratic(model, weights, blend, cone, constants, frame, h_enc, o_prev):
+        total = ((h_enc - target_h) ** 2).sum() + 3.0 * ((o_prev - target_o) ** 2).sum()
+        state = eso_module.DecoderState(*(o_prev * 1.0 for _ in range(5)))
+        return torch.stack([total] * (len(TERMS) + 1)), eso_module._Pose(o_prev * 1.0, state, o_prev * 2.0, None)
+
+    monkeypatch.setattr(eso_module, "_frame_terms", quadratic)
+    start = (torch.zeros(1, 8), torch.zeros(1, 3))
+    variables, adam, lr = start, eso_module._Adam.start(start), torch.tensor(0.05)
+    reference = [x.clone().requires_grad_(True) for x in start]
+    optimiser = torch.optim.Adam(reference, lr=0.05, betas=eso_module.ADAM_BETAS, eps=eso_module.ADAM_EPS)
+    for _ in range(6):
+        variables, adam, values, _ = eso_module._adam_step(None, None, 0.0, {}, None, None, variables, adam, lr)
+        optimiser.zero_grad()
+        quadratic(*[None] * 6, *reference)[0][-1].backward()
+        optimiser.step()
+        for ours, theirs in zip(variables, reference):
+            torch.testing.assert_close(ours, theirs.detach(), rtol=0, atol=1e-5)
+    assert (variables[0] - start[0]).abs().max() > 0.2  # it moved towards the minimum

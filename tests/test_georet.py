@@ -124,6 +124,46 @@ def test_forward_equals_step_by_step_decoding():
         torch.testing.assert_close(state.local_positions, out.local_positions[:, t])
 
 
+def test_decoder_step_is_two_torch_gru_cells():
+    """decode_step's GRU update from gate products is nn.GRUCell's formula (float32 rounding only)."""
+    model = _small_model().eval()
+    source, offsets, verts, weights = _inputs(2, 1)
+    context = model.target_context(offsets, verts, weights)
+    g = torch.Generator().manual_seed(3)
+    state = model.initial_state(context)._replace(hidden=torch.randn(2, 2, 32, generator=g),
+                                                  root_velocity=0.01 * torch.randn(2, 3, generator=g))
+    h_enc = model.encode(source)[:, 0]
+    h = context.height.view(2, 1)
+    x = torch.cat((h_enc, state.local_positions.reshape(2, -1) / h, state.root_velocity / h, context.skeleton,
+                   context.geometry), dim=-1)
+    expected = []
+    for i, cell in enumerate(model.decoder):
+        x = cell(x, state.hidden[i])
+        expected.append(x)
+    _, _, after = model.decode_step(h_enc, state, context)
+    torch.testing.assert_close(after.hidden, torch.stack(expected), atol=1e-6, rtol=0)
+
+
+def test_decoder_gates_do_not_depend_on_the_optimised_inputs():
+    """ESO computes the gates once per frame and then changes h_enc and o_(t-1) (Eq. 11): the step
+    with kept gates equals the step that computes them, for any h_enc and o."""
+    model = _small_model().eval()
+    source, offsets, verts, weights = _inputs(1, 2)
+    context = model.target_context(offsets, verts, weights)
+    state = model.initial_state(context)
+    gates = model.decoder_gates(state, context)
+    for t, velocity in enumerate((torch.tensor([[0.02, 0.0, -0.01]]), torch.tensor([[-0.3, 0.1, 0.2]]))):
+        moved = state._replace(root_velocity=velocity)
+        h_enc = model.encode(source)[:, t]
+        kept = model.decode_step(h_enc, moved, context, None, gates)
+        fresh = model.decode_step(h_enc, moved, context)
+        for a, b in zip(kept[:2] + tuple(kept[2]), fresh[:2] + tuple(fresh[2])):
+            torch.testing.assert_close(a, b)
+    # and they do depend on what they hold: another previous hidden state changes them
+    other = model.decoder_gates(state._replace(hidden=state.hidden + 1.0), context)
+    assert (other.hidden - gates.hidden).abs().max() > 1e-3
+
+
 def test_step_state_integrates_the_root_from_the_start():
     model = _small_model().eval()
     source, offsets, verts, weights = _inputs(1, 3)

@@ -75,7 +75,7 @@ from ..losses.contact import (ContactEnergyWeights, eso_self_contact_energy, end
                               foot_contact_energy_per_frame, reach_hold_energy, self_contact_energy,
                               weak_energy)
 from ..models.compiling import compile_function
-from ..models.georet import DecoderState, GeometryConditionedRNN, ResidualBase, TargetContext, motion_features
+from ..models.georet import DecoderGates, DecoderState, GeometryConditionedRNN, ResidualBase, TargetContext, motion_features
 
 Tensor = torch.Tensor
 
@@ -221,6 +221,7 @@ class _FrameInputs(NamedTuple):
     per frame (and after each re-detection), read by every step's :func:`_frame_terms`."""
 
     state: DecoderState  # before frame t
+    gates: DecoderGates  # the decoder's products that h_enc and o_(t−1) do not change
     base: ResidualBase | None  # frame t's (residual networks)
     rest_vertices: Tensor  # (U, 3) the vertices the energy reads, at rest
     skin_weights: Tensor  # (U, 22)
@@ -250,7 +251,7 @@ def _frame_terms(model: GeometryConditionedRNN, weights: ContactEnergyWeights, b
         ``((len(TERMS) + 1,)`` the weighted :data:`TERMS` and the total last, the pose).
     """
     w = weights
-    pose = _decode(model, constants, frame.state, frame.base, h_enc, o_prev, frame.rest_vertices,
+    pose = _decode(model, constants, frame.state, frame.gates, frame.base, h_enc, o_prev, frame.rest_vertices,
                    frame.skin_weights)
     rot, pos, verts = pose.rotations, pose.positions, pose.vertices
     terms = dict.fromkeys(TERMS, pos.new_zeros(()))
@@ -286,11 +287,14 @@ DETECTION_WORKERS = min(2, os.cpu_count() or 1)
 _COMPILED_MIN = 2
 
 
-def _decode(model: GeometryConditionedRNN, constants: _Constants, state: DecoderState, base: ResidualBase | None,
-            h_enc: Tensor, o_prev: Tensor, rest_vertices: Tensor, skin_weights: Tensor) -> _Pose:
-    """Decode frame ``t`` from ``h^enc_t`` with ``o_(t−1)`` swapped into ``state``, then FK and the
-    LBS of the given ``(U, 3)`` rest vertices (none when ``U = 0``)."""
-    rot, _, new_state = model.decode_step(h_enc, state._replace(root_velocity=o_prev), constants.context, base)
+def _decode(model: GeometryConditionedRNN, constants: _Constants, state: DecoderState, gates: DecoderGates,
+            base: ResidualBase | None, h_enc: Tensor, o_prev: Tensor, rest_vertices: Tensor,
+            skin_weights: Tensor) -> _Pose:
+    """Decode frame ``t`` from ``h^enc_t`` with ``o_(t−1)`` swapped into ``state`` (``gates``: its
+    :meth:`~GeometryConditionedRNN.decoder_gates`), then FK and the LBS of the given ``(U, 3)``
+    rest vertices (none when ``U = 0``)."""
+    rot, _, new_state = model.decode_step(h_enc, state._replace(root_velocity=o_prev), constants.context, base,
+                                          gates)
     pos = new_state.local_positions + new_state.root_position[:, None]  # Eq. 18
     verts = None
     if rest_vertices.shape[0]:
@@ -310,7 +314,8 @@ class _Frame:
         self.base = p.base.frame(t)
         self.redetect_every, self.padded = redetect_every, padded
         with torch.no_grad():
-            self.initial = _decode(p.model, constants, state, self.base, h_enc, state.root_velocity,
+            self.gates = p.model.decoder_gates(state, constants.context)
+            self.initial = _decode(p.model, constants, state, self.gates, self.base, h_enc, state.root_velocity,
                                    p.rest_vertices, p.skin_weights_t)
         self.previous = (previous or self.initial).positions  # (1, 22, 3); frame t's own at t = 0
         pairs = p.contacts_at(t) if p.weights.j2j_weight > 0 else np.zeros((0, 2), np.int64)
@@ -366,7 +371,7 @@ class _Frame:
         src, t = p.source, self.t
         contact = torch.as_tensor(p.foot_contacts[t], device=device).to(dtype)
         return _fresh(_FrameInputs(
-            self.state, self.base, p.rest_vertices[index], p.skin_weights_t[index],
+            self.state, self.gates, self.base, p.rest_vertices[index], p.skin_weights_t[index],
             torch.as_tensor(where[pairs], device=device), torch.as_tensor(mask, dtype=dtype, device=device),
             self.initial.vertices[0][index], hold, self.initial.positions[0], eint, self.previous,
             torch.stack((src.positions[max(t - 1, 0)], src.positions[t]))[None], src.rotations[t][None],
@@ -491,7 +496,7 @@ def encoder_space_optimization(model: GeometryConditionedRNN, source_features: T
                        reach, blend)
     if start is None:
         start = problem.leg_ratio * problem.source.positions[0, 0]
-    step = _compiled_frame_terms() if compile else _frame_terms
+    step = _compiled_step() if compile else _adam_step
     if compile:  # inductor's parallel kernels for these dynamic sizes corrupt memory on 2 threads (torch 2.13)
         num_threads = 1
     was_training, threads = model.training, torch.get_num_threads()
@@ -548,7 +553,7 @@ def use_compiled(frames: int, compile: bool | None = None) -> bool:
 
 
 def _compiled_in_process() -> bool:
-    return _compiled_frame_terms.cache_info().currsize > 0
+    return _compiled_step.cache_info().currsize > 0
 
 
 @functools.lru_cache(maxsize=1)
@@ -557,10 +562,10 @@ def _have_compiler() -> bool:
 
 
 @functools.lru_cache(maxsize=1)
-def _compiled_frame_terms() -> Callable[..., tuple[Tensor, _Pose]]:
-    """:func:`_frame_terms` compiled once per process (sizes dynamic: one compilation serves every
+def _compiled_step() -> Callable[..., tuple[tuple[Tensor, Tensor], _Adam, Tensor, _Pose]]:
+    """:func:`_adam_step` compiled once per process (sizes dynamic: one compilation serves every
     frame, character and pair count; inductor caches it on disk for the next process)."""
-    return compile_function(_frame_terms, dynamic=True)
+    return compile_function(_adam_step, dynamic=True)
 
 
 class _Log:
@@ -578,34 +583,88 @@ class _Log:
             self.roots[t, n] = pose.state.root_position[0].detach().cpu()
 
 
+#: Adam's moment decays and epsilon in ESO (App. B.1)
+ADAM_BETAS, ADAM_EPS = (0.5, 0.999), 1e-8
+
+
+class _Adam(NamedTuple):
+    """Adam's state for ESO's two variables ``(h^enc_t, o_(t−1))``: first and second moments and
+    the step count (a 0-d tensor, so a compiled step does not specialise on it)."""
+
+    first: tuple[Tensor, Tensor]
+    second: tuple[Tensor, Tensor]
+    count: Tensor
+
+    @classmethod
+    def start(cls, variables: tuple[Tensor, Tensor]) -> "_Adam":
+        zeros = tuple(torch.zeros_like(v) for v in variables)
+        return cls(zeros, zeros, variables[0].new_zeros(()))  # type: ignore[arg-type]
+
+
+def _adam_step(model: GeometryConditionedRNN, weights: ContactEnergyWeights, blend: float, cone: dict[str, float],
+               constants: _Constants, frame: _FrameInputs, variables: tuple[Tensor, Tensor], adam: _Adam,
+               lr: Tensor) -> tuple[tuple[Tensor, Tensor], _Adam, Tensor, _Pose]:
+    """One ESO step: ``Efull(t)`` at ``variables = (h^enc_t, o_(t−1))`` (:func:`_frame_terms`), its
+    gradient (``torch.func.grad``) and Adam's update (Kingma & Ba 2015, the arithmetic of
+    ``torch.optim.Adam``: ``m ← β1 m + (1 − β1) g``, ``v ← β2 v + (1 − β2) g²``,
+    ``x ← x − lr/(1 − β1^n) · m / (√v / √(1 − β2^n) + ε)``).
+
+    One pure function, so a compiled step is one call of one fused graph (forward, backward and
+    update), without autograd's engine or the optimiser's bookkeeping in between.
+
+    Returns:
+        ``(the updated variables, Adam's state, the terms and total at the given variables,
+        the pose decoded from them)``.
+    """
+    def energy(h_enc: Tensor, o_prev: Tensor) -> tuple[Tensor, tuple[Tensor, Tensor, DecoderState, Tensor]]:
+        values, pose = _frame_terms(model, weights, blend, cone, constants, frame, h_enc, o_prev)
+        return values[-1], (values, pose.rotations, pose.state, pose.positions)  # tensors only
+
+    if torch.compiler.is_compiling():  # functorch's transform is what a compiled graph can trace
+        grads, (values, rotations, state, positions) = torch.func.grad(energy, argnums=(0, 1),
+                                                                       has_aux=True)(*variables)
+    else:  # eager, autograd's engine costs less per operation than the transform's wrappers
+        with torch.enable_grad():
+            leaves = tuple(v.detach().requires_grad_(True) for v in variables)
+            total, (values, rotations, state, positions) = energy(*leaves)
+            grads = torch.autograd.grad(total, leaves)
+        values, rotations, positions = values.detach(), rotations.detach(), positions.detach()
+        state = DecoderState(*(x.detach() for x in state))
+    pose = _Pose(rotations, state, positions, None)
+    (beta1, beta2), count = ADAM_BETAS, adam.count + 1
+    step = lr / (1 - beta1 ** count)
+    root_correction = (1 - beta2 ** count).sqrt()
+    first = tuple(m + (1 - beta1) * (g - m) for m, g in zip(adam.first, grads))
+    second = tuple(beta2 * v + (1 - beta2) * g * g for v, g in zip(adam.second, grads))
+    moved = tuple(x - step * m / (v.sqrt() / root_correction + ADAM_EPS)
+                  for x, m, v in zip(variables, first, second))
+    return moved, _Adam(first, second, count), values, pose  # type: ignore[arg-type]
+
+
 def _optimise_frame(frame: _Frame, constants: _Constants, h_enc: Tensor, iterations: int, lr: float, log: _Log,
-                    step: Callable[..., tuple[Tensor, _Pose]]) -> _Pose:
+                    step: Callable[..., tuple[tuple[Tensor, Tensor], _Adam, Tensor, _Pose]]) -> _Pose:
     """Steps 3-4 of the module docstring for one frame (steps 1-2: :class:`_Frame`); returns the
-    kept pose (its state carried on)."""
+    kept pose (its state carried on). ``step``: :func:`_adam_step`, compiled or not."""
     p, t = frame.problem, frame.t
-    h = h_enc.clone().requires_grad_(True)
-    o_prev = frame.state.root_velocity.clone().requires_grad_(True)
+    variables = (h_enc.clone(), frame.state.root_velocity.clone())
+    adam, rate = _Adam.start(variables), torch.tensor(lr, dtype=h_enc.dtype, device=h_enc.device)
     log.active[t], log.collisions[t] = len(frame.pairs), len(frame.collisions)
-    optimiser = torch.optim.Adam([h, o_prev], lr=lr, betas=(0.5, 0.999), eps=1e-8, fused=True)  # one kernel a step
     inputs = frame.inputs()
     redetect = frame.redetect_every if frame.uses_int else 0
     for n in range(iterations):
-        optimiser.zero_grad(set_to_none=True)
         if redetect and n and n % redetect == 0:
             with torch.no_grad():
-                current = _decode(p.model, constants, frame.state, frame.base, h, o_prev, p.rest_vertices,
-                                  p.skin_weights_t)
+                current = _decode(p.model, constants, frame.state, frame.gates, frame.base, *variables,
+                                  p.rest_vertices, p.skin_weights_t)
             frame.detect(current.vertices[0])
             inputs = frame.inputs()
-        values, pose = step(p.model, p.weights, p.blend, p.cone, constants, inputs, h, o_prev)
-        values[-1].backward()
-        optimiser.step()
+        variables, adam, values, pose = step(p.model, p.weights, p.blend, p.cone, constants, inputs, variables,
+                                             adam, rate)
         log.record(t, n, values, pose)
-    # with gradients on, as every step: a compiled step would compile again for another grad mode
-    values, final = step(p.model, p.weights, p.blend, p.cone, constants, inputs, h, o_prev)
+    # the same step again for the terms at the final values (its update unused): one compiled graph
+    _, _, values, final = step(p.model, p.weights, p.blend, p.cone, constants, inputs, variables, adam, rate)
     log.record(t, iterations, values, final)
-    detached = DecoderState(*(x.detach() for x in final.state))
-    return _Pose(final.rotations.detach(), detached, final.positions.detach(), None)
+    return _Pose(final.rotations, final.state, final.positions, None)
 
 
 def eso_throughput(model: GeometryConditionedRNN, motion: Motion, target: Any, frames: int = 10,

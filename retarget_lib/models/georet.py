@@ -47,6 +47,7 @@ from typing import NamedTuple, Sequence
 import numpy as np
 import torch
 from torch import nn
+from torch.nn import functional as F
 
 from ..core.kinematics import align_local_rotations, forward_kinematics
 from ..core.quantities import forward_root_velocity
@@ -65,6 +66,8 @@ __all__ = [
     "PosedOutput",
     "TargetContext",
     "DecoderState",
+    "DecoderGates",
+    "gru_update",
     "PointNetEncoder",
     "GeometryConditionedRNN",
     "motion_features",
@@ -274,6 +277,40 @@ class DecoderState(NamedTuple):
         return self.root_position + self.root_velocity
 
 
+class DecoderGates(NamedTuple):
+    """:meth:`GeometryConditionedRNN.decoder_gates`: the gate products of one decoder step that do
+    not depend on ``h^enc_t`` or ``o^B_(t−1)``.
+
+    Attributes:
+        input0: ``(B, 3H)`` layer 0's ``W_ih x + b_ih`` over the inputs ``p^B_(t−1)``, ``s̄^B``, ``e^B``.
+        hidden: ``(layers, B, 3H)`` every layer's ``W_hh h^dec_(t−1) + b_hh``.
+    """
+
+    input0: Tensor
+    hidden: Tensor
+
+
+def gru_update(gi: Tensor, gh: Tensor, h: Tensor) -> Tensor:
+    """A GRU cell's new state from its gate products (the formula of :class:`torch.nn.GRUCell`).
+
+    ``r = σ(i_r + h_r)``, ``z = σ(i_z + h_z)``, ``n = tanh(i_n + r ⊙ h_n)``, ``h' = (1 − z) ⊙ n + z ⊙ h``.
+
+    Args:
+        gi: ``(B, 3H)`` ``W_ih x + b_ih``, gates in the order r, z, n.
+        gh: ``(B, 3H)`` ``W_hh h + b_hh``.
+        h: ``(B, H)`` the previous state.
+
+    Returns:
+        ``(B, H)``.
+    """
+    i_r, i_z, i_n = gi.chunk(3, dim=-1)
+    h_r, h_z, h_n = gh.chunk(3, dim=-1)
+    r = torch.sigmoid(i_r + h_r)
+    z = torch.sigmoid(i_z + h_z)
+    n = torch.tanh(i_n + r * h_n)
+    return n + z * (h - n)
+
+
 class PosedOutput(NamedTuple):
     """:func:`pose_outputs`: global joints ``g`` ``(B, T, 22, 3)``, their rotations ``(B, T, 22, 4)``
     (for skinning) and the root trajectory ``(B, T, 3)``, metres."""
@@ -411,8 +448,39 @@ class GeometryConditionedRNN(nn.Module):
         """
         self.decode_step = compile_frame_step(self.decode_step)
 
+    def decoder_gates(self, state: DecoderState, context: TargetContext) -> DecoderGates:
+        """The parts of a decoder step (Eq. 13) that ``h^enc_t`` and ``o^B_(t−1)`` do not change.
+
+        A GRU layer's gates are sums of an input product ``W_ih x + b_ih`` and a hidden product
+        ``W_hh h + b_hh``. Of layer 0's input ``x = [h^enc_t, p^B_(t−1), o^B_(t−1), s̄^B, e^B]``
+        only ``h^enc_t`` and ``o^B_(t−1)`` vary while ESO optimises one frame (Eq. 11), and no
+        layer's ``h^dec_(t−1)`` does, so those products are computed once per frame: about two
+        thirds of the decoder's multiply-adds.
+
+        Args:
+            state: :class:`DecoderState` before frame ``t``.
+            context: :meth:`target_context`.
+
+        Returns:
+            :class:`DecoderGates`.
+        """
+        b = state.hidden.shape[1]
+        cell = self.decoder[0]
+        _, positions, _, rest = self._input_columns()
+        fixed = torch.cat((context.skeleton, context.geometry), dim=-1)
+        input0 = (F.linear(state.local_positions.reshape(b, -1) / context.height.view(b, 1), cell.weight_ih[:, positions])
+                  + F.linear(fixed, cell.weight_ih[:, rest], cell.bias_ih))
+        hidden = torch.stack([F.linear(state.hidden[i], c.weight_hh, c.bias_hh) for i, c in enumerate(self.decoder)])
+        return DecoderGates(input0, hidden)
+
+    def _input_columns(self) -> tuple[slice, slice, slice, slice]:
+        """Layer 0's input columns of ``h^enc_t``, ``p^B_(t−1)``, ``o^B_(t−1)`` and ``[s̄^B, e^B]``."""
+        h, p = self.hidden, 3 * self.joints
+        return slice(0, h), slice(h, h + p), slice(h + p, h + p + 3), slice(h + p + 3, None)
+
     def decode_step(self, h_enc: Tensor, state: DecoderState, context: TargetContext,
-                    base: ResidualBase | None = None) -> tuple[Tensor, Tensor, DecoderState]:
+                    base: ResidualBase | None = None,
+                    gates: DecoderGates | None = None) -> tuple[Tensor, Tensor, DecoderState]:
         """One decoder step (Eqs. 13-15, 17-18).
 
         Args:
@@ -420,6 +488,9 @@ class GeometryConditionedRNN(nn.Module):
             state: :class:`DecoderState` before frame ``t``.
             context: :meth:`target_context`.
             base: frame ``t`` of the :class:`ResidualBase` (``residual`` models only).
+            gates: :meth:`decoder_gates` of ``state`` and ``context`` when the caller keeps them
+                (ESO: once per frame); computed here otherwise. ``state.root_velocity`` may differ
+                from the one they were computed with: they do not depend on it.
 
         Returns:
             ``(θ_t (B, 22, 4) unit wxyz, o_t (B, 3) metres per frame, state after frame t)``; the new
@@ -427,12 +498,16 @@ class GeometryConditionedRNN(nn.Module):
         """
         b = h_enc.shape[0]
         h = context.height.view(b, 1)
-        x = torch.cat((h_enc, state.local_positions.reshape(b, -1) / h, state.root_velocity / h,
-                       context.skeleton, context.geometry), dim=-1)
-        hidden = []
+        gates = self.decoder_gates(state, context) if gates is None else gates
+        encoder, _, velocity_in, _ = self._input_columns()
+        w0 = self.decoder[0].weight_ih
+        gi = gates.input0 + F.linear(h_enc, w0[:, encoder]) + F.linear(state.root_velocity / h, w0[:, velocity_in])
+        hidden: list[Tensor] = []
         for i, cell in enumerate(self.decoder):
-            x = cell(x if i == 0 else self.dropout(x), state.hidden[i])
-            hidden.append(x)
+            if hidden:
+                gi = F.linear(self.dropout(hidden[-1]), cell.weight_ih, cell.bias_ih)
+            hidden.append(gru_update(gi, gates.hidden[i], state.hidden[i]))
+        x = hidden[-1]
         rotations = matrix_to_quat(matrix_from_6d(self.rotation_head(x).view(b, self.joints, 6)))
         velocity = self.velocity_head(x) * h
         if self.residual:
