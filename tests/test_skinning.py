@@ -10,6 +10,7 @@ import trimesh
 from retarget_lib.core.kinematics import forward_kinematics
 from retarget_lib.core.rotations import quat_from_axis_angle, quat_identity, quat_normalize, quat_rotate
 from retarget_lib.core.skinning import linear_blend_skinning, subsample_mesh
+from retarget_lib.data.synthetic.characters import make_character
 
 
 def _random_mesh(nv=50, nj=5, seed=0, dtype=torch.float64):
@@ -117,3 +118,16 @@ def test_subsample_mesh_small_input_unchanged():
     v, f, w2 = subsample_mesh(box.vertices, box.faces, w, n=100)
     np.testing.assert_array_equal(v, box.vertices)
     np.testing.assert_array_equal(f, box.faces)
+
+
+def test_a_decimated_character_keeps_its_skeleton_and_leaves_the_original_alone():
+    character = make_character("otto")
+    small = character.decimated(1000)
+    assert 900 <= small.num_vertices <= 1100 and character.num_vertices > 2000
+    np.testing.assert_array_equal(small.skeleton.offsets, character.skeleton.offsets)
+    np.testing.assert_allclose(small.weights.sum(1), 1.0)
+    assert small.faces.max() < small.num_vertices
+    lo, hi = character.rest_vertices.min(0), character.rest_vertices.max(0)  # the same body, smaller
+    np.testing.assert_allclose(small.rest_vertices.min(0), lo, atol=0.03)
+    np.testing.assert_allclose(small.rest_vertices.max(0), hi, atol=0.03)
+    assert character.num_vertices == len(character.weights) > 2000  # untouched

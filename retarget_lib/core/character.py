@@ -9,7 +9,7 @@ import torch
 
 from .kinematics import forward_kinematics
 from .skeleton import Skeleton
-from .skinning import linear_blend_skinning
+from .skinning import linear_blend_skinning, subsample_mesh
 
 
 #: bulk below which a character counts as "skinny", and at or above which as "bulky"
@@ -76,6 +76,18 @@ class Character:
     def copy(self) -> "Character":
         return Character(self.name, self.skeleton.copy(), self.rest_vertices.copy(),
                          self.faces.copy(), self.weights.copy(), self.bulk, dict(self.style))
+
+    def decimated(self, vertices: int) -> "Character":
+        """A copy whose mesh is reduced to about ``vertices`` vertices, skinning weights carried
+        (:func:`~retarget_lib.core.skinning.subsample_mesh`); the skeleton is the same.
+
+        Args:
+            vertices: the vertex count wanted (the result is within a few percent of it).
+        """
+        small = self.copy()
+        small.rest_vertices, small.faces, small.weights = subsample_mesh(self.rest_vertices, self.faces,
+                                                                         self.weights, vertices)
+        return small
 
     def skinned(self, rotations, root_positions):
         """Pose the mesh: forward kinematics then linear blend skinning.

@@ -18,7 +18,6 @@ import torch
 
 from ..core.rotations import quat_from_axis_angle
 from ..core.skeleton import J
-from ..core.skinning import subsample_mesh
 from ..data.manifest import checkpoint_entries
 from ..data.sources.mannequin import load_mannequin
 from ..data.sources.real_characters import load_real_character
@@ -156,7 +155,7 @@ def _bench_eso_real_body(model, which: str, motion, source, source_contacts, fra
     table it replaced (34 s and 716 MB on an idle core; not run with ``quick``)."""
     body = welded(load_real_character(REAL_BODY).character())
     per_frame = {}
-    for name, target in (("10k", _decimated(body, 10_000)), ("full", body), ("small", _decimated(body, 3000))):
+    for name, target in (("10k", body.decimated(10_000)), ("full", body), ("small", body.decimated(3000))):
         contacts = transfer_contacts(source_contacts, source, target)
         eint = InterpenetrationEnergy(target.faces, target.rest_vertices)
         for compile in (True, False) if name == "10k" else (True,):
@@ -176,11 +175,3 @@ def _bench_eso_real_body(model, which: str, motion, source, source_contacts, fra
         BenchRow(f"Eint setup on {body.num_vertices} vertices (BVH, Eq. 5 geodesics on demand)", setup,
                  "all-pairs geodesic table", table),
     ]
-
-
-def _decimated(character, vertices: int):
-    """A copy of ``character`` with its mesh decimated to about ``vertices`` vertices."""
-    v, f, w = subsample_mesh(character.rest_vertices, character.faces, character.weights, vertices)
-    small = character.copy()
-    small.rest_vertices, small.faces, small.weights = v, f, w
-    return small

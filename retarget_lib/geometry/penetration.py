@@ -42,6 +42,7 @@ Tensor = torch.Tensor
 
 __all__ = [
     "DEFAULT_LIMBS",
+    "PADDING_PAIR",
     "InterpenetrationEnergy",
     "PairPlan",
     "cap_holes",
@@ -478,6 +479,11 @@ def interpenetration_energy(vertices: Tensor, faces, pairs, pair_weights=None, n
     return (terms * weights).sum(-1)
 
 
+#: the face pair :meth:`InterpenetrationEnergy.plan` pads with (zero weight): its vertices must be
+#: among those a padded plan is evaluated on
+PADDING_PAIR = (0, 1)
+
+
 class InterpenetrationEnergy:
     """``E_int`` (Eq. 4) of one character mesh, detection included.
 
@@ -580,7 +586,7 @@ class InterpenetrationEnergy:
             vertex_index: ``(V,)`` int, where each mesh vertex sits in the vertices the plan will be
                 evaluated on (a subset holding at least :meth:`support` of the pairs); default the
                 whole mesh.
-            min_pairs: pad with zero-weight pairs (faces 0 and 1, frame 0) to at least this many
+            min_pairs: pad with zero-weight pairs (:data:`PADDING_PAIR`, frame 0) to at least this many
                 (fixed minimum sizes keep a compiled energy from specialising on 0 or 1 pairs).
             device: of the tensors.
 
@@ -595,7 +601,7 @@ class InterpenetrationEnergy:
         if pad:
             if len(self.faces) < 2:
                 raise ValueError("padding needs a mesh of at least two faces")
-            pairs = np.concatenate([pairs, np.tile([[0, 1]], (pad, 1))])
+            pairs = np.concatenate([pairs, np.tile([PADDING_PAIR], (pad, 1))])
             frame = np.concatenate([frame, np.zeros(pad, np.int64)])
             weights = np.concatenate([weights, np.zeros(pad)])
         corners, local = np.unique(self.faces[pairs], return_inverse=True)  # pair corners -> normals

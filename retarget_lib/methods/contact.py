@@ -21,7 +21,6 @@ import torch
 from ..core.character import Character
 from ..core.motion import Motion
 from ..core.quantities import MotionQuantities, forward_root_velocity, leg_ratio, motion_quantities
-from ..core.skinning import subsample_mesh
 from ..core.transfer import transfer_rotations
 from ..data.checkpoints import load_state
 from ..devices import module_device, resolve_device
@@ -199,9 +198,7 @@ def retarget_contact_with(model: GeometryConditionedRNN, config: dict, source: M
     if not eso:
         return retarget_with_network(model, source, target)
     if target.num_vertices > ESO_MAX_VERTICES:
-        v, f, w = subsample_mesh(target.rest_vertices, target.faces, target.weights, 3000)
-        target = target.copy()
-        target.rest_vertices, target.faces, target.weights = v, f, w
+        target = target.decimated(3000)
     contacts = None
     if source_character is not None:
         clip = contact_clip(source, source_character)

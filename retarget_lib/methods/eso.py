@@ -70,7 +70,7 @@ from ..core.quantities import (MotionQuantities, foot_ground_heights, leg_ratio 
 from ..core.skeleton import J
 from ..core.skinning import linear_blend_skinning
 from ..geometry.contacts import detect_foot_contacts
-from ..geometry.penetration import InterpenetrationEnergy, PairPlan, plan_energy
+from ..geometry.penetration import PADDING_PAIR, InterpenetrationEnergy, PairPlan, plan_energy
 from ..losses.contact import (ContactEnergyWeights, eso_self_contact_energy, end_effector_energy_per_frame,
                               foot_contact_energy_per_frame, reach_hold_energy, self_contact_energy,
                               weak_energy)
@@ -356,8 +356,8 @@ class _Frame:
             extra = max(_COMPILED_MIN - len(pairs), 0)
             pairs = np.concatenate([pairs, np.tile([[0, min(1, nv - 1)]], (extra, 1))])
             mask = np.concatenate([mask, np.zeros(extra)])
-            if uses_int:  # the plan's own padding pairs are faces 0 and 1
-                collisions = np.concatenate([collisions, np.tile([[0, 1]], (_COMPILED_MIN, 1))])
+            if uses_int:  # the plan's padding faces: their vertices must be among the U read
+                collisions = np.concatenate([collisions, np.tile([PADDING_PAIR], (_COMPILED_MIN, 1))])
         ids = self.mesh_vertices(pairs, collisions if uses_int else collisions[:0])
         where = np.full(nv, -1, np.int64)
         where[ids] = np.arange(len(ids))
@@ -420,10 +420,16 @@ class _Problem:
                           scalar(self.source.height), scalar(self.leg_ratio))
 
     def contacts_at(self, t: int) -> np.ndarray:
-        if self.contacts is None:
-            return np.zeros((0, 2), np.int64)
-        pairs = self.contacts.at(t) if hasattr(self.contacts, "at") else self.contacts[t]
-        return np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+        return _contact_pairs_at(self.contacts, t)
+
+
+def _contact_pairs_at(contacts: Any, t: int) -> np.ndarray:
+    """Frame ``t``'s ``(n, 2)`` contact vertex pairs of ``contacts`` (see
+    :func:`encoder_space_optimization`: a ``SelfContacts``, a sequence of pair arrays, or ``None``)."""
+    if contacts is None:
+        return np.zeros((0, 2), np.int64)
+    pairs = contacts.at(t) if hasattr(contacts, "at") else contacts[t]
+    return np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
 
 
 def _check_inputs(features: Tensor, source: MotionQuantities, foot_contacts: np.ndarray) -> int:
@@ -696,7 +702,7 @@ def eso_throughput(model: GeometryConditionedRNN, motion: Motion, target: Any, f
     warm_up = src.quantities._replace(**{k: v[:1] for k, v in src.quantities._asdict().items() if k != "height"})
     # first-call costs (lazy imports in torch.optim; the compilation) not timed
     encoder_space_optimization(model, src.features[:, :1], target, warm_up, src.foot_contacts[:1], src.leg_ratio,
-                               contacts=None if contacts is None else [_first_pairs(contacts)],
+                               contacts=[_contact_pairs_at(contacts, 0)],
                                interpenetration=interpenetration, iterations=2, compile=compile)
     result = encoder_space_optimization(model, src.features, target, src.quantities, src.foot_contacts,
                                         src.leg_ratio, contacts=contacts, interpenetration=interpenetration,
@@ -704,8 +710,3 @@ def eso_throughput(model: GeometryConditionedRNN, motion: Motion, target: Any, f
     return {"frames": float(frames), "iterations": float(iterations), "vertices": float(len(target.rest_vertices)),
             "seconds": result.seconds, "frames_per_second": result.frames_per_second,
             "colliding_pairs": float(result.colliding_pairs.float().mean())}
-
-
-def _first_pairs(contacts: Any) -> np.ndarray:
-    """Frame 0's contact pairs of a ``SelfContacts`` or a sequence of pair arrays."""
-    return np.asarray(contacts.at(0) if hasattr(contacts, "at") else contacts[0], dtype=np.int64).reshape(-1, 2)
