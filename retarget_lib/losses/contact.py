@@ -82,6 +82,7 @@ __all__ = [
     "LENGTH_POWER",
     "TABLE3_ROWS",
     "ContactEnergyWeights",
+    "ESO_FOOT_WEIGHT",
     "self_contact_energy",
     "eso_self_contact_energy",
     "reach_hold_energy",
@@ -104,6 +105,14 @@ END_EFFECTOR_IDS: tuple[int, ...] = tuple(J[n] for n in END_EFFECTORS)
 #: power of length of each weighted term (``"weak"`` = its root-velocity part; rotations and Eee
 #: are unitless): a term in metres is divided by ``length_unit ** power`` before weighting
 LENGTH_POWER: dict[str, int] = {"j2j": 1, "hold": 1, "int": 2, "foot": 1, "weak": 2, "ee": 0}
+
+#: ``γ`` in ESO (our choice; App. B.1 relaxes ``ρ, β, λ`` and leaves ``γ`` at 0.1). In centimetres,
+#: Eq. 6 charges a standing foot that slips 1 cm in a frame ``1 cm² / h_B``, about 0.006 on a
+#: 1.7 m body: at 0.1 the term is ~1e4 times weaker than 1 cm of relaxed contact (``λ = 100``), so
+#: ESO slid planted feet freely to meet hand contacts (real characters, ``retarget evaluate
+#: --table real``: foot skating 1.4x copy's, 5.8 against 0.12 % of height a second on a standing
+#: clap). At 1000 a 1 cm slip costs ~6, still below 1 cm of contact or of a held joint's drift (100).
+ESO_FOOT_WEIGHT = 1000.0
 
 #: Table 3 (App. A) rows -> switches; "Efull + ESO" is "Efull" trained, then
 #: :meth:`ContactEnergyWeights.eso` at test time
@@ -162,7 +171,8 @@ class ContactEnergyWeights:
 
     @classmethod
     def eso(cls) -> "ContactEnergyWeights":
-        """App. B.1's relaxed test-time values: ``ρ = 10, β = 1, λ = 100`` (others unchanged)."""
+        """App. B.1's relaxed test-time values ``ρ = 10, β = 1, λ = 100``, with ``hold`` and ``γ``
+        as :meth:`relaxed` sets them."""
         return cls().relaxed()
 
     @classmethod
@@ -177,9 +187,9 @@ class ContactEnergyWeights:
         return cls(**TABLE3_ROWS[name])
 
     def relaxed(self) -> "ContactEnergyWeights":
-        """These weights with ESO's relaxed ``ρ = 10, β = 1, λ = 100`` and ``hold = 100``,
-        switches kept."""
-        return replace(self, rho=10.0, beta_int=1.0, lambda_j2j=100.0, hold=100.0)
+        """These weights with ESO's relaxed ``ρ = 10, β = 1, λ = 100``, ``hold = 100`` and
+        ``γ =`` :data:`ESO_FOOT_WEIGHT`, switches kept."""
+        return replace(self, rho=10.0, beta_int=1.0, lambda_j2j=100.0, hold=100.0, gamma_foot=ESO_FOOT_WEIGHT)
 
     def with_foot_ramp(self, epoch: int, epochs: int) -> "ContactEnergyWeights":
         """``γ · epoch / epochs`` (App. B.1: "gradually introduce the foot contact loss")."""
