@@ -24,7 +24,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import NamedTuple, Sequence
+from typing import NamedTuple, Sequence, cast
 
 import numpy as np
 import torch
@@ -99,23 +99,19 @@ def forward_kinematics(
         :class:`FKResult` ``(positions (..., J, 3), rotations (..., J, 4))``.
     """
     as_numpy = isinstance(rotations, np.ndarray)
-    if as_numpy:
-        rotations = torch.from_numpy(np.asarray(rotations, dtype=np.float64))
-    dtype, device = rotations.dtype, rotations.device
-    offsets = torch.as_tensor(np.asarray(offsets) if isinstance(offsets, np.ndarray) else offsets,
-                              dtype=dtype, device=device)
+    q = torch.from_numpy(np.asarray(rotations, dtype=np.float64)) if as_numpy else torch.as_tensor(rotations)
+    dtype, device = q.dtype, q.device
+    off_t = torch.as_tensor(offsets, dtype=dtype, device=device)
     parents = tuple(int(p) for p in parents)
     nj = len(parents)
-    if rotations.shape[-2:] != (nj, 4):
-        raise ValueError(f"rotations must be (..., {nj}, 4), got {tuple(rotations.shape)}")
-    if offsets.shape[-2:] != (nj, 3):
-        raise ValueError(f"offsets must be (..., {nj}, 3), got {tuple(offsets.shape)}")
-    lead = torch.broadcast_shapes(rotations.shape[:-2], offsets.shape[:-2])
-    if root_positions is not None:
-        root_positions = torch.as_tensor(
-            np.asarray(root_positions) if isinstance(root_positions, np.ndarray) else root_positions,
-            dtype=dtype, device=device)
-        lead = torch.broadcast_shapes(lead, root_positions.shape[:-1])
+    if q.shape[-2:] != (nj, 4):
+        raise ValueError(f"rotations must be (..., {nj}, 4), got {tuple(q.shape)}")
+    if off_t.shape[-2:] != (nj, 3):
+        raise ValueError(f"offsets must be (..., {nj}, 3), got {tuple(off_t.shape)}")
+    lead = torch.broadcast_shapes(q.shape[:-2], off_t.shape[:-2])
+    root = None if root_positions is None else torch.as_tensor(root_positions, dtype=dtype, device=device)
+    if root is not None:
+        lead = torch.broadcast_shapes(lead, root.shape[:-1])
     n = math.prod(lead)
     plan = _plan(parents)
     order = torch.tensor(plan.order, device=device)
@@ -123,12 +119,12 @@ def forward_kinematics(
     # (component, joint, batch) layout, joints sorted by depth
     # rows of the (J*4, N) transpose picked straight into component-major, depth-sorted order
     rows = (order.unsqueeze(0) * 4 + torch.arange(4, device=device).unsqueeze(1)).reshape(-1)
-    lq = rotations.expand(lead + (nj, 4)).reshape(n, nj * 4).t().contiguous()
+    lq = q.expand(lead + (nj, 4)).reshape(n, nj * 4).t().contiguous()
     lq = lq.index_select(0, rows).view(4, nj, n)  # (4, J, N)
-    if offsets.dim() == 2:
-        off = offsets.index_select(0, order).t().unsqueeze(-1)  # (3, J, 1)
+    if off_t.dim() == 2:
+        off = off_t.index_select(0, order).t().unsqueeze(-1)  # (3, J, 1)
     else:
-        off = offsets.expand(lead + (nj, 3)).reshape(n, nj * 3).t().reshape(nj, 3, n)
+        off = off_t.expand(lead + (nj, 3)).reshape(n, nj * 3).t().reshape(nj, 3, n)
         off = off.index_select(0, order).transpose(0, 1).contiguous()  # (3, J, N)
     perm = [torch.tensor(p, device=device) for p in _PERM]
     sign = [torch.tensor(s, dtype=dtype, device=device).view(4, 1, 1) for s in _SIGN]
@@ -139,10 +135,10 @@ def forward_kinematics(
     gq = lq.new_empty((4, nj, n))
     gp = lq.new_empty((3, nj, n))
     gq[:, 0] = lq[:, 0]
-    if root_positions is None:
+    if root is None:
         gp[:, 0] = 0.0
     else:
-        gp[:, 0] = root_positions.expand(lead + (3,)).reshape(n, 3).t()
+        gp[:, 0] = root.expand(lead + (3,)).reshape(n, 3).t()
     for start, end, pslots in plan.levels:
         pidx = torch.tensor(pslots, device=device)
         pq = gq.index_select(1, pidx)  # (4, k, N) parents' global rotations
@@ -176,7 +172,7 @@ def local_positions(rotations: Tensor, offsets: Tensor, parents: Sequence[int]) 
     Returns:
         ``(..., J, 3)`` root-relative positions (the root's global rotation is applied).
     """
-    return forward_kinematics(rotations, offsets, parents, None).positions
+    return cast(Tensor, forward_kinematics(rotations, offsets, parents, None).positions)  # tensors in, tensors out
 
 
 def align_local_rotations(rotations: Tensor, align: Tensor, parents: Sequence[int]) -> Tensor:

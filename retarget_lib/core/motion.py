@@ -7,6 +7,7 @@ Operations return new motions: windows, resampling, mirroring, root normalisatio
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any, cast
 
 import numpy as np
 import torch
@@ -72,7 +73,7 @@ class Motion:
         return self.num_frames / self.fps
 
     def copy(self, **changes) -> "Motion":
-        kw = dict(skeleton=self.skeleton.copy(), rotations=self.rotations.copy(),
+        kw: dict[str, Any] = dict(skeleton=self.skeleton.copy(), rotations=self.rotations.copy(),
                   root_positions=self.root_positions.copy(), fps=self.fps, name=self.name,
                   meta=dict(self.meta))
         kw.update(changes)
@@ -91,7 +92,7 @@ class Motion:
 
     def global_positions(self) -> np.ndarray:
         """``(T, J, 3)`` world joint positions."""
-        return self.fk().positions
+        return cast(np.ndarray, self.fk().positions)  # NumPy in, NumPy out
 
     # ---------------------------------------------------------------- editing
     def slice(self, start: int, stop: int | None = None) -> "Motion":
@@ -204,7 +205,7 @@ class Motion:
             across = pos[:, names.index("LeftUpLeg")] - pos[:, names.index("RightUpLeg")]
             fwd = np.cross(across, np.array([0.0, 1.0, 0.0]))  # left (+X) x up (+Y) = +Z
         else:
-            fwd = quat_rotate(_t(grot[:, 0]), _t(np.array([0.0, 0.0, 1.0]))).numpy()
+            fwd = quat_rotate(_t(cast(np.ndarray, grot)[:, 0]), _t(np.array([0.0, 0.0, 1.0]))).numpy()
         fwd[:, 1] = 0.0
         return fwd / np.maximum(np.linalg.norm(fwd, axis=-1, keepdims=True), 1e-9)
 

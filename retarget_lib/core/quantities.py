@@ -14,7 +14,7 @@ velocities, the leg-length ratio ``h_legs_B / h_legs_A`` (also the ground truth'
 
 from __future__ import annotations
 
-from typing import NamedTuple, Sequence
+from typing import NamedTuple, Sequence, cast
 
 import numpy as np
 import torch
@@ -235,5 +235,5 @@ def motion_quantities(rotations: Tensor, root_positions: Tensor, offsets: Tensor
         height: the character's height ``h`` (metres), float or ``(...)``.
         parents: joint parents.
     """
-    positions = forward_kinematics(rotations, offsets, parents, root_positions).positions
+    positions = cast(Tensor, forward_kinematics(rotations, offsets, parents, root_positions).positions)
     return MotionQuantities(rotations, forward_root_velocity(root_positions), positions, height)

@@ -53,8 +53,9 @@ def joint_transforms(rest_joint_positions: Tensor, joint_rotations: Tensor,
     return torch.cat((rot, trans.unsqueeze(-1)), dim=-1)
 
 
-def linear_blend_skinning(rest_vertices: Tensor, weights: Tensor, rest_joint_positions: Tensor,
-                          joint_rotations: Tensor, joint_positions: Tensor) -> Tensor:
+def linear_blend_skinning(rest_vertices: Tensor | np.ndarray, weights: Tensor | np.ndarray,
+                          rest_joint_positions: Tensor | np.ndarray, joint_rotations: Tensor,
+                          joint_positions: Tensor | np.ndarray) -> Tensor:
     """Deform a rest mesh by linear blend skinning (Villegas et al. 2021, App. B, ``SK``).
 
     ``v' = sum_j w_vj (R_j (v - x̄_j) + x_j)``. Batched over any leading dims of the pose,
@@ -72,20 +73,19 @@ def linear_blend_skinning(rest_vertices: Tensor, weights: Tensor, rest_joint_pos
         ``(..., V, 3)`` posed vertices.
     """
     dtype, device = joint_rotations.dtype, joint_rotations.device
-    rest_vertices = torch.as_tensor(rest_vertices, dtype=dtype, device=device)
-    weights = torch.as_tensor(weights, dtype=dtype, device=device)
-    rest_joint_positions = torch.as_tensor(rest_joint_positions, dtype=dtype, device=device)
-    joint_positions = torch.as_tensor(joint_positions, dtype=dtype, device=device)
-    nv, nj = weights.shape
-    if rest_vertices.shape != (nv, 3) or rest_joint_positions.shape != (nj, 3):
+    rest = torch.as_tensor(rest_vertices, dtype=dtype, device=device)
+    w = torch.as_tensor(weights, dtype=dtype, device=device)
+    rest_joints = torch.as_tensor(rest_joint_positions, dtype=dtype, device=device)
+    joints = torch.as_tensor(joint_positions, dtype=dtype, device=device)
+    nv, nj = w.shape
+    if rest.shape != (nv, 3) or rest_joints.shape != (nj, 3):
         raise ValueError(f"rest_vertices must be ({nv}, 3) and rest_joint_positions ({nj}, 3) for "
-                         f"weights {tuple(weights.shape)}; got {tuple(rest_vertices.shape)} and "
-                         f"{tuple(rest_joint_positions.shape)}")
-    affine = joint_transforms(rest_joint_positions, joint_rotations, joint_positions)
+                         f"weights {tuple(w.shape)}; got {tuple(rest.shape)} and {tuple(rest_joints.shape)}")
+    affine = joint_transforms(rest_joints, joint_rotations, joints)
     lead = affine.shape[:-3]
     # vertex-last layout: (..., 12, J) @ (J, V) -> (..., 3, 4, V), then apply to [v; 1]
-    blended = (affine.reshape(*lead, nj, 12).transpose(-1, -2) @ weights.t()).reshape(*lead, 3, 4, nv)
-    homogeneous = torch.cat((rest_vertices, rest_vertices.new_ones(nv, 1)), dim=1).t()  # (4, V)
+    blended = (affine.reshape(*lead, nj, 12).transpose(-1, -2) @ w.t()).reshape(*lead, 3, 4, nv)
+    homogeneous = torch.cat((rest, rest.new_ones(nv, 1)), dim=1).t()  # (4, V)
     return (blended * homogeneous).sum(-2).transpose(-1, -2)
 
 

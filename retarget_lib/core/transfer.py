@@ -85,8 +85,8 @@ def rest_alignment(source: Skeleton, target: Skeleton) -> np.ndarray:
             out[j] = out[CANONICAL22_PARENTS[j]]
         elif j in ACROSS_PAIR:
             left, right = ACROSS_PAIR[j]
-            out[j] = frame_rotation(off_b[child], off_b[left] - off_b[right],
-                                   off_a[child], off_a[left] - off_a[right])
+            out[j] = torch.as_tensor(frame_rotation(off_b[child], off_b[left] - off_b[right],
+                                                    off_a[child], off_a[left] - off_a[right]))
         else:
             out[j] = quat_between(off_b[child], off_a[child])
     return quat_canonical(out).numpy()

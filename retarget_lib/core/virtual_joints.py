@@ -106,9 +106,9 @@ def with_virtual_joints(motion: Motion, index_map: Mapping[int, int]) -> tuple[M
     new_rest = np.zeros((n, 3))
     virtual_pos = {cc: pos for _, run, _ in runs for cc, pos in run}
     reparent: dict[int, int] = {}  # file joint -> new parent
-    for anchor, run, end in runs:
+    for anchor, chain, end in runs:
         prev = index_of[("file", anchor)]
-        for cc, _ in run:
+        for cc, _ in chain:
             new_parents[index_of[("virtual", cc)]] = prev
             prev = index_of[("virtual", cc)]
         if end is not None:

@@ -49,6 +49,7 @@ import os
 import re
 from itertools import chain
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 import torch
@@ -467,9 +468,10 @@ def _build_motion(lines: list[str], path: Path, unit: str | float | None) -> Mot
     data, frame_time, extra = _parse_motion(lines, motion_idx, channels)
     T, nj = data.shape[0], len(joints)
 
-    offsets = np.stack([j.offset for j in joints])  # file units
+    offsets = np.stack([cast(np.ndarray, j.offset) for j in joints])  # file units; every parsed joint has one
     root_pos = np.repeat(offsets[:1], T, axis=0)
-    folded, dropped = [], []
+    folded: list[str] = []
+    dropped: list[str] = []
     for j, ch in enumerate(channels):
         pos = sorted((c, k) for k, c in enumerate(ch) if c.endswith("position"))  # X, Y, Z
         if not pos:
@@ -498,7 +500,7 @@ def _build_motion(lines: list[str], path: Path, unit: str | float | None) -> Mot
     unit_name, scale = infer_unit_scale(points) if unit is None else _resolve_unit(unit)
 
     file_names = [jt.name for jt in joints]
-    skeleton = Skeleton(_skeleton_names(file_names), [jt.parent for jt in joints], offsets * scale,
+    skeleton = Skeleton(tuple(_skeleton_names(file_names)), tuple(jt.parent for jt in joints), offsets * scale,
                         {j: e * scale for j, e in end_sites.items()})
     fps = 1.0 / frame_time
     if abs(fps - round(fps)) <= 1e-4 * fps:
@@ -527,8 +529,8 @@ def _file_layout(motion: Motion) -> tuple[list[str], list[list[str]]]:
             and len(meta_names) == len(names) == len(meta_channels)
             and all(strip_prefix(f) == n or f == n for f, n in zip(meta_names, names)))
     if fits:
-        file_names = [str(n) for n in meta_names]
-        channels = [list(c) for c in meta_channels]
+        file_names = [str(n) for n in meta_names or ()]  # fits: neither is None
+        channels = [list(c) for c in meta_channels or ()]
     else:
         file_names = list(names)
         channels = [list(_DEFAULT_ROOT_CHANNELS if j == 0 else _DEFAULT_CHANNELS)

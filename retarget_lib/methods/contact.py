@@ -156,15 +156,16 @@ def retarget_with_network(model: GeometryConditionedRNN, source: Motion, target:
     Returns:
         The motion on ``target.skeleton`` (computed on the model's device).
     """
-    f32 = dict(dtype=torch.float32, device=module_device(model))
-    rot, root, off = (x.to(f32["device"]) for x in source.torch(torch.float32))
+    device = module_device(model)
+    rot, root, off = (x.to(device) for x in source.torch(torch.float32))
     feats = motion_features(rot[None], root[None], off, source.skeleton.parents, source.skeleton.height())
-    t_off = torch.as_tensor(target.skeleton.offsets, **f32)
+    as_f32 = lambda a: torch.as_tensor(a, dtype=torch.float32, device=device)  # noqa: E731
+    t_off = as_f32(target.skeleton.offsets)
     ratio = leg_ratio(source.skeleton, target.skeleton)
-    aligned = eweak_rotations(model, source.rotations, source.skeleton, target.skeleton).to(f32["device"])
+    aligned = eweak_rotations(model, source.rotations, source.skeleton, target.skeleton).to(device)
     base = ResidualBase(aligned[None], forward_root_velocity(root[None]) * ratio)
-    out = model(feats, t_off[None], torch.as_tensor(target.rest_vertices, **f32)[None],
-                torch.as_tensor(target.weights, **f32)[None], target.height, base)
+    out = model(feats, t_off[None], as_f32(target.rest_vertices)[None], as_f32(target.weights)[None],
+                target.height, base)
     start = ratio * root[0]
     posed = pose_outputs(out.rotations, out.root_velocity, t_off, start=start[None])
     return Motion(target.skeleton, out.rotations[0].double().cpu().numpy(),

@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+from typing import Callable
+
 from ..core.motion import Motion
 from ..core.quantities import leg_ratio
 from ..core.skeleton import Skeleton
@@ -25,6 +27,6 @@ def copy_rotations(motion: Motion, target_skeleton: Skeleton) -> Motion:
                        meta=dict(motion.meta, retargeted="copy"))
 
 
-def load(checkpoint: None = None):
-    """The registry's loader: :func:`copy_rotations` (nothing to load)."""
+def load(checkpoint: None = None, device: None = None) -> Callable[..., Motion]:
+    """The registry's loader: :func:`copy_rotations` (nothing to load; NumPy, no device)."""
     return copy_rotations

@@ -3,6 +3,8 @@ twists; :mod:`retarget_lib.core.transfer`)."""
 
 from __future__ import annotations
 
+from typing import Callable
+
 from ..core.motion import Motion
 from ..core.skeleton import Skeleton
 from ..core.transfer import retarget_ground_truth
@@ -23,6 +25,6 @@ def copy_rotations_rest_compensated(motion: Motion, target_skeleton: Skeleton) -
     return out
 
 
-def load(checkpoint: None = None):
-    """The registry's loader: :func:`copy_rotations_rest_compensated` (nothing to load)."""
+def load(checkpoint: None = None, device: None = None) -> Callable[..., Motion]:
+    """The registry's loader: :func:`copy_rotations_rest_compensated` (nothing to load; NumPy, no device)."""
     return copy_rotations_rest_compensated

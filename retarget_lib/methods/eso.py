@@ -58,7 +58,7 @@ import os
 import shutil
 import time
 import warnings
-from typing import Any, Callable, NamedTuple
+from typing import Any, Callable, NamedTuple, cast
 
 import numpy as np
 import torch
@@ -192,8 +192,8 @@ def reached_joints(pairs: np.ndarray, skin_weights: np.ndarray) -> list[int]:
         skin_weights: ``(V, 22)`` the target's skinning weights.
     """
     owner = np.asarray(skin_weights).argmax(1)[np.asarray(pairs, dtype=np.int64).reshape(-1, 2)]
-    is_hand = np.isin(owner, HAND_JOINTS)
-    touched = owner[is_hand.any(1)[:, None] & ~is_hand]
+    is_hand = np.asarray(np.isin(owner, HAND_JOINTS))
+    touched = owner[np.asarray(is_hand.any(axis=1))[:, None] & ~is_hand]
     return sorted(set(int(j) for j in touched))
 
 
@@ -202,6 +202,14 @@ class _Pose(NamedTuple):
     state: DecoderState  # after frame t: its root_position is r_t, its root_velocity o_t
     positions: Tensor  # (1, 22, 3) global
     vertices: Tensor | None  # (1, U, 3): the U vertices skinned (_FrameInputs.rest_vertices posed), or None
+
+
+def _skinned(pose: _Pose) -> Tensor:
+    """``(U, 3)`` the skinned vertices of a pose decoded with vertices (the initial output and a
+    re-detection decode the whole mesh)."""
+    if pose.vertices is None:
+        raise ValueError("the pose was decoded without vertices")
+    return pose.vertices[0]
 
 
 class _Constants(NamedTuple):
@@ -275,7 +283,7 @@ def _frame_terms(model: GeometryConditionedRNN, weights: ContactEnergyWeights, b
     unit = w.length_unit
     terms["weak"] = weak_energy(rot, frame.src_rotations, o_prev / unit, frame.src_prev_velocity / unit,
                                 constants.leg_ratio, w.rho)[0]
-    total = sum(v for k, v in terms.items() if k != "j2j_distance")
+    total = cast(Tensor, sum(v for k, v in terms.items() if k != "j2j_distance"))
     return torch.stack([terms[k] for k in TERMS] + [total]), pose
 
 
@@ -319,17 +327,17 @@ class _Frame:
                                    p.rest_vertices, p.skin_weights_t)
         self.previous = (previous or self.initial).positions  # (1, 22, 3); frame t's own at t = 0
         pairs = p.contacts_at(t) if p.weights.j2j_weight > 0 else np.zeros((0, 2), np.int64)
-        self.pairs = reachable_pairs(pairs, self.initial.vertices[0], p.reach) if len(pairs) else pairs
+        self.pairs = reachable_pairs(pairs, _skinned(self.initial), p.reach) if len(pairs) else pairs
         self.reached = reached_joints(self.pairs, p.skin_weights) if p.weights.hold > 0 else []
         self.collisions = np.zeros((0, 2), np.int64)
         self.uses_int = p.interpenetration is not None and p.weights.int_weight > 0
         if self.uses_int:
-            self.detect(self.initial.vertices[0])
+            self.detect(_skinned(self.initial))
 
     def detect(self, vertices: Tensor) -> None:
         """Colliding triangle pairs of ``(V, 3)`` vertices (the whole mesh), kept for Eint; on two
         threads when there are two cores (the optimisation itself runs on one)."""
-        self.collisions = self.problem.interpenetration.pairs(vertices.detach(), DETECTION_WORKERS)
+        self.collisions = self.problem.eint().pairs(vertices.detach(), DETECTION_WORKERS)
 
     def mesh_vertices(self, pairs: np.ndarray, collisions: np.ndarray) -> np.ndarray:
         """The ``(U,)`` sorted vertex ids the energy reads, so each step skins only those: all of
@@ -340,7 +348,7 @@ class _Frame:
             return np.arange(len(self.problem.rest_vertices))
         parts = [pairs.reshape(-1)]
         if len(collisions):
-            parts.append(self.problem.interpenetration.support(collisions))
+            parts.append(self.problem.eint().support(collisions))
         return np.unique(np.concatenate(parts)).astype(np.int64)
 
     def inputs(self) -> _FrameInputs:
@@ -366,14 +374,14 @@ class _Frame:
         hold[list(self.reached)] = 1.0
         eint = None
         if uses_int:
-            eint = p.interpenetration.plan([self.collisions], vertex_index=where,
+            eint = p.eint().plan([self.collisions], vertex_index=where,
                                            min_pairs=_COMPILED_MIN if self.padded else 0, device=device)
         src, t = p.source, self.t
         contact = torch.as_tensor(p.foot_contacts[t], device=device).to(dtype)
         return _fresh(_FrameInputs(
             self.state, self.gates, self.base, p.rest_vertices[index], p.skin_weights_t[index],
             torch.as_tensor(where[pairs], device=device), torch.as_tensor(mask, dtype=dtype, device=device),
-            self.initial.vertices[0][index], hold, self.initial.positions[0], eint, self.previous,
+            _skinned(self.initial)[index], hold, self.initial.positions[0], eint, self.previous,
             torch.stack((src.positions[max(t - 1, 0)], src.positions[t]))[None], src.rotations[t][None],
             src.root_velocity[t - 1][None] if t > 0 else src.root_velocity.new_zeros(1, 3),
             torch.stack((contact, contact))[None]))
@@ -396,16 +404,18 @@ class _Problem:
     def __init__(self, model: GeometryConditionedRNN, target: Any, source: MotionQuantities, leg_ratio: float,
                  foot_contacts: np.ndarray, contacts: Any, interpenetration: InterpenetrationEnergy | None,
                  weights: ContactEnergyWeights, reach: float, blend: float):
-        dtype = dict(dtype=model.rotation_head.weight.dtype, device=model.rotation_head.weight.device)
+        weight = model.rotation_head.weight
+        as_model = lambda a: torch.as_tensor(a, dtype=weight.dtype, device=weight.device)  # noqa: E731
         self.model, self.weights, self.reach, self.blend = model, weights, float(reach), float(blend)
-        self.offsets = torch.as_tensor(target.skeleton.offsets, **dtype)
-        self.rest_joints = torch.as_tensor(target.skeleton.rest_positions(), **dtype)
-        self.rest_vertices = torch.as_tensor(np.asarray(target.rest_vertices), **dtype)
+        self.offsets = as_model(target.skeleton.offsets)
+        self.rest_joints = as_model(target.skeleton.rest_positions())
+        self.rest_vertices = as_model(np.asarray(target.rest_vertices))
         self.skin_weights = np.asarray(target.weights)
-        self.skin_weights_t = torch.as_tensor(self.skin_weights, **dtype)
+        self.skin_weights_t = as_model(self.skin_weights)
         self.height = float(target.height)
-        self.ground_heights = torch.as_tensor(foot_ground_heights(target.skeleton), **dtype)
-        self.source = MotionQuantities(*(torch.as_tensor(x, **dtype) for x in source[:3]), float(source.height))
+        self.ground_heights = as_model(foot_ground_heights(target.skeleton))
+        self.source = MotionQuantities(as_model(source.rotations), as_model(source.root_velocity),
+                                       as_model(source.positions), float(source.height))
         self.leg_ratio = float(leg_ratio)
         #: what a residual network corrects (Eweak's targets θ^A, o^(A→B)); ignored by the paper's network
         self.base = ResidualBase(self.source.rotations[None], self.leg_ratio * self.source.root_velocity[None])
@@ -421,6 +431,12 @@ class _Problem:
 
     def contacts_at(self, t: int) -> np.ndarray:
         return _contact_pairs_at(self.contacts, t)
+
+    def eint(self) -> InterpenetrationEnergy:
+        """The target's Eint (only asked for when it is used)."""
+        if self.interpenetration is None:
+            raise ValueError("ESO was given no InterpenetrationEnergy")
+        return self.interpenetration
 
 
 def _contact_pairs_at(contacts: Any, t: int) -> np.ndarray:
@@ -595,11 +611,11 @@ ADAM_BETAS, ADAM_EPS = (0.5, 0.999), 1e-8
 
 class _Adam(NamedTuple):
     """Adam's state for ESO's two variables ``(h^enc_t, o_(t−1))``: first and second moments and
-    the step count (a 0-d tensor, so a compiled step does not specialise on it)."""
+    the steps taken (a 0-d tensor, so a compiled step does not specialise on it)."""
 
     first: tuple[Tensor, Tensor]
     second: tuple[Tensor, Tensor]
-    count: Tensor
+    steps: Tensor
 
     @classmethod
     def start(cls, variables: tuple[Tensor, Tensor]) -> "_Adam":
@@ -637,7 +653,7 @@ def _adam_step(model: GeometryConditionedRNN, weights: ContactEnergyWeights, ble
         values, rotations, positions = values.detach(), rotations.detach(), positions.detach()
         state = DecoderState(*(x.detach() for x in state))
     pose = _Pose(rotations, state, positions, None)
-    (beta1, beta2), count = ADAM_BETAS, adam.count + 1
+    (beta1, beta2), count = ADAM_BETAS, adam.steps + 1
     step = lr / (1 - beta1 ** count)
     root_correction = (1 - beta2 ** count).sqrt()
     first = tuple(m + (1 - beta1) * (g - m) for m, g in zip(adam.first, grads))
@@ -662,7 +678,7 @@ def _optimise_frame(frame: _Frame, constants: _Constants, h_enc: Tensor, iterati
             with torch.no_grad():
                 current = _decode(p.model, constants, frame.state, frame.gates, frame.base, *variables,
                                   p.rest_vertices, p.skin_weights_t)
-            frame.detect(current.vertices[0])
+            frame.detect(_skinned(current))
             inputs = frame.inputs()
         variables, adam, values, pose = step(p.model, p.weights, p.blend, p.cone, constants, inputs, variables,
                                              adam, rate)

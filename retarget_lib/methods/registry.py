@@ -34,9 +34,9 @@ class Method:
     Attributes:
         name: the ``--method`` name.
         summary: one line for ``retarget retarget --help``.
-        load: ``load(checkpoint) -> retarget`` for methods without a checkpoint (NumPy, no
-            device; ``checkpoint`` is ``None``), ``load(checkpoint, device) -> retarget`` for
-            learned ones (a manifest id or a path; a ``--device`` name, ``None`` = CPU).
+        load: ``load(checkpoint, device) -> retarget`` (a manifest id or a path; a ``--device``
+            name, ``None`` = CPU); methods without a checkpoint run in NumPy and take ``None`` for
+            both.
         needs_checkpoint: a learned method (``--checkpoint``, default from the manifest).
         needs_mesh: the target must be a skinned ``Character`` (a shape file or a named
             character), not only a skeleton.
@@ -44,7 +44,7 @@ class Method:
 
     name: str
     summary: str
-    load: Callable[[str | os.PathLike | None], Retarget]
+    load: Callable[..., Retarget]
     needs_checkpoint: bool = False
     needs_mesh: bool = False
 
@@ -67,7 +67,7 @@ class Method:
             ValueError: a learned method without a checkpoint.
         """
         if not self.needs_checkpoint:
-            return self.load(None)
+            return self.load(None, None)
         checkpoint = checkpoint if checkpoint is not None else self.default_checkpoint()
         if checkpoint is None:
             raise ValueError(f"--method {self.name} needs --checkpoint (a `retarget train` output): no "

@@ -305,6 +305,8 @@ def _write(result: Motion, tgt: Target, source_layout: dict, out: Path) -> None:
     """Write a canonical result by ``out``'s suffix on the target's own joints (module docstring)."""
     suffix = out.suffix.lower()
     if suffix in (".glb", ".fbx"):
+        if tgt.rig is None:  # refused before any work by the output check
+            raise OutputPathError(f"{out}: the target has no mesh to write")
         save = save_glb if suffix == ".glb" else save_fbx
         save(tgt.rig, out, tgt.rig.motion_from_canonical(result))
     elif tgt.bvh is not None:  # the target's joints, names, channels and unit

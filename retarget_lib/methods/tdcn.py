@@ -85,7 +85,7 @@ def _frame_windows(x: Tensor, left: int, right: int) -> Tensor:
     return windows.movedim(-1, 1)
 
 
-def retarget_motion_with(generator: torch.nn.Module, motion: Motion, target: Skeleton,
+def retarget_motion_with(generator: Any, motion: Motion, target: Skeleton,
                          windowed: bool = False, chunk: int = 256) -> Motion:
     """Retarget a whole clip with a trained TDCN/NKN generator (any length).
 
@@ -105,7 +105,8 @@ def retarget_motion_with(generator: torch.nn.Module, motion: Motion, target: Ske
     root does not travel.
 
     Args:
-        generator: e.g. from :func:`load_generator` (eval mode).
+        generator: a ``TDCNGenerator`` or ``NKNGenerator`` with its ``.config``, e.g. from
+            :func:`load_generator` (eval mode).
         motion: source clip on the canonical 22 joints (``T`` frames, metres).
         target: canonical-22 target skeleton.
         windowed: per-frame re-centred windows (needs a :class:`~retarget_lib.models.TDCNGenerator`).
