@@ -42,6 +42,10 @@ def test_a_still_source_held_still_scores_zero_and_a_slide_scores_its_speed(char
     sunk.root_positions[:, 1] -= 0.05
     assert real_measures(sunk, clip, character)["under_floor_pct"] == pytest.approx(100 * 0.05 / h, rel=0.02)
     assert np.isnan(m["hand_gap_pct"])  # no labelled hand contacts
+    assert m["foot_contact_mismatch"] == 0.0  # both stand still: every heel and toe in contact on both
+    fast = result.copy()
+    fast.root_positions[:, 0] += 0.9 * np.arange(30) / 30.0  # 3 cm a frame, thrice Sec. 3.4's 1 cm: no contact kept
+    assert real_measures(fast, clip, character)["foot_contact_mismatch"] > 0.9
 
 
 def test_arms_pushed_into_the_body_raise_the_penetration(character):

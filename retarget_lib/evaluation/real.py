@@ -17,6 +17,10 @@ Measures, per (character, method, clip); lengths as a percentage of the target's
   the mean horizontal speed of the same foot joint of the result.
 * ``under_floor_pct``: the mean depth of the lowest sole below ``y = 0`` (0 when above).
 * ``float_pct``: where a source foot stands, the mean height of the result's same sole above ``y = 0``.
+* ``foot_contact_mismatch``: one minus Villegas et al.'s foot contact accuracy (Sec. 4): heel and
+  toe contacts detected on the result and on the source (Sec. 3.4 thresholds, each at its own
+  height, :func:`~retarget_lib.geometry.contacts.detect_foot_contacts`), the share of
+  (frame, foot joint) labels on which they disagree; 0 when every contact is kept.
 * ``arm_penetration``: the share of arm vertices inside the rest of the body (mean of both arms,
   :func:`~retarget_lib.geometry.penetration.penetration_rate`, winding numbers on the skinned real
   mesh), every :data:`PENETRATION_EVERY`-th frame.
@@ -57,7 +61,7 @@ from ..data.sources.real_characters import load_real_character, real_character_n
 from ..data.sources.real_motions import load_real_motion
 from ..data.synthetic.dataset import load_synthetic
 from ..files import atomic_write
-from ..geometry.contacts import authored_contact_frames
+from ..geometry.contacts import authored_contact_frames, detect_foot_contacts
 from ..geometry.penetration import DEFAULT_LIMBS, limb_vertices_inside, penetration_rate
 from ..methods.registry import get_method
 from ..methods.retarget import on_the_ground
@@ -165,6 +169,8 @@ def real_measures(result: Motion, clip: RealClip, character: Character) -> dict[
         "skate_pct_per_s": 100 * float(speed[stand_steps].mean() / h) if stand_steps.any() else float("nan"),
         "under_floor_pct": 100 * float(np.maximum(0.0, -soles.min(axis=1)).mean() / h),
         "float_pct": 100 * float(np.maximum(0.0, soles[standing]).mean() / h) if standing.any() else float("nan"),
+        "foot_contact_mismatch": float((detect_foot_contacts(out_pos, result.skeleton)
+                                        != detect_foot_contacts(src_pos, src.skeleton)).mean()),
     }
     frames = np.arange(0, result.num_frames, PENETRATION_EVERY)
     verts = character.skinned(result.rotations[frames], result.root_positions[frames])
@@ -287,8 +293,8 @@ def worst_cases(per_case: pd.DataFrame, methods: Mapping[str, tuple[Retarget, bo
 
 
 #: the table's columns, in order
-MEASURES = ("identity_pct", "skate_pct_per_s", "under_floor_pct", "float_pct", "arm_penetration", "hand_gap_pct",
-            "jitter_log_ratio")
+MEASURES = ("identity_pct", "skate_pct_per_s", "under_floor_pct", "float_pct", "foot_contact_mismatch",
+            "arm_penetration", "hand_gap_pct", "jitter_log_ratio")
 
 
 def real_table(per_case: pd.DataFrame) -> pd.DataFrame:
@@ -318,7 +324,8 @@ def run_real_evaluation(out_dir: str | Path, device: str | None = None, only: Se
     with atomic_write(out / "real.md", "w") as f:
         f.write("Real characters (data/real_characters), no ground truth: mean over characters and clips "
                 f"(CMU 01_01, 01_03, synthetic clap_008, assimp's motion capture ROM; {CLIP_FRAMES} frames each). Lengths in % of the target's "
-                "height; lower is better in every column (identity: 0 is exact; jitter: 0 is as smooth as the source).\n\n"
+                "height; lower is better in every column (identity: 0 is exact; foot contact mismatch: 1 - the foot contact "
+                "accuracy of Villegas et al.; jitter: 0 is as smooth as the source).\n\n"
                 + markdown_table(table, 3) + "\n")
     return table, worst_cases(per_case, methods, clips)
 
