@@ -21,6 +21,7 @@ from retarget_lib.core.skeleton import J
 from retarget_lib.geometry.penetration import InterpenetrationEnergy, interpenetration_energy
 from retarget_lib.losses.contact import (
     END_EFFECTORS,
+    ESO_FOOT_WEIGHT,
     TABLE3_ROWS,
     ContactEnergyWeights,
     end_effector_energy,
@@ -228,11 +229,12 @@ def test_weights_training_eso_and_table3_rows():
     assert (w.lambda_j2j, w.beta_int, w.gamma_foot, w.rho, w.omega) == (1000, 100, 0.1, 1000, 1000)
     e = ContactEnergyWeights.eso()
     assert (e.lambda_j2j, e.beta_int, e.rho, e.omega, e.hold) == (100, 1, 10, 1000, 100)  # App. B.1
-    # ours: a planted foot slipping 1 cm in a frame on a 1.7 m body costs ~6, not ~6e-4
+    # the paper's gamma in ESO: four planted foot joints slipping 1 cm in a frame on a 1.7 m body cost ~2e-3
     slip = torch.zeros(1, 2, 22, 3)
     slip[0, 1, list(FOOT_CONTACT_IDS), 0] = 0.01
     foot = foot_contact_energy_per_frame(slip, torch.ones(1, 2, 4, dtype=torch.bool), torch.zeros(4), 1.7)[0, 1]
-    assert e.gamma_foot * float(e.in_units("foot", foot)) == pytest.approx(4 * 1000 / 170)
+    assert e.gamma_foot == ESO_FOOT_WEIGHT == 0.1
+    assert e.gamma_foot * float(e.in_units("foot", foot)) == pytest.approx(4 * 0.1 / 170)
     assert list(TABLE3_ROWS) == ["Eskel", "Eskel+Efoot", "Eskel+Efoot+Eint w/o w", "Eskel+Efoot+Eint", "Efull"]
     skel = ContactEnergyWeights.row("Eskel")
     assert (skel.j2j_weight, skel.int_weight, skel.foot_weight) == (0, 0, 0)
