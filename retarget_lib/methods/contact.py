@@ -38,8 +38,8 @@ __all__ = ["ContactClip", "contact_clip", "model_from_config", "load_contact_mod
 
 #: above this many vertices, ESO works on a decimated copy of the target mesh (App. B's 3,000): the
 #: output is skeletal, so the full mesh follows it exactly. Full meshes work too (Eint's geodesics are
-#: searched on demand, each step skins only the vertices its energy reads): compiled, 0.10-0.11 s a frame
-#: at 10,000 vertices (`retarget bench --only eso`)
+#: searched on demand, each step skins only the vertices its energy reads): compiled, 0.07 s a frame
+#: at 10,000 vertices, 0.08 s at 13,380 (`retarget bench --only eso`)
 ESO_MAX_VERTICES = 5000
 
 

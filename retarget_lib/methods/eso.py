@@ -42,13 +42,15 @@ pair (:func:`reached_joints`).
 
 Speed (:func:`eso_throughput`, ``retarget bench --only eso``; the shipped network, the mannequin's
 synthetic ``pray`` clip (palms together) onto MakeHuman's body decimated to 10,000 vertices, 80 colliding triangle pairs
-and 3 contact pairs a frame, 30 steps, 2-core machine): one uncompiled step is ~8,000 small tensor
-operations (decoder, FK, skinning of the vertices the energy reads, energy, backward: ~8 ms, almost
-all per-operation overhead), 0.25 s a frame; compiled (``compile=True``, the whole step fused by
-``torch.compile``) ~2.3 ms a step and 0.10-0.11 s a frame (9.4-9.9 frames/s), of which ~20 ms are the frame's
-collision detection (two threads) and initial decode. Detection runs once per frame by default
-(``redetect_every`` re-detects on the whole mesh). The steps run single-threaded
-(``num_threads``): their tensors are one frame each.
+and 3 contact pairs a frame, 30 steps, idle 2-core machine): one uncompiled step is ~8,000 small
+tensor operations (decoder, FK, skinning of the vertices the energy reads, energy, backward, Adam:
+~8 ms, almost all per-operation overhead), 0.27 s a frame. Compiled (``compile=True``), one step is
+one call of one graph (:func:`_adam_step`: energy, its gradient and Adam's update fused by
+``torch.compile``): 73 ms a frame, 13.7 frames/s (was 0.10-0.11 s while the backward ran through
+autograd's engine and the update through ``torch.optim``), of which ~20 ms are the frame's collision
+detection (two threads) and initial decode. Detection runs once per frame by default
+(``redetect_every`` re-detects on the whole mesh). The steps run single-threaded (``num_threads``):
+their tensors are one frame each.
 """
 
 from __future__ import annotations
@@ -556,8 +558,9 @@ def encoder_space_optimization(model: GeometryConditionedRNN, source_features: T
 
 
 #: from this many frames, :func:`use_compiled` compiles ESO's step by default: the one-off
-#: compilation (about 35 s, 8 s from inductor's disk cache) is then repaid by the faster steps
-#: (0.26 -> 0.11 s a frame on the 13,380-vertex MakeHuman body, one thread; ``retarget bench --only eso``)
+#: compilation (about 2 minutes the first time on a machine, 19 s from inductor's disk cache after)
+#: is then repaid by the faster steps (0.27 -> 0.07 s a frame on MakeHuman's body at 10,000
+#: vertices, one thread; ``retarget bench --only eso``)
 COMPILE_FROM_FRAMES = 240
 
 
