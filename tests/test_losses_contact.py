@@ -242,6 +242,7 @@ def test_weights_training_eso_and_table3_rows():
     assert no_w.use_int and not no_w.use_j2j and not no_w.geodesic_weights
     assert ContactEnergyWeights.row("Efull") == ContactEnergyWeights()
     assert ContactEnergyWeights.row("Eskel+Efoot").relaxed().use_int is False
+    assert ContactEnergyWeights(gamma_foot=7.0).relaxed().gamma_foot == 7.0  # App. B.1 leaves gamma alone
     assert ContactEnergyWeights().with_foot_ramp(1, 10).gamma_foot == pytest.approx(0.01)
     with pytest.raises(ValueError, match="Table 3"):
         ContactEnergyWeights.row("Efull+IK")

@@ -106,7 +106,8 @@ END_EFFECTOR_IDS: tuple[int, ...] = tuple(J[n] for n in END_EFFECTORS)
 #: are unitless): a term in metres is divided by ``length_unit ** power`` before weighting
 LENGTH_POWER: dict[str, int] = {"j2j": 1, "hold": 1, "int": 2, "foot": 1, "weak": 2, "ee": 0}
 
-#: ``γ`` in ESO: App. B.1 relaxes ``ρ, β, λ`` and leaves ``γ`` at its training value. In
+#: ``γ`` in training and, unchanged, in ESO (App. B.1 relaxes ``ρ, β, λ`` and leaves ``γ`` at its
+#: training value; :meth:`ContactEnergyWeights.relaxed` keeps the caller's). In
 #: centimetres, Eq. 6 charges a standing foot that slips 1 cm in a frame ``1 cm² / h_B`` (about
 #: 0.006 on a 1.7 m body), so at 0.1 the term is ~1e5 times weaker than 1 cm of relaxed contact
 #: (``λ = 100``) and ESO slides planted feet to meet hand contacts (real table: foot skating 6.4 %
@@ -155,7 +156,7 @@ class ContactEnergyWeights:
 
     lambda_j2j: float = 1000.0
     beta_int: float = 100.0
-    gamma_foot: float = 0.1
+    gamma_foot: float = ESO_FOOT_WEIGHT
     rho: float = 1000.0
     omega: float = 1000.0
     hold: float = 0.0
@@ -191,9 +192,9 @@ class ContactEnergyWeights:
         return cls(**TABLE3_ROWS[name])
 
     def relaxed(self) -> "ContactEnergyWeights":
-        """These weights with ESO's relaxed ``ρ = 10, β = 1, λ = 100``, ``hold = 100`` and
-        ``γ =`` :data:`ESO_FOOT_WEIGHT`, switches kept."""
-        return replace(self, rho=10.0, beta_int=1.0, lambda_j2j=100.0, hold=100.0, gamma_foot=ESO_FOOT_WEIGHT)
+        """These weights with ESO's relaxed ``ρ = 10, β = 1, λ = 100`` and ``hold = 100`` (App. B.1);
+        ``γ`` and the switches kept."""
+        return replace(self, rho=10.0, beta_int=1.0, lambda_j2j=100.0, hold=100.0)
 
     def with_foot_ramp(self, epoch: int, epochs: int) -> "ContactEnergyWeights":
         """``γ · epoch / epochs`` (App. B.1: "gradually introduce the foot contact loss")."""
