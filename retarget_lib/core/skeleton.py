@@ -113,7 +113,9 @@ class Skeleton:
         return np.linalg.norm(self.offsets, axis=-1)
 
     def rest_positions(self) -> np.ndarray:
-        """``(J, 3)`` global joint positions in the rest pose (all local rotations identity)."""
+        """``(J, 3)`` global joint positions in the rest pose (all local rotations identity): the
+        library's one rest pose, on which every rest height and the rest ground are measured
+        (:mod:`retarget_lib.core.measures`)."""
         pos = np.zeros_like(self.offsets)
         for j, p in enumerate(self.parents):
             pos[j] = self.offsets[j] if p < 0 else pos[p] + self.offsets[j]
@@ -123,11 +125,14 @@ class Skeleton:
         return self.joint_names == CANONICAL22 and self.parents == CANONICAL22_PARENTS
 
     def height(self) -> float:
-        """Character height ``H`` as defined by NKN/TDCN (TDCN Eqs. 11-12, 15-16).
+        """Character height ``H`` as defined by NKN/TDCN (Kim et al. 2020, Eqs. 11-12, 15-16).
 
         Sum of the rest bone lengths on the root->head chain (Hips-Spine-Spine1-Spine2-Neck-Head,
-        5 bones) plus the left leg chain (LeftUpLeg-LeftLeg-LeftFoot-LeftToeBase, 3 bones). Needs
-        the canonical joint names (any order).
+        5 bones) plus the left leg chain (LeftUpLeg-LeftLeg-LeftFoot-LeftToeBase, 3 bones), each
+        the distance between the two rest joint positions. Needs the canonical joint names (any
+        order). The library's one ``H``: :func:`~retarget_lib.core.measures.nkn_height` is its
+        form for a batch of offset tensors, and :mod:`retarget_lib.core.measures` lists the other
+        heights (standing heights for the contact thresholds).
 
         Returns:
             ``H`` in metres.
@@ -141,7 +146,9 @@ class Skeleton:
                          for a, b in HEIGHT_BONES))
 
     def leg_length(self) -> float:
-        """Rest height of the hips above the lowest foot joint (metres), used to scale root motion."""
+        """``h_legs``: rest height of the hips above the lowest foot joint (metres), the scale of
+        root motion (the ground truth's root, Villegas et al. 2021, Eq. 8's leg ratio);
+        :func:`~retarget_lib.core.measures.leg_length` is its form for offset tensors."""
         pos = self.rest_positions()
         feet = [i for i, n in enumerate(self.joint_names) if n in ("LeftToeBase", "RightToeBase",
                                                                    "LeftFoot", "RightFoot")]

@@ -1,0 +1,221 @@
+"""A character's heights, the ground under its rest pose and its feet's rest heights: one
+definition each, read by every metric, loss, threshold and method.
+
+The **rest pose** is the skeleton with identity local rotations: its ``(J, 3)`` world joint
+positions are :meth:`Skeleton.rest_positions() <retarget_lib.core.skeleton.Skeleton.rest_positions>`
+(the offsets summed down the tree), and a character's rest mesh is ``Character.rest_vertices``
+in the same frame. Everything below is measured on that pose. Conventions: metres, +Y up.
+
+The papers use three different heights, and they are kept apart here:
+
+* **NKN/TDCN height** ``H``: the root->head and left-leg bone lengths,
+  :meth:`Skeleton.height() <retarget_lib.core.skeleton.Skeleton.height>` for one skeleton (float64)
+  and :func:`nkn_height` for a batch of offsets (tensors). Read by TDCN's ``Lh`` and discriminator
+  inputs (Kim et al. 2020, Eqs. 9-20), Table 4's normalised MSE, the contact energies' ``h`` and
+  the RNN's scale (Villegas et al. 2021, Eqs. 6, 9, App. B), the ground rule's thresholds
+  (:func:`retarget_lib.core.ground.standing_feet`) and every "% of height" measure.
+* **Standing height, estimated** from the skeleton: :func:`estimated_standing_height`, the
+  ``Head`` joint's height times :data:`HEAD_TOP_FACTOR`. Scales Sec. 3.4's foot-contact
+  thresholds (Villegas et al. 2021, "180 cm scale").
+* **Standing height of the mesh**: :func:`mesh_standing_height`, the rest mesh's vertical
+  extent. Scales Sec. 3.4's hand self-contact thresholds ("138 cm") and the PointNet input.
+
+And one length: the **leg length** ``h_legs``, the hips above the lowest rest foot joint
+(:meth:`Skeleton.leg_length() <retarget_lib.core.skeleton.Skeleton.leg_length>`,
+:func:`leg_length` for tensors), the root scale of the ground truth, of Eq. 8 (Villegas et al.
+2021) and of the residual TDCN.
+
+The **rest ground** is :func:`rest_ground` (:func:`mesh_ground` of a mesh), and the **foot rest
+heights** ``ḡ`` above it are :func:`foot_rest_heights`: Efoot's ground (Villegas et al. 2021,
+Eq. 6, Sec. 3.1.1), toe-contact detection, sole heights (:mod:`retarget_lib.core.ground`) and
+the synthetic clips' planted feet.
+
+``H`` is not a standing height: it leaves out the skull above the ``Head`` joint and the foot
+below the toe joint, and counts the toe bone, which is horizontal; the reference synthetic
+skeleton has ``H`` = 1.56 m and stands 1.75 m.
+"""
+
+from __future__ import annotations
+
+from typing import Any, overload
+
+import numpy as np
+import torch
+
+from .skeleton import CANONICAL22_PARENTS, FOOT_CONTACT_JOINTS, HEIGHT_BONES, J, Skeleton
+
+Tensor = torch.Tensor
+
+__all__ = [
+    "HEAD_TOP_FACTOR",
+    "nkn_height",
+    "leg_length",
+    "estimated_standing_height",
+    "mesh_standing_height",
+    "mesh_ground",
+    "rest_ground",
+    "foot_rest_heights",
+]
+
+#: standing height / height of the ``Head`` joint above the rest ground. The ``Head`` joint sits
+#: at the base of the skull; the crown is about 12 % higher (Mixamo's Y-bot, SMPL bodies, and the
+#: synthetic characters: 1.11-1.18, median 1.12).
+HEAD_TOP_FACTOR = 1.12
+
+# The height bones are (child, parent) pairs with a direct parent link, so on canonical-22 offsets
+# H is a sum of offset norms.
+assert all(CANONICAL22_PARENTS[c] == p for c, p in HEIGHT_BONES)
+_HEIGHT_CHILDREN = [c for c, _ in HEIGHT_BONES]
+_LEFT_LEG = [J[n] for n in ("LeftUpLeg", "LeftLeg", "LeftFoot", "LeftToeBase")]
+_RIGHT_LEG = [J[n] for n in ("RightUpLeg", "RightLeg", "RightFoot", "RightToeBase")]
+
+
+# ----------------------------------------------------------------------------- skeleton lengths
+def nkn_height(offsets: Tensor) -> Tensor:
+    """The NKN/TDCN character height ``H(s̄)`` of a batch of canonical-22 rest offsets
+    (Kim et al. 2020, Eqs. 11-12, 15-16, 18, after Villegas et al. 2018).
+
+    The sum of the lengths of the :data:`~retarget_lib.core.skeleton.HEIGHT_BONES`: the
+    root->head chain (5 bones) and the left leg (3 bones). The tensor form of
+    :meth:`Skeleton.height() <retarget_lib.core.skeleton.Skeleton.height>` (differentiable,
+    any batch shape); the two agree to rounding (the skeleton's form sums the distances between
+    rest joint positions, this one the offsets' norms, about 1e-16 m apart in float64).
+
+    Args:
+        offsets: ``(..., 22, 3)`` rest offsets in canonical-22 order (metres).
+
+    Returns:
+        ``(...)`` heights in metres, in ``offsets``' dtype.
+    """
+    return offsets[..., _HEIGHT_CHILDREN, :].norm(dim=-1).sum(-1)
+
+
+def leg_length(offsets: Tensor) -> Tensor:
+    """``h_legs`` of a batch of canonical-22 rest offsets: the rest height of the hips above the
+    lowest foot joint (Villegas et al. 2021, Eq. 8's leg-length ratio).
+
+    The tensor form of :meth:`Skeleton.leg_length() <retarget_lib.core.skeleton.Skeleton.leg_length>`
+    (differentiable): the ``y`` offsets summed down each leg chain, the lowest of the four
+    feet joints; the two agree to rounding.
+
+    Args:
+        offsets: ``(..., 22, 3)`` rest offsets in canonical-22 order (metres).
+
+    Returns:
+        ``(...)`` leg lengths in metres.
+    """
+    y = offsets[..., 1]
+    left = y[..., _LEFT_LEG].cumsum(-1)    # rest heights below the hips, down the chain
+    right = y[..., _RIGHT_LEG].cumsum(-1)
+    return -torch.cat([left, right], -1).min(-1).values
+
+
+# ----------------------------------------------------------------------------- standing heights
+def estimated_standing_height(skeleton: Skeleton) -> float:
+    """Standing height (floor to crown, metres) estimated from the skeleton alone: the ``Head``
+    joint's rest height above :func:`rest_ground` times :data:`HEAD_TOP_FACTOR`.
+
+    The "character height" that Villegas et al. 2021, Sec. 3.4 scales its foot-contact thresholds
+    with (stated for a 180 cm character); about 12 % more than ``H``
+    (:meth:`~retarget_lib.core.skeleton.Skeleton.height`).
+
+    Args:
+        skeleton: a skeleton with the canonical names ``Head`` and the foot joints.
+
+    Returns:
+        metres.
+    """
+    head = skeleton.rest_positions()[skeleton.index("Head"), 1]
+    return HEAD_TOP_FACTOR * float(head - rest_ground(skeleton))
+
+
+@overload
+def mesh_standing_height(vertices: Tensor) -> Tensor: ...
+@overload
+def mesh_standing_height(vertices: np.ndarray) -> Any: ...
+def mesh_standing_height(vertices: np.ndarray | Tensor) -> Any:
+    """Standing height measured on a rest mesh: its vertical extent (top of the head minus the
+    soles, metres).
+
+    The character height of Villegas et al. 2021, Sec. 3.4's hand self-contact thresholds (stated
+    for the 138 cm character) in :func:`retarget_lib.methods.contact.contact_clip`, and the scale
+    of the PointNet input (:func:`retarget_lib.models.georet.normalize_rest_vertices`, ours).
+
+    Args:
+        vertices: ``(..., V, 3)`` rest vertices (metres, +Y up), NumPy or torch.
+
+    Returns:
+        ``(...)``: a float for one NumPy mesh ``(V, 3)``, else an array or a tensor (differentiable).
+    """
+    if isinstance(vertices, Tensor):
+        y = vertices[..., 1]
+        return y.amax(-1) - y.amin(-1)
+    ys = np.asarray(vertices)[..., 1]
+    height = ys.max(axis=-1) - ys.min(axis=-1)
+    return float(height) if height.ndim == 0 else height
+
+
+# ----------------------------------------------------------------------------- the ground
+@overload
+def mesh_ground(vertices: Tensor) -> Tensor: ...
+@overload
+def mesh_ground(vertices: np.ndarray) -> Any: ...
+def mesh_ground(vertices: np.ndarray | Tensor) -> Any:
+    """The ground under a rest mesh: its lowest ``y`` (the soles, metres).
+
+    Args:
+        vertices: ``(..., V, 3)`` rest vertices (metres, +Y up), NumPy or torch.
+
+    Returns:
+        ``(...)``: a float for one NumPy mesh ``(V, 3)``, else an array or a tensor.
+    """
+    if isinstance(vertices, Tensor):
+        return vertices[..., 1].amin(-1)
+    low = np.asarray(vertices)[..., 1].min(axis=-1)
+    return float(low) if low.ndim == 0 else low
+
+
+def rest_ground(skeleton: Skeleton, rest_vertices: np.ndarray | None = None) -> float:
+    """The height of the ground under a character's rest pose (metres).
+
+    With a rest mesh: its lowest point (:func:`mesh_ground`, the soles). Without one:
+    ``min(0, lowest rest foot joint)``. A skeleton whose root offset stands it on the floor (the
+    synthetic characters, mannequin-x, loaded rigs, shape files) has every foot joint at or above
+    ``y = 0`` and its ground at 0; a BVH skeleton whose root sits at the origin has its feet below
+    ``y = 0``, and its lowest foot joint (heel or toe) is taken as its sole.
+
+    Args:
+        skeleton: a skeleton with the canonical foot joint names
+            (:data:`~retarget_lib.core.skeleton.FOOT_CONTACT_JOINTS`); its root offset places it.
+        rest_vertices: ``(V, 3)`` the character's rest mesh in the same frame, if it has one.
+
+    Returns:
+        metres.
+    """
+    if rest_vertices is not None and len(rest_vertices):
+        return mesh_ground(np.asarray(rest_vertices))
+    rest = skeleton.rest_positions()
+    return float(min(0.0, min(rest[skeleton.index(n), 1] for n in FOOT_CONTACT_JOINTS)))
+
+
+def foot_rest_heights(skeleton: Skeleton, rest_vertices: np.ndarray | None = None) -> np.ndarray:
+    """``(4,)`` rest heights of the heels and toes above the rest ground (metres), in
+    :data:`~retarget_lib.core.skeleton.FOOT_CONTACT_JOINTS` order (left heel, right heel, left
+    toe, right toe).
+
+    Efoot's ``ḡ_j^y`` (Villegas et al. 2021, Eq. 6; Sec. 3.1.1: "we get the heel height from
+    reference pose ... so that ground height of zero corresponds to contact"): a foot joint at
+    its rest height above the floor is a foot standing on it. Without a mesh the ground is the
+    skeleton's (:func:`rest_ground`), so a flat foot's lowest joint reads 0.
+
+    Args:
+        skeleton: a skeleton with the canonical foot joint names.
+        rest_vertices: ``(V, 3)`` the character's rest mesh, if it has one (the ground is then
+            its lowest point).
+
+    Returns:
+        ``(4,)`` float64, >= 0 but for a joint below a mesh's lowest point (a real mesh has none).
+    """
+    rest = skeleton.rest_positions()
+    feet = rest[[skeleton.index(n) for n in FOOT_CONTACT_JOINTS], 1]
+    return feet - rest_ground(skeleton, rest_vertices)
