@@ -11,13 +11,14 @@ import pytest
 import torch
 
 from retarget_lib.core.kinematics import forward_kinematics
+from retarget_lib.core.measures import nkn_height
 from retarget_lib.core.rotations import quat_normalize
 from retarget_lib.core.skeleton import CANONICAL22_PARENTS, canonical22_skeleton
 from retarget_lib.models import (TABLE4_ROWS, NKNDiscriminator, NKNGenerator, PatchDiscriminator, TDCNGenerator,
                                  build_model, count_parameters)
 from retarget_lib.models.features import (GENERATOR_LAYOUT, FeatureNormalizer, discriminator_features,
                                           discriminator_input_channels, generator_features,
-                                          generator_input_channels, skeleton_height, source_local_positions,
+                                          generator_input_channels, source_local_positions,
                                           split_generator_features)
 
 J = 22
@@ -68,9 +69,9 @@ def test_generator_features_layout_and_roundtrip():
     assert GENERATOR_LAYOUT["skeleton"].stop == 223
 
 
-def test_skeleton_height_matches_skeleton_class():
+def test_nkn_height_matches_skeleton_class():
     off = _offsets(3, 5).double()
-    h = skeleton_height(off)
+    h = nkn_height(off)
     for b in range(3):
         assert h[b].item() == pytest.approx(canonical22_skeleton(off[b].numpy()).height(), rel=1e-12)
 
@@ -80,7 +81,7 @@ def test_discriminator_features_are_eqs_11_18():
     p = source_local_positions(q, oa)
     f = discriminator_features(p, r, oa)
     assert f.shape == (2, discriminator_input_channels(), 8) == (2, 43, 8)
-    h = skeleton_height(oa)
+    h = nkn_height(oa)
     l_expected = (p[:, 1:] - p[:, :-1]).norm(dim=-1)[..., 1:] / h[:, None, None]
     assert torch.allclose(f[:, :21].transpose(1, 2), l_expected)
     assert torch.allclose(f[:, 21], (r[:, 1:] - r[:, :-1]).norm(dim=-1) / h[:, None])
@@ -254,7 +255,7 @@ def test_nkn_root_is_cumulative_sum_of_velocities(normalize_root):
     g.double()
     with torch.no_grad():
         out = g(q, r, oa, ob)
-    start = r[:, 0] * (skeleton_height(ob) / skeleton_height(oa))[:, None]
+    start = r[:, 0] * (nkn_height(ob) / nkn_height(oa))[:, None]
     expected = start[:, None] + torch.cumsum(out.root_velocities, 1)
     assert torch.allclose(out.root_positions, expected, atol=1e-12)
     assert torch.allclose(out.root_positions.diff(dim=1), out.root_velocities[:, 1:], atol=1e-12)

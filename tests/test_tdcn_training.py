@@ -13,12 +13,13 @@ import torch
 
 from retarget_lib.cli import main
 from retarget_lib.config import load_config
+from retarget_lib.core.measures import nkn_height
 from retarget_lib.data.splits import tdcn_split
 from retarget_lib.data.synthetic.dataset import load_synthetic
 from retarget_lib.losses import NonFiniteLossError
 from retarget_lib.methods.tdcn import load_generator, retarget_motion_with
 from retarget_lib.models import PROFILE_WIDTHS, NKNGenerator, TDCNGenerator
-from retarget_lib.models.features import skeleton_height, source_local_positions
+from retarget_lib.models.features import source_local_positions
 from retarget_lib.training.loop import fit, load_checkpoint
 from retarget_lib.training.tdcn import RetargetTraining, WindowSampler, training_clips
 
@@ -121,8 +122,8 @@ def test_sampler_pairs_scales_and_centring():
     for s in (b.scale_source, b.scale_target):
         assert s.min() >= 0.5 and s.max() <= 1.5 and s.std() > 0.25  # ~U[0.5, 1.5] (std 0.289)
     assert torch.equal(b.scale_target[b.same_character], b.scale_source[b.same_character])  # copied: exact
-    assert torch.allclose(skeleton_height(b.offsets_source),
-                          skeleton_height(clips.offsets[b.source]) * b.scale_source)  # H scales with s
+    assert torch.allclose(nkn_height(b.offsets_source),
+                          nkn_height(clips.offsets[b.source]) * b.scale_source)  # H scales with s
     # one elementwise product of the same two values (correctly rounded on any CPU): exact
     assert torch.equal(b.offsets_target[b.same_character], b.offsets_source[b.same_character])
     for r in (b.root_positions, b.real_root_positions):  # centre frame above the origin, height kept
@@ -149,7 +150,7 @@ def test_rest_jitter_changes_rest_poses_not_the_motion():
     # A = B: one rest pose (the same code on the same values at the same batch rows, one process: exact)
     assert torch.equal(jittered.offsets_target[jittered.same_character],
                        jittered.offsets_source[jittered.same_character])
-    assert torch.allclose(skeleton_height(jittered.offsets_source), skeleton_height(plain.offsets_source))
+    assert torch.allclose(nkn_height(jittered.offsets_source), nkn_height(plain.offsets_source))
 
 
 def read_log(path):

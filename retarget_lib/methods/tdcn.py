@@ -16,12 +16,12 @@ from typing import Any, Callable
 
 import torch
 
+from ..core.measures import nkn_height
 from ..core.motion import Motion
 from ..core.skeleton import Skeleton
 from ..data.checkpoints import load_state
 from ..devices import module_device, resolve_device
 from ..models import TDCNGenerator, build_model
-from ..models.features import skeleton_height
 from ..models.tdcn import edge_pad
 
 Tensor = torch.Tensor
@@ -119,7 +119,7 @@ def retarget_motion_with(generator: Any, motion: Motion, target: Skeleton,
     device = module_device(generator)
     q, r, off_a = (x.to(device) for x in motion.torch())
     off_b = torch.as_tensor(target.offsets, dtype=torch.float32, device=device)
-    ratio = skeleton_height(off_b) / skeleton_height(off_a)
+    ratio = nkn_height(off_b) / nkn_height(off_a)
     with torch.inference_mode():
         if getattr(generator, "residual", False):  # translation-invariant inputs, analytic root: no centring
             q_b, r_b = (x[0] for x in generator.retarget(q[None], r[None], off_a, off_b))

@@ -36,7 +36,7 @@ Discriminator input (TDCN Sec. 4.2, Eqs. 9-12 and 18-20). Per frame pair ``(t-1,
   repeated over time).
 
 → ``(B, 2(J-1) + 1, T - 1)`` = ``(B, 43, T - 1)``. ``H`` is the NKN/TDCN height
-(:meth:`retarget_lib.core.skeleton.Skeleton.height`, :func:`skeleton_height` here).
+(:func:`retarget_lib.core.measures.nkn_height`).
 """
 
 from __future__ import annotations
@@ -47,8 +47,9 @@ import torch
 from torch import nn
 
 from ..core.kinematics import forward_kinematics
+from ..core.measures import nkn_height
 from ..core.quantities import discriminator_inputs
-from ..core.skeleton import CANONICAL22_PARENTS, HEIGHT_BONES, J
+from ..core.skeleton import CANONICAL22_PARENTS
 
 Tensor = torch.Tensor
 
@@ -58,7 +59,6 @@ __all__ = [
     "generator_input_channels",
     "discriminator_input_channels",
     "nkn_input_channels",
-    "skeleton_height",
     "batched_offsets",
     "source_local_positions",
     "generator_features",
@@ -69,15 +69,9 @@ __all__ = [
     "FeatureNormalizer",
     "residual_input_channels",
     "residual_generator_features",
-    "leg_length",
 ]
 
 NUM_JOINTS = 22
-
-# Height bones are (child, parent) pairs with a direct parent link, so H is a sum of offset norms.
-assert all(CANONICAL22_PARENTS[c] == p for c, p in HEIGHT_BONES)
-_HEIGHT_CHILDREN = tuple(c for c, _ in HEIGHT_BONES)
-
 
 def residual_input_channels(num_joints: int = NUM_JOINTS) -> int:
     """``C_in`` of the residual TDCN: ``p`` (3J) + ``q`` (4J) + root (3) + ``s̄B`` (3J) + ``s̄A`` (3J)."""
@@ -116,21 +110,6 @@ def batched_offsets(offsets: Tensor, batch: int) -> Tensor:
     if offsets.dim() != 3:
         raise ValueError(f"offsets must be (J,3) or (B,J,3), got {tuple(offsets.shape)}")
     return offsets.expand(batch, -1, -1)
-
-
-def skeleton_height(offsets: Tensor) -> Tensor:
-    """NKN/TDCN character height ``H(s̄)`` (Eqs. 11-12, 15-16, 18) from rest offsets.
-
-    The sum of the root→head and left-leg bone lengths, exactly as
-    :meth:`retarget_lib.core.skeleton.Skeleton.height` (canonical 22 joint order).
-
-    Args:
-        offsets: ``(..., 22, 3)`` rest offsets (metres).
-
-    Returns:
-        ``(...)`` heights in metres (differentiable).
-    """
-    return offsets[..., list(_HEIGHT_CHILDREN), :].norm(dim=-1).sum(-1)
 
 
 def source_local_positions(rotations: Tensor, offsets: Tensor,
@@ -175,26 +154,6 @@ def generator_features(rotations: Tensor, root_positions: Tensor, offsets_src: T
     return x.transpose(1, 2)
 
 
-_LEFT_LEG = ("LeftUpLeg", "LeftLeg", "LeftFoot", "LeftToeBase")
-_RIGHT_LEG = ("RightUpLeg", "RightLeg", "RightFoot", "RightToeBase")
-
-
-def leg_length(offsets: Tensor) -> Tensor:
-    """Rest height of the hips above the lowest foot joint (metres), as
-    :meth:`retarget_lib.core.skeleton.Skeleton.leg_length`, from canonical-22 rest offsets.
-
-    Args:
-        offsets: ``(..., 22, 3)`` rest offsets.
-
-    Returns:
-        ``(...)`` leg lengths (differentiable).
-    """
-    y = offsets[..., 1]
-    left = y[..., [J[n] for n in _LEFT_LEG]].cumsum(-1)    # rest heights below the hips, down the chain
-    right = y[..., [J[n] for n in _RIGHT_LEG]].cumsum(-1)
-    return -torch.cat([left, right], -1).min(-1).values
-
-
 def residual_generator_features(rotations: Tensor, root_positions: Tensor, offsets_src: Tensor,
                                 offsets_tgt: Tensor, positions: Tensor | None = None,
                                 parents: Sequence[int] = CANONICAL22_PARENTS) -> Tensor:
@@ -222,7 +181,7 @@ def residual_generator_features(rotations: Tensor, root_positions: Tensor, offse
     b, t, j, _ = rotations.shape
     off_a = batched_offsets(offsets_src.to(rotations.dtype), b)
     v = root_velocities(root_positions)
-    rho = torch.stack([v[..., 0], root_positions[..., 1], v[..., 2]], -1) / skeleton_height(off_a).view(b, 1, 1)
+    rho = torch.stack([v[..., 0], root_positions[..., 1], v[..., 2]], -1) / nkn_height(off_a).view(b, 1, 1)
     # the paper's [p, q, r, s̄B] with ρ in r's channels, then s̄A
     x = generator_features(rotations, rho, off_a, offsets_tgt, positions, parents)
     return torch.cat([x, off_a.reshape(b, 3 * j, 1).expand(b, 3 * j, t)], 1)
@@ -294,7 +253,7 @@ def discriminator_features(positions: Tensor, root_positions: Tensor, offsets: T
     b, t = positions.shape[:2]
     offsets = batched_offsets(offsets.to(positions.dtype), b)
     # the same l, δ and bone lengths as the loss module's Eqs. 11/12, 18, 19/20; H = 1 keeps metres
-    d = discriminator_inputs(positions, root_positions, offsets, skeleton_height(offsets) if normalize else 1.0)
+    d = discriminator_inputs(positions, root_positions, offsets, nkn_height(offsets) if normalize else 1.0)
     bones = d.bones[:, 1:].unsqueeze(1).expand(b, t - 1, -1)
     return torch.cat([d.l[..., 1:], d.delta.unsqueeze(-1), bones], -1).transpose(1, 2)
 

@@ -22,8 +22,10 @@ Choices the paper leaves open (decided here):
   position) and the vertices of the PointNet input; ``f_o`` predicts ``o^B / h_B``. One model
   therefore serves characters of any height (1.2-2.1 m in our data).
 * **PointNet input** (:func:`normalize_rest_vertices`): rest vertices centred on the mesh's
-  bounding-box footprint (x, z centre, lowest y) and divided by the mesh's standing height (its
-  bounding-box y extent), concatenated with the 22 skinning weights. Both the normalisation and
+  bounding-box footprint (x, z centre, lowest y: :func:`~retarget_lib.core.measures.mesh_ground`)
+  and divided by the mesh's standing height (its bounding-box y extent,
+  :func:`~retarget_lib.core.measures.mesh_standing_height`), concatenated with the 22 skinning
+  weights. Both the normalisation and
   the max-pool ignore vertex order and duplicates, so meshes of different sizes can be batched by
   repeating vertices (:func:`batch_meshes`).
 * **Rotations.** ``f_θ`` outputs the continuous 6D representation (Zhou et al. 2019), turned into
@@ -50,11 +52,12 @@ from torch import nn
 from torch.nn import functional as F
 
 from ..core.kinematics import align_local_rotations, forward_kinematics
+from ..core.measures import mesh_ground, mesh_standing_height, nkn_height
 from ..core.quantities import forward_root_velocity
 from ..core.rotations import matrix_from_6d, matrix_to_quat, quat_identity, quat_to_matrix
 from ..core.skeleton import CANONICAL22_PARENTS
 from .compiling import compile_frame_step
-from .features import batched_offsets, skeleton_height
+from .features import batched_offsets
 
 Tensor = torch.Tensor
 
@@ -88,9 +91,10 @@ MOTION_FEATURE_LAYOUT: dict[str, slice] = {
 
 
 def _heights(height: float | Tensor | None, offsets: Tensor) -> Tensor:
-    """``(B,)`` heights: given (float or ``(B,)``) or :func:`skeleton_height` of ``(B, 22, 3)`` offsets."""
+    """``(B,)`` heights: given (float or ``(B,)``) or the NKN height
+    :func:`~retarget_lib.core.measures.nkn_height` of ``(B, 22, 3)`` offsets."""
     if height is None:
-        return skeleton_height(offsets)
+        return nkn_height(offsets)
     h = torch.as_tensor(height, dtype=offsets.dtype, device=offsets.device)
     return h.expand(offsets.shape[0]) if h.dim() == 0 else h
 
@@ -106,7 +110,7 @@ def motion_features(rotations: Tensor, root_positions: Tensor, offsets: Tensor |
         offsets: ``(22, 3)`` or ``(B, 22, 3)`` rest offsets (metres).
         parents: joint parents.
         height: the character height ``h`` (float or ``(B,)``); default
-            :func:`~retarget_lib.models.features.skeleton_height` of ``offsets``.
+            :func:`~retarget_lib.core.measures.nkn_height` of ``offsets``.
 
     Returns:
         ``(B, T, 267)``; slices in :data:`MOTION_FEATURE_LAYOUT`.
@@ -125,7 +129,9 @@ def motion_features(rotations: Tensor, root_positions: Tensor, offsets: Tensor |
 def normalize_rest_vertices(vertices: Tensor) -> Tensor:
     """Centre rest vertices on their footprint and divide by the mesh's standing height.
 
-    Origin: the bounding box's x and z centre at its lowest y; scale: the box's y extent.
+    Origin: the bounding box's x and z centre at its lowest y
+    (:func:`~retarget_lib.core.measures.mesh_ground`); scale: the box's y extent
+    (:func:`~retarget_lib.core.measures.mesh_standing_height`, at least 1e-6 m).
 
     Args:
         vertices: ``(..., V, 3)`` rest vertices (metres, y up).
@@ -134,8 +140,9 @@ def normalize_rest_vertices(vertices: Tensor) -> Tensor:
         ``(..., V, 3)`` unitless; y runs from 0 (soles) to 1 (top of the head).
     """
     lo, hi = vertices.amin(dim=-2, keepdim=True), vertices.amax(dim=-2, keepdim=True)
-    origin = torch.cat(((lo[..., :1] + hi[..., :1]) / 2, lo[..., 1:2], (lo[..., 2:] + hi[..., 2:]) / 2), -1)
-    extent = (hi[..., 1:2] - lo[..., 1:2]).clamp_min(1e-6)
+    ground = mesh_ground(vertices)[..., None, None]
+    origin = torch.cat(((lo[..., :1] + hi[..., :1]) / 2, ground, (lo[..., 2:] + hi[..., 2:]) / 2), -1)
+    extent = mesh_standing_height(vertices)[..., None, None].clamp_min(1e-6)
     return (vertices - origin) / extent
 
 
@@ -411,7 +418,7 @@ class GeometryConditionedRNN(nn.Module):
             offsets: ``(B, 22, 3)`` or ``(22, 3)`` target rest offsets (metres).
             vertices: ``(B, V, 3)`` target rest vertices (metres).
             weights: ``(B, V, 22)`` skinning weights.
-            height: ``h_B`` (default :func:`~retarget_lib.models.features.skeleton_height`).
+            height: ``h_B`` (default :func:`~retarget_lib.core.measures.nkn_height`).
         """
         b = vertices.shape[0]
         dtype = self.rotation_head.weight.dtype

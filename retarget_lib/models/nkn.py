@@ -47,10 +47,11 @@ import torch
 from torch import nn
 
 from ..core.kinematics import forward_kinematics
+from ..core.measures import nkn_height
 from ..core.skeleton import CANONICAL22_PARENTS
 from .compiling import compile_frame_step
 from .features import (NUM_JOINTS, FeatureNormalizer, batched_offsets, nkn_input_channels,
-                       nkn_source_features, root_velocities, skeleton_height, source_local_positions)
+                       nkn_source_features, root_velocities, source_local_positions)
 from .tdcn import (DEFAULT_SLOPE, DilatedStack, GeneratorOutput, edge_pad, init_identity_head,
                    normalize_quaternions)
 
@@ -138,7 +139,7 @@ class NKNGenerator(nn.Module):
         off_tgt = batched_offsets(offsets_tgt.to(rotations.dtype), b)
         if positions is None:
             positions = source_local_positions(rotations, off_src, self.parents)
-        h_src, h_tgt = skeleton_height(off_src), skeleton_height(off_tgt)
+        h_src, h_tgt = nkn_height(off_src), nkn_height(off_tgt)
         x = self.normalizer(nkn_source_features(positions, root_positions,
                                                 h_src if self.normalize_root else None))
         if self.backbone == "gru":

@@ -69,9 +69,10 @@ import torch.nn.functional as F
 from torch import nn
 
 from ..core.kinematics import align_local_rotations
+from ..core.measures import leg_length
 from ..core.rotations import quat_conjugate, quat_mul, quat_normalize
 from ..core.skeleton import CANONICAL22_PARENTS
-from .features import (NUM_JOINTS, FeatureNormalizer, generator_features, generator_input_channels, leg_length,
+from .features import (NUM_JOINTS, FeatureNormalizer, generator_features, generator_input_channels,
                        residual_generator_features, residual_input_channels)
 
 Tensor = torch.Tensor

@@ -109,6 +109,7 @@ from typing import Mapping, NamedTuple, Sequence
 import torch
 
 from ..config_schema import DATA_SOURCES
+from ..core.measures import nkn_height
 from ..core.motion import Motion
 from ..core.rotations import quat_from_axis_angle, quat_mul, quat_rotate
 from ..core.skeleton import J, Skeleton
@@ -125,7 +126,7 @@ from ..losses import (MotionTensors, PositionScale, TDCNLossWeights, adversarial
 from ..methods.tdcn import centre_root, model_config
 from ..models import build_model, normalize_quaternions, resolve_config
 from ..models.features import (generator_features, nkn_source_features, residual_generator_features,
-                               root_velocities, skeleton_height, source_local_positions)
+                               root_velocities, source_local_positions)
 from ..devices import autocast
 from .distributed import SINGLE, Distributed, prepare_module
 from .loop import TrainTask, load_checkpoint, seed_everything
@@ -528,7 +529,7 @@ class RetargetTraining:
             features = residual_generator_features if self.generator.residual else generator_features
             x = features(b.rotations, b.root_positions, b.offsets_source, b.offsets_target, p)
         else:
-            h = skeleton_height(b.offsets_source) if self.generator.normalize_root else None
+            h = nkn_height(b.offsets_source) if self.generator.normalize_root else None
             x = nkn_source_features(p, b.root_positions, h)
         self.generator.normalizer.fit(x)
 
@@ -573,7 +574,7 @@ class RetargetTraining:
             "Lc": cycle_loss(z(x_a), z(x_a_hat), red),
             "Lt": twist_loss(out_b.rotations, out_a.rotations, self.alpha_deg, exclude_root=self.twist_exclude_root,
                              reduction=red),
-            "Lh": height_loss(p_a, p_b, root_a, root_b, skeleton_height(off_a), skeleton_height(off_b),
+            "Lh": height_loss(p_a, p_b, root_a, root_b, nkn_height(off_a), nkn_height(off_b),
                               self.weights.lambda_g, red),
             "La": adversarial_loss(h_fake, z(x_a), z(x_b_hat), batch.same_character, gan=self.gan, reduction=red),
             "Lr": regularization_loss(out_b.rotations, out_a.rotations, red),
