@@ -28,6 +28,7 @@ import numpy as np
 
 from ...core.canonical import SMPLX_BODY_NAMES, SMPLX_MAP
 from ...core.character import Character
+from ...core.measures import mesh_ground
 from ...core.skeleton import CANONICAL22, CANONICAL22_PARENTS, canonical22_skeleton
 from ...files import DataError, check_sha256
 
@@ -83,7 +84,7 @@ def load_mannequin(verify: bool = True) -> Character:
     _check_bind_pose(parents, arrays["local_offsets"], arrays["rest_local_rotations"], bind)
     weights = _fold_weights(_package_weights(arrays), parents)
     vertices = arrays["vertices"].astype(np.float64)
-    floor = vertices[:, 1].min()
+    floor = mesh_ground(vertices)
     vertices[:, 1] -= floor
     bind[:, 1] -= floor
     # canonical joint c comes from SMPL-X body joint order[c]

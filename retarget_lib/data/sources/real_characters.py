@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from ...core.character import Character
+from ...core.measures import mesh_standing_height
 from ...core.rig import Rig
 from ...core.skeleton import J, Skeleton
 from ...files import REPO_ROOT, DataError, sha256_file
@@ -131,9 +132,8 @@ def skeleton_proportions(skeleton: Skeleton) -> dict[str, float | str]:
 
 def measure_proportions(character: Character) -> dict[str, float | str]:
     """:func:`skeleton_proportions` of the character's skeleton, with ``mesh_height_m``, the rest
-    mesh's extent along +Y."""
-    verts = character.rest_vertices
-    return {"height_m": character.skeleton.height(), "mesh_height_m": float(verts[:, 1].max() - verts[:, 1].min()),
+    mesh's extent along +Y (:func:`~retarget_lib.core.measures.mesh_standing_height`)."""
+    return {"height_m": character.skeleton.height(), "mesh_height_m": mesh_standing_height(character.rest_vertices),
             **skeleton_proportions(character.skeleton)}
 
 

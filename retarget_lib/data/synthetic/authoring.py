@@ -15,7 +15,7 @@ How a clip is made (so that it is physically consistent *for the given character
    arm from the T-pose, ``bend`` flexes the spine/head forward, ``twist``/``yaw`` turn towards
    the character's left (+X).
 2. **Plant the feet.** Footsteps are planned on the ground of the rest pose
-   (:func:`~retarget_lib.geometry.contacts.rest_ground_height`: ``y = 0`` under a character that
+   (:func:`~retarget_lib.core.measures.rest_ground`: ``y = 0`` under a character that
    stands on the floor, so its soles, not its toe joints, touch it): a planted foot is flat, still,
    and keeps its rest height above that ground; between plants the ankle follows a minimum-jerk path
    with a lift, toe-off and heel-strike pitch, never letting the toe joint under its rest height. The root is lowered wherever a leg
@@ -40,6 +40,7 @@ import torch
 from scipy.ndimage import gaussian_filter1d, maximum_filter1d
 
 from ...core.kinematics import forward_kinematics
+from ...core.measures import foot_rest_heights
 from ...core.motion import Motion
 from ...core.rotations import (
     frame_rotation,
@@ -191,11 +192,9 @@ class Rig:
     def __post_init__(self) -> None:
         sk = self.skeleton
         self.ref = canonical_rest_skeleton(sk)
-        rest, ref_rest = sk.rest_positions(), self.ref.rest_positions()
+        ref_rest = self.ref.rest_positions()
         feet = [J[n] for n in ("LeftFoot", "RightFoot", "LeftToeBase", "RightToeBase")]
-        ground = min(0.0, float(rest[feet, 1].min()))  # as rest_ground_height and Efoot's ḡ (Eq. 6)
-        self.ankle_h = rest[feet[:2], 1] - ground
-        self.toe_h = rest[feet[2:], 1] - ground
+        self.ankle_h, self.toe_h = np.split(foot_rest_heights(sk), 2)  # Efoot's ḡ (Eq. 6)
         self.toe = sk.offsets[feet[2:]]
         lens = sk.bone_lengths()
         self.leg_reach = np.array([lens[J[f"{s}Leg"]] + lens[J[f"{s}Foot"]] for s, _ in SIDES])

@@ -39,6 +39,7 @@ import trimesh
 from skimage.measure import marching_cubes
 
 from ...core.character import Character
+from ...core.measures import mesh_ground
 from ...core.skeleton import J, canonical22_skeleton
 from ...core.skinning import subsample_mesh
 
@@ -552,7 +553,7 @@ def build_character(spec: CharacterSpec, target_vertices: int = 3000) -> Charact
     vertices, faces = _extract_mesh(parts, spacing=0.011 * s, blend=0.02 * s,
                                     target_vertices=target_vertices)
     weights = _skin_weights(vertices, [p for part in parts for p in part], tau=0.012 * s)
-    floor = vertices[:, 1].min()
+    floor = mesh_ground(vertices)
     vertices[:, 1] -= floor
     offsets[0, 1] = -floor  # root rest position: feet on the ground
     style = dict(
