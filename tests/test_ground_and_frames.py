@@ -6,15 +6,8 @@ import pytest
 
 from retarget_lib.cli import main
 from retarget_lib.core.canonical import to_canonical22
-from retarget_lib.core.ground import (
-    clip_floor,
-    floor_offset,
-    foot_positions,
-    rest_ground,
-    sole_heights,
-    sole_offsets,
-    standing_feet,
-)
+from retarget_lib.core.ground import clip_floor, floor_offset, foot_positions, sole_heights, standing_feet
+from retarget_lib.core.measures import foot_rest_heights, rest_ground
 from retarget_lib.core.rig import Rig
 from retarget_lib.data.sources.cmu import cmu_clip_path
 from retarget_lib.data.synthetic.amass_clip import AMASS_CLIP_PATH
@@ -78,7 +71,7 @@ def test_rest_ground_is_the_rest_meshs_lowest_point_else_the_lowest_foot_joint()
     assert rest_ground(lifted) == pytest.approx(min(feet, lifted.rest_positions()[
         [lifted.index("LeftFoot"), lifted.index("RightFoot")], 1].min()))
     # a toe joint resting on the mesh's sole reads its height above it
-    assert (sole_offsets(character.skeleton, character.rest_vertices) >= 0).all()
+    assert (foot_rest_heights(character.skeleton, character.rest_vertices) >= 0).all()
 
 
 def test_a_foot_flat_on_the_floor_reads_zero():

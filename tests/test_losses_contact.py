@@ -6,13 +6,12 @@ import numpy as np
 import pytest
 import torch
 
+from retarget_lib.core.measures import foot_rest_heights
 from retarget_lib.core.quantities import (
     FOOT_CONTACT_IDS,
     MotionQuantities,
-    foot_ground_heights,
     forward_root_velocity,
     frame_velocities,
-    leg_height,
     leg_ratio,
     motion_quantities,
 )
@@ -156,12 +155,12 @@ def test_foot_energy_batched_heights_and_bad_contacts():
         foot_contact_energy(pos, np.ones((2, 3, 4), bool), ground, 1.0)
 
 
-def test_foot_ground_heights_are_the_rest_heights_of_heels_and_toes():
+def test_foot_rest_heights_are_the_rest_heights_of_heels_and_toes():
     skel = make_skeleton()
     rest = skel.rest_positions()
     expected = [rest[J[n], 1] for n in ("LeftFoot", "RightFoot", "LeftToeBase", "RightToeBase")]
-    np.testing.assert_allclose(foot_ground_heights(skel), expected, atol=1e-12)
-    assert foot_ground_heights(skel)[2] == pytest.approx(0.0)
+    np.testing.assert_allclose(foot_rest_heights(skel), expected, atol=1e-12)
+    assert foot_rest_heights(skel)[2] == pytest.approx(0.0)
 
 
 # ----------------------------------------------------------------------------- Eweak (Eq. 8)
@@ -189,10 +188,10 @@ def test_weak_energy_scales_the_source_root_velocity_by_the_leg_ratio():
     assert weak_energy(rot, rot, o_b, o_a, 1.0, 1000.0).item() == pytest.approx(1e-4)
 
 
-def test_leg_height_and_leg_ratio_by_hand():
+def test_leg_length_and_leg_ratio_by_hand():
     skel = make_skeleton(height=1.8, leg_frac=0.5)
     # hips at 0.06 + thigh + shin + ankle (= 0.94 + 0.06 of the 0.9 m leg); toes on the ground
-    assert leg_height(skel) == pytest.approx(0.06 + 0.9)
+    assert skel.leg_length() == pytest.approx(0.06 + 0.9)
     assert leg_ratio(skel, skel.scaled(1.25)) == pytest.approx(1.25)
 
 
@@ -300,7 +299,7 @@ def test_geometry_and_full_energy_terms_switches_and_units():
     v = torch.as_tensor(verts)
     pairs = np.array([[0, 3]])
     contacts = np.ones((3, 4), bool)
-    ground = foot_ground_heights(skel)
+    ground = foot_rest_heights(skel)
     w = ContactEnergyWeights()
     terms = full_energy(b, a, v, pairs, contacts, ground, 1.0, w, eint)
     assert set(terms) == {"weak", "ee", "j2j", "int", "foot", "total"}
@@ -329,20 +328,19 @@ def test_full_energy_is_differentiable_in_the_output_motion():
     root = torch.tensor([0.0, 0.97, 0.0], dtype=F64).repeat(3, 1).requires_grad_(True)
     b = motion_quantities(rot, root, skel.offsets, skel.height())
     terms = full_energy(b, a, b.positions[0], [[J["LeftHand"], J["Head"]]], np.ones((3, 4), bool),
-                        foot_ground_heights(skel), leg_ratio(skel, skel), ContactEnergyWeights.row("Eskel+Efoot"))
+                        foot_rest_heights(skel), leg_ratio(skel, skel), ContactEnergyWeights.row("Eskel+Efoot"))
     terms["total"].backward()
     assert torch.isfinite(rot.grad).all() and rot.grad.abs().sum() > 0
     assert root.grad.abs().sum() > 0
     assert isinstance(b, MotionQuantities)
 
 
-def test_foot_ground_heights_measure_from_the_rest_ground():
+def test_foot_rest_heights_measure_from_the_rest_ground():
     from retarget_lib.data.synthetic.characters import make_character
-    from retarget_lib.core.quantities import foot_ground_heights
 
     sk = make_character("ada").skeleton
-    on_floor = foot_ground_heights(sk)
+    on_floor = foot_rest_heights(sk)
     lowered = sk.copy()
     lowered.offsets[0] = lowered.offsets[0] - [0.0, 1.0, 0.0]  # root at the origin-ish: feet below 0
-    np.testing.assert_allclose(foot_ground_heights(lowered), on_floor - on_floor.min(), atol=1e-12)
+    np.testing.assert_allclose(foot_rest_heights(lowered), on_floor - on_floor.min(), atol=1e-12)
     assert on_floor.min() >= 0

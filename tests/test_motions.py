@@ -214,7 +214,8 @@ def test_generation_is_fast():
 def test_a_character_standing_on_the_floor_keeps_its_soles_on_it():
     """A character whose rest pose stands on ``y = 0`` (soles there, toe joints above) plants its feet
     at their rest heights, so its mesh stands on the floor, not 3 cm into it (Efoot's ḡ, Eq. 6)."""
-    from retarget_lib.core.quantities import FOOT_CONTACT_IDS, foot_ground_heights
+    from retarget_lib.core.measures import foot_rest_heights
+    from retarget_lib.core.quantities import FOOT_CONTACT_IDS
     from retarget_lib.data.synthetic.characters import make_character
 
     c = make_character("ada")
@@ -223,7 +224,7 @@ def test_a_character_standing_on_the_floor_keeps_its_soles_on_it():
     pos = m.global_positions()[:, list(FOOT_CONTACT_IDS), 1]
     contacts = m.meta["joint_contacts"]
     flat = np.tile(m.meta["foot_contacts"], 2)  # heel and toe (FOOT_CONTACT_JOINTS order) of a flat foot
-    lift = (pos - foot_ground_heights(c.skeleton))[flat & contacts]
+    lift = (pos - foot_rest_heights(c.skeleton))[flat & contacts]
     np.testing.assert_allclose(lift, 0.0, atol=0.005)  # 5 mm: the IK solve's residual
     lowest = c.skinned(m.rotations, m.root_positions)[..., 1].min(axis=1)
     both_flat = m.meta["foot_contacts"].all(axis=1)

@@ -1,12 +1,14 @@
 """The ground under a character and under a clip, and the rule that keeps feet on it.
 
-Library convention: +Y is up and the floor is ``y = 0``. A character's *rest ground* is the
-lowest point of its rest mesh when it has one (its soles), else ``min(0, lowest rest foot
-joint)`` (a character standing on the floor has it at 0; a BVH skeleton whose root sits at the
-origin has its feet below 0, and its lowest foot joint is its sole). The *sole height* of a
-foot joint (heel ``*Foot`` or toe ``*ToeBase``) in a frame is its height minus its rest height
-above the rest ground: a foot flat on the floor reads 0 at heel and toe (the convention of
-Villegas et al. 2021, Sec. 3.1.1, Efoot's heel and toe heights from the T-pose).
+Library convention: +Y is up and the floor is ``y = 0``. A character's *rest ground* and its
+foot joints' rest heights above it are :func:`~retarget_lib.core.measures.rest_ground` and
+:func:`~retarget_lib.core.measures.foot_rest_heights`. The *sole height* of a foot joint (heel
+``*Foot`` or toe ``*ToeBase``) in a frame is its height minus its rest height above the rest
+ground: a foot flat on the floor reads 0 at heel and toe (the convention of Villegas et al.
+2021, Sec. 3.1.1, Efoot's heel and toe heights from the T-pose).
+
+The Sec. 3.4 foot thresholds (3 cm, 1 cm per frame at 30 fps, at 180 cm) are defined here once:
+:func:`standing_feet` and :func:`~retarget_lib.geometry.contacts.detect_foot_contacts` read them.
 
 A clip's *floor* is where its feet touch (:func:`clip_floor`): a motion file's floor need not be
 ``y = 0``. The ground rule (:func:`floor_offset`): at every frame where a source foot joint stands
@@ -20,11 +22,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from .quantities import foot_ground_heights
+from .measures import foot_rest_heights
 from .skeleton import FOOT_CONTACT_JOINTS, Skeleton
 
-__all__ = ["FOOT_JOINTS", "STAND_BAND_M", "STILL_STEP_M", "REFERENCE_HEIGHT_M", "rest_ground", "sole_offsets",
-           "foot_positions", "sole_heights", "clip_floor", "standing_feet", "floor_offset"]
+__all__ = ["FOOT_JOINTS", "STAND_BAND_M", "STILL_STEP_M", "REFERENCE_HEIGHT_M", "REFERENCE_FPS", "foot_positions",
+           "sole_heights", "clip_floor", "standing_feet", "floor_offset"]
 
 #: the foot joints the ground rule reads: heels then toes (left, right)
 FOOT_JOINTS: tuple[str, ...] = FOOT_CONTACT_JOINTS
@@ -34,37 +36,11 @@ REFERENCE_HEIGHT_M = 1.80
 STAND_BAND_M = 0.03
 #: ... and moves at most this far per frame at 30 fps (Sec. 3.4's 1 cm, i.e. 0.3 m/s)
 STILL_STEP_M = 0.01
+#: the frame rate at which :data:`STILL_STEP_M` holds (Mixamo's clips)
+REFERENCE_FPS = 30.0
 #: the percentile of the per-frame lowest sole height that is a clip's floor: the lowest few
 #: frames (a foot pushed through the floor for a moment, a noisy marker) do not set it
 FLOOR_PERCENTILE = 5.0
-
-
-def rest_ground(skeleton: Skeleton, rest_vertices: np.ndarray | None = None) -> float:
-    """The height of the ground under a character's rest pose (metres).
-
-    Args:
-        skeleton: a skeleton with the canonical foot joint names; its root offset places it.
-        rest_vertices: ``(V, 3)`` rest mesh in the same frame (metres), if the character has one.
-
-    Returns:
-        the rest mesh's lowest ``y`` when a mesh is given, else ``min(0, lowest rest foot joint)``.
-    """
-    if rest_vertices is not None and len(rest_vertices):
-        return float(np.min(np.asarray(rest_vertices)[:, 1]))
-    rest = skeleton.rest_positions()
-    return float(min(0.0, min(rest[skeleton.index(n), 1] for n in FOOT_JOINTS)))
-
-
-def sole_offsets(skeleton: Skeleton, rest_vertices: np.ndarray | None = None) -> np.ndarray:
-    """``(4,)`` rest heights of the :data:`FOOT_JOINTS` of a canonical-22 ``skeleton`` above the
-    rest ground (metres, >= 0 but for a joint below a mesh's lowest point, which a real mesh does
-    not have); without a mesh, Efoot's heel and toe heights
-    (:func:`~retarget_lib.core.quantities.foot_ground_heights`)."""
-    if rest_vertices is None or not len(rest_vertices):
-        return foot_ground_heights(skeleton)
-    rest = skeleton.rest_positions()
-    feet = np.array([rest[skeleton.index(n), 1] for n in FOOT_JOINTS])
-    return feet - rest_ground(skeleton, rest_vertices)
 
 
 def foot_positions(positions: np.ndarray, skeleton: Skeleton) -> np.ndarray:
@@ -78,9 +54,10 @@ def sole_heights(positions: np.ndarray, skeleton: Skeleton, rest_vertices: np.nd
     Args:
         positions: ``(T, 22, 3)`` global joint positions (metres, +Y up).
         skeleton: their canonical-22 skeleton.
-        rest_vertices: the character's rest mesh, if any (:func:`rest_ground`).
+        rest_vertices: the character's rest mesh, if any
+            (:func:`~retarget_lib.core.measures.foot_rest_heights`).
     """
-    return foot_positions(positions, skeleton)[..., 1] - sole_offsets(skeleton, rest_vertices)
+    return foot_positions(positions, skeleton)[..., 1] - foot_rest_heights(skeleton, rest_vertices)
 
 
 def clip_floor(soles: np.ndarray) -> float:
@@ -105,7 +82,10 @@ def standing_feet(feet: np.ndarray, soles: np.ndarray, floor: float, height: flo
         feet: ``(T, 4, 3)`` global positions of the :data:`FOOT_JOINTS` (metres).
         soles: ``(T, 4)`` their sole heights (:func:`sole_heights`), metres.
         floor: the clip's floor (:func:`clip_floor`), metres.
-        height: the character's height (metres), the scale of the thresholds.
+        height: the character's height (metres), the scale of the thresholds; the ground rule
+            (:func:`retarget_lib.methods.retarget.on_the_ground`) and the real table pass the
+            NKN height ``H`` (:meth:`~retarget_lib.core.skeleton.Skeleton.height`), not the
+            standing height of :func:`~retarget_lib.geometry.contacts.detect_foot_contacts`.
         fps: the clip's frame rate.
     """
     scale = height / REFERENCE_HEIGHT_M
@@ -114,7 +94,7 @@ def standing_feet(feet: np.ndarray, soles: np.ndarray, floor: float, height: flo
         return low
     step = np.linalg.norm(np.diff(np.asarray(feet, dtype=np.float64), axis=0), axis=-1)
     step = np.concatenate([step[:1], step])
-    return low & (step <= STILL_STEP_M * scale * 30.0 / fps)
+    return low & (step <= STILL_STEP_M * scale * REFERENCE_FPS / fps)
 
 
 def floor_offset(target_soles: np.ndarray, source_soles: np.ndarray, source_floor: float, standing: np.ndarray,

@@ -7,9 +7,9 @@ their features from them (:mod:`retarget_lib.models.features`) and the height lo
 
 Contact-aware retargeting (Villegas et al. 2021): the root velocity ``o`` (Eqs. 8, 17-18), frame
 velocities, the leg-length ratio ``h_legs_B / h_legs_A`` (also the ground truth's root scale,
-:func:`retarget_lib.core.transfer.retarget_ground_truth`), the feet's rest ground heights, and
-:class:`MotionQuantities`, what Eskel and Efoot read from a motion
-(:mod:`retarget_lib.losses.contact`).
+:func:`retarget_lib.core.transfer.retarget_ground_truth`), and :class:`MotionQuantities`, what
+Eskel and Efoot read from a motion (:mod:`retarget_lib.losses.contact`). The heights and the
+feet's rest heights they use are those of :mod:`retarget_lib.core.measures`.
 """
 
 from __future__ import annotations
@@ -32,9 +32,7 @@ __all__ = [
     "normalized_root_displacements",
     "discriminator_inputs",
     "FOOT_CONTACT_IDS",
-    "leg_height",
     "leg_ratio",
-    "foot_ground_heights",
     "forward_root_velocity",
     "frame_velocities",
     "MotionQuantities",
@@ -153,30 +151,10 @@ def _check_last(name: str, x: Tensor, channels: int, ndim: int) -> None:
 FOOT_CONTACT_IDS: tuple[int, ...] = tuple(J[n] for n in FOOT_CONTACT_JOINTS)
 
 
-def leg_height(skeleton: Skeleton) -> float:
-    """``h_legs``: rest height of the hips above the lowest foot joint (metres).
-
-    The same leg length the synthetic ground truth scales root trajectories by
-    (:meth:`~retarget_lib.core.skeleton.Skeleton.leg_length`).
-    """
-    return skeleton.leg_length()
-
-
 def leg_ratio(source: Skeleton, target: Skeleton) -> float:
-    """``h_legs_B / h_legs_A``, the factor turning ``o^A`` into ``o^(A→B)`` (Eq. 8)."""
-    return leg_height(target) / leg_height(source)
-
-
-def foot_ground_heights(skeleton: Skeleton) -> np.ndarray:
-    """``(4,)`` rest (T-pose) heights of the :data:`FOOT_CONTACT_IDS` joints above the rest
-    ground (metres, Sec. 3.1.1).
-
-    The ground is ``y = 0`` for skeletons standing on the floor (characters, shape files) and the
-    lowest rest foot joint for a BVH skeleton whose root sits at the origin (its feet are below 0),
-    as in :func:`retarget_lib.geometry.contacts.rest_ground_height`.
-    """
-    feet = skeleton.rest_positions()[list(FOOT_CONTACT_IDS), 1]
-    return feet - min(0.0, float(feet.min()))
+    """``h_legs_B / h_legs_A``, the factor turning ``o^A`` into ``o^(A→B)`` (Eq. 8), with ``h_legs``
+    the rest leg length :meth:`~retarget_lib.core.skeleton.Skeleton.leg_length`."""
+    return target.leg_length() / source.leg_length()
 
 
 def forward_root_velocity(root_positions: Tensor) -> Tensor:

@@ -50,8 +50,9 @@ import numpy as np
 import pandas as pd
 
 from ..core.character import Character
+from ..core.measures import estimated_standing_height, foot_rest_heights
 from ..core.motion import Motion
-from ..core.quantities import FOOT_CONTACT_IDS, foot_ground_heights
+from ..core.quantities import FOOT_CONTACT_IDS
 from ..data.manifest import CheckpointEntry, checkpoint_entries, default_checkpoint, table_checkpoints
 from ..data.sources.mannequin import load_mannequin
 from ..data.synthetic.characters import make_character
@@ -181,14 +182,16 @@ def vertex_contact_mse(vertices: np.ndarray, contacts: SelfContacts, height: flo
 
 def foot_contact_accuracy(output: Motion, source_contacts: np.ndarray) -> float:
     """Share of (frame, foot joint) labels on which the output's detected contacts (Sec. 3.4 at
-    the output's scale) agree with the source's."""
-    detected = detect_foot_contacts(output.global_positions(), output.skeleton)
+    the output's scale, :func:`~retarget_lib.core.measures.estimated_standing_height`) agree with
+    the source's."""
+    detected = detect_foot_contacts(output.global_positions(), output.skeleton,
+                                    estimated_standing_height(output.skeleton))
     return float((detected == np.asarray(source_contacts, dtype=bool)).mean())
 
 
 def foot_heights_in_contact(output: Motion, source_contacts: np.ndarray) -> np.ndarray:
     """Signed heights in cm of the output's heels and toes above Efoot's ground (their rest
-    heights, Eq. 6; :func:`~retarget_lib.core.quantities.foot_ground_heights`), at every
+    heights, Eq. 6; :func:`~retarget_lib.core.measures.foot_rest_heights`), at every
     (frame, foot joint) label in contact: negative = sunk into the floor.
 
     Args:
@@ -200,7 +203,7 @@ def foot_heights_in_contact(output: Motion, source_contacts: np.ndarray) -> np.n
     """
     labels = np.asarray(source_contacts, dtype=bool)
     feet_y = output.global_positions()[:, list(FOOT_CONTACT_IDS), 1]
-    return (feet_y - foot_ground_heights(output.skeleton))[labels] * METRES_TO_CM
+    return (feet_y - foot_rest_heights(output.skeleton))[labels] * METRES_TO_CM
 
 
 def foot_height_error(output: Motion, source_contacts: np.ndarray) -> float:

@@ -19,7 +19,8 @@ Measures, per (character, method, clip); lengths as a percentage of the target's
 * ``float_pct``: where a source foot stands, the mean height of the result's same sole above ``y = 0``.
 * ``foot_contact_mismatch``: one minus Villegas et al.'s foot contact accuracy (Sec. 4): heel and
   toe contacts detected on the result and on the source (Sec. 3.4 thresholds, each at its own
-  height, :func:`~retarget_lib.geometry.contacts.detect_foot_contacts`), the share of
+  :func:`~retarget_lib.core.measures.estimated_standing_height`,
+  :func:`~retarget_lib.geometry.contacts.detect_foot_contacts`), the share of
   (frame, foot joint) labels on which they disagree; 0 when every contact is kept.
 * ``arm_penetration``: the share of arm vertices inside the rest of the body (mean of both arms,
   :func:`~retarget_lib.geometry.penetration.penetration_rate`, winding numbers on the skinned real
@@ -48,6 +49,7 @@ import pandas as pd
 
 from ..core.character import Character
 from ..core.ground import clip_floor, foot_positions, sole_heights, standing_feet
+from ..core.measures import estimated_standing_height
 from ..core.motion import Motion
 from ..core.skeleton import J
 from ..data.manifest import (
@@ -148,10 +150,6 @@ def welded(character: Character, tolerance: float = 1e-6) -> Character:
                      character.weights[first], character.bulk, dict(character.style))
 
 
-def _sole_heights(result: Motion, character: Character) -> np.ndarray:
-    return sole_heights(result.global_positions(), result.skeleton, character.rest_vertices)
-
-
 def real_measures(result: Motion, clip: RealClip, character: Character) -> dict[str, float]:
     """The module's GT-free measures of one result (already on the ground) on ``character``."""
     h = character.skeleton.height()
@@ -164,13 +162,15 @@ def real_measures(result: Motion, clip: RealClip, character: Character) -> dict[
     feet = foot_positions(out_pos, result.skeleton)
     speed = np.linalg.norm(np.diff(feet[..., [0, 2]], axis=0), axis=-1) * result.fps  # (T-1, 4) m/s
     stand_steps = standing[1:] & standing[:-1]
-    soles = _sole_heights(result, character)
+    soles = sole_heights(out_pos, result.skeleton, character.rest_vertices)
     out = {
         "skate_pct_per_s": 100 * float(speed[stand_steps].mean() / h) if stand_steps.any() else float("nan"),
         "under_floor_pct": 100 * float(np.maximum(0.0, -soles.min(axis=1)).mean() / h),
         "float_pct": 100 * float(np.maximum(0.0, soles[standing]).mean() / h) if standing.any() else float("nan"),
-        "foot_contact_mismatch": float((detect_foot_contacts(out_pos, result.skeleton)
-                                        != detect_foot_contacts(src_pos, src.skeleton)).mean()),
+        "foot_contact_mismatch": float((detect_foot_contacts(out_pos, result.skeleton,
+                                                             estimated_standing_height(result.skeleton))
+                                        != detect_foot_contacts(src_pos, src.skeleton,
+                                                                estimated_standing_height(src.skeleton))).mean()),
     }
     frames = np.arange(0, result.num_frames, PENETRATION_EVERY)
     verts = character.skinned(result.rotations[frames], result.root_positions[frames])

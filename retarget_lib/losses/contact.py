@@ -24,14 +24,14 @@ Conventions and readings (the paper leaves them open; decided here):
   term acts. Clip-level energies are the mean of the per-frame energies ``E(t)`` over frames
   (Eq. 1 is per frame); ``*_per_frame`` variants return ``(..., T)``.
 * **Efoot's ground.** ``ḡ_j^y`` is the joint's rest (T-pose) height
-  (:func:`~retarget_lib.core.quantities.foot_ground_heights`): "we get the heel height from
+  (:func:`~retarget_lib.core.measures.foot_rest_heights`): "we get the heel height from
   reference pose ... so that ground height of zero corresponds to contact" (Sec. 3.1.1).
 * **Eq. 8.** ``θ`` are 3×3 rotation matrices (the paper's ``R^(9J)`` representation), so
   ``‖θ^B_j − θ^A_j‖²`` is the squared Frobenius norm: a 90° difference gives ``4``. Only the
   rotation sum is weighted by ``ρ``, as printed. ``o`` is the root velocity
   (:func:`~retarget_lib.core.quantities.forward_root_velocity`: the displacement from frame ``t``
   to ``t + 1``, matching the network's Eq. 18), ``o^(A→B) = (h_legs_B / h_legs_A) o^A`` with
-  :func:`~retarget_lib.core.quantities.leg_height`.
+  :meth:`~retarget_lib.core.skeleton.Skeleton.leg_length`.
 * **End effectors** (Eq. 9, "hands and feet"): ``LeftHand, RightHand, LeftFoot, RightFoot``
   (:data:`END_EFFECTORS`).
 * **ESO's relaxed self-contact term** (App. B.1, "aggregating 0.7 of the distance from the
@@ -326,7 +326,7 @@ def foot_contact_energy_per_frame(positions: Tensor, contacts: Tensor | np.ndarr
     Args:
         positions: ``(..., T, 22, 3)`` global joint positions (metres).
         contacts: ``(..., T, 4)`` bool, per :data:`retarget_lib.core.skeleton.FOOT_CONTACT_JOINTS`.
-        ground_heights: ``(4,)`` the joints' rest heights (:func:`~retarget_lib.core.quantities.foot_ground_heights`).
+        ground_heights: ``(4,)`` the joints' rest heights (:func:`~retarget_lib.core.measures.foot_rest_heights`).
         height: ``h_B`` (metres), float or ``(...)``.
 
     Returns:

@@ -19,6 +19,7 @@ import numpy as np
 import torch
 
 from ..core.character import Character
+from ..core.measures import estimated_standing_height, mesh_standing_height
 from ..core.motion import Motion
 from ..core.quantities import MotionQuantities, forward_root_velocity, leg_ratio, motion_quantities
 from ..core.transfer import transfer_rotations
@@ -74,26 +75,25 @@ def _motion_digest(motion: Motion) -> str:
 
 def _detected_contacts(motion: Motion, character: Character, cache_key: str | None) -> tuple[np.ndarray, SelfContacts]:
     """Foot and hand contacts of a clip on its performer, cached under ``cache_key`` plus a digest of
-    the motion's values (a clip that changes, e.g. after a dataset rebuild, never reads a stale entry)."""
+    the motion's values (a clip that changes, e.g. after a dataset rebuild, never reads a stale entry).
+
+    Sec. 3.4's thresholds are scaled with two heights: the feet with the skeleton's
+    :func:`~retarget_lib.core.measures.estimated_standing_height`, the hands with the performer's
+    :func:`~retarget_lib.core.measures.mesh_standing_height`."""
     path = cache_dir("contact_training") / f"{cache_key}_{_motion_digest(motion)}.npz" if cache_key else None
     if path is not None and path.exists():
         z = np.load(path)
         return z["foot"], SelfContacts(int(z["num_frames"]), z["frames"], z["pairs"], z["groups"])
     positions = motion.global_positions()
-    foot = detect_foot_contacts(positions, motion.skeleton)
+    foot = detect_foot_contacts(positions, motion.skeleton, estimated_standing_height(motion.skeleton))
     vertices = character.skinned(motion.rotations, motion.root_positions)
-    hands = detect_self_contacts(vertices, character.faces, character.weights, _standing_height(character))
+    hands = detect_self_contacts(vertices, character.faces, character.weights,
+                                 mesh_standing_height(character.rest_vertices))
     if path is not None:
         with atomic_write(path) as f:
             np.savez(f, foot=foot, num_frames=hands.num_frames, frames=hands.frames, pairs=hands.pairs,
                      groups=hands.groups)
     return foot, hands
-
-
-def _standing_height(character: Character) -> float:
-    """Top of the rest mesh above the ground (metres): the "character height" of Sec. 3.4's
-    thresholds (138 cm, 180 cm scales)."""
-    return float(character.rest_vertices[:, 1].max() - character.rest_vertices[:, 1].min())
 
 
 def contact_clip(motion: Motion, character: Character, cache_key: str | None = None) -> ContactClip:

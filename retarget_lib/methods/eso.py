@@ -65,10 +65,10 @@ from typing import Any, Callable, NamedTuple, cast
 import numpy as np
 import torch
 
+from ..core.measures import estimated_standing_height, foot_rest_heights
 from ..core.motion import Motion
 from ..core.transfer import transfer_rotations
-from ..core.quantities import (MotionQuantities, foot_ground_heights, leg_ratio as skeleton_leg_ratio,
-                               motion_quantities)
+from ..core.quantities import MotionQuantities, leg_ratio as skeleton_leg_ratio, motion_quantities
 from ..core.skeleton import J
 from ..core.skinning import linear_blend_skinning
 from ..geometry.contacts import detect_foot_contacts
@@ -160,7 +160,8 @@ def eso_source(motion: Motion, target: Any, foot_contacts: np.ndarray | None = N
         aligned = transfer_rotations(motion.rotations, motion.skeleton, target.skeleton)
         quantities = quantities._replace(rotations=torch.as_tensor(aligned, dtype=torch.float32))
     if foot_contacts is None:
-        foot_contacts = detect_foot_contacts(quantities.positions.double().numpy(), motion.skeleton)
+        foot_contacts = detect_foot_contacts(quantities.positions.double().numpy(), motion.skeleton,
+                                             estimated_standing_height(motion.skeleton))
     features = motion_features(rot[None], root[None], off, motion.skeleton.parents, height)
     return EsoSource(features, quantities, skeleton_leg_ratio(motion.skeleton, target.skeleton),
                      np.asarray(foot_contacts, dtype=bool))
@@ -415,7 +416,7 @@ class _Problem:
         self.skin_weights = np.asarray(target.weights)
         self.skin_weights_t = as_model(self.skin_weights)
         self.height = float(target.height)
-        self.ground_heights = as_model(foot_ground_heights(target.skeleton))
+        self.ground_heights = as_model(foot_rest_heights(target.skeleton))
         self.source = MotionQuantities(as_model(source.rotations), as_model(source.root_velocity),
                                        as_model(source.positions), float(source.height))
         self.leg_ratio = float(leg_ratio)

@@ -40,7 +40,8 @@ import numpy as np
 import torch
 
 from ..core.character import Character
-from ..core.quantities import MotionQuantities, foot_ground_heights, leg_ratio
+from ..core.measures import foot_rest_heights
+from ..core.quantities import MotionQuantities, leg_ratio
 from ..core.skinning import linear_blend_skinning
 from ..data.checkpoints import save_state
 from ..data.manifest import mixamo_local_dir
@@ -132,7 +133,7 @@ class _Target:
         self.rest_joints = torch.as_tensor(character.rest_joint_positions(), **f32)
         self.vertices = torch.as_tensor(character.rest_vertices, **f32)
         self.weights = torch.as_tensor(character.weights, **f32)
-        self.ground = torch.as_tensor(foot_ground_heights(character.skeleton), **f32)
+        self.ground = torch.as_tensor(foot_rest_heights(character.skeleton), **f32)
         self.eint = (InterpenetrationEnergy(character.faces, character.rest_vertices, geodesic_weights)
                      if need_int else None)
 
