@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from retarget_lib.core.character import Character
+from retarget_lib.core.measures import estimated_standing_height
 from retarget_lib.core.skeleton import J, canonical22_skeleton
 from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.geometry.contacts import (
@@ -19,8 +20,6 @@ from retarget_lib.geometry.contacts import (
     fill_contacts,
     frame_precision_recall,
     group_faces,
-    rest_ground_height,
-    standing_height,
     transfer_contacts,
     vertex_correspondence,
     vertex_groups,
@@ -73,20 +72,6 @@ def test_frame_zero_uses_its_displacement_to_frame_one():
     np.testing.assert_array_equal(contacts[:, 0], [False, False, True, True])
 
 
-def test_default_height_is_the_head_height_plus_a_head_top_allowance():
-    sk = make_skeleton()
-    head = sk.rest_positions()[J["Head"], 1]
-    assert rest_ground_height(sk) == pytest.approx(0.0, abs=1e-12)  # make_skeleton stands on y = 0
-    assert standing_height(sk) == pytest.approx(1.12 * head)
-    # a BVH-like skeleton with its root at the origin: the ground is its lowest foot joint
-    offsets = sk.offsets.copy()
-    offsets[0] = 0.0
-    floating = canonical22_skeleton(offsets)
-    lowest = min(floating.rest_positions()[J[n], 1] for n in FOOT_JOINTS)
-    assert rest_ground_height(floating) == pytest.approx(lowest)
-    assert standing_height(floating) == pytest.approx(1.12 * (head - sk.offsets[0, 1] - lowest))
-
-
 def test_toe_height_is_measured_from_the_toe_rest_height():
     sk = make_skeleton()
     offsets = sk.offsets.copy()
@@ -121,15 +106,16 @@ def test_fill_works_per_column_and_checks_its_window():
 def test_foot_contacts_reject_bad_shapes():
     sk = make_skeleton()
     with pytest.raises(ValueError, match="positions must be"):
-        detect_foot_contacts(np.zeros((1, 22, 3)), sk)
+        detect_foot_contacts(np.zeros((1, 22, 3)), sk, 1.8)
     with pytest.raises(ValueError, match="positions must be"):
-        detect_foot_contacts(np.zeros((5, 21, 3)), sk)
+        detect_foot_contacts(np.zeros((5, 21, 3)), sk, 1.8)
 
 
 @pytest.mark.data
 def test_foot_contacts_match_a_synthetic_walk(synthetic):
     clip = synthetic.clip("walk_000")
-    detected = detect_foot_contacts(clip.motion.global_positions(), clip.motion.skeleton)
+    detected = detect_foot_contacts(clip.motion.global_positions(), clip.motion.skeleton,
+                                    estimated_standing_height(clip.motion.skeleton))
     # toes match closely; a heel also reads "still" in the first frames of its slow lift-off
     # (the paper's heel rule has no height test), so its precision is lower (measured 0.74-0.80)
     for k, least_precision in enumerate((0.7, 0.7, 0.95, 0.95)):
@@ -289,7 +275,7 @@ def test_hand_hand_contacts_of_a_synthetic_clip_on_its_performer(synthetic, name
     performer = synthetic.characters[clip.performer]
     vertices = performer.skinned(clip.motion.rotations, clip.motion.root_positions)
     contacts = detect_self_contacts(vertices, performer.faces, performer.weights,
-                                    standing_height(performer.skeleton))
+                                    estimated_standing_height(performer.skeleton))
     detected = contacts.frame_mask("RightHand") & contacts.frame_mask("LeftHand")
     expected = authored_contact_frames(clip.hand_contacts, len(vertices), "LeftHand")
     precision, recall = frame_precision_recall(detected, expected)

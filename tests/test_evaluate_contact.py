@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from retarget_lib.core.measures import estimated_standing_height
 from retarget_lib.core.motion import Motion
 from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.evaluation.contact import (CONTACT_TARGETS, ablation_steps, contact_tables,
@@ -24,7 +25,7 @@ def test_vertex_contact_mse_known_value():
 def test_foot_contact_accuracy_of_a_still_pose_against_labels():
     c = make_character("ada")
     still = Motion(c.skeleton, np.tile([1.0, 0, 0, 0], (20, 22, 1)), np.tile(c.skeleton.offsets[0], (20, 1)), 30.0)
-    detected = detect_foot_contacts(still.global_positions(), still.skeleton)
+    detected = detect_foot_contacts(still.global_positions(), still.skeleton, estimated_standing_height(still.skeleton))
     assert detected.all()  # standing still in the rest pose: every foot joint in contact
     assert foot_contact_accuracy(still, np.ones((20, 4), bool)) == 1.0
     half = np.ones((20, 4), bool)

@@ -7,6 +7,8 @@ or subtracts at most about ten of them, so float64 results are within 1e-12 m of
 the float32 tensor forms are within a relative 1e-6 (float32 keeps about 7 digits).
 """
 
+import inspect
+
 import numpy as np
 import pytest
 import torch
@@ -23,6 +25,7 @@ from retarget_lib.core.measures import (
     rest_ground,
 )
 from retarget_lib.core.skeleton import J, canonical22_skeleton
+from retarget_lib.geometry.contacts import detect_foot_contacts
 
 #: float64 sums of a few decimals (see the module docstring)
 EXACT = 1e-12
@@ -128,3 +131,7 @@ def test_mesh_standing_height_is_the_meshs_vertical_extent():
     torch.testing.assert_close(mesh_ground(batch), torch.tensor([-0.005, -0.01]), rtol=1e-6, atol=0.0)
     np.testing.assert_allclose(mesh_standing_height(np.stack([MESH, 2 * MESH])), [1.755, 3.51], atol=EXACT)
 
+
+def test_foot_contact_thresholds_take_the_height_from_the_caller():
+    # no default height: every caller names the height it scales Sec. 3.4's thresholds with
+    assert inspect.signature(detect_foot_contacts).parameters["character_height"].default is inspect.Parameter.empty

@@ -1,8 +1,8 @@
 """Contact detection in the source motion and vertex correspondence between characters
 (Villegas et al. 2021, Sec. 3.4 and Appendix F).
 
-**Foot contacts** (:func:`detect_foot_contacts`) are read from the skeleton with simple thresholds.
-At the paper's scale of a 180 cm character: a toe joint (``*ToeBase``) is in contact when its height
+**Foot contacts** (:func:`detect_foot_contacts`) are read from the skeleton with simple thresholds
+(:mod:`retarget_lib.core.ground`'s Sec. 3.4 constants). At the paper's scale of a 180 cm character: a toe joint (``*ToeBase``) is in contact when its height
 above the ground is at most 3 cm and it moved at most 1 cm since the previous frame; a heel joint
 (``*Foot``, the ankle) only needs the 1 cm displacement (some Mixamo subjects wear high heels, so a
 heel height says little). A sliding window of 5 frames then fills short gaps (false negatives).
@@ -33,14 +33,14 @@ import fcl
 import numpy as np
 from scipy.spatial import cKDTree
 
+from ..core.ground import REFERENCE_FPS, REFERENCE_HEIGHT_M, STAND_BAND_M, STILL_STEP_M
 from ..core.kinematics import forward_kinematics
+from ..core.measures import foot_rest_heights
 from ..core.skeleton import CANONICAL22, CANONICAL22_PARENTS, FOOT_CONTACT_JOINTS, J, Skeleton
 from ..core.transfer import canonical_rest_skeleton, transfer_rotations
 
 __all__ = [
     "FOOT_JOINTS",
-    "FOOT_REFERENCE_HEIGHT",
-    "HEAD_TOP_FACTOR",
     "SelfContacts",
     "authored_contact_frames",
     "correspondence_features",
@@ -49,8 +49,6 @@ __all__ = [
     "fill_contacts",
     "frame_precision_recall",
     "group_faces",
-    "rest_ground_height",
-    "standing_height",
     "transfer_contacts",
     "vertex_correspondence",
     "vertex_groups",
@@ -58,46 +56,6 @@ __all__ = [
 
 #: column order of foot contacts: heels (``*Foot``, the ankle joints) then toes (``*ToeBase``)
 FOOT_JOINTS: tuple[str, ...] = FOOT_CONTACT_JOINTS
-#: the standing height (metres) at which the paper states its foot thresholds (Sec. 3.4)
-FOOT_REFERENCE_HEIGHT = 1.80
-#: standing height / height of the ``Head`` joint above the ground. The ``Head`` joint sits at the
-#: base of the skull; the crown is about 12 % higher (Mixamo's Y-bot, SMPL bodies, and the
-#: synthetic characters: 1.11-1.18, median 1.12).
-HEAD_TOP_FACTOR = 1.12
-#: frame rate at which the paper's per-frame displacement thresholds hold (Mixamo clips)
-REFERENCE_FPS = 30.0
-
-
-# ----------------------------------------------------------------------------- heights
-def rest_ground_height(skeleton: Skeleton) -> float:
-    """Height of the ground under the skeleton's rest pose (metres).
-
-    A skeleton whose root offset stands it on the floor (the synthetic characters, mannequin-x,
-    Mixamo shape files) has its ground at ``y = 0``: every foot joint is at or above it. A BVH
-    skeleton whose root sits at the origin has its feet below ``y = 0``; its ground is then its
-    lowest rest foot joint (heel or toe).
-
-    Args:
-        skeleton: a skeleton with the canonical foot joint names.
-    """
-    rest = skeleton.rest_positions()
-    lowest = min(rest[skeleton.index(n), 1] for n in FOOT_JOINTS)
-    return float(min(0.0, lowest))
-
-
-def standing_height(skeleton: Skeleton) -> float:
-    """Standing height (metres, floor to crown) estimated from the rest pose.
-
-    ``HEAD_TOP_FACTOR * (y_Head - ground)`` with the ground of :func:`rest_ground_height`: the
-    ``Head`` joint's height plus a head-top allowance of 12 % of it. This is the height the
-    paper's contact thresholds are scaled with ("180 cm scale", "138 cm"); it is about 12 % more
-    than the NKN/TDCN height ``H`` of :meth:`~retarget_lib.core.skeleton.Skeleton.height`.
-
-    Args:
-        skeleton: a skeleton with the canonical names ``Head`` and the foot joints.
-    """
-    head = skeleton.rest_positions()[skeleton.index("Head"), 1]
-    return HEAD_TOP_FACTOR * float(head - rest_ground_height(skeleton))
 
 
 # ----------------------------------------------------------------------------- foot contacts
@@ -139,7 +97,7 @@ def _frame_displacements(points: np.ndarray) -> np.ndarray:
     return np.concatenate([step[:1], step])
 
 
-def detect_foot_contacts(positions: np.ndarray, skeleton: Skeleton, character_height: float | None = None,
+def detect_foot_contacts(positions: np.ndarray, skeleton: Skeleton, character_height: float,
                          window: int = 5, fps: float = REFERENCE_FPS) -> np.ndarray:
     """Heel and toe contacts with the ground (Villegas et al. 2021, Sec. 3.4), for ``Efoot`` (Eq. 6).
 
@@ -150,8 +108,9 @@ def detect_foot_contacts(positions: np.ndarray, skeleton: Skeleton, character_he
     * heel (``*Foot``): displacement from the previous frame at most 1 cm.
 
     A toe's height above the ground is its ``y`` minus the toe joint's rest height above the
-    rest ground (:func:`rest_ground_height`) -- the convention of ``Efoot``, which takes heel and
-    toe heights from the T-pose (Sec. 3.1.1) -- so a toe joint resting on a flat foot reads 0.
+    rest ground (:func:`~retarget_lib.core.measures.foot_rest_heights`) -- the convention of
+    ``Efoot``, which takes heel and toe heights from the T-pose (Sec. 3.1.1) -- so a toe joint
+    resting on a flat foot reads 0.
     Displacements are 3-D and per frame at 30 fps (Mixamo's rate); at another ``fps`` the 1 cm
     is scaled by ``30 / fps`` (the same speed, 0.3 m/s at 180 cm). Frame 0 has no previous frame
     and uses its displacement to frame 1. Finally :func:`fill_contacts` (``window`` frames)
@@ -160,9 +119,11 @@ def detect_foot_contacts(positions: np.ndarray, skeleton: Skeleton, character_he
     Args:
         positions: ``(T, J, 3)`` global joint positions (metres, +Y up, ground ``y = 0``),
             ``T >= 2``, joints in ``skeleton``'s order.
-        skeleton: the skeleton of ``positions`` (needs the canonical foot joint names and
-            ``Head``); its rest pose gives the toe rest heights.
-        character_height: standing height in metres (default :func:`standing_height`).
+        skeleton: the skeleton of ``positions`` (needs the canonical foot joint names); its rest
+            pose gives the toe rest heights.
+        character_height: the character's standing height in metres, the thresholds' scale;
+            every caller in the library passes
+            :func:`~retarget_lib.core.measures.estimated_standing_height` of ``skeleton``.
         window: sliding-window length of the gap filling (odd; 1 = none).
         fps: frame rate of ``positions``.
 
@@ -174,15 +135,15 @@ def detect_foot_contacts(positions: np.ndarray, skeleton: Skeleton, character_he
         raise ValueError(f"positions must be (T >= 2, {skeleton.num_joints}, 3), got {positions.shape}")
     if fps <= 0:
         raise ValueError(f"fps must be positive, got {fps}")
-    height = standing_height(skeleton) if character_height is None else float(character_height)
+    height = float(character_height)
     if height <= 0:
         raise ValueError(f"character_height must be positive, got {height}")
-    scale = height / FOOT_REFERENCE_HEIGHT
+    scale = height / REFERENCE_HEIGHT_M
     idx = [skeleton.index(n) for n in FOOT_JOINTS]
     feet = positions[:, idx]  # (T, 4, 3)
-    still = _frame_displacements(feet) <= 0.01 * scale * REFERENCE_FPS / fps
-    toe_rest = skeleton.rest_positions()[idx[2:], 1] - rest_ground_height(skeleton)
-    low = feet[:, 2:, 1] - toe_rest <= 0.03 * scale
+    still = _frame_displacements(feet) <= STILL_STEP_M * scale * REFERENCE_FPS / fps
+    toe_rest = foot_rest_heights(skeleton)[2:]
+    low = feet[:, 2:, 1] - toe_rest <= STAND_BAND_M * scale
     raw = still.copy()
     raw[:, 2:] &= low
     return fill_contacts(raw, window)
@@ -423,7 +384,8 @@ def detect_self_contacts(vertices: np.ndarray, faces: np.ndarray, weights: np.nd
         vertices: ``(T, V, 3)`` the skinned source motion (metres), ``T >= 2``.
         faces: ``(F, 3)`` int triangles.
         weights: ``(V, 22)`` skinning weights (canonical joint order).
-        character_height: standing height in metres (:func:`standing_height`).
+        character_height: standing height in metres; the library's callers pass
+            :func:`~retarget_lib.core.measures.mesh_standing_height` of the rest mesh.
         fps: frame rate (for ``still_speed_cm``).
         hands: the hand joints, as canonical names or indices.
         cosine: velocity cosine-similarity threshold.

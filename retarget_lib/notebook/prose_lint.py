@@ -78,7 +78,7 @@ VERSION = re.compile(r"\b(?:glTF|GLTF|Python|python|torch|PyTorch|assimp|MathJax
                      r"FBX|VRM|v|version)\s*\d+(?:\.\d+)+\b")
 #: conventions of the library typed in prose everywhere: token -> the library value it states
 LIBRARY_CONSTANTS: dict[str, tuple[float, str]] = {
-    "30 fps": (30.0, "retarget_lib.geometry.contacts.REFERENCE_FPS"),
+    "30 fps": (30.0, "retarget_lib.core.ground.REFERENCE_FPS"),
 }
 ALLOWLIST = re.compile(r"<!--\s*constants\s*:(.*?)-->", re.IGNORECASE | re.DOTALL)
 
