@@ -23,7 +23,8 @@ Conventions (used everywhere; notebook 01 shows each one):
   tuple of ints with the root's parent ``-1``.
 * Character height ``H`` is the NKN/TDCN definition: the rest bone lengths of the root->head chain
   plus the left-leg chain (:meth:`Skeleton.height`). Every normalised metric says which height it
-  uses.
+  uses; the other heights (standing heights for the contact thresholds), the rest ground and the
+  feet's rest heights are defined once in :mod:`retarget_lib.core.measures`.
 """
 
 __version__ = "0.1.0"
