@@ -293,7 +293,7 @@ def tdcn_generator_diagram(config: Mapping[str, Any] | None = None) -> Figure:
     q_out = cv.box(x0, y, w / 2 - 0.05, h, f"q̂: {j} x 4 raw quaternions", role="out")
     has_root = gen.head.out.out_features > 4 * j
     r_out = cv.box(x0 + w / 2 + 0.05, y, w / 2 - 0.05, h,
-                   "r̂: root position (3)" if has_root else "root: source x leg ratio", role="out")
+                   "$\\hat{r}$: root position (3)" if has_root else "root: source x leg ratio", role="out")
     cv.arrow(head.bottom, q_out.top)
     cv.arrow(head.bottom, r_out.top)
     cv.text(x0, y - 0.22, f"each conv: BatchNorm, LeakyReLU, dropout {gen.config.get('dropout', 0.1)}"
@@ -382,7 +382,7 @@ def patch_discriminator_diagram(config: Mapping[str, Any] | None = None, clip_fr
 
     # top: patch
     y_in = 2.95
-    cv.text(x0, y_in + 0.42, f"{clip_frames} frames of (l_t, δ_t, B): {disc.in_channels} channels, "
+    cv.text(x0, y_in + 0.42, f"{clip_frames} frames of ($l_t$, $\\delta_t$, $B$): {disc.in_channels} channels, "
             "height-normalised (Eqs. 18-20)",
             ha="left", size=MIN_FONT)
     strip(y_in, 0.22, clip_frames, "#9ecae1")
@@ -450,11 +450,11 @@ def nkn_diagram(config: Mapping[str, Any] | None = None) -> Figure:
     for i, (label, x) in enumerate(cols):
         sub = ["t-1", "t", "t+1"][i]
         b = {
-            "fk": cv.box(x, rows["fk"], bw, bh, f"FK layer → p̂_{sub}", f"f_FK(q̂_{sub}, s̄B)", role="fk"),
-            "lin": cv.box(x, rows["lin"], bw, bh, "linear", f"q̂_{sub} ({j}x4), v̂_{sub} (3)", role="head"),
-            "dec": cv.box(x, rows["dec"], bw, bh, "decoder GRU", f"+ s̄B, p̂_{['t-2', 't-1', 't'][i]}, v̂",
+            "fk": cv.box(x, rows["fk"], bw, bh, f"FK layer → $\\hat{{p}}_{{{sub}}}$", f"$f_{{FK}}(\\hat{{q}}_{{{sub}}}, \\bar{{s}}_B)$", role="fk"),
+            "lin": cv.box(x, rows["lin"], bw, bh, "linear", f"$\\hat{{q}}_{{{sub}}}$ ({j}x4), $\\hat{{v}}_{{{sub}}}$ (3)", role="head"),
+            "dec": cv.box(x, rows["dec"], bw, bh, "decoder GRU", f"+ $\\bar{{s}}_B$, $\\hat{{p}}_{{{['t-2', 't-1', 't'][i]}}}$, $\\hat{{v}}$",
                           role="rnn"),
-            "enc": cv.box(x, rows["enc"], bw, bh, "encoder GRU", f"x_{sub} = [p_{sub}, v_{sub}]  ({3 * j + 3})",
+            "enc": cv.box(x, rows["enc"], bw, bh, "encoder GRU", f"$x_{{{sub}}} = [p_{{{sub}}}, v_{{{sub}}}]$  ({3 * j + 3})",
                           role="rnn"),
         }
         cv.arrow(b["enc"].top, b["dec"].bottom)
@@ -467,9 +467,9 @@ def nkn_diagram(config: Mapping[str, Any] | None = None) -> Figure:
         # feedback: the previous FK output and root offset enter the next decoder step
         cv.polyline_arrow([a["fk"].at(1, 0.5), (a["fk"].x + bw + 0.35, a["fk"].y + bh / 2),
                            (a["fk"].x + bw + 0.35, b["dec"].y + 0.75 * bh), b["dec"].at(0, 0.75)], color="C3")
-    cv.text(4.5, 0.38, "green: recurrent states  ·  red: p̂, v̂ of the previous frame fed back",
+    cv.text(4.5, 0.38, "green: recurrent states  ·  red: $\\hat{p}$, $\\hat{v}$ of the previous frame fed back",
             size=MIN_FONT, color="#444444")
-    cv.text(4.5, 0.13, "root: r̂_t = r̂_0 + Σ v̂ (offsets integrated, so errors accumulate; TDCN Sec. 6.1)",
+    cv.text(4.5, 0.13, "root: $\\hat{r}_t = \\hat{r}_0 + \\sum\\hat{v}$ (offsets integrated, so errors accumulate; TDCN Sec. 6.1)",
             size=MIN_FONT, color="#444444")
     cv.text(0.12, rows["enc"] + bh / 2, "source", ha="left", size=MIN_FONT)
     cv.text(0.12, rows["fk"] + bh / 2, "target", ha="left", size=MIN_FONT)
@@ -502,36 +502,36 @@ def georet_diagram(model=None) -> Figure:
     m_in, dec_in = model.encoder.input_size, model.decoder[0].input_size
     cv = _Canvas(9.0, 4.3, "Geometry-conditioned RNN (Villegas et al. 2021, Fig. 3) for frame t")
     # PointNet column
-    v = cv.box(0.15, 2.95, 2.45, 0.5, "rest mesh, V vertices", f"[v̄_v, w_v]: {pn_in} per vertex", role="data")
+    v = cv.box(0.15, 2.95, 2.45, 0.5, "rest mesh, V vertices", f"$[\\bar{{v}}_v, w_v]$: {pn_in} per vertex", role="data")
     mlp = cv.box(0.15, 2.05, 2.45, 0.55, "shared MLP (PointNet)", f"{pn_in} → {pn_h} → {pn_h}, each vertex",
                  role="conv")
-    pool = cv.box(0.15, 1.15, 2.45, 0.55, "max over vertices", f"e^B ({pn_h}), Eq. 19", role="conv")
+    pool = cv.box(0.15, 1.15, 2.45, 0.55, "max over vertices", f"$e^B$ ({pn_h}), Eq. 19", role="conv")
     cv.arrow(v.bottom, mlp.top)
     cv.arrow(mlp.bottom, pool.top)
     # RNN column
-    m = cv.box(3.0, 0.2, 2.6, 0.5, "source features m^A_t", f"{m_in} = pos + rot + vel", role="data")
-    enc = cv.box(3.0, 1.0, 2.6, 0.55, f"encoder GRU, {layers} x {hid}", "h^enc_t  (Eq. 12)", role="rnn")
+    m = cv.box(3.0, 0.2, 2.6, 0.5, "source features $m^A_t$", f"{m_in} = pos + rot + vel", role="data")
+    enc = cv.box(3.0, 1.0, 2.6, 0.55, f"encoder GRU, {layers} x {hid}", "$h^{enc}_t$  (Eq. 12)", role="rnn")
     dec = cv.box(3.0, 1.95, 2.6, 0.6, f"decoder GRU, {layers} x {hid}", f"{dec_in} inputs  (Eq. 13)", role="rnn")
-    sk = cv.box(0.15, 0.2, 2.45, 0.5, "target skeleton s̄^B", f"{3 * j} rest offsets / h_B", role="data")
+    sk = cv.box(0.15, 0.2, 2.45, 0.5, "target skeleton $\\bar{s}^B$", f"{3 * j} rest offsets / $h_B$", role="data")
     cv.arrow(m.top, enc.bottom)
     cv.arrow(enc.top, dec.bottom)
     cv.polyline_arrow([pool.right, (2.72, pool.y + pool.h / 2), (2.72, dec.y + 0.45), dec.at(0, 0.75)])
     cv.polyline_arrow([sk.right, (2.86, sk.y + sk.h / 2), (2.86, dec.y + 0.15), dec.at(0, 0.25)])
-    th = cv.box(3.0, 2.95, 1.25, 0.5, "f_θ → θ^B_t", "6D, Eq. 14", role="head")
-    vo = cv.box(4.35, 2.95, 1.25, 0.5, "f_o → o^B_t", "Eq. 17", role="head")
+    th = cv.box(3.0, 2.95, 1.25, 0.5, "$f_\\theta \\rightarrow \\theta^B_t$", "6D, Eq. 14", role="head")
+    vo = cv.box(4.35, 2.95, 1.25, 0.5, "$f_o \\rightarrow o^B_t$", "Eq. 17", role="head")
     cv.arrow(dec.at(0.25, 1), th.bottom)
     cv.arrow(dec.at(0.75, 1), vo.bottom)
     # kinematics column
-    fk = cv.box(6.05, 2.95, 2.8, 0.5, "FK + root", "p^B_t, g^B_t  (Eqs. 15, 18)", role="fk")
-    skin = cv.box(6.05, 1.95, 2.8, 0.6, "linear blend skinning", "mesh v̂^B_t  (Eq. 16)", role="fk")
-    en = cv.box(6.05, 0.95, 2.8, 0.6, "energies (Sec. 3.1)", "E_j2j, E_int, E_foot, E_skel", role="energy")
+    fk = cv.box(6.05, 2.95, 2.8, 0.5, "FK + root", "$p^B_t$, $g^B_t$  (Eqs. 15, 18)", role="fk")
+    skin = cv.box(6.05, 1.95, 2.8, 0.6, "linear blend skinning", "mesh $\\hat{v}^B_t$  (Eq. 16)", role="fk")
+    en = cv.box(6.05, 0.95, 2.8, 0.6, "energies (Sec. 3.1)", "$E_{j2j}$, $E_{int}$, $E_{foot}$, $E_{skel}$", role="energy")
     cv.arrow(vo.right, fk.left)
     cv.arrow(fk.bottom, skin.top)
     cv.arrow(skin.bottom, en.top)
     cv.arrow(th.at(0.5, 1), fk.at(0.1, 1), rad=-0.25)
     cv.polyline_arrow([fk.at(0.85, 0), (fk.x + 0.85 * fk.w, 2.75), (5.85, 2.75), (5.85, dec.y + 0.45),
                        dec.at(1, 0.75)], color="C3")
-    cv.text(7.45, 0.55, "red: p^B_t-1, o^B_t-1 fed back", size=MIN_FONT, color="C3")
+    cv.text(7.45, 0.55, "red: $p^B_{t-1}$, $o^B_{t-1}$ fed back", size=MIN_FONT, color="C3")
     cv.text(7.45, 0.3, "(next frame's decoder input)", size=MIN_FONT, color="C3")
     return cv.fig
 
@@ -564,11 +564,11 @@ def eso_loop_diagram(eso_config: Mapping[str, Any] | None = None) -> Figure:
     s = _eso_settings(eso_config)
     n, lr, reach = int(s["iterations"]), float(s["lr"]), float(s["reach"])
     cv = _Canvas(9.0, 4.2, "Encoder-space optimisation (Villegas et al. 2021, Sec. 3.3) for frame t")
-    var = cv.box(0.2, 2.55, 2.2, 0.7, "variables", "h^enc_t and o_t-1", role="opt", lw=1.8, edge="C1")
+    var = cv.box(0.2, 2.55, 2.2, 0.7, "variables", "$h^{enc}_t$ and $o_{t-1}$", role="opt", lw=1.8, edge="C1")
     dec = cv.box(3.2, 2.55, 2.5, 0.7, "decoder + heads (frozen)", "weights fixed, Eqs. 13-17", role="rnn")
     fk = cv.box(6.45, 2.55, 2.4, 0.7, "FK + skinning", "joints, mesh of frame t", role="fk")
-    en = cv.box(6.45, 1.1, 2.4, 0.85, "E_full(t)  (Eq. 10)", "j2j, hold, int,\nfoot, ee, weak", role="energy")
-    grad = cv.box(3.2, 1.1, 2.5, 0.85, "gradient", "∂E/∂h^enc_t, ∂E/∂o_t-1\nthrough the frozen decoder",
+    en = cv.box(6.45, 1.1, 2.4, 0.85, "$E_{full}(t)$  (Eq. 10)", "j2j, hold, int,\nfoot, ee, weak", role="energy")
+    grad = cv.box(3.2, 1.1, 2.5, 0.85, "gradient", "$\\partial E/\\partial h^{enc}_t$, $\\partial E/\\partial o_{t-1}$\nthrough the frozen decoder",
                   role="head")
     adam = cv.box(0.2, 1.1, 2.2, 0.85, "Adam step", f"lr {lr:g} (App. B.1)", role="opt")
     cv.arrow(var.right, dec.left)
@@ -578,7 +578,7 @@ def eso_loop_diagram(eso_config: Mapping[str, Any] | None = None) -> Figure:
     cv.arrow(grad.left, adam.right)
     cv.arrow(adam.top, var.bottom, color="C1", lw=2.0)
     cv.text(1.42, 2.25, f"repeat N = {n} times", size=10, color="C1", weight="bold", ha="left")
-    init = cv.box(0.2, 3.45, 2.2, 0.42, "from the encoder", "h^enc_t (Eq. 12)", role="data")
+    init = cv.box(0.2, 3.45, 2.2, 0.42, "from the encoder", "$h^{enc}_t$ (Eq. 12)", role="data")
     cv.arrow(init.bottom, var.top)
     cv.text(4.55, 3.62, "constraints fixed once per frame from the initial output:", size=MIN_FONT)
     cv.text(4.55, 3.38, f"contact pairs within {reach * 100:g} cm, colliding triangles", size=MIN_FONT)
@@ -620,11 +620,11 @@ _METHOD_STAGES: dict[str, list[Stage]] = {
     "nkn": [Stage("load the generator", "methods.tdcn.load_generator", "data"),
             Stage("features p, v", "models.features.nkn_source_features", "data"),
             Stage("GRU enc-dec + FK layer", "models.nkn.NKNGenerator.forward", "rnn"),
-            Stage("unit q̂; r̂_0 + Σ v̂", "methods.tdcn.retarget_motion_with", "out")],
+            Stage("unit $\\hat{q}$; $\\hat{r}_0 + \\sum\\hat{v}$", "methods.tdcn.retarget_motion_with", "out")],
     "contact": [Stage("target mesh + weights", "methods.inputs.load_target", "data"),
                 Stage("source self-contacts", "methods.contact.contact_clip", "data"),
                 Stage("contacts onto target", "geometry.contacts.transfer_contacts", "data"),
-                Stage("features m^A_t", "models.georet.motion_features", "data"),
+                Stage("features $m^A_t$", "models.georet.motion_features", "data"),
                 Stage("RNN first guess", "models.georet.GeometryConditionedRNN", "rnn"),
                 Stage("ESO, frame by frame", "methods.eso.encoder_space_optimization", "opt")],
 }
