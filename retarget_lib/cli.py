@@ -108,6 +108,8 @@ def _evaluate_contact(args: argparse.Namespace, runs) -> int:
             " --rows " + " ".join(repr(r) for r in rows) if rows else "")
         tables, missing = run_contact_evaluation(args.out, profile, rows=rows, device=args.device, runs=runs,
                                                  command=command)
+        if rows is None and runs is None:
+            _evaluate_contact_mixamo_convention(args, profile, command)
     for name, table in tables.items():
         print(f"{name}:\n{table.filter(like='ours').round(3).to_string()}\n")
     if missing:
@@ -115,6 +117,15 @@ def _evaluate_contact(args: argparse.Namespace, runs) -> int:
     print(f"wrote {args.out}/contact_table1.csv/.md, contact_table3.*, contact_table5.*, contact_table6.*, "
           "contact_cases.csv" + (", contact_coverage.csv" if args.data == "mixamo-local" else ""))
     return 0
+
+
+def _evaluate_contact_mixamo_convention(args: argparse.Namespace, profile: str, command: str) -> None:
+    """Table 1's metrics on the Mixamo-convention characters (the shipped checkpoints)."""
+    from .evaluation.contact_mixamo_convention import run_mixamo_convention_contact_evaluation
+
+    table = run_mixamo_convention_contact_evaluation(args.out, profile, args.device, command=command)
+    print(f"Mixamo-convention characters:\n{table.filter(like='ours').round(3).to_string()}\n")
+    print(f"wrote {args.out}/contact_mixamo_convention.csv/.md, contact_mixamo_convention_cases.csv")
 
 
 def _evaluate_all(args: argparse.Namespace) -> int:
@@ -131,6 +142,7 @@ def _evaluate_all(args: argparse.Namespace) -> int:
     _evaluate_real(args, command)
     tables, missing = run_contact_evaluation(args.out, args.profile or "fast", device=args.device, command=command)
     print(f"table1:\n{tables['table1'].filter(like='ours').round(3).to_string()}")
+    _evaluate_contact_mixamo_convention(args, args.profile or "fast", command)
     print(f"wrote {args.out}/contact_table1.*, contact_table3.*, contact_table5.*, contact_table6.*, "
           "contact_cases.csv (with .provenance.json)")
     return 0
@@ -139,7 +151,7 @@ def _evaluate_all(args: argparse.Namespace) -> int:
 def _stored_results() -> dict:
     """Every stored result in ``results/``, one entry each: name -> (load it, the columns naming a
     case, the compared metrics, the live re-run tolerance)."""
-    from .evaluation import contact, real, tdcn
+    from .evaluation import contact, contact_mixamo_convention, real, tdcn
 
     table4 = (tdcn.CASE_KEYS, ("short", "long", "short_h2", "long_h2"), tdcn.rerun_tolerance)
     return {**{name: (lambda name=name: tdcn.stored_table4(name), *table4)
@@ -148,7 +160,10 @@ def _stored_results() -> dict:
             "real_cases": (real.stored_real_results, ("character", "method", "clip"), real.MEASURES,
                            real.rerun_tolerance),
             "contact_cases": (contact.stored_contact_results, ("method", "clip", "target"), contact.METRICS,
-                              contact.rerun_tolerance)}
+                              contact.rerun_tolerance),
+            "contact_mixamo_convention_cases": (contact_mixamo_convention.stored_mixamo_convention_contact_results,
+                                                ("method", "clip", "source", "target"), contact.METRICS,
+                                                contact.rerun_tolerance)}
 
 
 def _results_status() -> int:

@@ -71,7 +71,7 @@ __all__ = ["CONTACT_TARGETS", "CONTACT_PROFILES", "METRICS", "ContactCase", "sto
            "rerun_tolerance", "contact_cases", "contact_methods", "evaluate_contact_case", "evaluate_contact_methods",
            "write_contact_tables", "vertex_contact_mse", "foot_contact_accuracy", "foot_height_error",
            "foot_heights_in_contact",
-           "contact_tables", "TABLE3_STEPS", "ablation_steps", "run_contact_evaluation"]
+           "contact_tables", "summary_table", "TABLE3_STEPS", "ablation_steps", "run_contact_evaluation"]
 
 CONTACT_SOURCE = "mannequin-x"
 CONTACT_TARGETS: dict[str, tuple[str, ...]] = {"skinny": ("cleo", "juno", "milo"), "bulky": ("bram", "gus", "otto")}
@@ -321,13 +321,18 @@ def evaluate_contact_methods(methods: Mapping[str, ContactMethod], cases: list[C
             seconds = time.perf_counter() - began
             metrics = evaluate_contact_case(output, case, eints[name], eval_every)
             for r in [row] + [k for k, v in same.items() if v == row and k in methods]:
-                rows.append({"method": r, "clip": case.clip, "family": case.family, "target": name,
+                rows.append({"method": r, "clip": case.clip, "family": case.family,
+                             "source": case.source_character.name, "target": name,
                              "body": case.body_type, "contact_rich": case.contact_rich, "frames": case.source.num_frames,
                              "seconds": seconds, **metrics})
     return pd.DataFrame(rows)
 
 
-def _table(per_case: pd.DataFrame, rows: tuple[str, ...], paper: Mapping[str, tuple], mask=None) -> pd.DataFrame:
+def summary_table(per_case: pd.DataFrame, rows: tuple[str, ...], paper: Mapping[str, tuple],
+                  mask=None) -> pd.DataFrame:
+    """One row per table row: the mean of each of :data:`METRICS` over the cases (``mask``
+    selects some), ``"ours <metric>"``, beside the paper's values ``paper`` (row -> the four
+    :data:`~retarget_lib.evaluation.paper.CONTACT_PAPER_METRICS`), ``"paper <metric>"``."""
     data = per_case if mask is None else per_case[mask]
     ours = data.groupby("method")[list(METRICS)].mean()
     out = []
@@ -342,10 +347,10 @@ def _table(per_case: pd.DataFrame, rows: tuple[str, ...], paper: Mapping[str, tu
 
 def contact_tables(per_case: pd.DataFrame) -> dict[str, pd.DataFrame]:
     """Tables 1, 3, 5 (skinny targets), 6 (bulky targets) from per-case metrics."""
-    return {"table1": _table(per_case, TABLE1_ROWS, PAPER_TABLE1),
-            "table3": _table(per_case, TABLE3_ROWS, PAPER_TABLE3),
-            "table5": _table(per_case, TABLE1_ROWS, PAPER_TABLE5, per_case["body"] == "skinny"),
-            "table6": _table(per_case, TABLE1_ROWS, PAPER_TABLE6, per_case["body"] == "bulky")}
+    return {"table1": summary_table(per_case, TABLE1_ROWS, PAPER_TABLE1),
+            "table3": summary_table(per_case, TABLE3_ROWS, PAPER_TABLE3),
+            "table5": summary_table(per_case, TABLE1_ROWS, PAPER_TABLE5, per_case["body"] == "skinny"),
+            "table6": summary_table(per_case, TABLE1_ROWS, PAPER_TABLE6, per_case["body"] == "bulky")}
 
 
 #: Table 3's ablation steps: each adds one ingredient to the row before it
