@@ -28,7 +28,7 @@ from matplotlib import colormaps
 from matplotlib.colors import to_rgb
 from PIL import Image
 
-from ..core.mesh import vertex_normals
+from ..geometry.normals import vertex_normals
 from ..core.skeleton import CANONICAL22
 
 #: camera presets: name -> (azimuth from +Z towards +X, elevation), degrees
