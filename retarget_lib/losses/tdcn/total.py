@@ -3,7 +3,7 @@ total, each term checked finite."""
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from typing import Mapping
 
 import torch
@@ -34,9 +34,6 @@ class TDCNLossWeights:
     lambda_o: float = 1.0
     lambda_g: float = 5.0
     lambda_d: float = 0.0
-
-    def as_dict(self) -> dict[str, float]:
-        return asdict(self)
 
 
 #: term name (as in Eq. 6, also the CSV column) -> its weight's field in :class:`TDCNLossWeights`
