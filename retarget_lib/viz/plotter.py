@@ -382,7 +382,7 @@ class SceneRenderer:
 
 
 def frame_and_title(r: "SceneRenderer", lo, hi, size: float, titles: Sequence[str], anchors,
-                     points: np.ndarray | None = None, floor: float | None = None) -> None:
+                    points: np.ndarray | None = None, floor: float | None = None) -> None:
     """Fit the camera to the drawn subject, leaving a top band for the titles (re-fitted once if
     the labels need more than one line)."""
     rows = 1 if any(titles) else 0

@@ -106,7 +106,7 @@ def build_character(spec: CharacterSpec, target_vertices: int = 3000) -> Charact
     pos = canonical22_skeleton(offsets).rest_positions()
     parts = body_parts(spec, pos, s)
     vertices, faces = extract_mesh(parts, spacing=0.011 * s, blend=0.02 * s,
-                                    target_vertices=target_vertices)
+                                   target_vertices=target_vertices)
     weights = skin_weights(vertices, [p for part in parts for p in part], tau=0.012 * s)
     floor = mesh_ground(vertices)
     vertices[:, 1] -= floor

@@ -288,7 +288,7 @@ _SURFACE_CLEARANCE = 0.02
 
 
 def extract_mesh(parts: list[list[_Primitive]], spacing: float, blend: float,
-                  target_vertices: int) -> tuple[np.ndarray, np.ndarray]:
+                 target_vertices: int) -> tuple[np.ndarray, np.ndarray]:
     """Marching cubes of the smooth union, largest component, decimated to ~``target_vertices``.
 
     Returns:

@@ -78,8 +78,8 @@ class CharacterSpec:
 
 #: reference segment lengths (metres, before scaling), giving NKN H = 1.559 m
 REFERENCE_LENGTHS = dict(spine=0.10, spine1=0.12, spine2=0.12, neck_base=0.16, neck=0.10, thigh=0.42,
-            shin=0.40, toe_drop=0.05, toe_fwd=0.13, hip_x=0.09, hip_drop=0.07, clavicle_x=0.045,
-            arm=0.11, upper_arm=0.27, forearm=0.25, ankle_height=0.08)
+                         shin=0.40, toe_drop=0.05, toe_fwd=0.13, hip_x=0.09, hip_drop=0.07,
+                         clavicle_x=0.045, arm=0.11, upper_arm=0.27, forearm=0.25, ankle_height=0.08)
 
 
 def _rot_x(v: np.ndarray, deg: float) -> np.ndarray:

@@ -22,8 +22,8 @@ TERMS: tuple[str, ...] = ("j2j", "hold", "int", "foot", "ee", "weak", "j2j_dista
 
 
 def frame_terms(model: GeometryConditionedRNN, weights: ContactEnergyWeights, blend: float,
-                 cone: dict[str, float], constants: Constants, frame: FrameInputs, h_enc: Tensor,
-                 o_prev: Tensor) -> tuple[Tensor, Pose]:
+                cone: dict[str, float], constants: Constants, frame: FrameInputs, h_enc: Tensor,
+                o_prev: Tensor) -> tuple[Tensor, Pose]:
     """Decode frame ``t`` from ``h^enc_t`` with ``o_(t−1)`` swapped into the state, pose it (FK,
     LBS of the ``U`` vertices the energy reads) and weigh ``Efull(t)``'s terms.
 
@@ -35,7 +35,7 @@ def frame_terms(model: GeometryConditionedRNN, weights: ContactEnergyWeights, bl
     """
     w = weights
     pose = decode(model, constants, frame.state, frame.gates, frame.base, h_enc, o_prev, frame.rest_vertices,
-                   frame.skin_weights)
+                  frame.skin_weights)
     rot, pos, verts = pose.rotations, pose.positions, pose.vertices
     terms = dict.fromkeys(TERMS, pos.new_zeros(()))
     if verts is not None and w.j2j_weight > 0:

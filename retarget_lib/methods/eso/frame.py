@@ -117,8 +117,8 @@ _COMPILED_MIN = 2
 
 
 def decode(model: GeometryConditionedRNN, constants: Constants, state: DecoderState, gates: DecoderGates,
-            base: ResidualBase | None, h_enc: Tensor, o_prev: Tensor, rest_vertices: Tensor,
-            skin_weights: Tensor) -> Pose:
+           base: ResidualBase | None, h_enc: Tensor, o_prev: Tensor, rest_vertices: Tensor,
+           skin_weights: Tensor) -> Pose:
     """Decode frame ``t`` from ``h^enc_t`` with ``o_(t−1)`` swapped into ``state`` (``gates``: its
     :meth:`~GeometryConditionedRNN.decoder_gates`), then FK and the LBS of the given ``(U, 3)``
     rest vertices (none when ``U = 0``)."""
@@ -145,7 +145,7 @@ class Frame:
         with torch.no_grad():
             self.gates = p.model.decoder_gates(state, constants.context)
             self.initial = decode(p.model, constants, state, self.gates, self.base, h_enc, state.root_velocity,
-                                   p.rest_vertices, p.skin_weights_t)
+                                  p.rest_vertices, p.skin_weights_t)
         self.previous = (previous or self.initial).positions  # (1, 22, 3); frame t's own at t = 0
         pairs = p.contacts_at(t) if p.weights.j2j_weight > 0 else np.zeros((0, 2), np.int64)
         self.pairs = reachable_pairs(pairs, skinned(self.initial), p.reach) if len(pairs) else pairs
@@ -248,7 +248,7 @@ class Problem:
     def constants(self, context: TargetContext) -> Constants:
         scalar = lambda x: torch.tensor(x, dtype=self.offsets.dtype, device=self.offsets.device)  # noqa: E731
         return Constants(context, self.rest_joints, self.ground_heights, scalar(self.height),
-                          scalar(self.source.height), scalar(self.leg_ratio))
+                         scalar(self.source.height), scalar(self.leg_ratio))
 
     def contacts_at(self, t: int) -> np.ndarray:
         return contact_pairs_at(self.contacts, t)

@@ -176,7 +176,7 @@ def encoder_space_optimization(model: GeometryConditionedRNN, source_features: T
     if iterations < 0 or redetect_every < 0:
         raise ValueError(f"iterations and redetect_every must be >= 0, got {iterations}, {redetect_every}")
     problem = Problem(model, target, source, leg_ratio, foot_contacts, contacts, interpenetration, weights,
-                       reach, blend)
+                      reach, blend)
     if start is None:
         start = problem.leg_ratio * problem.source.positions[0, 0]
     step = compiled_step() if compile else adam_step
@@ -199,7 +199,7 @@ def encoder_space_optimization(model: GeometryConditionedRNN, source_features: T
         frames: list[Pose] = []
         for t in range(num_frames):
             frame = Frame(t, problem, constants, state, h_enc[t:t + 1], frames[-1] if frames else None,
-                           redetect_every, padded=compile)
+                          redetect_every, padded=compile)
             pose = _optimise_frame(frame, constants, h_enc[t:t + 1], iterations, lr, log, step)
             frames.append(pose)
             state = pose.state
@@ -245,7 +245,7 @@ def _optimise_frame(frame: Frame, constants: Constants, h_enc: Tensor, iteration
         if redetect and n and n % redetect == 0:
             with torch.no_grad():
                 current = decode(p.model, constants, frame.state, frame.gates, frame.base, *variables,
-                                  p.rest_vertices, p.skin_weights_t)
+                                 p.rest_vertices, p.skin_weights_t)
             frame.detect(skinned(current))
             inputs = frame.inputs()
         variables, adam, values, pose = step(p.model, p.weights, p.blend, p.cone, constants, inputs, variables,

@@ -76,8 +76,8 @@ class AdamState(NamedTuple):
 
 
 def adam_step(model: GeometryConditionedRNN, weights: ContactEnergyWeights, blend: float, cone: dict[str, float],
-               constants: Constants, frame: FrameInputs, variables: tuple[Tensor, Tensor], adam: AdamState,
-               lr: Tensor) -> tuple[tuple[Tensor, Tensor], AdamState, Tensor, Pose]:
+              constants: Constants, frame: FrameInputs, variables: tuple[Tensor, Tensor], adam: AdamState,
+              lr: Tensor) -> tuple[tuple[Tensor, Tensor], AdamState, Tensor, Pose]:
     """One ESO step: ``Efull(t)`` at ``variables = (h^enc_t, o_(t−1))`` (:func:`frame_terms`), its
     gradient (``torch.func.grad``) and Adam's update (Kingma & Ba 2015, the arithmetic of
     ``torch.optim.Adam``: ``m ← β1 m + (1 − β1) g``, ``v ← β2 v + (1 − β2) g²``,

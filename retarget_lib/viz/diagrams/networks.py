@@ -83,7 +83,7 @@ def tdcn_generator_diagram(config: Mapping[str, Any] | None = None) -> Figure:
     variant = gen.config.get("variant", "ours")
 
     cv = Canvas(9.0, 4.3, f"TDCN generator ({variant}, {profile} profile: C = {c})"
-                 "  ·  Kim et al. 2020, Sec. 3.2, Fig. 2b")
+                "  ·  Kim et al. 2020, Sec. 3.2, Fig. 2b")
     x0, w = 0.15, 4.05
     h, gap = 0.28, 0.15
     y = cv.height - 0.45 - h
@@ -262,7 +262,7 @@ def nkn_diagram(config: Mapping[str, Any] | None = None) -> Figure:
         raise ValueError("nkn_diagram draws the GRU baseline (backbone 'gru')")
     j, hid = gen.num_joints, gen.hidden
     cv = Canvas(9.0, 4.2, f"NKN baseline (Villegas et al. 2018), unrolled over frames  ·  hidden {hid}"
-                 f" ({gen.config.get('profile')} profile)")
+                f" ({gen.config.get('profile')} profile)")
     cols = [("t-1", 0.75), ("t", 3.65), ("t+1", 6.55)]
     bw, bh = 2.2, 0.42
     rows = {"fk": 2.95, "lin": 2.2, "dec": 1.45, "enc": 0.7}
