@@ -12,13 +12,12 @@ from retarget_lib.core.skeleton import CANONICAL22, CANONICAL22_PARENTS, J
 from retarget_lib.data.synthetic.characters import (
     CHARACTER_NAMES,
     CHARACTER_SPECS,
-    REFERENCE_OFFSETS,
-    CharacterSpec,
     all_characters,
     build_character,
     make_character,
     random_character,
 )
+from retarget_lib.data.synthetic.proportions import REFERENCE_OFFSETS, CharacterSpec
 
 
 @pytest.fixture(scope="module")

@@ -29,7 +29,8 @@ from retarget_lib.core.rotations import quat_from_axis_angle
 from retarget_lib.errors import DeviceError
 from retarget_lib.training import distributed
 from retarget_lib.training.loop import fit
-from retarget_lib.training.tdcn import RetargetTraining, TrainingClips
+from retarget_lib.training.tdcn import RetargetTraining
+from retarget_lib.training.tdcn_data import TrainingClips
 
 pytestmark = pytest.mark.slow
 

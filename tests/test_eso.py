@@ -13,10 +13,11 @@ from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.data.synthetic.motions import make_motion
 from retarget_lib.geometry.penetration import InterpenetrationEnergy
 from retarget_lib.losses.contact import ContactEnergyWeights
-from retarget_lib.methods import eso as eso_module
+from retarget_lib.methods.eso import frame as eso_frame
+from retarget_lib.methods.eso import step as eso_step
 from retarget_lib.methods.eso import (TERMS, encoder_space_optimization, eso_source, eso_throughput,
                                       reachable_pairs, reached_joints)
-from retarget_lib.models.georet import GeometryConditionedRNN, motion_features, pose_outputs
+from retarget_lib.models.georet import DecoderState, GeometryConditionedRNN, motion_features, pose_outputs
 
 from skeletons import make_skeleton
 
@@ -195,7 +196,7 @@ def test_eso_skinning_only_the_vertices_it_reads_gives_the_whole_mesh_result(mon
     run = lambda: encoder_space_optimization(model, feats, character, source, np.zeros((2, 4), bool), 1.0,  # noqa: E731
                                              interpenetration=eint, weights=only_int, iterations=5)
     subset = run()
-    monkeypatch.setattr(eso_module._Frame, "mesh_vertices",
+    monkeypatch.setattr(eso_frame.Frame, "mesh_vertices",
                         lambda self, pairs, collisions: np.arange(len(character.rest_vertices)))
     whole = run()
     assert subset.colliding_pairs[0] > 100 and subset.terms["int"][0, -1] < subset.terms["int"][0, 0]
@@ -273,36 +274,36 @@ def test_compiled_steps_optimise_as_the_eager_ones():
 
 
 def test_compiling_is_chosen_for_long_clips_and_never_without_a_compiler(monkeypatch):
-    monkeypatch.setattr(eso_module, "_have_compiler", lambda: True)
-    monkeypatch.setattr(eso_module, "_compiled_in_process", lambda: False)
-    assert not eso_module.use_compiled(60) and eso_module.use_compiled(eso_module.COMPILE_FROM_FRAMES)
-    assert eso_module.use_compiled(60, compile=True) and not eso_module.use_compiled(10_000, compile=False)
-    monkeypatch.setattr(eso_module, "_have_compiler", lambda: False)
+    monkeypatch.setattr(eso_step, "_have_compiler", lambda: True)
+    monkeypatch.setattr(eso_step, "_compiled_in_process", lambda: False)
+    assert not eso_step.use_compiled(60) and eso_step.use_compiled(eso_step.COMPILE_FROM_FRAMES)
+    assert eso_step.use_compiled(60, compile=True) and not eso_step.use_compiled(10_000, compile=False)
+    monkeypatch.setattr(eso_step, "_have_compiler", lambda: False)
     with pytest.warns(UserWarning, match="C\\+\\+ compiler"):
-        assert not eso_module.use_compiled(10_000)
-    monkeypatch.setattr(eso_module, "_have_compiler", lambda: True)
-    monkeypatch.setattr(eso_module, "_compiled_in_process", lambda: True)  # compiled already: reuse it
-    assert eso_module.use_compiled(60)
+        assert not eso_step.use_compiled(10_000)
+    monkeypatch.setattr(eso_step, "_have_compiler", lambda: True)
+    monkeypatch.setattr(eso_step, "_compiled_in_process", lambda: True)  # compiled already: reuse it
+    assert eso_step.use_compiled(60)
 
 
 def test_an_eso_step_is_torch_adam_on_the_frame_energy(monkeypatch):
-    # _adam_step writes Adam's arithmetic out (so a compiled step fuses it): on a known energy,
+    # adam_step writes Adam's arithmetic out (so a compiled step fuses it): on a known energy,
     # 6 steps from the same start follow torch.optim.Adam with ESO's betas and epsilon (float32
     # rounding in another order: ~1e-6; a missing bias correction or moment errs by ~lr = 0.05)
     target_h, target_o = torch.linspace(-1.0, 1.0, 8)[None], torch.tensor([[0.3, -0.2, 0.1]])
 
     def quadratic(model, weights, blend, cone, constants, frame, h_enc, o_prev):
         total = ((h_enc - target_h) ** 2).sum() + 3.0 * ((o_prev - target_o) ** 2).sum()
-        state = eso_module.DecoderState(*(o_prev * 1.0 for _ in range(5)))
-        return torch.stack([total] * (len(TERMS) + 1)), eso_module._Pose(o_prev * 1.0, state, o_prev * 2.0, None)
+        state = DecoderState(*(o_prev * 1.0 for _ in range(5)))
+        return torch.stack([total] * (len(TERMS) + 1)), eso_frame.Pose(o_prev * 1.0, state, o_prev * 2.0, None)
 
-    monkeypatch.setattr(eso_module, "_frame_terms", quadratic)
+    monkeypatch.setattr(eso_step, "frame_terms", quadratic)
     start = (torch.zeros(1, 8), torch.zeros(1, 3))
-    variables, adam, lr = start, eso_module._Adam.start(start), torch.tensor(0.05)
+    variables, adam, lr = start, eso_step.AdamState.start(start), torch.tensor(0.05)
     reference = [x.clone().requires_grad_(True) for x in start]
-    optimiser = torch.optim.Adam(reference, lr=0.05, betas=eso_module.ADAM_BETAS, eps=eso_module.ADAM_EPS)
+    optimiser = torch.optim.Adam(reference, lr=0.05, betas=eso_step.ADAM_BETAS, eps=eso_step.ADAM_EPS)
     for _ in range(6):
-        variables, adam, values, _ = eso_module._adam_step(None, None, 0.0, {}, None, None, variables, adam, lr)
+        variables, adam, values, _ = eso_step.adam_step(None, None, 0.0, {}, None, None, variables, adam, lr)
         optimiser.zero_grad()
         quadratic(*[None] * 6, *reference)[0][-1].backward()
         optimiser.step()

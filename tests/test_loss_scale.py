@@ -80,7 +80,7 @@ def test_the_arm_drop_augmentation_lowers_both_upper_arms_by_the_same_drawn_angl
     from retarget_lib.core.skeleton import J
     from retarget_lib.core.transfer import change_rest_pose
     from retarget_lib.data.synthetic.characters import make_character
-    from retarget_lib.training.tdcn import WindowSampler
+    from retarget_lib.training.tdcn_data import WindowSampler
 
     offsets = torch.as_tensor(make_character("kato").skeleton.offsets, dtype=torch.float32)[None].repeat(64, 1, 1)
     sampler = WindowSampler.__new__(WindowSampler)  # only the rest turns are exercised

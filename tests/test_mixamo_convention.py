@@ -9,7 +9,7 @@ import pytest
 from retarget_lib.config import load_config
 from retarget_lib.core.skeleton import canonical22_skeleton
 from retarget_lib.data.sources.real_characters import REAL_DIR, skeleton_proportions
-from retarget_lib.data.synthetic.characters import _scale, _unscaled_offsets
+from retarget_lib.data.synthetic.proportions import height_scale, unscaled_offsets
 from retarget_lib.data.synthetic.mixamo_convention import (N_CHARACTERS, RANGE_MARGIN, RANGE_SOURCES, REAL_RIG_RANGES,
                                                            generate,
                                                            mixamo_convention_names, mixamo_convention_spec,
@@ -32,7 +32,7 @@ def test_the_ranges_are_those_measured_on_the_real_rigs():
 def test_every_character_is_in_a_t_pose_with_real_proportions(index):
     spec = mixamo_convention_spec(index)
     assert (spec.arm_angle, spec.arm_forward, spec.spine_curve, spec.knee_bend, spec.feet_out) == (0, 0, 0, 0, 0)
-    measured = skeleton_proportions(canonical22_skeleton(_unscaled_offsets(spec) * _scale(spec)))
+    measured = skeleton_proportions(canonical22_skeleton(unscaled_offsets(spec) * height_scale(spec)))
     assert abs(measured["arm_angle_deg"]) < 1e-6
     for key, (lo, hi) in REAL_RIG_RANGES.items():
         pad = RANGE_MARGIN * (hi - lo)

@@ -26,7 +26,7 @@ from retarget_lib.evaluation.mixamo_contact import mixamo_contact_cases, run_mix
 from retarget_lib.methods.registry import get_method
 from retarget_lib.training.contact import ContactTraining
 from retarget_lib.training.contact import training_clips as contact_training_clips
-from retarget_lib.training.tdcn import training_clips
+from retarget_lib.training.tdcn_data import training_clips
 
 
 @pytest.fixture(scope="module")

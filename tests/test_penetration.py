@@ -12,11 +12,12 @@ from retarget_lib.core.skeleton import J
 from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.geometry.collision import (SPLIT_DEPTH, TriangleBVH, brute_force_candidate_pairs,
                                              colliding_triangle_pairs, triangles_intersect)
-from retarget_lib.geometry.penetration import (GeodesicDistances, InterpenetrationEnergy, cap_holes, circumcircle,
-                                               cone_distance_field, geodesic_distances, geodesic_pair_weights,
-                                               interpenetration_energy, interpenetration_score,
-                                               penetration_rate, plan_energy, ray_winding_numbers,
-                                               vertex_normals)
+from retarget_lib.geometry.cone_field import circumcircle, cone_distance_field
+from retarget_lib.geometry.geodesic import GeodesicDistances, geodesic_distances, geodesic_pair_weights
+from retarget_lib.geometry.normals import vertex_normals
+from retarget_lib.geometry.penetration import (InterpenetrationEnergy, interpenetration_energy, interpenetration_score,
+                                               plan_energy)
+from retarget_lib.geometry.penetration_rate import cap_holes, penetration_rate, ray_winding_numbers
 
 FLAT = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]  # normal +z, circumcentre (.5, .5, 0)
 # a vertical triangle in the plane y = 0.25 whose edge x = z-axis-parallel pierces FLAT at (0.25, 0.25, 0)

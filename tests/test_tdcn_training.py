@@ -21,7 +21,8 @@ from retarget_lib.methods.tdcn import load_generator, retarget_motion_with
 from retarget_lib.models import PROFILE_WIDTHS, NKNGenerator, TDCNGenerator
 from retarget_lib.models.features import source_local_positions
 from retarget_lib.training.loop import fit, load_checkpoint
-from retarget_lib.training.tdcn import RetargetTraining, WindowSampler, training_clips
+from retarget_lib.training.tdcn import RetargetTraining
+from retarget_lib.training.tdcn_data import WindowSampler, training_clips
 
 pytestmark = pytest.mark.data  # trains on the synthetic dataset (`retarget data build`)
 

@@ -121,7 +121,8 @@ def test_player_character_picker_shows_the_motion_on_that_character():
 
 
 def test_titles_stay_inside_the_image_and_apart(tpose):
-    from retarget_lib.viz.render import Scene, SceneRenderer
+    from retarget_lib.viz.plotter import SceneRenderer
+    from retarget_lib.viz.scene import Scene
 
     scenes = [Scene(positions=tpose + [dx, 0, 0], parents=CANONICAL22_PARENTS) for dx in (-0.5, 0.0, 0.5)]
     r = SceneRenderer((240, 160), "front")
@@ -191,7 +192,8 @@ def test_mesh_fills_the_canvas_with_its_title_on_top():
 
 
 def test_floor_is_at_the_lowest_drawn_point(tpose):
-    from retarget_lib.viz.render import Scene, SceneRenderer
+    from retarget_lib.viz.plotter import SceneRenderer
+    from retarget_lib.viz.scene import Scene
 
     lifted = tpose + [0.0, 0.37, 0.0]  # a skeleton hanging 37 cm above y = 0
     r = SceneRenderer((240, 160), "front")
@@ -207,7 +209,8 @@ def test_floor_is_at_the_lowest_drawn_point(tpose):
 
 
 def test_side_by_side_stands_every_character_on_the_floor(tpose):
-    from retarget_lib.viz.render import Scene, stand_on_floor
+    from retarget_lib.viz.layout import stand_on_floor
+    from retarget_lib.viz.scene import Scene
 
     high = Scene(positions=tpose + [0, 0.5, 0], parents=CANONICAL22_PARENTS)
     low = Scene(positions=tpose - [0, 0.2, 0], parents=CANONICAL22_PARENTS)
@@ -235,7 +238,8 @@ def test_animation_fills_the_canvas(tmp_path, tpose):
 
 
 def test_a_title_wider_than_the_window_shrinks_to_fit(tpose):
-    from retarget_lib.viz.render import Scene, SceneRenderer
+    from retarget_lib.viz.plotter import SceneRenderer
+    from retarget_lib.viz.scene import Scene
 
     r = SceneRenderer((160, 160), "front")
     try:
@@ -292,7 +296,8 @@ def test_gif_keeps_its_size_budget(tmp_path, tpose):
 def test_updating_a_smooth_mesh_in_place_matches_a_fresh_render():
     import pyvista as pv
 
-    from retarget_lib.viz.render import Scene, SceneRenderer
+    from retarget_lib.viz.plotter import SceneRenderer
+    from retarget_lib.viz.scene import Scene
 
     sphere = pv.Sphere(theta_resolution=24, phi_resolution=24).triangulate()
     v, f = np.asarray(sphere.points) + [0, 1, 0], np.asarray(sphere.faces).reshape(-1, 4)[:, 1:]

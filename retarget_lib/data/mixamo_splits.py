@@ -130,7 +130,7 @@ def folder_split(folder: MixamoFolder) -> FolderSplit:
 
 def mixamo_training_set(root: str | Path | None = None,
                         ) -> tuple[dict[str, Skeleton], list[tuple[Motion, Mapping[str, Motion]]]]:
-    """The TDCN training set of a folder, for :func:`~retarget_lib.training.tdcn.stack_clips`.
+    """The TDCN training set of a folder, for :func:`~retarget_lib.training.tdcn_data.stack_clips`.
 
     The split is :func:`folder_split`'s (the folder's ``splits.yaml``, else the default rules).
     Each training character's skeleton is that of its first clip (by motion name); its other clips

@@ -23,7 +23,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import torch
 
-__all__ = ["TriangleBVH", "as_face_array", "as_vertex_array", "brute_force_candidate_pairs",
+__all__ = ["TriangleBVH", "as_face_array", "as_face_pairs", "as_vertex_array", "brute_force_candidate_pairs",
            "colliding_triangle_pairs", "triangles_intersect"]
 
 
@@ -48,6 +48,14 @@ def as_face_array(faces, num_vertices: int | None = None) -> np.ndarray:
     if num_vertices is not None and len(faces) and (faces.min() < 0 or faces.max() >= num_vertices):
         raise ValueError(f"faces index vertices outside 0..{num_vertices - 1}")
     return faces
+
+
+def as_face_pairs(pairs, num_faces: int) -> np.ndarray:
+    """``(P, 2)`` int64 face pairs; raises on a face index outside ``0..num_faces - 1``."""
+    pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+    if len(pairs) and (pairs.min() < 0 or pairs.max() >= num_faces):
+        raise ValueError(f"pairs index faces outside 0..{num_faces - 1}")
+    return pairs
 
 
 # ----------------------------------------------------------------------------- narrow phase

@@ -1,4 +1,4 @@
-"""Animations: one :class:`~retarget_lib.viz.render.SceneRenderer` reused for every frame (only
+"""Animations: one :class:`~retarget_lib.viz.plotter.SceneRenderer` reused for every frame (only
 point coordinates change), a camera fixed on the box that holds the whole clip, written as GIF or
 MP4 with imageio."""
 
@@ -11,7 +11,11 @@ import imageio.v3 as iio
 import numpy as np
 from PIL import Image
 
-from .render import _JOINT_RADIUS, Scene, SceneRenderer, _frame_and_title, hull_points, layout_row
+from .camera import hull_points
+from .glyphs import JOINT_RADIUS
+from .layout import layout_row
+from .plotter import SceneRenderer, frame_and_title
+from .scene import Scene
 
 
 def render_frames(frames: Sequence[Sequence[Scene]], view="front_side", window_size=(480, 300),
@@ -51,7 +55,7 @@ def render_frames(frames: Sequence[Sequence[Scene]], view="front_side", window_s
         shifts = [p.positions[0] - b.positions[0] for p, b in zip(placed, boxes)]
         if stand:
             for k, (e, s0) in enumerate(zip(ext, frames[0])):
-                lift = _JOINT_RADIUS * size if s0.vertices is None and s0.positions is not None else 0.0
+                lift = JOINT_RADIUS * size if s0.vertices is None and s0.positions is not None else 0.0
                 shifts[k] = shifts[k] + [0.0, lift - e[:, 1].min(), 0.0]
         frames = [[s.translated(d) for s, d in zip(f, shifts)] for f in frames]
     allpts = np.concatenate([s.points() for f in frames for s in f])
@@ -78,7 +82,7 @@ def render_frames(frames: Sequence[Sequence[Scene]], view="front_side", window_s
                 if anchors is None:
                     r.frame(lo, hi, size, points=points)
                 else:
-                    _frame_and_title(r, lo, hi, size, titles, anchors, points=points)
+                    frame_and_title(r, lo, hi, size, titles, anchors, points=points)
             images.append(r.screenshot())
         return images
     finally:

@@ -21,7 +21,8 @@ import numpy as np
 from ..core.transfer import retarget_ground_truth
 from .display import png_bytes
 from .knobs import Knob
-from .render import Scene, SceneRenderer
+from .plotter import SceneRenderer
+from .scene import Scene
 
 
 class Player:

@@ -9,7 +9,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from ..core.skeleton import CANONICAL22
-from .render import CENTER_COLOR, LEFT_COLOR, RIGHT_COLOR
+from .scene import CENTER_COLOR, LEFT_COLOR, RIGHT_COLOR
 
 
 def plot_root_trajectories(trajectories: Mapping[str, np.ndarray], ax=None, mark_start: bool = True):

@@ -41,8 +41,9 @@ from ...files import DataError, atomic_write, cache_dir
 from ..manifest import source
 from ..sources.real_characters import skeleton_proportions
 from ..splits import TDCNSplits, tdcn_splits
-from .characters import CharacterSpec, _scale, _unscaled_offsets, build_character
+from .characters import build_character
 from .motions import FPS, MOTION_FAMILIES, body_radii_from_mesh, make_motion
+from .proportions import CharacterSpec, height_scale, unscaled_offsets
 
 __all__ = [
     "PROFILES",
@@ -91,7 +92,7 @@ def mixamo_convention_names() -> tuple[str, ...]:
 
 
 def _within_real_ranges(spec: CharacterSpec) -> bool:
-    skeleton = canonical22_skeleton(_unscaled_offsets(spec) * _scale(spec))
+    skeleton = canonical22_skeleton(unscaled_offsets(spec) * height_scale(spec))
     measured = skeleton_proportions(skeleton)
     for key, (lo, hi) in REAL_RIG_RANGES.items():
         pad = RANGE_MARGIN * (hi - lo)

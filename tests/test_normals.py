@@ -1,9 +1,10 @@
-"""core/mesh.py: the one NumPy vertex-normal function (renderer and FBX writer)."""
+"""geometry/normals.py: the one vertex-normal function, on NumPy arrays (renderer and FBX writer);
+its tensor form is tested with the energy (tests/test_penetration.py)."""
 
 import numpy as np
 import pytest
 
-from retarget_lib.core.mesh import vertex_normals
+from retarget_lib.geometry.normals import vertex_normals
 
 
 def test_a_flat_square_points_up_and_an_isolated_vertex_gets_plus_y():

@@ -1,196 +1,26 @@
-"""Schematic figures of the networks and pipelines, drawn by code from the library's own models.
-
-Every function returns a matplotlib :class:`~matplotlib.figure.Figure` of about 9 x 4 inches
-(boxes, arrows, text of at least 9 pt) that is not registered with pyplot, so returning it as the
-last expression of a notebook cell shows it exactly once. Numbers in the pictures (widths, kernel
-sizes, dilations, receptive fields, score counts) are read from the models built by
-:func:`retarget_lib.models.build_model` or the configs, never typed:
-
-* :func:`tdcn_generator_diagram` — the TDCN generator (Kim et al. 2020, Sec. 3.2, Fig. 2b) with
-  a "dilation pyramid" of the frames one output frame sees;
-* :func:`patch_discriminator_diagram` — the patch discriminator (Kim et al. Secs. 4.1-4.2, Fig. 3)
-  next to NKN's whole-clip discriminator;
-* :func:`nkn_diagram` — the NKN baseline (Villegas et al. 2018): GRU encoder-decoder with a
-  forward-kinematics layer;
-* :func:`georet_diagram` — the geometry-conditioned RNN (Villegas et al. 2021, Sec. 3.2, Fig. 3,
-  Eqs. 12-19) with its PointNet;
-* :func:`eso_loop_diagram` — encoder-space optimisation (Villegas et al. 2021, Sec. 3.3,
-  Eqs. 10-11, App. B.1);
-* :func:`method_dataflow_diagram` — BVH in to BVH out for each method of the registry, box by
-  box with the library function that does the work.
-
-:func:`layout_problems` lists what makes a diagram hard to read (text under 9 pt, text outside
-its box or the canvas, overlapping text); the tests require it to be empty for every diagram.
+"""Diagrams of the networks, every number read from the models the library builds: the TDCN
+generator with its dilation pyramid (Kim et al. 2020, Fig. 2b), the patch discriminator beside
+NKN's whole-clip one (Fig. 3), the NKN baseline (Villegas et al. 2018) and the
+geometry-conditioned RNN (Villegas et al. 2021, Fig. 3).
 """
 
 from __future__ import annotations
 
-import importlib
-from typing import Any, Mapping, NamedTuple, Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
-from matplotlib.backends.backend_agg import FigureCanvasAgg
+import torch
 from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
-from matplotlib.patches import FancyArrowPatch, FancyBboxPatch
-from matplotlib.text import Text
+from matplotlib.patches import FancyBboxPatch
+from torch import nn
 
-__all__ = [
-    "tdcn_generator_diagram",
-    "patch_discriminator_diagram",
-    "nkn_diagram",
-    "georet_diagram",
-    "eso_loop_diagram",
-    "method_dataflow_diagram",
-    "DATAFLOW_METHODS",
-    "dataflow_stages",
-    "dilation_offsets",
-    "layout_problems",
-]
+from ...models import build_model
+from ...models.georet import GeometryConditionedRNN
+from .canvas import MIN_FONT, Canvas
 
-#: smallest font size in any diagram (points)
-MIN_FONT = 9.0
-_FONT = 9.5
-_MONO = "DejaVu Sans Mono"
-#: fill colours by role
-COLORS = {"io": "#eeeeee", "data": "#e3ecf7", "conv": "#fbe7a1", "rnn": "#d9ead3", "head": "#cfe8f3",
-          "fk": "#f4d6e4", "opt": "#fdd9b5", "out": "#e6dcf2", "energy": "#f8cecc"}
-_EDGE = "#555555"
-
-
-class DiagramFigure(Figure):
-    """A figure that shows itself as a PNG in a notebook even before pyplot is imported."""
-
-    def _repr_png_(self) -> bytes:
-        import io
-
-        buf = io.BytesIO()
-        self.savefig(buf, format="png", dpi=100, bbox_inches="tight")
-        return buf.getvalue()
-
-
-class Box(NamedTuple):
-    """A drawn box (inches from the figure's lower left corner)."""
-
-    x: float
-    y: float
-    w: float
-    h: float
-
-    @property
-    def left(self) -> tuple[float, float]:
-        return self.x, self.y + self.h / 2
-
-    @property
-    def right(self) -> tuple[float, float]:
-        return self.x + self.w, self.y + self.h / 2
-
-    @property
-    def top(self) -> tuple[float, float]:
-        return self.x + self.w / 2, self.y + self.h
-
-    @property
-    def bottom(self) -> tuple[float, float]:
-        return self.x + self.w / 2, self.y
-
-    def at(self, fx: float, fy: float) -> tuple[float, float]:
-        """The point at fractions ``(fx, fy)`` of the box's width and height."""
-        return self.x + fx * self.w, self.y + fy * self.h
-
-
-class _Canvas:
-    """A figure whose main axes span it in inches: ``(0, 0)`` lower left, ``(width, height)`` upper right."""
-
-    def __init__(self, width: float = 9.0, height: float = 4.0, title: str | None = None):
-        self.fig = DiagramFigure(figsize=(width, height), dpi=100)
-        FigureCanvasAgg(self.fig)
-        self.ax = self.fig.add_axes([0, 0, 1, 1])
-        self.ax.set_xlim(0, width)
-        self.ax.set_ylim(0, height)
-        self.ax.axis("off")
-        self.width, self.height = width, height
-        self.fig._diagram_boxes = []  # (patch, [texts]) for layout_problems
-        if title:
-            self.text(width / 2, height - 0.2, title, size=11, weight="bold")
-
-    def text(self, x: float, y: float, s: str, size: float = _FONT, mono: bool = False, ha: str = "center",
-             va: str = "center", **kw) -> Text:
-        return self.ax.text(x, y, s, fontsize=size, family=_MONO if mono else None, ha=ha, va=va, **kw)
-
-    def box(self, x: float, y: float, w: float, h: float, title: str, detail: str | None = None,
-            role: str = "data", size: float = _FONT, mono_detail: bool = False, bold: bool = False,
-            edge: str = _EDGE, lw: float = 1.0) -> Box:
-        """A rounded box with a title line and an optional detail line below it."""
-        patch = FancyBboxPatch((x, y), w, h, boxstyle="round,pad=0,rounding_size=0.06", fc=COLORS.get(role, role),
-                               ec=edge, lw=lw, zorder=2)
-        self.ax.add_patch(patch)
-        texts = []
-        if detail is None:
-            texts.append(self.text(x + w / 2, y + h / 2, title, size=size, zorder=3,
-                                   weight="bold" if bold else None))
-        else:
-            texts.append(self.text(x + w / 2, y + 0.68 * h, title, size=size, zorder=3,
-                                   weight="bold" if bold else None))
-            texts.append(self.text(x + w / 2, y + 0.3 * h, detail, size=MIN_FONT, mono=mono_detail, zorder=3,
-                                   color="#333333"))
-        self.fig._diagram_boxes.append((patch, texts))
-        return Box(x, y, w, h)
-
-    def arrow(self, start: Sequence[float], end: Sequence[float], color: str = "#333333", lw: float = 1.3,
-              rad: float = 0.0, style: str = "-|>", ls: str = "-", connection: str | None = None) -> None:
-        cs = connection or f"arc3,rad={rad}"
-        self.ax.add_patch(FancyArrowPatch(tuple(start), tuple(end), arrowstyle=style, mutation_scale=12,
-                                          color=color, lw=lw, ls=ls, connectionstyle=cs, zorder=1,
-                                          shrinkA=1, shrinkB=1))
-
-    def polyline_arrow(self, points: Sequence[Sequence[float]], color: str = "#333333", lw: float = 1.3,
-                       ls: str = "-") -> None:
-        """Straight segments through ``points`` with an arrow head on the last one."""
-        pts = np.asarray(points, dtype=float)
-        self.ax.plot(pts[:-1, 0], pts[:-1, 1], color=color, lw=lw, ls=ls, zorder=1, solid_capstyle="butt")
-        self.arrow(pts[-2], pts[-1], color=color, lw=lw, ls=ls)
-
-
-# ------------------------------------------------------------------------------------------ checks
-def layout_problems(fig: Figure) -> list[str]:
-    """What makes a diagram hard to read: text below :data:`MIN_FONT`, text outside the figure or
-    outside its box, and overlapping texts.
-
-    Args:
-        fig: a figure from this module (any matplotlib figure works for the font, canvas and
-            overlap checks).
-
-    Returns:
-        one sentence per problem (empty when the diagram is readable).
-    """
-    if not hasattr(fig.canvas, "get_renderer"):
-        FigureCanvasAgg(fig)
-    fig.canvas.draw()
-    renderer = fig.canvas.get_renderer()
-    canvas = fig.bbox
-    texts = [t for t in fig.findobj(Text) if t.get_visible() and t.get_text().strip()
-             and t.get_window_extent(renderer).width > 0]
-    problems = []
-    extents = []
-    for t in texts:
-        box = t.get_window_extent(renderer)
-        extents.append(box)
-        if t.get_fontsize() < MIN_FONT - 1e-6:
-            problems.append(f"{t.get_text()!r}: {t.get_fontsize():.1f} pt < {MIN_FONT} pt")
-        if box.x0 < canvas.x0 - 1 or box.x1 > canvas.x1 + 1 or box.y0 < canvas.y0 - 1 or box.y1 > canvas.y1 + 1:
-            problems.append(f"{t.get_text()!r}: outside the figure")
-    for patch, owned in getattr(fig, "_diagram_boxes", []):
-        pb = patch.get_window_extent(renderer)
-        for t in owned:
-            tb = t.get_window_extent(renderer)
-            if tb.x0 < pb.x0 - 1 or tb.x1 > pb.x1 + 1 or tb.y0 < pb.y0 - 1 or tb.y1 > pb.y1 + 1:
-                problems.append(f"{t.get_text()!r}: does not fit its box")
-    for i in range(len(texts)):
-        for k in range(i + 1, len(texts)):
-            a, b = extents[i], extents[k]
-            if min(a.x1, b.x1) - max(a.x0, b.x0) > 1 and min(a.y1, b.y1) - max(a.y0, b.y0) > 1:
-                problems.append(f"{texts[i].get_text()!r} overlaps {texts[k].get_text()!r}")
-    return problems
+__all__ = ["dilation_offsets", "georet_diagram", "nkn_diagram", "patch_discriminator_diagram",
+           "tdcn_generator_diagram"]
 
 
 # ------------------------------------------------------------------------------------------ TDCN
@@ -215,8 +45,6 @@ def dilation_offsets(kernels_dilations: Sequence[tuple[int, int]], causal: bool 
 
 def _temporal_convs(generator) -> list[tuple[str, int, int, int, int]]:
     """``(name, kernel, dilation, in, out)`` of every Conv1d of a TDCN body, input side first."""
-    from torch import nn
-
     return [(name, m.kernel_size[0], m.dilation[0], m.in_channels, m.out_channels)
             for name, m in generator.body.named_modules() if isinstance(m, nn.Conv1d)]
 
@@ -240,8 +68,6 @@ def tdcn_generator_diagram(config: Mapping[str, Any] | None = None) -> Figure:
     Returns:
         the figure; ``fig.receptive_field`` holds the receptive field drawn (frames).
     """
-    from ..models import build_model
-
     config = {"row": "ours", "profile": "fast"} if config is None else dict(config)
     gen = build_model(config).generator
     if not hasattr(gen, "body") or not hasattr(gen.body, "pad_amounts"):
@@ -256,8 +82,8 @@ def tdcn_generator_diagram(config: Mapping[str, Any] | None = None) -> Figure:
     profile = gen.config.get("profile", "")
     variant = gen.config.get("variant", "ours")
 
-    cv = _Canvas(9.0, 4.3, f"TDCN generator ({variant}, {profile} profile: C = {c})"
-                 "  ·  Kim et al. 2020, Sec. 3.2, Fig. 2b")
+    cv = Canvas(9.0, 4.3, f"TDCN generator ({variant}, {profile} profile: C = {c})"
+                "  ·  Kim et al. 2020, Sec. 3.2, Fig. 2b")
     x0, w = 0.15, 4.05
     h, gap = 0.28, 0.15
     y = cv.height - 0.45 - h
@@ -357,10 +183,6 @@ def patch_discriminator_diagram(config: Mapping[str, Any] | None = None, clip_fr
     Returns:
         the figure; ``fig.scores`` = ``(patch scores, whole-clip scores)`` for ``clip_frames``.
     """
-    import torch
-
-    from ..models import build_model
-
     config = {"row": "ours", "profile": "fast"} if config is None else dict(config)
     disc = build_model(config).discriminator.eval()
     nkn_disc = build_model({"row": "Baseline", "profile": config.get("profile", "fast")}).discriminator.eval()
@@ -371,7 +193,7 @@ def patch_discriminator_diagram(config: Mapping[str, Any] | None = None, clip_fr
     dil = [m.dilation[0] for m in disc.body.modules() if isinstance(m, torch.nn.Conv1d) and m.kernel_size[0] > 1]
     widths = [m.out_channels for m in nkn_disc.body if isinstance(m, torch.nn.Conv1d)]
 
-    cv = _Canvas(9.0, 4.2, "Patch discriminator (TDCN, Sec. 4.1) vs whole-clip discriminator (NKN)")
+    cv = Canvas(9.0, 4.2, "Patch discriminator (TDCN, Sec. 4.1) vs whole-clip discriminator (NKN)")
     x0, x1 = 0.3, 6.0
     scale = (x1 - x0) / clip_frames
 
@@ -434,15 +256,13 @@ def nkn_diagram(config: Mapping[str, Any] | None = None) -> Figure:
     Returns:
         the figure.
     """
-    from ..models import build_model
-
     config = {"row": "Baseline", "profile": "fast"} if config is None else dict(config)
     gen = build_model(config).generator
     if getattr(gen, "backbone", None) != "gru":
         raise ValueError("nkn_diagram draws the GRU baseline (backbone 'gru')")
     j, hid = gen.num_joints, gen.hidden
-    cv = _Canvas(9.0, 4.2, f"NKN baseline (Villegas et al. 2018), unrolled over frames  ·  hidden {hid}"
-                 f" ({gen.config.get('profile')} profile)")
+    cv = Canvas(9.0, 4.2, f"NKN baseline (Villegas et al. 2018), unrolled over frames  ·  hidden {hid}"
+                f" ({gen.config.get('profile')} profile)")
     cols = [("t-1", 0.75), ("t", 3.65), ("t+1", 6.55)]
     bw, bh = 2.2, 0.42
     rows = {"fk": 2.95, "lin": 2.2, "dec": 1.45, "enc": 0.7}
@@ -494,13 +314,11 @@ def georet_diagram(model=None) -> Figure:
     Returns:
         the figure.
     """
-    from ..models.georet import GeometryConditionedRNN
-
     model = GeometryConditionedRNN() if model is None else model
     j, hid, layers = model.joints, model.hidden, model.layers
     pn_in, pn_h = model.pointnet.in_features, model.pointnet.mlp[0].out_features
     m_in, dec_in = model.encoder.input_size, model.decoder[0].input_size
-    cv = _Canvas(9.0, 4.3, "Geometry-conditioned RNN (Villegas et al. 2021, Fig. 3) for frame t")
+    cv = Canvas(9.0, 4.3, "Geometry-conditioned RNN (Villegas et al. 2021, Fig. 3) for frame t")
     # PointNet column
     v = cv.box(0.15, 2.95, 2.45, 0.5, "rest mesh, V vertices", f"$[\\bar{{v}}_v, w_v]$: {pn_in} per vertex", role="data")
     mlp = cv.box(0.15, 2.05, 2.45, 0.55, "shared MLP (PointNet)", f"{pn_in} → {pn_h} → {pn_h}, each vertex",
@@ -533,172 +351,4 @@ def georet_diagram(model=None) -> Figure:
                        dec.at(1, 0.75)], color="C3")
     cv.text(7.45, 0.55, "red: $p^B_{t-1}$, $o^B_{t-1}$ fed back", size=MIN_FONT, color="C3")
     cv.text(7.45, 0.3, "(next frame's decoder input)", size=MIN_FONT, color="C3")
-    return cv.fig
-
-
-def _eso_settings(eso_config: Mapping[str, Any] | None) -> dict[str, Any]:
-    if eso_config is not None:
-        return dict(eso_config)
-    from ..config import load_config
-    from ..files import REPO_ROOT
-
-    return dict(load_config(REPO_ROOT / "configs" / "contact_paper.yaml")["eso"])
-
-
-def eso_loop_diagram(eso_config: Mapping[str, Any] | None = None) -> Figure:
-    """Encoder-space optimisation (Villegas et al. 2021, Sec. 3.3, Eqs. 10-11, App. B.1).
-
-    For frame ``t`` the decoder's weights are frozen; the encoder state ``h^enc_t`` and the previous
-    root velocity ``o_{t-1}`` are the variables. Decode → FK + skinning → ``E_full(t)`` → gradient
-    through the frozen decoder → Adam step, ``N`` times; then frame ``t`` is decoded with the
-    optimised values, kept, and the decoder state carried to ``t + 1``
-    (:func:`retarget_lib.methods.eso.encoder_space_optimization`).
-
-    Args:
-        eso_config: the ``eso`` settings (``iterations``, ``lr``, ``reach``); default the
-            ``eso:`` section of ``configs/contact_paper.yaml``.
-
-    Returns:
-        the figure.
-    """
-    s = _eso_settings(eso_config)
-    n, lr, reach = int(s["iterations"]), float(s["lr"]), float(s["reach"])
-    cv = _Canvas(9.0, 4.2, "Encoder-space optimisation (Villegas et al. 2021, Sec. 3.3) for frame t")
-    var = cv.box(0.2, 2.55, 2.2, 0.7, "variables", "$h^{enc}_t$ and $o_{t-1}$", role="opt", lw=1.8, edge="C1")
-    dec = cv.box(3.2, 2.55, 2.5, 0.7, "decoder + heads (frozen)", "weights fixed, Eqs. 13-17", role="rnn")
-    fk = cv.box(6.45, 2.55, 2.4, 0.7, "FK + skinning", "joints, mesh of frame t", role="fk")
-    en = cv.box(6.45, 1.1, 2.4, 0.85, "$E_{full}(t)$  (Eq. 10)", "j2j, hold, int,\nfoot, ee, weak", role="energy")
-    grad = cv.box(3.2, 1.1, 2.5, 0.85, "gradient", "$\\partial E/\\partial h^{enc}_t$, $\\partial E/\\partial o_{t-1}$\nthrough the frozen decoder",
-                  role="head")
-    adam = cv.box(0.2, 1.1, 2.2, 0.85, "Adam step", f"lr {lr:g} (App. B.1)", role="opt")
-    cv.arrow(var.right, dec.left)
-    cv.arrow(dec.right, fk.left)
-    cv.arrow(fk.bottom, en.top)
-    cv.arrow(en.left, grad.right)
-    cv.arrow(grad.left, adam.right)
-    cv.arrow(adam.top, var.bottom, color="C1", lw=2.0)
-    cv.text(1.42, 2.25, f"repeat N = {n} times", size=10, color="C1", weight="bold", ha="left")
-    init = cv.box(0.2, 3.45, 2.2, 0.42, "from the encoder", "$h^{enc}_t$ (Eq. 12)", role="data")
-    cv.arrow(init.bottom, var.top)
-    cv.text(4.55, 3.62, "constraints fixed once per frame from the initial output:", size=MIN_FONT)
-    cv.text(4.55, 3.38, f"contact pairs within {reach * 100:g} cm, colliding triangles", size=MIN_FONT)
-    cv.text(4.5, 0.6, "after N steps: decode frame t with the optimised values, keep it,", size=MIN_FONT)
-    cv.text(4.5, 0.36, "carry the decoder state to frame t + 1 (Eq. 11)", size=MIN_FONT)
-    cv.fig.iterations = n
-    return cv.fig
-
-
-# ------------------------------------------------------------------------------------------ data flow
-class Stage(NamedTuple):
-    """One box of a method's data flow: what happens and which library object does it."""
-
-    title: str
-    function: str  # dotted path under retarget_lib
-    role: str = "data"
-
-    @property
-    def short(self) -> str:
-        return self.function.rsplit(".", 1)[-1] if not self.function.split(".")[-2][:1].isupper() \
-            else ".".join(self.function.split(".")[-2:])
-
-
-_READ = [Stage("read the BVH", "io.bvh.load_bvh", "io"),
-         Stage("fold onto 22 joints", "core.canonical.to_canonical22", "io"),
-         Stage("resample to 30 fps", "core.motion.Motion.resample", "io")]
-_WRITE = [Stage("back to source fps", "core.motion.Motion.resample", "io"),
-          Stage("target's own joints", "core.canonical.from_canonical22", "io"),
-          Stage("write the BVH", "io.bvh.save_bvh", "io")]
-_METHOD_STAGES: dict[str, list[Stage]] = {
-    "copy": [Stage("copy q; root x leg ratio", "methods.copy.copy_rotations", "fk")],
-    "copy-rest": [Stage("rest-pose alignment C_j", "core.transfer.rest_alignment", "fk"),
-                  Stage("C⁻¹ q C, root x leg ratio", "core.transfer.retarget_ground_truth", "fk")],
-    "tdcn": [Stage("load the generator", "methods.tdcn.load_generator", "data"),
-             Stage("centre the root", "methods.tdcn.centre_root", "data"),
-             Stage("features p, q, r, s̄B", "models.features.generator_features", "data"),
-             Stage("TDCN (pad, convs, head)", "models.tdcn.TDCNGenerator.retarget", "conv"),
-             Stage("unit q̂; root + shift", "methods.tdcn.retarget_motion_with", "out")],
-    "nkn": [Stage("load the generator", "methods.tdcn.load_generator", "data"),
-            Stage("features p, v", "models.features.nkn_source_features", "data"),
-            Stage("GRU enc-dec + FK layer", "models.nkn.NKNGenerator.forward", "rnn"),
-            Stage("unit $\\hat{q}$; $\\hat{r}_0 + \\sum\\hat{v}$", "methods.tdcn.retarget_motion_with", "out")],
-    "contact": [Stage("target mesh + weights", "methods.inputs.load_target", "data"),
-                Stage("source self-contacts", "methods.contact.contact_clip", "data"),
-                Stage("contacts onto target", "geometry.contacts.transfer_contacts", "data"),
-                Stage("features $m^A_t$", "models.georet.motion_features", "data"),
-                Stage("RNN first guess", "models.georet.GeometryConditionedRNN", "rnn"),
-                Stage("ESO, frame by frame", "methods.eso.encoder_space_optimization", "opt")],
-}
-#: methods :func:`method_dataflow_diagram` draws (the names of the method registry)
-DATAFLOW_METHODS: tuple[str, ...] = tuple(_METHOD_STAGES)
-
-
-def dataflow_stages(method: str) -> list[Stage]:
-    """The boxes of ``method``'s data flow, BVH in to BVH out (``retarget retarget`` /
-    :func:`retarget_lib.methods.retarget.retarget_file`).
-
-    Raises:
-        ValueError: an unknown method.
-    """
-    if method not in _METHOD_STAGES:
-        raise ValueError(f"unknown method {method!r}; one of {list(_METHOD_STAGES)}")
-    return _READ + _METHOD_STAGES[method] + _WRITE
-
-
-def resolve_stage(stage: Stage):
-    """The library object a stage names (``retarget_lib.<function>``), for tests and links."""
-    parts = stage.function.split(".")
-    for split in range(len(parts), 0, -1):
-        try:
-            obj = importlib.import_module("retarget_lib." + ".".join(parts[:split]))
-        except ModuleNotFoundError:
-            continue
-        for attr in parts[split:]:
-            obj = getattr(obj, attr)
-        return obj
-    raise ImportError(stage.function)
-
-
-def method_dataflow_diagram(method: str) -> Figure:
-    """How ``method`` turns a BVH file into a BVH file, box by box (``retarget retarget``).
-
-    Grey boxes are shared by every method (:func:`~retarget_lib.methods.retarget.retarget_file`:
-    read, fold onto the canonical 22 joints, resample to 30 fps ... and back); the coloured boxes
-    are the method's own. Each box names the library function that does the work.
-
-    Methods: ``copy`` and ``copy-rest`` (the baselines of both papers), ``tdcn`` (Kim et al.
-    2020), ``nkn`` (Villegas et al. 2018, TDCN's Table 4 baseline), ``contact`` (Villegas et al.
-    2021: the geometry-conditioned RNN, then ESO).
-
-    Args:
-        method: one of :data:`DATAFLOW_METHODS`.
-
-    Returns:
-        the figure.
-    """
-    stages = dataflow_stages(method)
-    ncols = 4
-    rows = [stages[i:i + ncols] for i in range(0, len(stages), ncols)]
-    width = 9.0
-    longest = max(len(st.short) for st in stages)
-    bw = max(1.9, 0.6 * MIN_FONT / 72 * longest + 0.16)   # monospace: 0.6 em per character
-    bh, gy = 0.62, 0.42
-    gx = min(0.3, (width - 0.1 - ncols * bw) / (ncols - 1))
-    height = 0.55 + len(rows) * bh + (len(rows) - 1) * gy + 0.2
-    cv = _Canvas(width, height, f"method '{method}': BVH in → BVH out")
-    x_start = (width - (ncols * bw + (ncols - 1) * gx)) / 2
-    prev = None
-    for r, row in enumerate(rows):
-        y = height - 0.5 - bh - r * (bh + gy)
-        for c, st in enumerate(row):
-            x = x_start + c * (bw + gx)
-            b = cv.box(x, y, bw, bh, st.title, st.short, role=st.role, mono_detail=True,
-                       size=MIN_FONT if len(st.title) > 22 else _FONT)
-            if prev is not None:
-                if c == 0:  # elbow from the end of the previous row to the start of this one
-                    mid = y + bh + gy / 2
-                    cv.polyline_arrow([prev.bottom, (prev.bottom[0], mid), (b.top[0], mid), b.top])
-                else:
-                    cv.arrow(prev.right, b.left)
-            prev = b
-    cv.fig.stages = stages
     return cv.fig

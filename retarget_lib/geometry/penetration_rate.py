@@ -1,0 +1,169 @@
+"""Per-limb penetration rate, a metric of later work (R2ET, MeshRet): the share of a limb's
+vertices inside the rest of the body, by winding numbers from signed ray crossings.
+
+Units: metres.
+"""
+
+from __future__ import annotations
+
+from typing import Mapping, Sequence
+
+import numpy as np
+import scipy.sparse
+import torch
+import trimesh
+from scipy.sparse.csgraph import connected_components
+
+from ..core.skeleton import CANONICAL22
+from .collision import as_face_array, as_vertex_array
+
+__all__ = ["DEFAULT_LIMBS", "cap_holes", "limb_vertices_inside", "penetration_rate", "ray_winding_numbers"]
+
+#: limbs of :func:`penetration_rate`: name -> canonical joints whose dominant-weight vertices form it
+DEFAULT_LIMBS: dict[str, tuple[str, ...]] = {
+    "left_arm": ("LeftArm", "LeftForeArm", "LeftHand"),
+    "right_arm": ("RightArm", "RightForeArm", "RightHand"),
+    "left_leg": ("LeftUpLeg", "LeftLeg", "LeftFoot", "LeftToeBase"),
+    "right_leg": ("RightUpLeg", "RightLeg", "RightFoot", "RightToeBase"),
+}
+
+#: three ray directions (unit, not axis-aligned) for :func:`ray_winding_numbers`
+_RAY_DIRECTIONS = np.array([[1.0, 0.31, 0.17], [-0.23, 1.0, 0.41], [0.37, -0.29, 1.0]])
+_RAY_DIRECTIONS /= np.linalg.norm(_RAY_DIRECTIONS, axis=1, keepdims=True)
+
+
+def cap_holes(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
+    """Close every hole of an oriented mesh with a fan of triangles to the hole's centroid.
+
+    A hole is a connected component of boundary edges (half-edges whose twin is missing); its new
+    vertex is the mean of the component's vertices, and the cap triangles follow the mesh's
+    orientation (counter-clockwise seen from outside).
+
+    Args:
+        vertices: ``(V, 3)`` metres.
+        faces: ``(F, 3)`` int triangles, consistently oriented.
+
+    Returns:
+        ``(vertices (V + H, 3), faces (F + B, 3))``: one new vertex per hole, one new triangle per
+        boundary edge (the input unchanged when there is no hole).
+    """
+    vertices = as_vertex_array(vertices)
+    faces = as_face_array(faces, len(vertices))
+    nv = len(vertices)
+    half = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    boundary = half[~np.isin(half[:, 1] * nv + half[:, 0], half[:, 0] * nv + half[:, 1])]
+    if not len(boundary):
+        return vertices, faces
+    graph = scipy.sparse.coo_matrix((np.ones(len(boundary)), (boundary[:, 0], boundary[:, 1])), shape=(nv, nv))
+    _, label = connected_components(graph, directed=False)
+    on_boundary = np.unique(boundary)
+    holes, hole_of_vertex = np.unique(label[on_boundary], return_inverse=True)
+    centroids = np.zeros((len(holes), 3))
+    np.add.at(centroids, hole_of_vertex, vertices[on_boundary])
+    centroids /= np.bincount(hole_of_vertex)[:, None]
+    hole_of_edge = np.searchsorted(holes, label[boundary[:, 0]])
+    caps = np.stack([boundary[:, 1], boundary[:, 0], nv + hole_of_edge], 1)
+    return np.concatenate([vertices, centroids]), np.concatenate([faces, caps])
+
+
+def ray_winding_numbers(points, vertices, faces) -> np.ndarray:
+    """Winding number of a closed, outward-oriented mesh at points, by signed ray crossings.
+
+    From each point a ray is cast (Embree, through :mod:`trimesh`) and every surface it crosses
+    counts ``+1`` when the ray leaves through it (normal along the ray) and ``-1`` when it enters.
+    For a closed mesh that sum is the winding number whatever the ray: 1 inside, 0 outside, 2
+    inside two overlapping parts (where ray *parity* would say "outside"). Three rays in fixed
+    oblique directions are cast and the median kept, which absorbs a crossing missed or doubled at
+    an edge.
+
+    Args:
+        points: ``(N, 3)`` metres.
+        vertices: ``(V, 3)`` metres.
+        faces: ``(F, 3)`` int triangles, closed (:func:`cap_holes`) and counter-clockwise seen from
+            outside.
+
+    Returns:
+        ``(N,)`` int winding numbers.
+    """
+    points = as_vertex_array(points)
+    vertices = as_vertex_array(vertices)
+    faces = as_face_array(faces, len(vertices))
+    mesh = trimesh.Trimesh(vertices, faces, process=False)
+    tri = vertices[faces]
+    normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    counts = []
+    for direction in _RAY_DIRECTIONS:
+        dirs = np.broadcast_to(direction, points.shape)
+        index_tri, index_ray = mesh.ray.intersects_id(points, dirs, multiple_hits=True)
+        sign = np.sign(normals[index_tri] @ direction)
+        counts.append(np.bincount(index_ray, weights=sign, minlength=len(points)))
+    return np.rint(np.median(counts, axis=0)).astype(np.int64)
+
+
+def penetration_rate(vertices, faces, weights, limbs: Mapping[str, Sequence[str]] | None = None
+                     ) -> dict[str, float]:
+    """Per-limb penetration rate: the share of a limb's vertices inside the rest of the body.
+
+    Definition: a vertex belongs to the limb whose joints hold its largest skinning weight
+    (:data:`DEFAULT_LIMBS`: each arm = Arm, ForeArm, Hand; each leg = UpLeg, Leg, Foot, ToeBase).
+    The limb's *body* is the mesh without the limb's faces (every face with a limb vertex; the
+    other limbs stay part of it), with the hole this leaves closed by :func:`cap_holes`. A limb
+    vertex is *inside* when the body's winding number at it (:func:`ray_winding_numbers`) is at
+    least 1 — inside the torso, a leg, the other arm, or several of them at once. The rate is
+    (inside vertices) / (limb vertices), averaged over frames.
+
+    Args:
+        vertices: ``(V, 3)`` or ``(T, V, 3)`` metres.
+        faces: ``(F, 3)`` int triangles, closed mesh, counter-clockwise seen from outside.
+        weights: ``(V, 22)`` skinning weights on the canonical 22 joints.
+        limbs: ``{name: joint names}``; ``None`` = :data:`DEFAULT_LIMBS`.
+
+    Returns:
+        ``{limb: rate in [0, 1]}`` (``nan`` for a limb with no vertex).
+    """
+    frames = np.asarray(vertices.detach().cpu().numpy() if isinstance(vertices, torch.Tensor) else vertices,
+                        dtype=np.float64)
+    frames = frames[None] if frames.ndim == 2 else frames
+    if frames.ndim != 3 or frames.shape[2] != 3:
+        raise ValueError(f"vertices must be (V, 3) or (T, V, 3), got {frames.shape}")
+    faces = as_face_array(faces, frames.shape[1])
+    weights = np.asarray(weights, dtype=np.float64)
+    if weights.shape != (frames.shape[1], len(CANONICAL22)):
+        raise ValueError(f"weights must be ({frames.shape[1]}, 22), got {weights.shape}")
+    owner = weights.argmax(1)
+    rates = {}
+    for name, joints in (DEFAULT_LIMBS if limbs is None else limbs).items():
+        unknown = [j for j in joints if j not in CANONICAL22]
+        if unknown:
+            raise ValueError(f"limb {name!r}: unknown joints {unknown}")
+        in_limb = np.isin(owner, [CANONICAL22.index(j) for j in joints])
+        if not in_limb.any():
+            rates[name] = float("nan")
+            continue
+        rates[name] = float(np.mean([_inside_body(frame, faces, in_limb) for frame in frames]))
+    return rates
+
+
+def _inside_body(vertices: np.ndarray, faces: np.ndarray, in_limb: np.ndarray) -> np.ndarray:
+    """``(K,)`` bool: which of the limb's ``K`` vertices lie inside the rest of the body (the mesh
+    without the limb's faces, its holes capped; winding number >= 1)."""
+    body_vertices, body_closed = cap_holes(vertices, faces[~in_limb[faces].any(1)])
+    return ray_winding_numbers(vertices[in_limb], body_vertices, body_closed) >= 1
+
+
+def limb_vertices_inside(vertices, faces, weights, limbs: Mapping[str, Sequence[str]] | None = None) -> np.ndarray:
+    """``(V,)`` bool: the vertices of one posed mesh that :func:`penetration_rate` counts as inside
+    the body (a limb vertex inside the rest of the body); every other vertex is ``False``.
+
+    Args:
+        vertices: ``(V, 3)`` metres; faces, weights, limbs: as :func:`penetration_rate`.
+    """
+    vertices = np.asarray(vertices, dtype=np.float64)
+    faces = as_face_array(faces, len(vertices))
+    owner = np.asarray(weights).argmax(1)
+    out = np.zeros(len(vertices), dtype=bool)
+    for joints in (DEFAULT_LIMBS if limbs is None else limbs).values():
+        in_limb = np.isin(owner, [CANONICAL22.index(j) for j in joints])
+        if in_limb.any():
+            out[np.flatnonzero(in_limb)[_inside_body(vertices, faces, in_limb)]] = True
+    return out
