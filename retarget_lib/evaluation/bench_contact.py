@@ -25,7 +25,8 @@ from ..data.synthetic.characters import make_character
 from ..data.synthetic.motions import body_radii_from_mesh, make_motion
 from ..geometry.collision import brute_force_candidate_pairs, triangles_intersect
 from ..geometry.contacts import transfer_contacts
-from ..geometry.penetration import InterpenetrationEnergy, geodesic_distances
+from ..geometry.geodesic import geodesic_distances
+from ..geometry.penetration import InterpenetrationEnergy
 from ..methods.contact import contact_clip, load_contact_model, retarget_with_network
 from ..methods.eso import eso_throughput
 from ..methods.registry import get_method

@@ -26,7 +26,7 @@ three skinny + three bulky targets):
   target's scale) against those detected on the source, share of agreeing (frame, joint) labels;
 * ``global position MSE``: the NKN/TDCN normalised MSE (cm² / cm) against the ground truth;
 * ``penetration rate``: share of the arm and leg vertices inside the rest of the body (mean of
-  the four limbs, :func:`~retarget_lib.geometry.penetration.penetration_rate`), a metric of later work;
+  the four limbs, :func:`~retarget_lib.geometry.penetration_rate.penetration_rate`), a metric of later work;
 * ``foot height error`` (ours): in the source's foot-contact (frame, joint) labels, the mean
   distance in cm of the output's heel or toe joint from its rest height (the ground of Eq. 6),
   :func:`foot_height_error`. The paper's foot contact accuracy counts a foot 5 cm *below* the
@@ -59,7 +59,8 @@ from ..data.synthetic.characters import make_character
 from ..data.synthetic.motions import body_radii_from_mesh, make_motion
 from ..geometry.contacts import SelfContacts, detect_foot_contacts, transfer_contacts
 from ..geometry.ik import apply_foot_contact_ik
-from ..geometry.penetration import InterpenetrationEnergy, interpenetration_score, penetration_rate
+from ..geometry.penetration import InterpenetrationEnergy, interpenetration_score
+from ..geometry.penetration_rate import penetration_rate
 from ..losses.contact import TABLE3_ROWS as ENERGY_ROWS
 from ..methods.contact import contact_clip, load_contact_model, retarget_with_eso, retarget_with_network
 from ..methods.registry import get_method

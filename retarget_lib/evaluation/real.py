@@ -23,7 +23,7 @@ Measures, per (character, method, clip); lengths as a percentage of the target's
   :func:`~retarget_lib.geometry.contacts.detect_foot_contacts`), the share of
   (frame, foot joint) labels on which they disagree; 0 when every contact is kept.
 * ``arm_penetration``: the share of arm vertices inside the rest of the body (mean of both arms,
-  :func:`~retarget_lib.geometry.penetration.penetration_rate`, winding numbers on the skinned real
+  :func:`~retarget_lib.geometry.penetration_rate.penetration_rate`, winding numbers on the skinned real
   mesh), every :data:`PENETRATION_EVERY`-th frame.
 * ``hand_gap_pct``: on a clip with labelled hand-hand contacts (clap), the mean absolute
   difference, over the labelled frames, between the distance of the two hand joints and that
@@ -64,7 +64,7 @@ from ..data.sources.real_motions import load_real_motion
 from ..data.synthetic.dataset import load_synthetic
 from ..files import atomic_write
 from ..geometry.contacts import authored_contact_frames, detect_foot_contacts
-from ..geometry.penetration import DEFAULT_LIMBS, limb_vertices_inside, penetration_rate
+from ..geometry.penetration_rate import DEFAULT_LIMBS, limb_vertices_inside, penetration_rate
 from ..methods.registry import get_method
 from ..methods.retarget import on_the_ground
 from .results import StoredResult, load_result, write_result
@@ -87,7 +87,7 @@ REAL_METHODS: dict[str, tuple[str, str | None]] = {
 CLIP_FRAMES = 60
 #: penetration is measured on every n-th frame (winding numbers on a real mesh cost ~0.1 s a frame)
 PENETRATION_EVERY = 10
-#: the arms of :data:`~retarget_lib.geometry.penetration.DEFAULT_LIMBS`
+#: the arms of :data:`~retarget_lib.geometry.penetration_rate.DEFAULT_LIMBS`
 ARMS = {limb: DEFAULT_LIMBS[limb] for limb in ("left_arm", "right_arm")}
 
 
@@ -254,7 +254,7 @@ class WorstCase:
         method, character, clip, frame: which case and frame (30 fps).
         vertices: ``(V, 3)`` the skinned mesh at that frame; faces: ``(F, 3)``.
         inside: ``(V,)`` bool, arm vertices inside the body
-            (:func:`~retarget_lib.geometry.penetration.limb_vertices_inside`).
+            (:func:`~retarget_lib.geometry.penetration_rate.limb_vertices_inside`).
         penetration: the case's ``arm_penetration``.
     """
 

@@ -34,10 +34,6 @@ from .collision import TriangleBVH, as_face_array, as_face_pairs, as_vertex_arra
 from .cone_field import CONE_HEIGHT, RADIUS_SCALE, SIGMA, check_cone, cone_distance_field
 from .geodesic import GeodesicDistances, geodesic_pair_weights
 from .normals import area_weighted_normals, faces_around, normals_at, vertex_face_csr
-# re-exported for retarget_lib/evaluation/ (contact.py, real.py, bench_contact.py), which import
-# them from here until they import them from their own modules
-from .geodesic import geodesic_distances
-from .penetration_rate import DEFAULT_LIMBS, limb_vertices_inside, penetration_rate
 
 Tensor = torch.Tensor
 
@@ -48,11 +44,6 @@ __all__ = [
     "interpenetration_energy",
     "interpenetration_score",
     "plan_energy",
-    # re-exports (see the imports)
-    "DEFAULT_LIMBS",
-    "geodesic_distances",
-    "limb_vertices_inside",
-    "penetration_rate",
 ]
 
 

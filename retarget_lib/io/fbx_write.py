@@ -53,7 +53,7 @@ import zlib
 import numpy as np
 import torch
 
-from ..core.mesh import vertex_normals
+from ..geometry.normals import vertex_normals
 from ..core.motion import Motion
 from ..core.rig import Rig
 from ..core.rotations import quat_to_euler
