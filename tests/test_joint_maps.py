@@ -26,7 +26,7 @@ from retarget_lib.io import load_bvh, save_bvh
 from retarget_lib.io.amass import load_amass
 from retarget_lib.io.gltf import load_gltf_motion, load_gltf_rig
 from retarget_lib.io.joint_maps import present_map, to_canonical22
-from retarget_lib.io.rig_maps import load_mapping_file, map_joints
+from retarget_lib.io.rig_maps import RIG_MAPS, load_mapping_file, map_joints
 from retarget_lib.io.shape import save_shape_npz
 from retarget_lib.methods.copy import copy_rotations
 from retarget_lib.methods.inputs import load_target
@@ -84,10 +84,19 @@ SMALL = doc_examples()["A game rig with two spine joints, no clavicles and no to
 
 
 # ----------------------------------------------------------------------------- the doc's examples
+#: the doc's example of each convention of the one table (io.rig_maps.RIG_MAPS)
+CONVENTION_OF_EXAMPLE = {
+    "Mixamo": "mixamo", "Unreal mannequin (UE4/UE5)": "unreal", "Rigify (Blender)": "rigify", "VRoid (VRM)": "vroid",
+    "SMPL / SMPL-H exports": "smpl", "CMU (cgspeed BVH conversion)": "cmu",
+    "Biovision / MotionBuilder (BVH, 21 joints)": "biovision", "SMPL-X body joints (AMASS, mannequin-x)": "smplx",
+    "VRM humanoid bones": "vrm",
+}
+
+
 def test_the_doc_has_an_example_per_rig_convention():
-    assert {"Mixamo", "Unreal mannequin (UE4/UE5)", "Rigify (Blender)", "VRoid (VRM)", "SMPL / SMPL-H exports",
-            "CMU (cgspeed BVH conversion)"} <= set(doc_examples())
-    assert len(doc_examples()) >= 8
+    assert set(CONVENTION_OF_EXAMPLE) <= set(doc_examples())
+    assert sorted(CONVENTION_OF_EXAMPLE.values()) == sorted(RIG_MAPS)
+    assert len(doc_examples()) >= len(RIG_MAPS) + 3  # and rigs no convention names
 
 
 @pytest.mark.parametrize("title", list(doc_examples()))
@@ -98,9 +107,8 @@ def test_every_example_of_the_doc_maps_its_rig(title, clip):
     found, _ = present_map(rig.skeleton, mapping, what=title)
     assert {CANONICAL22[c]: rig.skeleton.joint_names[i] for i, c in found.items()} == \
         {k: v for k, v in mapping.items() if v is not None}
-    if None not in mapping.values() and not title.startswith(("Bandai-Namco", "3ds Max Biped with German")):
-        # a known convention: the detection alone finds the same map
-        assert map_joints(rig.skeleton.joint_names, rig.skeleton.parents)[0] == found
+    if title in CONVENTION_OF_EXAMPLE:  # a known convention: the detection alone finds the same map
+        assert present_map(rig.skeleton, what=title) == (found, CONVENTION_OF_EXAMPLE[title])
     folded = to_canonical22(rig, mapping=mapping, what=title)
     present = [c for c in range(22) if mapping[CANONICAL22[c]] is not None]
     own = [rig.skeleton.joint_names.index(mapping[CANONICAL22[c]]) for c in present]
