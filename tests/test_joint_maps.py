@@ -29,7 +29,7 @@ from retarget_lib.io.joint_maps import present_map, to_canonical22
 from retarget_lib.io.rig_maps import RIG_MAPS, load_mapping_file, map_joints
 from retarget_lib.io.shape import save_shape_npz
 from retarget_lib.methods.copy import copy_rotations
-from retarget_lib.methods.inputs import load_target
+from retarget_lib.methods.inputs import load_source, load_target
 from test_bad_inputs import assert_cli_error
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "joint-maps.md"
@@ -216,6 +216,90 @@ def test_two_canonical_joints_on_one_bone_name_the_duplicate(tmp_path):
 
 
 # ----------------------------------------------------------------------------- every format, one path
+@pytest.fixture(scope="module")
+def renamed(tmp_path_factory):
+    """Half a second of CMU 01_01 written twice with the same numbers: with its own joint names, and
+    with names of no convention (``bone00`` ...), with the joint map that names them."""
+    folder = tmp_path_factory.mktemp("renamed")
+    raw = load_bvh(cmu_clip_path("01_01.bvh")).slice(0, 60)
+    names = [f"bone{k:02d}" for k in range(raw.skeleton.num_joints)]
+    sk = raw.skeleton
+    save_bvh(raw, folder / "plain.bvh")
+    save_bvh(raw.copy(skeleton=Skeleton(names, sk.parents, sk.offsets, sk.end_sites),
+                      meta=dict(raw.meta, file_joint_names=names)), folder / "renamed.bvh")
+    mapping = {canon: names[sk.index(name)] for name, canon in RIG_MAPS["cmu"].items()}
+    (folder / "map.yaml").write_text(yaml.safe_dump(mapping))
+    return folder, names, mapping
+
+
+def test_a_bvh_of_no_convention_reads_with_its_map_as_the_clip_it_is(renamed):
+    folder, names, _ = renamed
+    plain = load_source(folder / "plain.bvh").motion
+    mapped = load_source(folder / "renamed.bvh", folder / "map.yaml").motion
+    assert mapped.skeleton.joint_names == CANONICAL22
+    np.testing.assert_array_equal(mapped.skeleton.offsets, plain.skeleton.offsets)
+    np.testing.assert_array_equal(mapped.rotations, plain.rotations)
+    np.testing.assert_array_equal(mapped.root_positions, plain.root_positions)
+    target = load_target(str(folder / "renamed.bvh"), joint_map=folder / "map.yaml")
+    np.testing.assert_array_equal(target.skeleton.offsets, load_target(str(folder / "plain.bvh")).skeleton.offsets)
+    assert len(target.bvh_map) == 22 and target.bvh.skeleton.joint_names == tuple(names)
+
+
+def test_a_bvh_of_no_convention_with_its_map_as_source_and_target_on_the_command_line(renamed, tmp_path):
+    folder, names, _ = renamed
+    for kind in ("plain", "renamed"):
+        extra = ["--source-joint-map", str(folder / "map.yaml"), "--joint-map", str(folder / "map.yaml")] \
+            if kind == "renamed" else []
+        assert main(["retarget", "--source", str(folder / f"{kind}.bvh"), "--target", str(folder / f"{kind}.bvh"),
+                     "--method", "copy", "--out", str(tmp_path / f"{kind}.bvh"), *extra]) == 0
+    plain, mapped = load_bvh(tmp_path / "plain.bvh"), load_bvh(tmp_path / "renamed.bvh")
+    assert mapped.skeleton.joint_names == tuple(names)  # the target's own joints and names
+    np.testing.assert_array_equal(mapped.global_positions(), plain.global_positions())
+
+
+def test_without_a_map_every_missing_joint_is_named_on_one_line(renamed, capsys):
+    folder, _, mapping = renamed
+    line = assert_cli_error(capsys, ["retarget", "--source", str(folder / "renamed.bvh"), "--target", "gus",
+                                     "--method", "copy", "--out", str(folder / "o.bvh")],
+                            f"{folder / 'renamed.bvh'}: cannot map joints", "'bone00'")
+    assert ast.literal_eval(re.search(r"cannot map joints (\[.*?\])", line).group(1)) == list(CANONICAL22)
+    # a map that names 20 of them: the other two, at once, and the map
+    (folder / "part.yaml").write_text(yaml.safe_dump({k: v for k, v in mapping.items()
+                                                      if k not in ("Spine1", "LeftHand")}))
+    assert_cli_error(capsys, ["retarget", "--source", str(folder / "plain.bvh"), "--target",
+                              str(folder / "renamed.bvh"), "--joint-map", str(folder / "part.yaml"), "--method", "copy",
+                              "--out", str(folder / "o.bvh")],
+                     f"{folder / 'renamed.bvh'}: cannot map joints ['Spine1', 'LeftHand']", "part.yaml")
+
+
+def test_two_canonical_joints_on_one_bone_on_the_command_line(renamed, tmp_path, capsys):
+    folder, _, mapping = renamed
+    (tmp_path / "two.yaml").write_text(yaml.safe_dump(dict(mapping, LeftForeArm=mapping["LeftArm"])))
+    assert_cli_error(capsys, ["retarget", "--source", str(folder / "renamed.bvh"), "--source-joint-map",
+                              str(tmp_path / "two.yaml"), "--target", "gus", "--method", "copy",
+                              "--out", str(tmp_path / "o.bvh")],
+                     "two.yaml: maps both LeftArm and LeftForeArm to", repr(mapping["LeftArm"]))
+    # a line that takes a bone the detection gave another canonical joint
+    (tmp_path / "taken.yaml").write_text("LeftForeArm: LeftArm\n")
+    assert_cli_error(capsys, ["retarget", "--source", str(folder / "plain.bvh"), "--source-joint-map",
+                              str(tmp_path / "taken.yaml"), "--target", "gus", "--method", "copy",
+                              "--out", str(tmp_path / "o.bvh")],
+                     f"{folder / 'plain.bvh'}: cannot map joints ['LeftArm']",
+                     "'LeftArm' stood for LeftArm but the joint map", "maps LeftForeArm to it")
+
+
+def test_a_bvh_target_uses_the_names_of_a_glb_rig(clip, tmp_path):
+    # Unreal, Rigify and VRM names on a BVH: detected without a map, written back with them
+    for title in ("Unreal mannequin (UE4/UE5)", "Rigify (Blender)", "VRM humanoid bones"):
+        names = doc_examples()[title]
+        target = tmp_path / f"{CONVENTION_OF_EXAMPLE[title]}.bvh"
+        save_bvh(rig_clip(clip, names).slice(0, 2), target)
+        out = tmp_path / f"out_{target.name}"
+        assert main(["retarget", "--source", str(cmu_clip_path("01_03.bvh")), "--target", str(target),
+                     "--method", "copy", "--out", str(out)]) == 0
+        assert load_bvh(out).skeleton.joint_names == load_bvh(target).skeleton.joint_names
+
+
 def test_an_smplx_file_takes_a_joint_map_like_any_other(tmp_path, capsys):
     plain = load_amass(AMASS_CLIP_PATH)
     (tmp_path / "same.yaml").write_text("Hips: pelvis\nLeftHand: left_wrist\n")
