@@ -362,16 +362,17 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("retarget", help="retarget a clip (BVH, SMPL-X/AMASS .npz, GLB, FBX) to a target skeleton "
                                         "or character", formatter_class=_RetargetHelp)
     p.add_argument("--source", required=True,
-                   help="source motion: .bvh (any joint set the library can fold), SMPL-X/AMASS .npz, "
-                        ".glb/.gltf/.vrm (its first animation), .fbx (needs the fbx extra)")
+                   help="source motion: .bvh (joints named by a rig convention or --source-joint-map), "
+                        "SMPL-X/AMASS .npz, .glb/.gltf/.vrm (its first animation), .fbx (needs the fbx extra)")
     p.add_argument("--target", required=True,
                    help="target .bvh (its skeleton, units and joint names are used), .glb/.gltf/.vrm/.fbx character "
                         "(skeleton, mesh, skin, all joints), shape .npz, SMPL-X/AMASS .npz (its betas' "
                         "skeleton), or a character name")
     p.add_argument("--joint-map", help="joint map (YAML/JSON lines 'CanonicalName: file_joint_name', or "
-                                       "'CanonicalName: null' for a joint a BVH rig lacks; docs/joint-maps.md) for a "
-                                       ".bvh/.glb/.fbx target whose joint names no rig map covers")
-    p.add_argument("--source-joint-map", help="the same for a .bvh/.glb/.fbx source")
+                                       "'CanonicalName: null' for a joint the rig lacks; docs/joint-maps.md) for a "
+                                       "target file (.bvh/.glb/.gltf/.vrm/.fbx/.npz) whose joint names no rig "
+                                       "convention covers")
+    p.add_argument("--source-joint-map", help="the same for the source file (any format)")
     p.add_argument("--method", required=True, choices=_RegisteredMethods(), metavar="NAME",
                    help="a method of the registry (retarget_lib/methods/registry.py)")
     p.add_argument("--target-mesh", help="target character shape .npz (rest_vertices, faces, weights, "

@@ -2,19 +2,21 @@
 
 ``from retarget_lib.skeleton import to_canonical22`` is part of the suite's public contract
 (`docs/architecture.md`, "Public contract"), so this module keeps those names importable whatever moves inside
-the library. It only re-exports :mod:`retarget_lib.core.skeleton` and
-:mod:`retarget_lib.core.canonical`, where the code lives; the library itself imports from there.
+the library. It only re-exports :mod:`retarget_lib.core.skeleton`, :mod:`retarget_lib.core.canonical`
+(folding with an index map), :mod:`retarget_lib.io.rig_maps` (the rig conventions' names) and
+:func:`retarget_lib.io.joint_maps.to_canonical22` (a motion on any named joint set), where the code
+lives; the library itself imports from there.
 """
 
-from .core.canonical import (BIOVISION_MAP, CMU_MAP, MIXAMO_MAP, NAME_MAPS, SMPLX_BODY_NAMES, SMPLX_MAP,
-                             canonical_name_map, detect_convention, fit_global_rotations, from_canonical22,
-                             strip_prefix, to_canonical22)
+from .core.canonical import fit_global_rotations, fold_to_canonical22, unfold_from_canonical22
 from .core.skeleton import (CANONICAL22, CANONICAL22_PARENTS, FOOT_CONTACT_JOINTS, HEIGHT_BONES, MIRROR22, J,
                             JointSetError, Skeleton, canonical22_skeleton)
+from .io.joint_maps import to_canonical22
+from .io.rig_maps import RIG_MAPS, map_joints, strip_prefix
 
 __all__ = [
     "CANONICAL22", "CANONICAL22_PARENTS", "FOOT_CONTACT_JOINTS", "HEIGHT_BONES", "MIRROR22", "J", "JointSetError",
     "Skeleton", "canonical22_skeleton",
-    "BIOVISION_MAP", "CMU_MAP", "MIXAMO_MAP", "NAME_MAPS", "SMPLX_BODY_NAMES", "SMPLX_MAP", "canonical_name_map",
-    "detect_convention", "fit_global_rotations", "from_canonical22", "strip_prefix", "to_canonical22",
+    "RIG_MAPS", "fit_global_rotations", "fold_to_canonical22", "map_joints", "strip_prefix", "to_canonical22",
+    "unfold_from_canonical22",
 ]

@@ -7,16 +7,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from mannequin import Mannequin
 
-from retarget_lib.core.canonical import SMPLX_BODY_NAMES, SMPLX_MAP
-from retarget_lib.core.canonical import to_canonical22
-from retarget_lib.core.skeleton import CANONICAL22
+from retarget_lib.io.joint_maps import to_canonical22
 from retarget_lib.data.synthetic.amass_clip import AMASS_CLIP_BETAS, AMASS_CLIP_PATH, make_amass_clip
 from retarget_lib.errors import AMASSError, RetargetInputError
 from retarget_lib.io import load_bvh, save_bvh
 from retarget_lib.core.rotations import quat_from_axis_angle, quat_mul, quat_rotate, quat_to_axis_angle
-from retarget_lib.io.amass import _pelvis_rest, load_amass, save_amass, smplx_skeleton
-
-ORDER = [SMPLX_BODY_NAMES.index(next(k for k, v in SMPLX_MAP.items() if v == n)) for n in CANONICAL22]
+from retarget_lib.io.amass import SMPLX_TO_CANONICAL as ORDER, _pelvis_rest, load_amass, save_amass, smplx_skeleton
 
 
 @settings(max_examples=10, deadline=None)
@@ -26,7 +22,7 @@ def test_skeleton_from_betas_matches_mannequin_x(betas):
     the floor shift, for any shape within +-3 standard deviations."""
     betas = np.array(betas)
     body = Mannequin("convex", shape=betas)
-    theirs = body.joint_transforms(body.rest_pose())[:22, :3, 3][ORDER]
+    theirs = body.joint_transforms(body.rest_pose())[:22, :3, 3][list(ORDER)]
     ours = smplx_skeleton(betas).rest_positions()
     shift = theirs - ours
     np.testing.assert_allclose(shift - shift[0], 0.0, atol=1e-6)  # float32 package arithmetic

@@ -381,8 +381,8 @@ def test_deep_nesting(tmp_path, capsys):
 def test_unknown_convention():
     sk = Skeleton(["root", "tip"], [-1, 0], np.array([[0.0, 1.0, 0.0], [0.0, 0.5, 0.0]]))
     motion = Motion(sk, np.tile([1.0, 0, 0, 0], (2, 2, 1)), np.zeros((2, 3)), 30.0)
-    with pytest.raises(JointSetError, match="unknown joint-name convention 'martian'; known: mixamo"):
-        to_canonical22(motion, "martian")
+    with pytest.raises(JointSetError, match="m.bvh: unknown joint-name convention 'martian'; known: mixamo, cmu"):
+        to_canonical22(motion, "martian", what="m.bvh")
 
 
 # --------------------------------------------------------------------------------------- hangs

@@ -1,17 +1,20 @@
-"""Folding other joint sets onto the canonical 22 (``to_canonical22``), resampling and root
+"""Folding other joint sets onto the canonical 22 (``to_canonical22``: the rig conventions of
+``io.rig_maps``, then ``core.canonical.fold_to_canonical22``), resampling and root
 normalisation, on hand-made skeletons and the real ``cmu-assimp`` clips."""
 
 import numpy as np
 import pytest
 import torch
 
-from retarget_lib.core.canonical import canonical_name_map, strip_prefix, to_canonical22
+from retarget_lib.core.canonical import fold_to_canonical22, unfold_from_canonical22
 from retarget_lib.core.motion import Motion
 from retarget_lib.core.rotations import (quat_conjugate, quat_from_axis_angle, quat_mul, quat_rotate,
                                          quat_to_matrix)
 from retarget_lib.core.skeleton import CANONICAL22, CANONICAL22_PARENTS, JointSetError, Skeleton
 from retarget_lib.data.sources.cmu import CMU_CLIPS, cmu_clip_path, load_cmu_clip
 from retarget_lib.io import load_bvh
+from retarget_lib.io.joint_maps import present_map, to_canonical22
+from retarget_lib.io.rig_maps import strip_prefix
 
 
 def mixamo_motion(seed=0, frames=40, twists=None, rename=None) -> Motion:
@@ -64,7 +67,7 @@ def mixamo_motion(seed=0, frames=40, twists=None, rename=None) -> Motion:
 def kept_errors(source: Motion, folded: Motion) -> dict[str, np.ndarray]:
     """``{canonical name: (T,) world-position error in metres}`` for every kept source joint."""
     g, gc = source.global_positions(), folded.global_positions()
-    cmap = canonical_name_map(source.skeleton.joint_names)
+    cmap, _ = present_map(source.skeleton)
     return {CANONICAL22[c]: np.linalg.norm(g[:, s] - gc[:, c], axis=-1) for s, c in cmap.items()}
 
 
@@ -116,8 +119,32 @@ def test_zero_offset_rotating_intermediate_joints_fold_exactly():
 
 def test_missing_joint_is_named():
     m = mixamo_motion(rename={"LeftFoot": "LeftAnkle"})
-    with pytest.raises(JointSetError, match=r"missing \['LeftFoot'\]"):
-        to_canonical22(m)
+    with pytest.raises(JointSetError, match=r"clip.bvh: cannot map joints \['LeftFoot'\]"):
+        to_canonical22(m, what="clip.bvh")
+
+
+def test_a_22_joint_set_in_another_order_is_only_reordered():
+    # the canonical 22 under SMPL-X names and in SMPL-X order: nothing is refitted, every number is kept
+    from retarget_lib.io.amass import SMPLX_BODY_NAMES, SMPLX_BODY_PARENTS, SMPLX_TO_CANONICAL
+
+    m = mixamo_motion(seed=3)
+    c = to_canonical22(m)
+    order = list(SMPLX_TO_CANONICAL)  # canonical c is SMPL-X joint order[c]
+    back = [order.index(j) for j in range(22)]
+    smplx = Motion(Skeleton(SMPLX_BODY_NAMES, SMPLX_BODY_PARENTS, c.skeleton.offsets[back]), c.rotations[:, back],
+                   c.root_positions, c.fps)
+    again = to_canonical22(smplx)
+    assert again.meta["folded_from"] == "smplx"
+    np.testing.assert_array_equal(again.skeleton.offsets, c.skeleton.offsets)
+    np.testing.assert_array_equal(again.rotations, c.rotations)
+
+
+def test_an_index_map_missing_a_needed_joint_is_refused():
+    m = mixamo_motion()
+    found, _ = present_map(m.skeleton)
+    hand = next(i for i, c in found.items() if CANONICAL22[c] == "LeftHand")
+    with pytest.raises(JointSetError, match=r"lacks \['LeftHand'\], which cannot be inserted"):
+        fold_to_canonical22(m, {i: c for i, c in found.items() if i != hand})
 
 
 # --------------------------------------------------------------------------- real clips
@@ -200,16 +227,11 @@ def test_normalize_root_faces_z_at_the_origin(name):
 
 @pytest.mark.data
 @pytest.mark.parametrize("name", ["01_01.bvh", "Boxing_Toes.bvh"])
-def test_from_canonical22_restores_the_full_joint_set(name):
+def test_unfold_from_canonical22_restores_the_full_joint_set(name):
     """fold -> unfold on the real clips: the 22 kept joints land where the canonical motion puts them."""
-    from retarget_lib.data.sources.cmu import cmu_clip_path
-    from retarget_lib.io import load_bvh
-    from retarget_lib.core.skeleton import CANONICAL22
-    from retarget_lib.core.canonical import from_canonical22, to_canonical22
-
     raw = load_bvh(cmu_clip_path(name)).slice(0, 200)
     folded = to_canonical22(raw)
-    full = from_canonical22(folded, raw.skeleton)
+    full = unfold_from_canonical22(folded, raw.skeleton, present_map(raw.skeleton)[0])
     assert full.skeleton.joint_names == raw.skeleton.joint_names
     pos = full.global_positions()
     kept = [raw.skeleton.joint_names.index(n) for n in

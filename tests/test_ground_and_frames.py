@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from retarget_lib.cli import main
-from retarget_lib.core.canonical import to_canonical22
+from retarget_lib.io.joint_maps import to_canonical22
 from retarget_lib.core.ground import clip_floor, floor_offset, foot_positions, sole_heights, standing_feet
 from retarget_lib.core.measures import foot_rest_heights, rest_ground
 from retarget_lib.core.rig import Rig

@@ -13,15 +13,23 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from retarget_lib.cli import main
-from retarget_lib.core.canonical import to_canonical22
+from retarget_lib.core.canonical import stand_upright
 from retarget_lib.core.motion import Motion
-from retarget_lib.core.rotations import quat_conjugate, quat_mul
-from retarget_lib.core.skeleton import CANONICAL22, CANONICAL22_PARENTS, JointSetError, Skeleton
-from retarget_lib.data.sources.cmu import cmu_clip_path
-from retarget_lib.io import load_bvh, save_bvh
+from retarget_lib.core.rotations import quat_conjugate, quat_from_axis_angle, quat_mul
+from retarget_lib.core.skeleton import CANONICAL22, CANONICAL22_PARENTS, J, JointSetError, Skeleton
 from retarget_lib.core.virtual_joints import MAY_BE_ABSENT, with_virtual_joints
-from retarget_lib.io.joint_maps import fold_with_map, present_map
-from retarget_lib.io.rig_maps import load_mapping_file, map_joints
+from retarget_lib.data.sources.cmu import cmu_clip_path
+from retarget_lib.data.sources.real_characters import joint_map_path, real_character_path
+from retarget_lib.data.synthetic.amass_clip import AMASS_CLIP_PATH
+from retarget_lib.data.synthetic.characters import make_character
+from retarget_lib.io import load_bvh, save_bvh
+from retarget_lib.io.amass import load_amass
+from retarget_lib.io.gltf import load_gltf_motion, load_gltf_rig
+from retarget_lib.io.joint_maps import present_map, to_canonical22
+from retarget_lib.io.rig_maps import RIG_MAPS, load_mapping_file, map_joints
+from retarget_lib.io.shape import save_shape_npz
+from retarget_lib.methods.copy import copy_rotations
+from retarget_lib.methods.inputs import load_source, load_target
 from test_bad_inputs import assert_cli_error
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "joint-maps.md"
@@ -76,10 +84,19 @@ SMALL = doc_examples()["A game rig with two spine joints, no clavicles and no to
 
 
 # ----------------------------------------------------------------------------- the doc's examples
+#: the doc's example of each convention of the one table (io.rig_maps.RIG_MAPS)
+CONVENTION_OF_EXAMPLE = {
+    "Mixamo": "mixamo", "Unreal mannequin (UE4/UE5)": "unreal", "Rigify (Blender)": "rigify", "VRoid (VRM)": "vroid",
+    "SMPL / SMPL-H exports": "smpl", "CMU (cgspeed BVH conversion)": "cmu",
+    "Biovision / MotionBuilder (BVH, 21 joints)": "biovision", "SMPL-X body joints (AMASS, mannequin-x)": "smplx",
+    "VRM humanoid bones": "vrm",
+}
+
+
 def test_the_doc_has_an_example_per_rig_convention():
-    assert {"Mixamo", "Unreal mannequin (UE4/UE5)", "Rigify (Blender)", "VRoid (VRM)", "SMPL / SMPL-H exports",
-            "CMU (cgspeed BVH conversion)"} <= set(doc_examples())
-    assert len(doc_examples()) >= 8
+    assert set(CONVENTION_OF_EXAMPLE) <= set(doc_examples())
+    assert sorted(CONVENTION_OF_EXAMPLE.values()) == sorted(RIG_MAPS)
+    assert len(doc_examples()) >= len(RIG_MAPS) + 3  # and rigs no convention names
 
 
 @pytest.mark.parametrize("title", list(doc_examples()))
@@ -87,13 +104,12 @@ def test_every_example_of_the_doc_maps_its_rig(title, clip):
     mapping = doc_examples()[title]
     assert set(mapping) == set(CANONICAL22)
     rig = rig_clip(clip, mapping)
-    found = present_map(rig.skeleton, mapping, what=title)
+    found, _ = present_map(rig.skeleton, mapping, what=title)
     assert {CANONICAL22[c]: rig.skeleton.joint_names[i] for i, c in found.items()} == \
         {k: v for k, v in mapping.items() if v is not None}
-    if None not in mapping.values() and not title.startswith(("Bandai-Namco", "3ds Max Biped with German")):
-        # a known convention: the detection alone finds the same map
-        assert map_joints(rig.skeleton.joint_names, rig.skeleton.parents)[0] == found
-    folded = fold_with_map(rig, mapping, what=title)
+    if title in CONVENTION_OF_EXAMPLE:  # a known convention: the detection alone finds the same map
+        assert present_map(rig.skeleton, what=title) == (found, CONVENTION_OF_EXAMPLE[title])
+    folded = to_canonical22(rig, mapping=mapping, what=title)
     present = [c for c in range(22) if mapping[CANONICAL22[c]] is not None]
     own = [rig.skeleton.joint_names.index(mapping[CANONICAL22[c]]) for c in present]
     # the rig's own joints keep their world positions (sums of the same rotated offsets)
@@ -103,7 +119,7 @@ def test_every_example_of_the_doc_maps_its_rig(title, clip):
 # ----------------------------------------------------------------------------- absent joints
 def test_virtual_joints_sit_on_the_bone_and_do_not_move_the_rig(clip):
     rig = rig_clip(clip, SMALL)
-    found = present_map(rig.skeleton, SMALL, what="small")
+    found, _ = present_map(rig.skeleton, SMALL, what="small")
     augmented, full = with_virtual_joints(rig, found)
     names = augmented.skeleton.joint_names
     assert sorted(full.values()) == list(range(22))
@@ -199,13 +215,141 @@ def test_two_canonical_joints_on_one_bone_name_the_duplicate(tmp_path):
         load_mapping_file(tmp_path / "m.yaml")
 
 
-def test_a_joint_map_for_an_smplx_file_is_refused(tmp_path, capsys):
-    from retarget_lib.data.synthetic.amass_clip import AMASS_CLIP_PATH
+# ----------------------------------------------------------------------------- every format, one path
+@pytest.fixture(scope="module")
+def renamed(tmp_path_factory):
+    """Half a second of CMU 01_01 written twice with the same numbers: with its own joint names, and
+    with names of no convention (``bone00`` ...), with the joint map that names them."""
+    folder = tmp_path_factory.mktemp("renamed")
+    raw = load_bvh(cmu_clip_path("01_01.bvh")).slice(0, 60)
+    names = [f"bone{k:02d}" for k in range(raw.skeleton.num_joints)]
+    sk = raw.skeleton
+    save_bvh(raw, folder / "plain.bvh")
+    save_bvh(raw.copy(skeleton=Skeleton(names, sk.parents, sk.offsets, sk.end_sites),
+                      meta=dict(raw.meta, file_joint_names=names)), folder / "renamed.bvh")
+    mapping = {canon: names[sk.index(name)] for name, canon in RIG_MAPS["cmu"].items()}
+    (folder / "map.yaml").write_text(yaml.safe_dump(mapping))
+    return folder, names, mapping
 
-    (tmp_path / "m.yaml").write_text("Hips: pelvis\n")
+
+def test_a_bvh_of_no_convention_reads_with_its_map_as_the_clip_it_is(renamed):
+    folder, names, _ = renamed
+    plain = load_source(folder / "plain.bvh").motion
+    mapped = load_source(folder / "renamed.bvh", folder / "map.yaml").motion
+    assert mapped.skeleton.joint_names == CANONICAL22
+    np.testing.assert_array_equal(mapped.skeleton.offsets, plain.skeleton.offsets)
+    np.testing.assert_array_equal(mapped.rotations, plain.rotations)
+    np.testing.assert_array_equal(mapped.root_positions, plain.root_positions)
+    target = load_target(str(folder / "renamed.bvh"), joint_map=folder / "map.yaml")
+    np.testing.assert_array_equal(target.skeleton.offsets, load_target(str(folder / "plain.bvh")).skeleton.offsets)
+    assert len(target.bvh_map) == 22 and target.bvh.skeleton.joint_names == tuple(names)
+
+
+def test_a_bvh_of_no_convention_with_its_map_as_source_and_target_on_the_command_line(renamed, tmp_path):
+    folder, names, _ = renamed
+    for kind in ("plain", "renamed"):
+        extra = ["--source-joint-map", str(folder / "map.yaml"), "--joint-map", str(folder / "map.yaml")] \
+            if kind == "renamed" else []
+        assert main(["retarget", "--source", str(folder / f"{kind}.bvh"), "--target", str(folder / f"{kind}.bvh"),
+                     "--method", "copy", "--out", str(tmp_path / f"{kind}.bvh"), *extra]) == 0
+    plain, mapped = load_bvh(tmp_path / "plain.bvh"), load_bvh(tmp_path / "renamed.bvh")
+    assert mapped.skeleton.joint_names == tuple(names)  # the target's own joints and names
+    np.testing.assert_array_equal(mapped.global_positions(), plain.global_positions())
+
+
+def test_without_a_map_every_missing_joint_is_named_on_one_line(renamed, capsys):
+    folder, _, mapping = renamed
+    line = assert_cli_error(capsys, ["retarget", "--source", str(folder / "renamed.bvh"), "--target", "gus",
+                                     "--method", "copy", "--out", str(folder / "o.bvh")],
+                            f"{folder / 'renamed.bvh'}: cannot map joints", "'bone00'")
+    assert ast.literal_eval(re.search(r"cannot map joints (\[.*?\])", line).group(1)) == list(CANONICAL22)
+    # a map that names 20 of them: the other two, at once, and the map
+    (folder / "part.yaml").write_text(yaml.safe_dump({k: v for k, v in mapping.items()
+                                                      if k not in ("Spine1", "LeftHand")}))
+    assert_cli_error(capsys, ["retarget", "--source", str(folder / "plain.bvh"), "--target",
+                              str(folder / "renamed.bvh"), "--joint-map", str(folder / "part.yaml"), "--method", "copy",
+                              "--out", str(folder / "o.bvh")],
+                     f"{folder / 'renamed.bvh'}: cannot map joints ['Spine1', 'LeftHand']", "part.yaml")
+
+
+def test_two_canonical_joints_on_one_bone_on_the_command_line(renamed, tmp_path, capsys):
+    folder, _, mapping = renamed
+    (tmp_path / "two.yaml").write_text(yaml.safe_dump(dict(mapping, LeftForeArm=mapping["LeftArm"])))
+    assert_cli_error(capsys, ["retarget", "--source", str(folder / "renamed.bvh"), "--source-joint-map",
+                              str(tmp_path / "two.yaml"), "--target", "gus", "--method", "copy",
+                              "--out", str(tmp_path / "o.bvh")],
+                     "two.yaml: maps both LeftArm and LeftForeArm to", repr(mapping["LeftArm"]))
+    # a line that takes a bone the detection gave another canonical joint
+    (tmp_path / "taken.yaml").write_text("LeftForeArm: LeftArm\n")
+    assert_cli_error(capsys, ["retarget", "--source", str(folder / "plain.bvh"), "--source-joint-map",
+                              str(tmp_path / "taken.yaml"), "--target", "gus", "--method", "copy",
+                              "--out", str(tmp_path / "o.bvh")],
+                     f"{folder / 'plain.bvh'}: cannot map joints ['LeftArm']",
+                     "'LeftArm' stood for LeftArm but the joint map", "maps LeftForeArm to it")
+
+
+def test_a_bvh_target_uses_the_names_of_a_glb_rig(clip, tmp_path):
+    # Unreal, Rigify and VRM names on a BVH: detected without a map, written back with them
+    for title in ("Unreal mannequin (UE4/UE5)", "Rigify (Blender)", "VRM humanoid bones"):
+        names = doc_examples()[title]
+        target = tmp_path / f"{CONVENTION_OF_EXAMPLE[title]}.bvh"
+        save_bvh(rig_clip(clip, names).slice(0, 2), target)
+        out = tmp_path / f"out_{target.name}"
+        assert main(["retarget", "--source", str(cmu_clip_path("01_03.bvh")), "--target", str(target),
+                     "--method", "copy", "--out", str(out)]) == 0
+        assert load_bvh(out).skeleton.joint_names == load_bvh(target).skeleton.joint_names
+
+
+def test_an_smplx_file_takes_a_joint_map_like_any_other(tmp_path, capsys):
+    plain = load_amass(AMASS_CLIP_PATH)
+    (tmp_path / "same.yaml").write_text("Hips: pelvis\nLeftHand: left_wrist\n")
+    same = load_amass(AMASS_CLIP_PATH, mapping=tmp_path / "same.yaml")
+    np.testing.assert_array_equal(same.skeleton.offsets, plain.skeleton.offsets)
+    np.testing.assert_array_equal(same.rotations, plain.rotations)
+    # Spine2 marked absent: SMPL-X's spine3 is folded away and Spine2 inserted halfway up spine2 -> neck
+    (tmp_path / "two_spine.yaml").write_text("Spine2: null\n")
+    fewer = load_amass(AMASS_CLIP_PATH, mapping=tmp_path / "two_spine.yaml")
+    rest, rest_plain = fewer.skeleton.rest_positions(), plain.skeleton.rest_positions()
+    np.testing.assert_allclose(rest[3], 0.5 * (rest_plain[2] + rest_plain[4]), atol=1e-12)
+    keep = [c for c in range(22) if CANONICAL22[c] != "Spine2"]
+    np.testing.assert_allclose(rest[keep], rest_plain[keep], atol=1e-12)
+    legs = [CANONICAL22.index(n) for n in ("Hips", "LeftFoot", "RightToeBase")]
+    np.testing.assert_allclose(fewer.global_positions()[:, legs], plain.global_positions()[:, legs], atol=1e-9)
+    out = tmp_path / "o.bvh"
+    assert main(["retarget", "--source", str(AMASS_CLIP_PATH), "--source-joint-map", str(tmp_path / "two_spine.yaml"),
+                 "--target", str(AMASS_CLIP_PATH), "--joint-map", str(tmp_path / "same.yaml"), "--method", "copy",
+                 "--out", str(out)]) == 0
+    (tmp_path / "bad.yaml").write_text("Hips: hips_bone\n")
     assert_cli_error(capsys, ["retarget", "--source", str(AMASS_CLIP_PATH), "--source-joint-map",
-                              str(tmp_path / "m.yaml"), "--target", "gus", "--method", "copy", "--out",
-                              str(tmp_path / "o.bvh")], "m.yaml", "an SMPL-X file's joints have fixed names")
+                              str(tmp_path / "bad.yaml"), "--target", "gus", "--method", "copy", "--out", str(out)],
+                     f"{AMASS_CLIP_PATH}: the joint map {tmp_path / 'bad.yaml'} maps Hips to 'hips_bone', "
+                     "which is not a joint")
+
+
+def test_a_shape_file_of_other_names_takes_a_joint_map(tmp_path, capsys):
+    character = make_character("gus")
+    save_shape_npz(character, tmp_path / "gus.npz")
+    data = dict(np.load(tmp_path / "gus.npz"))
+    names = [f"b{k}" for k in range(22)]
+    np.savez(tmp_path / "renamed.npz", **dict(data, joint_names=np.array(names)))
+    (tmp_path / "map.yaml").write_text(yaml.safe_dump(dict(zip(CANONICAL22, names))))
+    mapped = load_target(str(tmp_path / "renamed.npz"), joint_map=tmp_path / "map.yaml")
+    np.testing.assert_array_equal(mapped.skeleton.offsets, load_target(str(tmp_path / "gus.npz")).skeleton.offsets)
+    args = ["retarget", "--source", str(cmu_clip_path("01_03.bvh")), "--target", str(tmp_path / "renamed.npz"),
+            "--method", "copy", "--out", str(tmp_path / "o.bvh")]
+    line = assert_cli_error(capsys, args, f"{tmp_path / 'renamed.npz'}: cannot map joints", "'b0'")
+    assert ast.literal_eval(re.search(r"cannot map joints (\[.*?\])", line).group(1)) == list(CANONICAL22)
+    (tmp_path / "null.yaml").write_text(yaml.safe_dump(dict(zip(CANONICAL22, names), Spine1=None)))
+    assert_cli_error(capsys, args + ["--joint-map", str(tmp_path / "null.yaml")], "renamed.npz", "null.yaml",
+                     "marks Spine1 absent (null); no joint may be absent in this format")
+    assert main(args + ["--joint-map", str(tmp_path / "map.yaml")]) == 0
+
+
+def test_a_character_name_takes_no_joint_map(tmp_path, capsys):
+    (tmp_path / "m.yaml").write_text("Hips: Hips\n")
+    assert_cli_error(capsys, ["retarget", "--source", str(cmu_clip_path("01_03.bvh")), "--target", "gus",
+                              "--joint-map", str(tmp_path / "m.yaml"), "--method", "copy", "--out",
+                              str(tmp_path / "o.bvh")], "m.yaml", "the character 'gus' is on the canonical 22")
 
 
 @settings(max_examples=60, deadline=None)
@@ -216,7 +360,7 @@ def test_fuzz_maps_give_a_map_or_one_joint_set_error(mapping):
     exception."""
     skeleton = Skeleton(tuple(BANDAI_NAMES), tuple(BANDAI_PARENTS), np.ones((len(BANDAI_NAMES), 3)))
     try:
-        found = present_map(skeleton, dict(BANDAI, **mapping), what="bn.bvh")
+        found, _ = present_map(skeleton, dict(BANDAI, **mapping), what="bn.bvh")
     except JointSetError:
         return
     assert len(set(found.values())) == len(found)
@@ -234,13 +378,6 @@ BANDAI_PARENTS = [-1, 0, 1, 2, 3, 2, 5, 6, 7, 2, 9, 10, 11, 0, 13, 14, 15, 0, 17
 def test_a_glb_rig_without_clavicles_and_one_spine_joint_is_retargeted_and_keeps_its_joints(tmp_path):
     # Mr. Fixit's GLB has the clavicles and Spine1 only as inserted joints without weight; a map that
     # marks them absent (null) treats it as the rig it was: two spine joints, no clavicles
-    from retarget_lib.cli import main
-    from retarget_lib.data.sources.cmu import cmu_clip_path
-    from retarget_lib.data.sources.real_characters import joint_map_path, real_character_path
-    from retarget_lib.io import load_bvh, save_bvh
-    from retarget_lib.io.gltf import load_gltf_motion, load_gltf_rig
-    from retarget_lib.io.rig_maps import load_mapping_file
-
     full = load_mapping_file(joint_map_path("mrfixit"))
     absent = dict(full, Spine1=None, LeftShoulder=None, RightShoulder=None)
     (tmp_path / "map.yaml").write_text("\n".join(f"{k}: {'null' if v is None else v}" for k, v in absent.items()))
@@ -267,12 +404,6 @@ def test_a_bvh_whose_rest_pose_lies_along_x_is_read_standing(tmp_path):
     # the rest skeleton turned by a quarter about Z (lying, its head towards -X), the frames
     # turning it back up: the world poses are those of a standing clip; a source read from it
     # must stand (hips to head along +Y) so that copying its rotations keeps the target standing
-    from retarget_lib.core.canonical import stand_upright
-    from retarget_lib.core.rotations import quat_from_axis_angle, quat_mul
-    from retarget_lib.core.skeleton import J
-    from retarget_lib.data.synthetic.characters import make_character
-    from retarget_lib.methods.copy import copy_rotations
-    import torch
 
     standing = make_character("ada").skeleton
     clip = Motion(standing.copy(), np.tile([1.0, 0.0, 0.0, 0.0], (5, 22, 1)),

@@ -2,9 +2,10 @@
 the library's own objects (not copies)."""
 
 from retarget_lib import kinematics, skeleton
-from retarget_lib.core import canonical, skeleton as core_skeleton
+from retarget_lib.core import skeleton as core_skeleton
 from retarget_lib.core.kinematics import forward_kinematics as core_fk
 from retarget_lib.io import load_bvh, save_bvh
+from retarget_lib.io import joint_maps
 from retarget_lib.io.bvh import load_bvh as bvh_load, save_bvh as bvh_save
 from retarget_lib.kinematics import forward_kinematics
 from retarget_lib.skeleton import to_canonical22
@@ -12,7 +13,7 @@ from retarget_lib.skeleton import to_canonical22
 
 def test_contract_names_are_the_library_objects():
     assert (load_bvh, save_bvh) == (bvh_load, bvh_save)
-    assert to_canonical22 is canonical.to_canonical22
+    assert to_canonical22 is joint_maps.to_canonical22
     assert forward_kinematics is core_fk
 
 

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from retarget_lib.cli import main
-from retarget_lib.core.canonical import to_canonical22
+from retarget_lib.io.joint_maps import to_canonical22
 from retarget_lib.core.transfer import retarget_ground_truth
 from retarget_lib.data.sources.cmu import cmu_clip_path
 from retarget_lib.io import load_bvh, save_bvh

@@ -1,13 +1,15 @@
-"""Folding any joint set onto the canonical 22 joints and back: name maps, :func:`to_canonical22`,
-:func:`from_canonical22`.
+"""Folding a joint set onto the canonical 22 joints and back, given which joint is which:
+:func:`fold_to_canonical22`, :func:`unfold_from_canonical22`; and standing a rest pose up.
 
-Supported joint sets: Mixamo with fingers, CMU 31 joints, the 21-joint Biovision/MotionBuilder
-layout of ``Boxing_Toes.bvh``, SMPL-X body joints (:data:`NAME_MAPS`).
+Which file joint stands for which canonical joint is found by name in
+:mod:`retarget_lib.io.rig_maps` (the one table of rig conventions and its detector); a motion on
+any named joint set is folded by :func:`retarget_lib.io.joint_maps.to_canonical22`. This module
+only takes index maps ``{joint index: canonical index}``.
 """
 
 from __future__ import annotations
 
-from typing import Sequence
+from typing import Mapping, Sequence
 
 import numpy as np
 import torch
@@ -15,124 +17,32 @@ import torch
 from .motion import Motion
 from .rotations import matrix_to_quat, quat_between, quat_canonical, quat_conjugate, quat_mul, quat_rotate
 from .skeleton import CANONICAL22, CANONICAL22_PARENTS, J, JointSetError, Skeleton, canonical22_skeleton
+from .virtual_joints import MAY_BE_ABSENT, with_virtual_joints
 
 
-#: Mixamo: names are canonical once the ``mixamorig:`` (or ``mixamorig1:`` ...) prefix is removed.
-MIXAMO_MAP: dict[str, str] = {n: n for n in CANONICAL22}
-
-#: CMU (cgspeed BVH conversion, 31 joints). Folded: LHipJoint, RHipJoint, Neck1, fingers, thumbs.
-CMU_MAP: dict[str, str] = {
-    "Hips": "Hips", "LowerBack": "Spine", "Spine": "Spine1", "Spine1": "Spine2",
-    "Neck": "Neck", "Head": "Head",
-    "LeftUpLeg": "LeftUpLeg", "LeftLeg": "LeftLeg", "LeftFoot": "LeftFoot", "LeftToeBase": "LeftToeBase",
-    "RightUpLeg": "RightUpLeg", "RightLeg": "RightLeg", "RightFoot": "RightFoot",
-    "RightToeBase": "RightToeBase",
-    "LeftShoulder": "LeftShoulder", "LeftArm": "LeftArm", "LeftForeArm": "LeftForeArm",
-    "LeftHand": "LeftHand",
-    "RightShoulder": "RightShoulder", "RightArm": "RightArm", "RightForeArm": "RightForeArm",
-    "RightHand": "RightHand",
-}
-
-#: Biovision / MotionBuilder 21-joint layout (``Boxing_Toes.bvh``). It has two spine joints, so
-#: ``Spine2`` is *inserted* halfway along the Chest->Neck bone (identity rotation).
-BIOVISION_MAP: dict[str, str] = {
-    "Hips": "Hips", "Ab": "Spine", "Chest": "Spine1", "Neck": "Neck", "Head": "Head",
-    "LeftHip": "LeftUpLeg", "LeftKnee": "LeftLeg", "LeftAnkle": "LeftFoot", "LeftToes": "LeftToeBase",
-    "RightHip": "RightUpLeg", "RightKnee": "RightLeg", "RightAnkle": "RightFoot",
-    "RightToes": "RightToeBase",
-    "LeftCollar": "LeftShoulder", "LeftShoulder": "LeftArm", "LeftElbow": "LeftForeArm",
-    "LeftWrist": "LeftHand",
-    "RightCollar": "RightShoulder", "RightShoulder": "RightArm", "RightElbow": "RightForeArm",
-    "RightWrist": "RightHand",
-}
-
-#: SMPL-X body joints (the first 22 of SMPL-X / SMPL), one-to-one.
-SMPLX_BODY_NAMES: tuple[str, ...] = (
-    "pelvis", "left_hip", "right_hip", "spine1", "left_knee", "right_knee", "spine2",
-    "left_ankle", "right_ankle", "spine3", "left_foot", "right_foot", "neck", "left_collar",
-    "right_collar", "head", "left_shoulder", "right_shoulder", "left_elbow", "right_elbow",
-    "left_wrist", "right_wrist",
-)
-SMPLX_MAP: dict[str, str] = {
-    "pelvis": "Hips", "spine1": "Spine", "spine2": "Spine1", "spine3": "Spine2", "neck": "Neck",
-    "head": "Head",
-    "left_hip": "LeftUpLeg", "left_knee": "LeftLeg", "left_ankle": "LeftFoot", "left_foot": "LeftToeBase",
-    "right_hip": "RightUpLeg", "right_knee": "RightLeg", "right_ankle": "RightFoot",
-    "right_foot": "RightToeBase",
-    "left_collar": "LeftShoulder", "left_shoulder": "LeftArm", "left_elbow": "LeftForeArm",
-    "left_wrist": "LeftHand",
-    "right_collar": "RightShoulder", "right_shoulder": "RightArm", "right_elbow": "RightForeArm",
-    "right_wrist": "RightHand",
-}
-
-NAME_MAPS: dict[str, dict[str, str]] = {
-    "mixamo": MIXAMO_MAP, "cmu": CMU_MAP, "biovision": BIOVISION_MAP, "smplx": SMPLX_MAP,
-}
+def _reordering(skeleton: Skeleton, joint_map: Mapping[int, int]) -> list[int] | None:
+    """``[joint index of canonical c for c in 0..21]`` when ``joint_map`` maps the skeleton's joints
+    one-to-one onto the canonical 22 with the canonical tree (each joint's parent maps to its
+    canonical parent: SMPL-X body joints, a 22-joint rig in another order), else None."""
+    every = list(range(22))
+    if skeleton.num_joints != 22 or sorted(joint_map) != every or sorted(joint_map.values()) != every:
+        return None
+    mapped_parent = [-1 if p < 0 else joint_map[p] for p in skeleton.parents]
+    if any(mapped_parent[j] != CANONICAL22_PARENTS[c] for j, c in joint_map.items()):
+        return None
+    file_of = {c: j for j, c in joint_map.items()}
+    return [file_of[c] for c in range(22)]
 
 
-def strip_prefix(name: str) -> str:
-    """Remove a namespace prefix such as ``mixamorig:`` / ``mixamorig1:`` / ``Armature|``."""
-    for sep in (":", "|"):
-        if sep in name:
-            name = name.rsplit(sep, 1)[1]
-    return name
+def fold_to_canonical22(motion: Motion, joint_map: Mapping[int, int], label: str = "joint_map") -> Motion:
+    """Fold a motion onto the canonical 22 joints.
 
-
-def detect_convention(joint_names: Sequence[str]) -> str:
-    """Guess which name map fits a joint set: ``"cmu"``, ``"biovision"``, ``"smplx"`` or ``"mixamo"``.
-
-    Args:
-        joint_names: names as in the file (prefixes allowed).
-    """
-    names = {strip_prefix(n) for n in joint_names}
-    if {"LHipJoint", "LowerBack"} & names:
-        return "cmu"
-    if {"Ab", "Chest", "LeftCollar"} <= names:
-        return "biovision"
-    if {"pelvis", "spine3", "left_collar"} <= names:
-        return "smplx"
-    return "mixamo"
-
-
-def canonical_name_map(joint_names: Sequence[str], convention: str | None = None) -> dict[int, int]:
-    """Map source joint indices to canonical indices.
-
-    Args:
-        joint_names: the source names (prefixes allowed).
-        convention: a key of :data:`NAME_MAPS`, or ``None`` to detect it.
-
-    Returns:
-        ``{source index: canonical index}`` for every source joint that is kept.
-
-    Raises:
-        JointSetError: an unknown ``convention`` (the known ones are named), or naming the
-            canonical joints that no source joint maps to.
-    """
-    convention = convention or detect_convention(joint_names)
-    if convention not in NAME_MAPS:
-        raise JointSetError(f"unknown joint-name convention {convention!r}; known: {', '.join(NAME_MAPS)}")
-    table = NAME_MAPS[convention]
-    out: dict[int, int] = {}
-    for i, n in enumerate(joint_names):
-        c = table.get(strip_prefix(n))
-        if c is not None:
-            out[i] = J[c]
-    found = set(out.values())
-    optional = {J["Spine2"]} if convention == "biovision" else set()
-    missing = [CANONICAL22[c] for c in range(22) if c not in found and c not in optional]
-    if missing:
-        raise JointSetError(
-            f"cannot map onto the canonical 22 joints ({convention} naming): missing {missing}; "
-            f"joints present: {list(joint_names)}"
-        )
-    return out
-
-
-def to_canonical22(motion: Motion, convention: str | None = None,
-                   joint_map: dict[int, int] | None = None) -> Motion:
-    """Fold a motion on any supported joint set onto the canonical 22 joints.
-
-    Kept joints keep their world positions. Removed joints are folded into their kept ancestors:
+    A joint set that is the canonical 22 in another order or under other names (same tree) is only
+    reordered. Otherwise the canonical joints the motion lacks (``joint_map`` leaves them out; only
+    those of :data:`~retarget_lib.core.virtual_joints.MAY_BE_ABSENT`) are first inserted as virtual
+    joints (:func:`~retarget_lib.core.virtual_joints.with_virtual_joints`: on the bone between
+    their neighbours, a toe at its foot; Biovision's Spine2 lands halfway along Chest -> Neck). Kept
+    joints keep their world positions. Removed joints are folded into their kept ancestors:
 
     * leaves (fingers, ``*_End``, thumbs) are dropped;
     * a removed joint between two kept ones (CMU ``LHipJoint``, ``Neck1``) is absorbed: the kept
@@ -144,31 +54,33 @@ def to_canonical22(motion: Motion, convention: str | None = None,
       (CMU ``LHipJoint`` in the cgspeed files), or a zero-offset rotating joint on its kept parent's
       only path to kept children (a twist joint). Otherwise it is the least-squares compromise;
       for a single child the residual is the change of the folded bone's length (CMU ``Neck1``
-      bending: up to 2.2 cm at the head in ``01_01.bvh``);
-    * the 21-joint Biovision layout gets ``Spine2`` inserted halfway along Chest->Neck.
+      bending: up to 2.2 cm at the head in ``01_01.bvh``).
 
     Args:
-        motion: any :class:`~retarget_lib.core.motion.Motion`.
-        convention: a key of :data:`NAME_MAPS`, or ``None`` to detect it from the names.
-        joint_map: ``{motion joint index: canonical index}`` to use instead of a name
-            convention (e.g. a glTF rig's map from :func:`~retarget_lib.io.rig_maps.map_joints`).
+        motion: a :class:`~retarget_lib.core.motion.Motion` on any joints, ``rotations (T, J, 4)``.
+        joint_map: ``{motion joint index: canonical index}`` of the canonical joints it has (from
+            :func:`~retarget_lib.io.rig_maps.map_joints`).
+        label: the rig naming the map came from, kept as ``meta["folded_from"]``.
 
     Returns:
-        A new Motion on :data:`CANONICAL22` with the same fps and frame count.
+        A new Motion on :data:`~retarget_lib.core.skeleton.CANONICAL22` (``rotations (T, 22, 4)``)
+        with the same fps and frame count.
 
     Raises:
-        JointSetError: if required joints are missing (named in the message).
+        JointSetError: ``joint_map`` lacks a canonical joint that cannot be inserted.
     """
-    sk = motion.skeleton
-    if sk.is_canonical22():
-        return motion.copy()
-    if joint_map is None:
-        convention = convention or detect_convention(sk.joint_names)
-        cmap = canonical_name_map(sk.joint_names, convention)
-    else:
-        cmap, convention = dict(joint_map), "joint_map"
-    src_of = {c: s for s, c in cmap.items()}
-    gpos, grot = motion.fk()
+    missing = [CANONICAL22[c] for c in range(22) if c not in joint_map.values() and CANONICAL22[c] not in MAY_BE_ABSENT]
+    if missing:
+        raise JointSetError(f"fold_to_canonical22: the joint map lacks {missing}, which cannot be inserted")
+    meta = dict(motion.meta, folded_from=label)
+    order = _reordering(motion.skeleton, joint_map)
+    if order is not None:
+        return Motion(canonical22_skeleton(motion.skeleton.offsets[order]), motion.rotations[:, order].copy(),
+                      motion.root_positions.copy(), motion.fps, name=motion.name, meta=meta)
+    augmented, full = with_virtual_joints(motion, joint_map)
+    sk = augmented.skeleton
+    src_of = {c: s for s, c in full.items()}
+    gpos, grot = augmented.fk()
     rest = sk.rest_positions()
     T = motion.num_frames
     new_rest = np.zeros((22, 3))
@@ -178,22 +90,16 @@ def to_canonical22(motion: Motion, convention: str | None = None,
         new_rest[c] = rest[s]
         target_pos[:, c] = gpos[:, s]
         orig_rot[:, c] = grot[:, s]
-    if J["Spine2"] not in src_of:  # biovision: insert Spine2 halfway along Chest -> Neck
-        chest, neck = src_of[J["Spine1"]], src_of[J["Neck"]]
-        new_rest[J["Spine2"]] = 0.5 * (rest[chest] + rest[neck])
-        target_pos[:, J["Spine2"]] = 0.5 * (gpos[:, chest] + gpos[:, neck])
-        orig_rot[:, J["Spine2"]] = grot[:, chest]
     offsets = new_rest.copy()
     for c, p in enumerate(CANONICAL22_PARENTS):
         if p >= 0:
             offsets[c] = new_rest[c] - new_rest[p]
-    # BVH rest rotations are identity, so rest offsets are in world axes for every joint.
+    # rest rotations are identity, so rest offsets are in world axes for every joint.
     new_grot = fit_global_rotations(orig_rot, target_pos, offsets, CANONICAL22_PARENTS)
     g = torch.from_numpy(new_grot)
     local = g.clone()
     par = torch.tensor(CANONICAL22_PARENTS[1:])
     local[:, 1:] = quat_mul(quat_conjugate(g[:, par]), g[:, 1:])
-    meta = dict(motion.meta, folded_from=convention)
     return Motion(canonical22_skeleton(offsets), quat_canonical(local).numpy(),
                   target_pos[:, 0].copy(), motion.fps, name=motion.name, meta=meta)
 
@@ -252,35 +158,32 @@ def fit_global_rotations(rotations: np.ndarray, positions: np.ndarray, offsets: 
     return quat_canonical(out).numpy()
 
 
-def from_canonical22(motion: Motion, skeleton: Skeleton, convention: str | None = None,
-                     joint_map: dict[int, int] | None = None) -> Motion:
-    """Put a canonical-22 motion back on a full joint set (the inverse of :func:`to_canonical22`).
+def unfold_from_canonical22(motion: Motion, skeleton: Skeleton, joint_map: Mapping[int, int]) -> Motion:
+    """Put a canonical-22 motion back on a full joint set (the inverse of :func:`fold_to_canonical22`).
 
     Used to write a retargeted motion with the target file's own joints, names and rest offsets.
     Each kept joint gets the product of the canonical local rotations along its canonical path
     from its kept parent; joints that were folded away (CMU ``LHipJoint``, ``Neck1``, fingers,
     ``*_End``) get identity. This reproduces the canonical world positions exactly when
-    ``motion.skeleton`` is ``to_canonical22`` of ``skeleton``'s rest pose and the folded joints sit on
-    straight rest chains, as in Mixamo and CMU rigs; for the Biovision layout the inserted
-    ``Spine2`` is merged into the chest (its rotation moves the neck and collars slightly). Joints
-    above the hips (an Unreal ``root``) keep identity and follow the hips' translation.
+    ``motion.skeleton`` is the fold of ``skeleton``'s rest pose and the folded joints sit on
+    straight rest chains, as in Mixamo and CMU rigs; a canonical joint the rig lacks (Biovision's
+    ``Spine2``, a joint map's ``null``) is merged into the joint above it (its rotation moves the
+    rig's next joints slightly). Joints above the hips (an Unreal ``root``) keep identity and follow
+    the hips' translation.
 
     Args:
-        motion: canonical-22 motion (e.g. a retargeting result).
-        skeleton: the full target skeleton (e.g. ``load_bvh(target).skeleton``).
-        convention: a key of :data:`NAME_MAPS`, or ``None`` to detect it.
-        joint_map: ``{skeleton joint index: canonical index}`` to use instead of a name convention.
+        motion: canonical-22 motion (e.g. a retargeting result), ``rotations (T, 22, 4)``.
+        skeleton: the full target skeleton (e.g. ``load_bvh(target).skeleton``), ``J`` joints.
+        joint_map: ``{skeleton joint index: canonical index}`` of the canonical joints it has (from
+            :func:`~retarget_lib.io.rig_maps.map_joints`).
 
     Returns:
-        A Motion on ``skeleton`` with ``motion``'s frames, fps and root positions.
+        A Motion on ``skeleton`` (``rotations (T, J, 4)``) with ``motion``'s frames, fps and root
+        positions.
     """
     if not motion.skeleton.is_canonical22():
-        raise JointSetError("from_canonical22 needs a canonical-22 motion")
-    if joint_map is None:
-        convention = convention or detect_convention(skeleton.joint_names)
-        cmap = canonical_name_map(skeleton.joint_names, convention)
-    else:
-        cmap = dict(joint_map)
+        raise JointSetError("unfold_from_canonical22 needs a canonical-22 motion")
+    cmap = dict(joint_map)
     rot22 = torch.from_numpy(motion.rotations)
     world = [rot22[:, 0]]  # canonical global rotations, parents first
     for k in range(1, 22):

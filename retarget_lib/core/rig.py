@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import torch
 
-from .canonical import from_canonical22, to_canonical22
+from .canonical import fold_to_canonical22, unfold_from_canonical22
 from .character import Character
 from .motion import Motion
 from .skeleton import CANONICAL22, CANONICAL22_PARENTS, Skeleton, canonical22_skeleton
@@ -107,15 +107,14 @@ class Rig:
                          weights, style=dict(self.meta))
 
     def motion_to_canonical(self, motion: Motion) -> Motion:
-        """Fold a motion on the rig's joints onto the canonical 22 (see ``to_canonical22``; absent
+        """Fold a motion on the rig's joints onto the canonical 22 (see ``fold_to_canonical22``; absent
         joints inserted as virtual ones first)."""
-        augmented, full = self._with_virtual_joints(motion)
-        return to_canonical22(augmented, joint_map=full)
+        return fold_to_canonical22(motion, self.joint_map)
 
     def motion_from_canonical(self, motion: Motion) -> Motion:
         """A canonical-22 motion on the rig's joints: mapped joints take the canonical rotations,
-        the others keep their rest pose relative to their parent (see ``from_canonical22``)."""
-        return from_canonical22(motion, self.skeleton, joint_map=self.joint_map)
+        the others keep their rest pose relative to their parent (see ``unfold_from_canonical22``)."""
+        return unfold_from_canonical22(motion, self.skeleton, self.joint_map)
 
     def posed_vertices(self, motion: Motion) -> np.ndarray:
         """``(T, V, 3)`` the mesh skinned by a motion on the rig's joints (linear blend skinning)."""

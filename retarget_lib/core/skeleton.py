@@ -5,7 +5,7 @@ its parent, expressed in the parent's frame (metres); ``offsets[root]`` is the r
 
 The canonical 22 joints are Mixamo's (``mixamorig:`` prefix stripped), as used by NKN (Villegas et
 al. 2018) and TDCN (Kim et al. 2020, Sec. 5 "Data preprocessing").
-:func:`~retarget_lib.core.canonical.to_canonical22` maps a motion on another joint set onto them.
+:func:`~retarget_lib.io.joint_maps.to_canonical22` maps a motion on another joint set onto them.
 """
 
 from __future__ import annotations

@@ -57,7 +57,7 @@ ACROSS_PAIR: dict[int, tuple[int, int]] = {
 def _check(skeleton: Skeleton) -> None:
     if not skeleton.is_canonical22():
         raise JointSetError("rest alignment needs the canonical 22 joints; fold the motion first "
-                            "with retarget_lib.core.canonical.to_canonical22")
+                            "with retarget_lib.io.joint_maps.to_canonical22")
 
 
 def rest_alignment(source: Skeleton, target: Skeleton) -> np.ndarray:

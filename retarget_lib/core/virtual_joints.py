@@ -9,11 +9,14 @@ An absent joint becomes a **virtual joint** of the file's skeleton: a joint betw
 (``Spine2`` of a two-spine rig, a clavicle) is placed on the bone between them (evenly, when
 several in a row are absent), a leaf (a toe) at its parent with a zero-length bone; it has the
 identity rotation in every frame, so every file joint keeps its position and rotation. Writing a
-result back on the rig (:func:`~retarget_lib.core.canonical.from_canonical22` with the present
+result back on the rig (:func:`~retarget_lib.core.canonical.unfold_from_canonical22` with the present
 joints' map) composes the virtual joints out: a present joint takes its kept ancestor's global
 rotation undone, then its own, so the file has exactly its own joints (a bend the result puts at an
-inserted joint is carried by the bone's end instead). BVH files (:mod:`retarget_lib.io.joint_maps`)
-and GLB/VRM/FBX rigs (:class:`~retarget_lib.core.rig.Rig`) use the same insertion.
+inserted joint is carried by the bone's end instead). Every fold
+(:func:`~retarget_lib.core.canonical.fold_to_canonical22`) inserts them, whatever the file's format:
+BVH, glTF/GLB/VRM, FBX and SMPL-X files (:mod:`retarget_lib.io.joint_maps`) and rigs
+(:class:`~retarget_lib.core.rig.Rig`) alike; a rig convention that lacks a joint (Biovision's
+``Spine2``) gets it the same way.
 """
 
 from __future__ import annotations

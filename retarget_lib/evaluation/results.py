@@ -39,15 +39,15 @@ RESULTS_DIR = REPO_ROOT / "results"
 #: the one command that recomputes every stored result
 RECOMPUTE_COMMAND = "make tables   (= retarget evaluate --all --out results)"
 #: loaded modules that move files and names, not numbers: the command line, paths and checksums, the
-#: manifest and checkpoint look-up (a checkpoint is pinned by its sha256 instead), the glTF/FBX/shape/
-#: AMASS readers and writers, their budgets and type checks (io/untrusted.py) and the rig name maps
-#: (no stored table reads a GLB, FBX, shape or AMASS file), devices, and this module; a change to
-#: them does not make a stored result stale
+#: manifest and checkpoint look-up (a checkpoint is pinned by its sha256 instead), the glTF/FBX/shape
+#: readers and writers, their budgets and type checks (io/untrusted.py) (no stored table reads a GLB,
+#: FBX or shape file), devices, and this module; a change to them does not make a stored result
+#: stale. The rig conventions (io/rig_maps.py) name the CMU clips' joints, and io/amass.py orders
+#: mannequin-x's: they count.
 NOT_NUMERIC = ("retarget_lib/cli.py", "retarget_lib/files.py", "retarget_lib/errors.py", "retarget_lib/devices.py",
                "retarget_lib/data/manifest.py", "retarget_lib/data/checkpoints.py", "retarget_lib/io/gltf.py",
                "retarget_lib/io/gltf_write.py", "retarget_lib/io/fbx.py", "retarget_lib/io/fbx_write.py",
-               "retarget_lib/io/shape.py", "retarget_lib/io/rig_maps.py", "retarget_lib/io/amass.py",
-               "retarget_lib/io/gltf_validator.py", "retarget_lib/io/untrusted.py",
+               "retarget_lib/io/shape.py", "retarget_lib/io/gltf_validator.py", "retarget_lib/io/untrusted.py",
                "retarget_lib/evaluation/results.py")
 #: printed float precision of stored CSVs: 7 significant digits, 1e-7 relative, far below every
 #: re-run tolerance (1e-3 relative at the tightest)

@@ -19,8 +19,10 @@ key                                    shape         meaning
 **Skeleton from the betas, without SMPL-X model files:** SMPL-X rest joints are linear in the first
 ten betas, ``J(b) = J_rest + D b``; the PyPI package ``mannequin-x`` ships that table
 (``mannequin/assets/smplx_calibration.npz``, baked from the neutral SMPL-X model, checked here by
-SHA-256) with the rest heights of the soles. The 22 body joints map one-to-one onto the canonical
-22 (:data:`~retarget_lib.core.canonical.SMPLX_MAP`); hands, jaw and eyes are dropped. The skeleton
+SHA-256) with the rest heights of the soles. The 22 body joints (:data:`SMPLX_BODY_NAMES`) are
+mapped onto the canonical 22 like any file's joints (:func:`~retarget_lib.io.joint_maps.to_canonical22`:
+the ``smplx`` convention of :data:`~retarget_lib.io.rig_maps.RIG_MAPS`, one-to-one, then a joint map
+if one is given); hands, jaw and eyes are dropped. The skeleton
 is the *neutral* model's: a gendered fit's joints differ by millimetres (``meta["gender"]`` says
 which model the file was fitted with). SMPL-X's zero pose is the library's rest pose (identity
 local rotations), so the file's axis-angles are the local rotations.
@@ -47,15 +49,17 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from ..core.canonical import SMPLX_BODY_NAMES, SMPLX_MAP
 from ..core.motion import Motion
 from ..core.rotations import quat_from_axis_angle, quat_mul, quat_rotate, quat_to_axis_angle
-from ..core.skeleton import CANONICAL22, CANONICAL22_PARENTS, Skeleton, canonical22_skeleton
+from ..core.skeleton import CANONICAL22, Skeleton
 from ..errors import AMASSError
 from ..files import DataError, atomic_write, check_sha256, readable_file
+from .joint_maps import to_canonical22
+from .rig_maps import JointMapLike, map_joints
 from .untrusted import check_count, check_motion_samples, is_real_dtype, read_npz
 
-__all__ = ["AMASSError", "SMPLX_CALIBRATION_SHA256", "smplx_skeleton", "load_amass", "save_amass"]
+__all__ = ["AMASSError", "SMPLX_CALIBRATION_SHA256", "SMPLX_BODY_NAMES", "SMPLX_BODY_PARENTS", "SMPLX_TO_CANONICAL",
+           "smplx_skeleton", "load_amass", "save_amass"]
 
 #: SHA-256 of ``mannequin/assets/smplx_calibration.npz`` in mannequin-x 0.3.0
 SMPLX_CALIBRATION_SHA256 = "fe149bebd6e813a67305e264bd4e5e6648652f5acdc5f3aeb15e219763dfbeca"
@@ -64,8 +68,25 @@ MAX_FRAMES = 1_000_000
 MAX_BETA, MAX_ANGLE = 10.0, 100.0
 MAX_BETAS, MAX_POSE_COLUMNS = 10_000, 330
 _NUM_BETAS = 10
-#: canonical joint c is SMPL-X body joint _ORDER[c]
-_ORDER = [SMPLX_BODY_NAMES.index(next(k for k, v in SMPLX_MAP.items() if v == n)) for n in CANONICAL22]
+#: the SMPL-X (and SMPL-H) body joints in the order of a file's pose columns, and their parents
+SMPLX_BODY_NAMES: tuple[str, ...] = (
+    "pelvis", "left_hip", "right_hip", "spine1", "left_knee", "right_knee", "spine2",
+    "left_ankle", "right_ankle", "spine3", "left_foot", "right_foot", "neck", "left_collar",
+    "right_collar", "head", "left_shoulder", "right_shoulder", "left_elbow", "right_elbow",
+    "left_wrist", "right_wrist",
+)
+SMPLX_BODY_PARENTS: tuple[int, ...] = (-1, 0, 0, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 9, 9, 12, 13, 14, 16, 17, 18, 19)
+
+
+def _body_order() -> tuple[int, ...]:
+    """``(22,)`` the SMPL-X body joint of each canonical joint, found by the rig conventions' detector."""
+    found, _ = map_joints(SMPLX_BODY_NAMES, SMPLX_BODY_PARENTS, what="the SMPL-X body")
+    file_of = {c: i for i, c in found.items()}
+    return tuple(file_of[c] for c in range(22))
+
+
+#: canonical joint c is SMPL-X body joint ``SMPLX_TO_CANONICAL[c]``
+SMPLX_TO_CANONICAL: tuple[int, ...] = _body_order()
 #: world rotation (wxyz) taking AMASS Z-up to the library's Y-up: -90 degrees about X
 _Z_TO_Y = np.array([np.cos(-np.pi / 4), np.sin(-np.pi / 4), 0.0, 0.0])
 
@@ -81,22 +102,32 @@ def _calibration() -> dict[str, np.ndarray]:
         return {k: data[k].astype(np.float64) for k in ("joint_rest", "joint_dirs", "sole_y_rest", "sole_y_dirs")}
 
 
-def smplx_skeleton(betas: np.ndarray) -> Skeleton:
+def _body_skeleton(betas: np.ndarray) -> Skeleton:
+    """The neutral SMPL-X body with shape ``betas`` on its own joints (:data:`SMPLX_BODY_NAMES`, in
+    metres, +Y up, facing +Z, the soles on ``y = 0``)."""
+    cal, b = _calibration(), _first_betas(betas)
+    joints = (cal["joint_rest"] + cal["joint_dirs"] @ b)[:len(SMPLX_BODY_NAMES)]
+    joints[:, 1] -= (cal["sole_y_rest"] + cal["sole_y_dirs"] @ b).min()
+    offsets = joints.copy()
+    offsets[1:] -= joints[list(SMPLX_BODY_PARENTS[1:])]
+    return Skeleton(SMPLX_BODY_NAMES, SMPLX_BODY_PARENTS, offsets)
+
+
+def smplx_skeleton(betas: np.ndarray, mapping: JointMapLike = None, what: str = "the SMPL-X body") -> Skeleton:
     """The canonical-22 skeleton of the neutral SMPL-X body with shape ``betas``.
 
     Args:
         betas: ``(>=10,)`` shape coefficients; the first 10 are used.
+        mapping: a joint map on :data:`SMPLX_BODY_NAMES` (docs/joint-maps.md), or None.
+        what: the file, for messages.
 
     Returns:
         a canonical-22 :class:`~retarget_lib.core.skeleton.Skeleton` in metres, +Y up, facing +Z,
         the root's offset = the pelvis rest position with the soles on ``y = 0``.
     """
-    cal, b = _calibration(), _first_betas(betas)
-    joints = (cal["joint_rest"] + cal["joint_dirs"] @ b)[_ORDER]
-    joints[:, 1] -= (cal["sole_y_rest"] + cal["sole_y_dirs"] @ b).min()
-    offsets = joints.copy()
-    offsets[1:] -= joints[list(CANONICAL22_PARENTS[1:])]
-    return canonical22_skeleton(offsets)
+    body = _body_skeleton(betas)
+    rest = Motion(body, np.tile([1.0, 0.0, 0.0, 0.0], (1, body.num_joints, 1)), body.offsets[:1].copy(), 30.0)
+    return to_canonical22(rest, mapping=mapping, what=what).skeleton
 
 
 def _pelvis_rest(betas: np.ndarray) -> np.ndarray:
@@ -164,22 +195,26 @@ def _finite(a: np.ndarray, key: str, path: Path, bound: float) -> np.ndarray:
     return a
 
 
-def load_amass(path: str | os.PathLike, up: str | None = None, fps: float | None = None) -> Motion:
+def load_amass(path: str | os.PathLike, up: str | None = None, fps: float | None = None,
+               mapping: JointMapLike = None) -> Motion:
     """Read an SMPL-X / AMASS ``.npz`` motion onto the canonical 22 joints.
 
     Args:
         path: the ``.npz`` (keys in the module docstring).
         up: ``"z"`` (AMASS), ``"y"``, or ``None`` to detect it from the pelvis orientation.
         fps: frame rate to use when the file has none (``mocap_frame_rate`` / ``mocap_framerate``).
+        mapping: a joint map on :data:`SMPLX_BODY_NAMES` (docs/joint-maps.md), or None.
 
     Returns:
-        a canonical-22 :class:`~retarget_lib.core.motion.Motion` (metres, +Y up) on
-        :func:`smplx_skeleton` of the file's betas; ``meta`` has ``betas``, ``gender``, ``up``.
+        a canonical-22 :class:`~retarget_lib.core.motion.Motion` (metres, +Y up; ``rotations
+        (T, 22, 4)``) on :func:`smplx_skeleton` of the file's betas; ``meta`` has ``betas``,
+        ``gender``, ``up``.
 
     Raises:
         AMASSError: no ``betas`` (naming it: the skeleton's lengths come from them), no poses, no
             translation, no frame rate, wrong shapes, non-finite or out-of-bound values, not an
             ``.npz`` (e.g. a ``.npy``), truncated or corrupt.
+        JointSetError: a bad joint map (naming the file).
         InputFileError: missing, empty or larger than 512 MiB. LimitError: too many frames, pose
             columns or betas, or an array beyond the budget (checked before it is inflated).
     """
@@ -213,7 +248,7 @@ def load_amass(path: str | os.PathLike, up: str | None = None, fps: float | None
     if len(poses) == 0:
         raise AMASSError(f"{path}: no frames")
     rate = _frame_rate(a, fps, path)
-    local = quat_from_axis_angle(torch.from_numpy(poses.reshape(-1, 22, 3))).numpy()[:, _ORDER]
+    local = quat_from_axis_angle(torch.from_numpy(poses.reshape(-1, 22, 3))).numpy()
     root = trans + _pelvis_rest(betas)
     if up is None:
         body_up = _rotate(local[:, 0], np.array([0.0, 1.0, 0.0])).mean(axis=0)
@@ -226,7 +261,8 @@ def load_amass(path: str | os.PathLike, up: str | None = None, fps: float | None
         root = _rotate(turn, root)
     meta = dict(source=str(path), betas=betas, up=up, gender=_text(a.get("gender")),
                 surface_model_type=_text(a.get("surface_model_type")))
-    return Motion(smplx_skeleton(betas), local, root, rate, name=path.stem, meta=meta)
+    return to_canonical22(Motion(_body_skeleton(betas), local, root, rate, name=path.stem, meta=meta),
+                          mapping=mapping, what=str(path))
 
 
 def _rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -264,7 +300,7 @@ def save_amass(motion: Motion, path: str | os.PathLike, betas: np.ndarray, gende
     local[:, 0] = quat_mul(torch.from_numpy(back), torch.from_numpy(local[:, 0])).numpy()
     root = _rotate(back, motion.root_positions)
     body = np.zeros((T, 22, 3))
-    body[:, _ORDER] = quat_to_axis_angle(torch.from_numpy(local)).numpy()
+    body[:, SMPLX_TO_CANONICAL] = quat_to_axis_angle(torch.from_numpy(local)).numpy()
     poses = np.zeros((T, 165))
     poses[:, :66] = body.reshape(T, 66)
     b16 = np.zeros(16)

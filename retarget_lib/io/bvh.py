@@ -54,12 +54,13 @@ from typing import cast
 import numpy as np
 import torch
 
-from ..core.canonical import strip_prefix, to_canonical22
 from ..core.motion import Motion
 from ..core.rotations import quat_angle, quat_from_euler, quat_to_euler
 from ..core.skeleton import Skeleton
 from ..errors import RetargetInputError
 from ..files import atomic_write, readable_file
+from .joint_maps import to_canonical22
+from .rig_maps import JointMapLike, strip_prefix
 
 __all__ = ["BVHError", "UNIT_SCALES", "infer_unit_scale", "load_bvh", "save_bvh", "MAX_FILE_BYTES", "MAX_JOINTS",
            "MAX_DEPTH", "MAX_FRAMES", "MIN_FRAME_TIME", "MAX_FRAME_TIME", "MAX_ANGLE_DEG", "MAX_LENGTH"]
@@ -563,16 +564,26 @@ def _check_writable(motion: Motion, scale: float, path: Path) -> None:
             raise BVHError(f"{path}: cannot write {what} beyond the limit |x| <= {MAX_LENGTH:g} file units")
 
 
-def load_canonical_bvh(path: str | os.PathLike, fps: float = 30.0, convention: str | None = None) -> Motion:
+def load_canonical_bvh(path: str | os.PathLike, fps: float = 30.0, convention: str | None = None,
+                       mapping: JointMapLike = None) -> Motion:
     """:func:`load_bvh`, folded onto the canonical 22 joints
-    (:func:`~retarget_lib.core.canonical.to_canonical22`) and resampled to ``fps``.
+    (:func:`~retarget_lib.io.joint_maps.to_canonical22`) and resampled to ``fps``.
 
     Args:
-        path: any BVH the library can fold (Mixamo, CMU, Biovision, SMPL-X names).
+        path: any BVH whose joints a rig convention of :data:`~retarget_lib.io.rig_maps.RIG_MAPS`
+            or ``mapping`` names.
         fps: output frame rate.
-        convention: name map for the fold (``None``: detected from the joint names).
+        convention: a key of :data:`~retarget_lib.io.rig_maps.RIG_MAPS` (``None``: detected from
+            the joint names).
+        mapping: a joint map file or its entries (docs/joint-maps.md).
+
+    Returns:
+        The canonical-22 motion, ``rotations (T, 22, 4)``, at ``fps``.
+
+    Raises:
+        BVHError: a malformed file. JointSetError: joints that cannot be mapped (naming the file).
     """
-    return to_canonical22(load_bvh(path), convention).resample(fps)
+    return to_canonical22(load_bvh(path), convention, mapping, what=str(path)).resample(fps)
 
 
 def save_bvh(motion: Motion, path: str | os.PathLike, unit: str | float | None = None) -> None:

@@ -70,7 +70,7 @@ from ..core.rotations import matrix_to_quat, quat_slerp, quat_to_matrix
 from ..core.skeleton import J, Skeleton
 from ..errors import GLTFError, LimitError
 from ..files import read_beside, readable_file
-from .rig_maps import RIG_MAPS, joint_key, load_mapping_file, map_joints
+from .rig_maps import RIG_MAPS, joint_key, map_joints, read_mapping
 from .untrusted import (ANY, COUNT, FLAG, INDEX, INT, MAX_ARRAY_BYTES, NUMBER, TEXT, Arr, JsonObject, Obj,
                         check_array_bytes, check_count, check_motion_samples, parse_json, typed_json)
 
@@ -696,10 +696,8 @@ def _armature(doc: GLTFDocument, tree: _Skeleton, mapping, skinless: bool = Fals
     offsets = rest.copy()
     offsets[1:] -= rest[tree.parents[1:]]
     skeleton = Skeleton(tuple(tree.names), tuple(tree.parents), offsets)
-    if isinstance(mapping, (str, os.PathLike)):
-        user, source = load_mapping_file(mapping), f"the joint map {mapping}"
-    else:
-        user, source = dict(mapping or {}), "the mapping"
+    entries, source = read_mapping(mapping)
+    user = entries or {}
     vrm = _vrm_mapping(doc, tree)
     joint_map, rig_name = map_joints(tree.names, tree.parents, vrm | user, what=str(doc.path),
                                      mapping_source=source if user else "the VRM humanoid",
@@ -797,7 +795,7 @@ def load_gltf_animation(path: str | os.PathLike, fps: float | None = None, anima
 
     Returns:
         ``(motion on the file's joints, joint_map)``: ``joint_map`` is ``{file joint index:
-        canonical index}``, so ``to_canonical22(motion, joint_map=joint_map)`` folds it.
+        canonical index}``, so ``fold_to_canonical22(motion, joint_map)`` folds it.
 
     Raises:
         GLTFError: no animation, an animation that moves no node, several skeleton roots,

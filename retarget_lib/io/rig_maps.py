@@ -1,30 +1,39 @@
-"""Joint-name maps of common character rigs onto the canonical 22 joints, and mapping files.
+"""The one table of rig naming conventions, the one detector of a rig's joints, and joint map files.
 
-A rig's joints are matched by name, after removing a namespace prefix (``mixamorig:``,
-``Armature|``), Rigify's ``DEF-`` prefix and letter case. The known rigs (:data:`RIG_MAPS`):
+Every reader (BVH, glTF/GLB/VRM, FBX, SMPL-X/AMASS, character shape ``.npz``) finds a file's
+canonical joints here (:func:`map_joints`, through :mod:`~retarget_lib.io.joint_maps` for motions).
+Names are matched after removing a namespace prefix (``mixamorig:``, ``Armature|``,
+:func:`strip_prefix`), Rigify's ``DEF-`` prefix and letter case (:func:`joint_key`). The known
+conventions (:data:`RIG_MAPS`):
 
 =============  ==========================================================================
 rig            names (left side; right side alike)
 =============  ==========================================================================
-``mixamo``     ``mixamorig:Hips``, ``Spine``, ``Spine1``, ``Spine2`` ... ``LeftUpLeg`` (Mixamo)
-``cmu``        ``LowerBack``, ``Spine``, ``Spine1`` ... (CMU BVH; see ``core.canonical``)
-``biovision``  ``Ab``, ``Chest``, ``LeftHip`` ... (needs an inserted ``Spine2``: BVH only)
-``smplx``      ``pelvis``, ``spine1`` ... ``left_hip``, ``left_collar`` (SMPL-X, mannequin-x)
+``mixamo``     the canonical names: ``mixamorig:Hips``, ``Spine``, ``Spine1``, ``Spine2``,
+               ``LeftUpLeg`` ... (Mixamo)
+``cmu``        ``Hips``, ``LowerBack``, ``Spine``, ``Spine1``, ``Neck``, ``Head`` ...
+               (CMU, cgspeed BVH conversion; ``LHipJoint``, ``Neck1``, fingers are folded)
+``biovision``  ``Hips``, ``Ab``, ``Chest``, ``LeftHip``, ``LeftCollar``, ``LeftShoulder`` (the
+               upper arm) ... (Biovision/MotionBuilder 21 joints, ``Boxing_Toes.bvh``): no
+               ``Spine2``, which is inserted halfway along Chest -> Neck
+``smplx``      ``pelvis``, ``spine1`` ... ``left_hip``, ``left_collar`` (SMPL-X body joints:
+               AMASS files, mannequin-x)
 ``smpl``       ``Pelvis``, ``Spine1`` ... ``L_Hip``, ``L_Collar`` (SMPL / SMPL-H exports)
 ``vrm``        VRM humanoid bones ``hips``, ``spine``, ``chest``, ``upperChest``,
-               ``leftUpperLeg`` ...; VRoid node names ``J_Bip_C_Hips``, ``J_Bip_L_UpperLeg``
+               ``leftUpperLeg`` ... (a VRM file's humanoid extension names them too)
+``vroid``      VRoid node names ``J_Bip_C_Hips``, ``J_Bip_L_UpperLeg`` ...
 ``unreal``     ``pelvis``, ``spine_01``-``spine_03``, ``neck_01``, ``thigh_l``, ``calf_l``,
                ``clavicle_l``, ``upperarm_l`` ... (UE4/UE5 mannequin; ``root`` above is kept)
 ``rigify``     ``DEF-spine`` (hips), ``DEF-spine.001``-``.003``, ``DEF-spine.004`` (neck),
                ``DEF-spine.006`` (head), ``DEF-thigh.L``, ``DEF-shin.L``, ``DEF-upper_arm.L``
 =============  ==========================================================================
 
-:func:`map_joints` picks the rig that maps the most canonical joints, checks that the mapped
-joints form the canonical tree (each canonical parent an ancestor in the file), and raises
-:class:`~retarget_lib.core.skeleton.JointSetError` naming the joints it could not map. A mapping
-file (:func:`load_mapping_file`, YAML or JSON ``{canonical name: file joint name}``) fixes or
-completes the detected map. Joints left unmapped (fingers, twist bones, an Unreal ``root``) are
-kept by the readers and writers: they follow their parent.
+:func:`map_joints` picks the convention that maps the most canonical joints, lets a joint map
+(:func:`load_mapping_file`, YAML or JSON ``{canonical name: file joint name or null}``) fix or
+complete it, checks that the mapped joints form the canonical tree (each canonical parent an
+ancestor in the file), and raises :class:`~retarget_lib.core.skeleton.JointSetError` naming the
+file and every joint it could not map. Joints left unmapped (fingers, twist bones, an Unreal
+``root``) are kept by the readers and writers: they follow their parent.
 """
 
 from __future__ import annotations
@@ -32,12 +41,16 @@ from __future__ import annotations
 import os
 from typing import Mapping, Sequence
 
-from ..core.canonical import NAME_MAPS, strip_prefix
 from ..core.skeleton import CANONICAL22, CANONICAL22_PARENTS, J, JointSetError
 from ..errors import short_repr
 from ..files import read_yaml
 
-__all__ = ["RIG_MAPS", "joint_key", "map_joints", "load_mapping_file"]
+__all__ = ["RIG_MAPS", "JointMapLike", "strip_prefix", "joint_key", "map_joints", "load_mapping_file",
+           "read_mapping"]
+
+#: what a reader takes as a joint map: a mapping file's path, ``{canonical name: file joint name or
+#: None}``, or None (detection alone)
+JointMapLike = str | os.PathLike | Mapping[str, str | None] | None
 
 _SIDES = (("Left", "l", "L"), ("Right", "r", "R"))
 
@@ -51,21 +64,29 @@ def _sided(pattern: dict[str, str]) -> dict[str, str]:
     return out
 
 
-def _limbs(leg: tuple[str, str, str, str], arm: tuple[str, str, str, str]) -> dict[str, str]:
-    names = ("{Side}UpLeg", "{Side}Leg", "{Side}Foot", "{Side}ToeBase",
+def _table(spine: tuple[str | None, ...], leg: tuple[str, ...], arm: tuple[str, ...]) -> dict[str, str]:
+    """``{file name: canonical name}`` from the six spine names (Hips, Spine, Spine1, Spine2, Neck,
+    Head; None for one the convention lacks) and the leg (UpLeg, Leg, Foot, ToeBase) and arm
+    (Shoulder, Arm, ForeArm, Hand) templates of :func:`_sided`."""
+    limbs = ("{Side}UpLeg", "{Side}Leg", "{Side}Foot", "{Side}ToeBase",
              "{Side}Shoulder", "{Side}Arm", "{Side}ForeArm", "{Side}Hand")
-    return _sided(dict(zip(names, leg + arm)))
-
-
-def _table(spine: tuple[str, ...], leg, arm) -> dict[str, str]:
-    """``{file name: canonical name}`` from the six spine names and the limb templates."""
-    canon_of = dict(zip(CANONICAL22[:6], spine)) | _limbs(leg, arm)
+    canon_of = {c: n for c, n in zip(CANONICAL22[:6], spine) if n is not None} | _sided(dict(zip(limbs, leg + arm)))
     return {v: k for k, v in canon_of.items()}
 
 
-#: ``{rig: {file joint name: canonical name}}``; matched with :func:`joint_key`
+#: ``{rig: {file joint name: canonical name}}``, matched with :func:`joint_key`; a canonical joint
+#: no name stands for is one the convention lacks (inserted where the reader may: Biovision's Spine2)
 RIG_MAPS: dict[str, dict[str, str]] = {
-    **{k: dict(v) for k, v in NAME_MAPS.items() if k != "biovision"},
+    "mixamo": {n: n for n in CANONICAL22},
+    "cmu": _table(("Hips", "LowerBack", "Spine", "Spine1", "Neck", "Head"),
+                  ("{Side}UpLeg", "{Side}Leg", "{Side}Foot", "{Side}ToeBase"),
+                  ("{Side}Shoulder", "{Side}Arm", "{Side}ForeArm", "{Side}Hand")),
+    "biovision": _table(("Hips", "Ab", "Chest", None, "Neck", "Head"),
+                        ("{Side}Hip", "{Side}Knee", "{Side}Ankle", "{Side}Toes"),
+                        ("{Side}Collar", "{Side}Shoulder", "{Side}Elbow", "{Side}Wrist")),
+    "smplx": _table(("pelvis", "spine1", "spine2", "spine3", "neck", "head"),
+                    ("{side}_hip", "{side}_knee", "{side}_ankle", "{side}_foot"),
+                    ("{side}_collar", "{side}_shoulder", "{side}_elbow", "{side}_wrist")),
     "smpl": _table(("Pelvis", "Spine1", "Spine2", "Spine3", "Neck", "Head"),
                    ("{S}_Hip", "{S}_Knee", "{S}_Ankle", "{S}_Foot"),
                    ("{S}_Collar", "{S}_Shoulder", "{S}_Elbow", "{S}_Wrist")),
@@ -83,6 +104,14 @@ RIG_MAPS: dict[str, dict[str, str]] = {
                      ("thigh.{S}", "shin.{S}", "foot.{S}", "toe.{S}"),
                      ("shoulder.{S}", "upper_arm.{S}", "forearm.{S}", "hand.{S}")),
 }
+
+
+def strip_prefix(name: str) -> str:
+    """Remove a namespace prefix such as ``mixamorig:`` / ``mixamorig1:`` / ``Armature|``."""
+    for sep in (":", "|"):
+        if sep in name:
+            name = name.rsplit(sep, 1)[1]
+    return name
 
 
 def joint_key(name: str) -> str:
@@ -110,64 +139,102 @@ def _ancestors(j: int, parents: Sequence[int]) -> set[int]:
     return out
 
 
-def map_joints(names: Sequence[str], parents: Sequence[int], mapping: Mapping[str, str | None] | None = None,
-               what: str = "the rig", mapping_source: str = "the mapping",
-               may_be_absent: Sequence[str] = ()) -> tuple[dict[int, int], str]:
-    """Map a rig's joints onto the canonical 22.
+def _detect(names: Sequence[str], convention: str | None, what: str) -> tuple[str, dict[int, int]]:
+    """The convention of :data:`RIG_MAPS` that maps the most canonical joints of ``names`` (the
+    first in the table's order on a tie), or ``convention``, and its ``{file index: canonical index}``."""
+    if convention is not None:
+        if convention not in RIG_MAPS:
+            raise JointSetError(f"{what}: unknown joint-name convention {short_repr(convention)}; known: "
+                                f"{', '.join(RIG_MAPS)}")
+        return convention, _match(names, RIG_MAPS[convention])
+    matches = {rig: _match(names, table) for rig, table in RIG_MAPS.items()}
+    rig = max(matches, key=lambda r: len(matches[r]))
+    return rig, matches[rig]
+
+
+def map_joints(names: Sequence[str], parents: Sequence[int] | None,
+               mapping: Mapping[str, str | None] | None = None, what: str = "the rig",
+               mapping_source: str = "the mapping", may_be_absent: Sequence[str] = (),
+               convention: str | None = None) -> tuple[dict[int, int], str]:
+    """Map a rig's joints onto the canonical 22: the one detector.
 
     Args:
         names: ``J`` joint names as in the file.
-        parents: ``J`` parent indices (root ``-1``, parents first).
+        parents: ``J`` parent indices (root ``-1``, parents first), or None for a file that has no
+            tree of its own (a shape ``.npz``: its 22 rows are the canonical tree); then the tree
+            is not checked.
         mapping: ``{canonical name: file joint name}`` entries that replace or complete the
-            detected map (a mapping file, or a VRM file's humanoid bones); ``None`` marks a
-            canonical joint the rig does not have.
+            detected map (a joint map, or a VRM file's humanoid bones); ``None`` marks a canonical
+            joint the rig does not have.
         what: the file, for messages.
         mapping_source: where ``mapping`` comes from (a joint map file), for messages.
         may_be_absent: canonical joints the caller can do without (it inserts them:
-            :mod:`~retarget_lib.core.virtual_joints`); a ``None`` entry for another joint is an error.
+            :mod:`~retarget_lib.core.virtual_joints`); a ``None`` entry for another joint is an
+            error, and so is a convention lacking another one.
+        convention: a key of :data:`RIG_MAPS` to use instead of detecting one.
 
     Returns:
-        ``({file joint index: canonical index} for the canonical joints the rig has: all 22 but
-        those ``mapping`` marks absent, rig name)``; the rig name is that of :data:`RIG_MAPS` that
-        matched most, with ``"+mapping"`` when ``mapping`` changed it.
+        ``({file joint index: canonical index} for the canonical joints the rig has, rig name)``:
+        all 22 but those ``mapping`` marks absent or the convention lacks (Biovision's Spine2)
+        when they may be absent; the rig name is the convention of :data:`RIG_MAPS` used, with
+        ``"+mapping"`` when ``mapping`` changed it.
 
     Raises:
-        JointSetError: canonical joints nothing maps to (named, with the file's joints and the
-            hint to pass a mapping file), a mapping entry naming an unknown joint, or mapped
-            joints that do not form the canonical tree.
+        JointSetError: naming ``what``: an unknown ``convention``; canonical joints nothing maps to
+            (all of them, with the file's joints and the hint to pass a joint map; a joint the
+            mapping took from another canonical joint is named as the duplicate), a mapping entry
+            naming an unknown joint or marking a needed one absent, or mapped joints that do not
+            form the canonical tree.
     """
-    scored = [(len(_match(names, table)), rig) for rig, table in RIG_MAPS.items()]
-    rig = max(scored, key=lambda x: x[0])[1]
-    found = _match(names, RIG_MAPS[rig])
-    absent: set[int] = set()
+    rig, found = _detect(names, convention, what)
+    lacks = {J[c] for c in CANONICAL22 if c not in RIG_MAPS[rig].values()}
+    absent = {c for c in lacks if CANONICAL22[c] in may_be_absent}
+    taken: dict[int, tuple[str, str]] = {}  # canonical joint -> (file joint, the canonical joint given it)
     if mapping:
         keys = [joint_key(n) for n in names]
         for canon, file_name in mapping.items():
             if canon not in J:
                 raise JointSetError(f"{what}: {mapping_source} names {short_repr(canon)}, not a canonical joint "
                                     f"({', '.join(CANONICAL22)})")
+            found = {i: c for i, c in found.items() if c != J[canon]}
+            taken.pop(J[canon], None)
             if file_name is None:
                 if canon not in may_be_absent:
                     can = f"only {', '.join(may_be_absent)} may be" if may_be_absent else "no joint may be"
                     raise JointSetError(f"{what}: {mapping_source} marks {canon} absent (null); {can} absent"
                                         + ("" if may_be_absent else " in this format"))
-                found = {i: c for i, c in found.items() if c != J[canon]}
                 absent.add(J[canon])
                 continue
             if joint_key(file_name) not in keys:
                 raise JointSetError(f"{what}: {mapping_source} maps {canon} to {short_repr(file_name)}, which is not a "
                                     "joint of the rig")
-            found = {i: c for i, c in found.items() if c != J[canon]}
-            found[keys.index(joint_key(file_name))] = J[canon]
+            i = keys.index(joint_key(file_name))
+            if i in found:  # the joint stood for another canonical joint
+                taken[found[i]] = (names[i], canon)
+            found[i] = J[canon]
+            absent.discard(J[canon])
         rig += "+mapping"
     with_mapping = f", with {mapping_source}" if mapping else ""
     missing = [CANONICAL22[c] for c in range(22) if c not in found.values() and c not in absent]
     if missing:
         null = f"; 'Name: null' marks one the rig does not have ({', '.join(may_be_absent)})" if may_be_absent else ""
+        dup = "".join(f"; {short_repr(n)} stood for {CANONICAL22[c]} but {mapping_source} maps {canon} to it "
+                      f"(two canonical joints on one bone)" for c, (n, canon) in taken.items()
+                      if CANONICAL22[c] in missing)
         raise JointSetError(
-            f"{what}: cannot map joints {missing} onto the canonical 22 (closest rig naming: {rig}{with_mapping}); "
+            f"{what}: cannot map joints {missing} onto the canonical 22 (closest rig naming: {rig}{with_mapping})"
+            f"{dup}; "
             f"give a joint map (a YAML file with a line 'CanonicalName: file_joint_name' for each joint listed{null}; "
             f"--joint-map for a target, --source-joint-map for a source); the rig's joints: {_listed(names)}")
+    if parents is not None:
+        _check_tree(names, parents, found, absent, what, with_mapping)
+    return found, rig
+
+
+def _check_tree(names: Sequence[str], parents: Sequence[int], found: Mapping[int, int], absent: set[int],
+                what: str, with_mapping: str) -> None:
+    """Raise :class:`JointSetError` unless each mapped joint is below its canonical parent's joint
+    (an absent parent's: its nearest present ancestor's)."""
     file_of = {c: i for i, c in found.items()}
     for c, p in enumerate(CANONICAL22_PARENTS):
         while p in absent:  # an absent joint's children hang below its nearest present ancestor
@@ -178,7 +245,6 @@ def map_joints(names: Sequence[str], parents: Sequence[int], mapping: Mapping[st
             raise JointSetError(f"{what}: {short_repr(names[file_of[c]])} (mapped to {CANONICAL22[c]}) is not below "
                                 f"{short_repr(names[file_of[p]])} (mapped to {CANONICAL22[p]}) in the joint tree"
                                 f"{with_mapping}")
-    return found, rig
 
 
 def _listed(names: Sequence[str], limit: int = 60) -> str:
@@ -193,7 +259,7 @@ def load_mapping_file(path: str | os.PathLike) -> dict[str, str | None]:
 
     Raises:
         JointSetError: malformed, not a mapping of strings to strings, a canonical name given
-            twice, or two canonical joints mapped to one file joint.
+            twice, or two canonical joints mapped to one file joint (both named).
         InputFileError: missing, empty or unreadable.
     """
     data = read_yaml(path, "joint mapping file", JointSetError)
@@ -210,3 +276,23 @@ def load_mapping_file(path: str | os.PathLike) -> dict[str, str | None]:
                                 f"{short_repr(file_name)}; a file joint can stand for one canonical joint")
         first[joint_key(file_name)] = canon
     return data
+
+
+def read_mapping(mapping: JointMapLike, default_source: str = "the mapping",
+                 ) -> tuple[dict[str, str | None] | None, str]:
+    """A joint map's entries and what to call it in messages.
+
+    Args:
+        mapping: a joint map file's path (read by :func:`load_mapping_file`), its entries
+            ``{canonical name: file joint name or None}``, or None.
+        default_source: what to call entries given directly.
+
+    Returns:
+        ``(entries or None, "the joint map <path>" or default_source)``.
+
+    Raises:
+        JointSetError, InputFileError: :func:`load_mapping_file`'s.
+    """
+    if isinstance(mapping, (str, os.PathLike)):
+        return load_mapping_file(mapping), f"the joint map {mapping}"
+    return (None if mapping is None else dict(mapping)), default_source

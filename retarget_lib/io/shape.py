@@ -10,7 +10,9 @@ key                       shape        meaning
 ``skinning_weights``      ``(V, 22)``  LBS weights, rows sum to 1, columns in ``joint_names`` order
 ``skeleton``              ``(22, 3)``  rest **offsets** (each joint relative to its parent; row of
                                        the root = the root's rest position, as in the BVH)
-``joint_names``           ``(22,)``    joint names, ``mixamorig:`` prefixes allowed
+``joint_names``           ``(22,)``    joint names of any rig convention (Mixamo's, with or
+                                       without ``mixamorig:`` prefixes, usually) or of a joint
+                                       map; each row's parent is its canonical parent
 ========================  ===========  ==========================================================
 
 :func:`load_shape_npz` returns a :class:`~retarget_lib.core.character.Character` in the library's
@@ -26,11 +28,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.canonical import strip_prefix
 from ..core.character import Character
-from ..core.skeleton import CANONICAL22, canonical22_skeleton
+from ..core.skeleton import canonical22_skeleton
 from ..errors import RetargetInputError
 from ..files import atomic_write, readable_file
+from .rig_maps import JointMapLike, map_joints, read_mapping, strip_prefix
 from .untrusted import check_count, is_real_dtype, read_npz
 
 __all__ = ["SHAPE_KEYS", "ShapeError", "load_shape_npz", "save_shape_npz"]
@@ -65,13 +67,16 @@ def _infer_scale(height: float) -> float:
     return 0.01 if height > 5.0 else 1.0
 
 
-def load_shape_npz(path: str | os.PathLike, unit: str | float | None = None) -> Character:
+def load_shape_npz(path: str | os.PathLike, unit: str | float | None = None,
+                   mapping: JointMapLike = None) -> Character:
     """Read a character shape ``.npz``.
 
     Args:
         path: the file.
         unit: the file's length unit: ``"cm"``, ``"m"``, ``"mm"`` or metres per unit; ``None``
             infers cm vs m from the skeleton's size.
+        mapping: a joint map file or its entries for joint names no rig convention covers
+            (:mod:`~retarget_lib.io.rig_maps`; a shape file has all 22 joints: no ``null``).
 
     Returns:
         The :class:`~retarget_lib.core.character.Character` (named after the file stem), joints
@@ -80,7 +85,8 @@ def load_shape_npz(path: str | os.PathLike, unit: str | float | None = None) -> 
     Raises:
         ShapeError: naming the problem: not a readable ``.npz`` (truncated, corrupt, pickled
             objects, a ``.npy``), missing keys, wrong shapes, NaN/inf values, face indices out of range, weight
-            rows not summing to 1 (which rows), missing joints (which).
+            rows not summing to 1 (which rows).
+        JointSetError: joints that cannot be mapped (all of them named), a bad joint map.
         InputFileError: missing, a directory, unreadable or empty.
         LimitError: more than :data:`MAX_VERTICES` vertices or :data:`MAX_FACES` faces, or an array
             beyond the budget (read from its header, before it is inflated).
@@ -91,7 +97,7 @@ def load_shape_npz(path: str | os.PathLike, unit: str | float | None = None) -> 
     if missing:
         raise ShapeError(f"{path}: missing keys {missing} (a shape file needs {list(SHAPE_KEYS)})")
     vertices, faces, weights, offsets, names = _validated(arrays, path)
-    order = _canonical_order(names, path)
+    order = _canonical_order(names, path, mapping)
     offsets, weights = offsets[order], weights[:, order]
     scale = _unit_scale(unit) if unit is not None else _infer_scale(canonical22_skeleton(offsets).height())
     offsets = offsets * scale
@@ -156,12 +162,13 @@ def _rows(mask: np.ndarray, limit: int = 10) -> str:
     return f"[{shown}{', ...' if len(idx) > limit else ''}] ({len(idx)} in all)"
 
 
-def _canonical_order(names: list[str], path: Path) -> list[int]:
-    """File column of each canonical joint; :class:`ShapeError` naming missing joints."""
-    missing = [n for n in CANONICAL22 if n not in names]
-    if missing:
-        raise ShapeError(f"{path}: joint_names lacks canonical joints {missing}; it has {names}")
-    return [names.index(n) for n in CANONICAL22]
+def _canonical_order(names: list[str], path: Path, mapping: JointMapLike) -> list[int]:
+    """File row of each canonical joint, by the rig conventions and ``mapping``
+    (:func:`~retarget_lib.io.rig_maps.map_joints`; its errors name the file)."""
+    entries, source = read_mapping(mapping)
+    found, _ = map_joints(names, None, entries, what=str(path), mapping_source=source)
+    row_of = {c: i for i, c in found.items()}
+    return [row_of[c] for c in range(22)]
 
 
 def save_shape_npz(character: Character, path: str | os.PathLike, unit: str | float = "cm",

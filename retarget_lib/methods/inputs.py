@@ -3,7 +3,8 @@
 ================  =====================================================================
 source            read as
 ================  =====================================================================
-``.bvh``          any BVH the library folds (:func:`~retarget_lib.core.canonical.to_canonical22`)
+``.bvh``          any BVH whose joints a rig convention or the joint map names
+                  (:func:`~retarget_lib.io.joint_maps.to_canonical22`)
 ``.npz``          an SMPL-X / AMASS motion (:func:`~retarget_lib.io.amass.load_amass`)
 ``.glb/.gltf``    the first animation of a skinned glTF file (``.vrm`` too); its mesh is the source
                   character (hand contacts for ``contact``)
@@ -21,22 +22,27 @@ target            gives
                   of its betas)
 a name            a synthetic character or ``mannequin-x`` (skeleton and mesh)
 ================  =====================================================================
+
+Every file goes through the same detection of its rig convention and the same joint map
+(``--source-joint-map`` / ``--joint-map``, :mod:`~retarget_lib.io.joint_maps`): a BVH, glTF/GLB/VRM,
+FBX, shape ``.npz`` or SMPL-X/AMASS ``.npz`` alike (the last one's joints are the SMPL-X body
+joints, :data:`~retarget_lib.io.amass.SMPLX_BODY_NAMES`).
 """
 
 from __future__ import annotations
 
 import os
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from ..core.canonical import canonical_name_map, stand_upright, to_canonical22
+from ..core.canonical import fold_to_canonical22, stand_upright
 from ..core.character import Character
 from ..core.motion import Motion
 from ..core.rig import Rig
-from ..core.skeleton import JointSetError, Skeleton
+from ..core.skeleton import Skeleton
 from ..data.sources.mannequin import load_mannequin
 from ..data.synthetic.characters import CHARACTER_NAMES, make_character
 from ..errors import InputFileError, RetargetInputError, RetargetWarning
@@ -44,9 +50,7 @@ from ..io import fbx
 from ..io.amass import load_amass, smplx_skeleton
 from ..io.bvh import load_bvh
 from ..io.gltf import NoSkinError, load_gltf_animation, load_gltf_motion, load_gltf_rig
-from ..core.virtual_joints import with_virtual_joints
-from ..io.joint_maps import fold_with_map, present_map
-from ..io.rig_maps import load_mapping_file
+from ..io.joint_maps import present_map, to_canonical22
 from ..io.shape import SHAPE_KEYS, ShapeError, load_shape_npz
 from ..io.untrusted import npz_keys
 
@@ -56,8 +60,6 @@ SOURCE_SUFFIXES = (".bvh", ".npz", ".glb", ".gltf", ".vrm", ".fbx")
 TARGET_SUFFIXES = (".bvh", ".glb", ".gltf", ".vrm", ".fbx", ".npz")
 #: glTF 2.0 files: a VRM avatar is a GLB with a humanoid extension (VRM 0.x or 1.0)
 _GLTF = (".glb", ".gltf", ".vrm")
-#: the inputs a joint map applies to (an SMPL-X/AMASS file's joints have fixed names)
-_MAPPABLE = (".bvh",) + _GLTF + (".fbx",)
 
 
 @dataclass
@@ -85,15 +87,15 @@ class Target:
         rig: the character on its own joints (a GLB/FBX file's, else the canonical one) when a mesh
             is known: what a ``.glb`` / ``.fbx`` result is written with.
         bvh: the full target BVH motion (its joints, channels and unit) for a ``.bvh`` target.
-        bvh_map: ``{BVH joint index: canonical index}`` of the joints it has, when the BVH is
-            read through the rig maps or a joint map (None: its naming convention).
+        bvh_map: ``{BVH joint index: canonical index}`` of the joints it has (a ``.bvh`` target;
+            else empty).
     """
 
     skeleton: Skeleton
     character: Character | None = None
     rig: Rig | None = None
     bvh: Motion | None = None
-    bvh_map: dict[int, int] | None = None
+    bvh_map: dict[int, int] = field(default_factory=dict)
 
 
 def _suffix(path: str | os.PathLike) -> str:
@@ -104,22 +106,18 @@ def load_source(path: str | os.PathLike, joint_map: str | os.PathLike | None = N
     """Read a source clip by suffix (module docstring).
 
     Args:
-        path: ``.bvh``, ``.npz``, ``.glb``/``.gltf`` or ``.fbx``.
-        joint_map: a mapping file for a GLB/FBX rig the name maps do not cover.
+        path: ``.bvh``, ``.npz``, ``.glb``/``.gltf``/``.vrm`` or ``.fbx``.
+        joint_map: a joint map file for joints the rig conventions do not name (docs/joint-maps.md).
 
     Raises:
-        RetargetInputError: an unsupported suffix, or the reader's error for a bad file.
+        RetargetInputError: an unsupported suffix, or the reader's error for a bad file or joint map.
     """
     suffix = _suffix(path)
-    if joint_map is not None and suffix not in _MAPPABLE:
-        raise RetargetInputError(f"{joint_map}: --source-joint-map is for .bvh/.glb/.gltf/.vrm/.fbx sources (an SMPL-X "
-                                 f"file's joints have fixed names), not {path}")
     if suffix == ".bvh":
         raw = load_bvh(path)
-        return Source(stand_upright(_bvh_to_canonical(raw, path, joint_map)), raw.meta, None)
+        return Source(stand_upright(to_canonical22(raw, mapping=joint_map, what=str(path))), raw.meta, None)
     if suffix == ".npz":
-        motion = load_amass(path)
-        return Source(motion, {}, None)
+        return Source(load_amass(path, mapping=joint_map), {}, None)
     if suffix in _GLTF or suffix == ".fbx":
         try:
             motion, rig = (load_gltf_motion(path, mapping=joint_map) if suffix in _GLTF
@@ -127,33 +125,10 @@ def load_source(path: str | os.PathLike, joint_map: str | os.PathLike | None = N
         except NoSkinError:  # a clip downloaded "Without Skin": joints and animation only
             motion, ids = (load_gltf_animation(path, mapping=joint_map) if suffix in _GLTF
                            else fbx.load_fbx_animation(path, mapping=joint_map))
-            augmented, full = with_virtual_joints(motion, ids)  # joints the map marks absent (null)
-            return Source(to_canonical22(augmented, joint_map=full), {}, None)
+            return Source(fold_to_canonical22(motion, ids), {}, None)  # absent (null) joints inserted
         return Source(rig.motion_to_canonical(motion), {}, rig.character())
     raise InputFileError(f"{path}: cannot read a {suffix or 'suffix-less'} source; supported: "
                          f"{', '.join(SOURCE_SUFFIXES)}")
-
-
-def _known_bvh_names(motion: Motion) -> bool:
-    """Whether a BVH's joint names are of a convention :func:`~retarget_lib.core.canonical.to_canonical22`
-    folds by itself (CMU, Biovision, Mixamo, SMPL-X)."""
-    try:
-        canonical_name_map(motion.skeleton.joint_names)
-    except JointSetError:
-        return False
-    return True
-
-
-def _mapping(joint_map: str | os.PathLike | None) -> dict[str, str | None] | None:
-    return None if joint_map is None else load_mapping_file(joint_map)
-
-
-def _bvh_to_canonical(raw: Motion, path, joint_map) -> Motion:
-    """A BVH motion on the canonical 22: by its naming convention, else by the rig maps completed by
-    the joint map (absent joints inserted: :mod:`~retarget_lib.io.joint_maps`)."""
-    if joint_map is None and _known_bvh_names(raw):
-        return to_canonical22(raw)
-    return fold_with_map(raw, _mapping(joint_map), str(path), str(joint_map))
 
 
 def _is_shape_npz(path: str | os.PathLike) -> bool:
@@ -168,31 +143,34 @@ def load_target(target: str, target_mesh: str | os.PathLike | None = None,
                 joint_map: str | os.PathLike | None = None) -> Target:
     """Resolve ``--target`` (a file by suffix, or a character name) and ``--target-mesh``.
 
+    Args:
+        target: a ``.bvh``, ``.glb``/``.gltf``/``.vrm``, ``.fbx`` or ``.npz`` file, or a character name.
+        target_mesh: a shape ``.npz`` for a target without a mesh.
+        joint_map: a joint map file for the target file's joints (docs/joint-maps.md).
+
     Raises:
-        RetargetInputError: an unknown name or suffix, or the reader's error for a bad file.
+        RetargetInputError: an unknown name or suffix, a joint map for a character name, or the
+            reader's error for a bad file or joint map.
     """
     suffix = _suffix(target)
-    if joint_map is not None and suffix not in _MAPPABLE:
-        raise RetargetInputError(f"{joint_map}: --joint-map is for .bvh/.glb/.gltf/.vrm/.fbx targets, not {target}")
+    if joint_map is not None and not suffix:
+        raise RetargetInputError(f"{joint_map}: --joint-map is for a target file's joints; the character {target!r} "
+                                 "is on the canonical 22 already")
     if suffix == ".bvh":
         full = load_bvh(target)
         rest = full.slice(0, 1)
-        if joint_map is None and _known_bvh_names(rest):
-            out = Target(to_canonical22(rest).skeleton, bvh=full)
-        else:  # the rig maps and the joint map, absent joints inserted (io.joint_maps)
-            bvh_map = present_map(rest.skeleton, _mapping(joint_map), str(target), str(joint_map))
-            augmented, full_map = with_virtual_joints(rest, bvh_map)
-            out = Target(to_canonical22(augmented, joint_map=full_map).skeleton, bvh=full, bvh_map=bvh_map)
+        bvh_map, naming = present_map(rest.skeleton, joint_map, str(target))
+        out = Target(fold_to_canonical22(rest, bvh_map, naming).skeleton, bvh=full, bvh_map=bvh_map)
     elif suffix in _GLTF or suffix == ".fbx":
         rig = load_gltf_rig(target, joint_map) if suffix in _GLTF else fbx.load_fbx_rig(target, joint_map)
         character = rig.character()
         out = Target(character.skeleton, character, rig)
     elif suffix == ".npz":
         if _is_shape_npz(target):
-            character = load_shape_npz(target)
+            character = load_shape_npz(target, mapping=joint_map)
             out = Target(character.skeleton, character, Rig.from_character(character))
         else:
-            out = Target(smplx_skeleton(load_amass(target).meta["betas"]))
+            out = Target(smplx_skeleton(load_amass(target).meta["betas"], joint_map, str(target)))
     elif suffix:
         raise InputFileError(f"{target}: cannot read a {suffix} target; supported: {', '.join(TARGET_SUFFIXES)} "
                              "or a character name")

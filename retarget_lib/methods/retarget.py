@@ -10,7 +10,7 @@ every method (:func:`on_the_ground`: where the source's feet stand on its floor,
 on ``y = 0``), and written by the output's suffix:
 
 * ``.bvh``: on a BVH target's *full* joint set, names, channel layout and length unit
-  (:func:`~retarget_lib.core.canonical.from_canonical22`), so it loads next to the target's own
+  (:func:`~retarget_lib.core.canonical.unfold_from_canonical22`), so it loads next to the target's own
   clips; on a GLB/FBX target's own joints; a target given by name in the source file's unit;
 * ``.glb``: the target's mesh, skin and all its joints (fingers and extra joints follow their
   parents) performing the result: a skinned, animated glTF 2.0 file (:func:`~retarget_lib.io.gltf_write.save_glb`);
@@ -42,7 +42,7 @@ from typing import Iterator
 
 import numpy as np
 
-from ..core.canonical import from_canonical22
+from ..core.canonical import unfold_from_canonical22
 from ..core.character import Character
 from ..core.ground import clip_floor, floor_offset, foot_positions, sole_heights, standing_feet
 from ..core.motion import Motion
@@ -310,7 +310,7 @@ def _write(result: Motion, tgt: Target, source_layout: dict, out: Path) -> None:
         save = save_glb if suffix == ".glb" else save_fbx
         save(tgt.rig, out, tgt.rig.motion_from_canonical(result))
     elif tgt.bvh is not None:  # the target's joints, names, channels and unit
-        full = from_canonical22(result, tgt.bvh.skeleton, joint_map=tgt.bvh_map)
+        full = unfold_from_canonical22(result, tgt.bvh.skeleton, tgt.bvh_map)
         full.meta.update({k: tgt.bvh.meta[k] for k in ("unit_scale", "unit", "channels", "file_joint_names")
                           if k in tgt.bvh.meta})
         save_bvh(full, out)

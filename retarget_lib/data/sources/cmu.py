@@ -26,10 +26,10 @@ import tarfile
 import tempfile
 from pathlib import Path
 
-from ...core.canonical import to_canonical22
 from ...core.motion import Motion
 from ...files import DataError, cache_dir, check_sha256
 from ...io.bvh import load_bvh
+from ...io.joint_maps import to_canonical22
 
 __all__ = ["CMU_CLIPS", "CMU_SHA256", "SYSTEM_DIR", "cmu_clip_path", "load_cmu_clip"]
 
@@ -147,7 +147,7 @@ def load_cmu_clip(name: str, fps: float | None = 30, canonical: bool = True,
     Args:
         name: one of :data:`CMU_CLIPS`.
         fps: resample to this frame rate (``None`` keeps the file's 120 or 100 fps).
-        canonical: fold onto the canonical 22 joints (:func:`~retarget_lib.core.canonical.to_canonical22`).
+        canonical: fold onto the canonical 22 joints (:func:`~retarget_lib.io.joint_maps.to_canonical22`).
         normalize: :meth:`~retarget_lib.core.motion.Motion.normalize_root` (frame 0 at ``x = z = 0``,
             facing +Z, feet on ``y = 0``).
 
@@ -155,9 +155,10 @@ def load_cmu_clip(name: str, fps: float | None = 30, canonical: bool = True,
         The Motion (metres; ``rotations (T, J, 4)``, ``root_positions (T, 3)``), named after the
         file stem, with ``meta["source"] = "cmu-assimp"``.
     """
-    motion = load_bvh(cmu_clip_path(name))
+    path = cmu_clip_path(name)
+    motion = load_bvh(path)
     if canonical:
-        motion = to_canonical22(motion)
+        motion = to_canonical22(motion, what=str(path))
     if fps is not None:
         motion = motion.resample(fps)
     if normalize:

@@ -15,7 +15,8 @@ finger joints) with up to 8 influences per vertex. What its arrays mean, as chec
   the vertices listed in ``skin_rigid_joint_indices`` rigidly to one joint; the same is done here.
 
 The first 22 joints follow the SMPL-X body order and map one-to-one onto the canonical 22
-(:data:`~retarget_lib.core.canonical.SMPLX_MAP`); hand roots and fingers are folded into the wrists.
+(:data:`~retarget_lib.io.amass.SMPLX_TO_CANONICAL`, by the rig conventions' detector); hand roots and
+fingers are folded into the wrists.
 The body is lifted so that its soles rest on ``y = 0``.
 """
 
@@ -26,11 +27,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ...core.canonical import SMPLX_BODY_NAMES, SMPLX_MAP
 from ...core.character import Character
 from ...core.measures import mesh_ground
 from ...core.skeleton import CANONICAL22, CANONICAL22_PARENTS, canonical22_skeleton
 from ...files import DataError, check_sha256
+from ...io.amass import SMPLX_TO_CANONICAL
 
 __all__ = ["MANNEQUIN_SHA256", "load_mannequin", "mannequin_path"]
 
@@ -88,8 +89,7 @@ def load_mannequin(verify: bool = True) -> Character:
     vertices[:, 1] -= floor
     bind[:, 1] -= floor
     # canonical joint c comes from SMPL-X body joint order[c]
-    order = [SMPLX_BODY_NAMES.index(next(k for k, v in SMPLX_MAP.items() if v == name))
-             for name in CANONICAL22]
+    order = list(SMPLX_TO_CANONICAL)
     if [order.index(parents[order[c]]) if c else -1 for c in range(22)] != list(CANONICAL22_PARENTS):
         raise DataError(f"{path}: the first 22 joints are not the SMPL-X body tree")
     rest = bind[order]

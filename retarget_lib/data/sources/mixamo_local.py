@@ -55,7 +55,7 @@ from pathlib import Path
 
 import yaml
 
-from ...core.canonical import to_canonical22
+from ...core.canonical import fold_to_canonical22
 from ...core.character import Character
 from ...core.motion import Motion
 from ...core.skeleton import canonical22_skeleton
@@ -63,6 +63,7 @@ from ...errors import MixamoFolderError
 from ...files import DataError, sha256_file
 from ...io.bvh import load_bvh
 from ...io.gltf import NoSkinError, load_gltf_animation, load_gltf_rig
+from ...io.joint_maps import to_canonical22
 from ...io.shape import load_shape_npz
 
 __all__ = ["SHAPE_FILE", "SPLITS_FILE", "CLIP_SUFFIXES", "CHARACTER_FILE_STEMS", "MixamoCharacterFolder",
@@ -260,15 +261,15 @@ def load_mixamo_motion(path: str | Path, fps: float | None = 30.0) -> Motion:
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix == ".bvh":
-        motion = to_canonical22(load_bvh(path), "mixamo")
+        motion = to_canonical22(load_bvh(path), "mixamo", what=str(path))
     elif suffix in (".glb", ".gltf"):
         raw, joint_map = load_gltf_animation(path)
-        motion = _motion_in_metres(to_canonical22(raw, joint_map=joint_map))
+        motion = _motion_in_metres(fold_to_canonical22(raw, joint_map))
     elif suffix == ".fbx":
         from ...io.fbx import load_fbx_animation  # noqa: PLC0415 (the optional extra, checked when used)
 
         raw, joint_map = load_fbx_animation(path)
-        motion = _motion_in_metres(to_canonical22(raw, joint_map=joint_map))
+        motion = _motion_in_metres(fold_to_canonical22(raw, joint_map))
     else:
         raise MixamoFolderError(f"{path}: not a motion clip (a clip is {', '.join(CLIP_SUFFIXES)})")
     motion.name = path.stem

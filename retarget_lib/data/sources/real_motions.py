@@ -16,8 +16,7 @@ from pathlib import Path
 from ...core.motion import Motion
 from ...files import REPO_ROOT, DataError, sha256_file
 from ...io.bvh import load_bvh
-from ...io.joint_maps import fold_with_map
-from ...io.rig_maps import load_mapping_file
+from ...io.joint_maps import to_canonical22
 from ..manifest import source
 
 __all__ = ["SOURCE_ID", "MOTIONS_DIR", "real_motion_names", "real_motion_path", "load_real_motion", "check"]
@@ -67,7 +66,7 @@ def load_real_motion(name: str, fps: float | None = 30, normalize: bool = True) 
     entry, path = _entry(name), real_motion_path(name)
     raw = load_bvh(path, unit=entry["unit"])
     mapping = MOTIONS_DIR / entry["joint_map"]
-    motion = fold_with_map(raw, load_mapping_file(mapping), str(path), str(mapping))
+    motion = to_canonical22(raw, mapping=mapping, what=str(path))
     if fps is not None:
         motion = motion.resample(fps)
     if normalize:

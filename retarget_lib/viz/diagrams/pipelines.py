@@ -82,10 +82,10 @@ class Stage(NamedTuple):
 
 
 _READ = [Stage("read the BVH", "io.bvh.load_bvh", "io"),
-         Stage("fold onto 22 joints", "core.canonical.to_canonical22", "io"),
+         Stage("fold onto 22 joints", "io.joint_maps.to_canonical22", "io"),
          Stage("resample to 30 fps", "core.motion.Motion.resample", "io")]
 _WRITE = [Stage("back to source fps", "core.motion.Motion.resample", "io"),
-          Stage("target's own joints", "core.canonical.from_canonical22", "io"),
+          Stage("target's own joints", "core.canonical.unfold_from_canonical22", "io"),
           Stage("write the BVH", "io.bvh.save_bvh", "io")]
 _METHOD_STAGES: dict[str, list[Stage]] = {
     "copy": [Stage("copy q; root x leg ratio", "methods.copy.copy_rotations", "fk")],
