@@ -95,9 +95,22 @@ def lazy_choice(describe: str, values: Callable[[], Any]) -> Rule:
     return Rule(f"one of {describe}", lambda v: v in values())
 
 
-def _table4_rows():
-    from .models import TABLE4_ROWS
-    return TABLE4_ROWS
+#: TDCN Table 4 rows → model config deltas (A2/A3 change data/loss, not the network), the names
+#: ``model.row`` takes; :func:`retarget_lib.models.resolve_config` expands them
+TABLE4_ROWS: dict[str, dict[str, Any]] = {
+    "Baseline": {"kind": "nkn", "variant": "baseline"},
+    "Baseline-dense": {"kind": "nkn", "variant": "dense"},
+    "Baseline-dilated": {"kind": "nkn", "variant": "dilated"},
+    "Baseline-height": {"kind": "nkn", "variant": "height"},
+    "ours": {"kind": "tdcn", "variant": "ours"},
+    "A1": {"kind": "tdcn", "variant": "dense"},
+    "A2": {"kind": "tdcn", "variant": "ours", "data": "unbalanced"},
+    "A3": {"kind": "tdcn", "variant": "ours", "loss": "no_height"},
+    "A4": {"kind": "tdcn", "variant": "disc81"},
+    "A5": {"kind": "tdcn", "variant": "causal"},
+    # not a row of the paper: "ours" with a residual output over copy (TDCNGenerator.compose_residual)
+    "ours-residual": {"kind": "tdcn", "variant": "ours", "residual": True},
+}
 
 
 #: ``data.source`` values: the embedded synthetic split (varied-rest profile), its Mixamo-convention
@@ -125,7 +138,7 @@ _COMMON = {"name": TEXT, "seed": NONNEG_INT, "method": choice("tdcn", "contact")
 #: ``method: tdcn`` (default): TDCN and NKN rows of Kim et al. 2020, Table 4
 TDCN: dict[str, Any] = {
     **_COMMON,
-    "model": {"row": lazy_choice("the Table 4 rows (retarget_lib.models.TABLE4_ROWS)", _table4_rows),
+    "model": {"row": choice(*TABLE4_ROWS),
               "kind": choice("tdcn", "nkn"), "variant": TEXT, "profile": choice("fast", "paper"),
               "channels": WIDTH, "disc_channels": WIDTH, "disc_receptive_field": choice(31, 81),
               "dropout": DROPOUT, "normalize_inputs": BOOL, "height_loss": BOOL, "dilations": DILATIONS,

@@ -37,6 +37,8 @@ from typing import Any, Mapping, NamedTuple
 from torch import nn
 
 from ..config import active_profile
+from ..config_schema import TABLE4_ROWS
+from ..config_schema import TDCN as TDCN_SCHEMA
 from .discriminator import PatchDiscriminator
 from .features import FeatureNormalizer, discriminator_features, generator_features
 from .nkn import NKNDiscriminator, NKNGenerator
@@ -68,31 +70,13 @@ PROFILE_WIDTHS: dict[str, dict[str, int]] = {
     "paper": {"tdcn": 1024, "nkn": 512, "disc": 256},
 }
 
-#: TDCN Table 4 rows → model config deltas (A2/A3 change data/loss, not the network)
-TABLE4_ROWS: dict[str, dict[str, Any]] = {
-    "Baseline": {"kind": "nkn", "variant": "baseline"},
-    "Baseline-dense": {"kind": "nkn", "variant": "dense"},
-    "Baseline-dilated": {"kind": "nkn", "variant": "dilated"},
-    "Baseline-height": {"kind": "nkn", "variant": "height"},
-    "ours": {"kind": "tdcn", "variant": "ours"},
-    "A1": {"kind": "tdcn", "variant": "dense"},
-    "A2": {"kind": "tdcn", "variant": "ours", "data": "unbalanced"},
-    "A3": {"kind": "tdcn", "variant": "ours", "loss": "no_height"},
-    "A4": {"kind": "tdcn", "variant": "disc81"},
-    "A5": {"kind": "tdcn", "variant": "causal"},
-    # not a row of the paper: "ours" with a residual output over copy (TDCNGenerator.compose_residual)
-    "ours-residual": {"kind": "tdcn", "variant": "ours", "residual": True},
-}
-
 _TDCN_VARIANTS = {"ours": {}, "dense": {"dense": True}, "causal": {"causal": True},
                   "disc81": {"disc_receptive_field": 81}}
 _NKN_VARIANTS = {"baseline": {"backbone": "gru"}, "dense": {"backbone": "dense"},
                  "dilated": {"backbone": "dilated"},
                  "height": {"backbone": "gru", "normalize_root": True, "height_loss": True}}
-_KNOWN = {"row", "kind", "variant", "profile", "channels", "disc_channels", "disc_receptive_field",
-          "dropout", "normalize_inputs", "height_loss", "normalize_root", "backbone", "dilations", "kernel",
-          "slope", "head_hidden", "skip_projection", "num_layers", "disc_norm", "causal", "dense",
-          "data", "loss", "residual"}
+#: the keys a model config may have: the schema's (:data:`retarget_lib.config_schema.TDCN`)
+_KNOWN = frozenset(TDCN_SCHEMA["model"])
 
 
 class ModelPair(NamedTuple):
