@@ -33,6 +33,7 @@ ROWS = {"tdcn_baseline": "Baseline", "tdcn_baseline_dense": "Baseline-dense",
         "tdcn_a4_disc81": "A4", "tdcn_a5_causal": "A5", "tdcn_ours_residual": "ours-residual"}
 #: configs that train a row's model another way (loss scale, data profile): stem -> the row's model
 VARIANTS = {"tdcn_paper_code_scale": "ours", "tdcn_ours_mixamo_convention": "ours",
+            "tdcn_ours_mixamo_convention_long": "ours",
             "tdcn_ours_residual_mixed": "ours-residual",
             **{f"{stem}_mixamo_convention": row for stem, row in ROWS.items()
                if stem not in ("tdcn_paper", "tdcn_ours_residual")}}
@@ -83,6 +84,12 @@ def test_paper_settings_and_every_table4_row_config():
         assert (mc["loss"].pop("reduction"), mc["loss"].pop("standardize")) == ("frame_sum", True)
         assert (mc["data"], mc["loss"], mc["model"]) == (own["data"], {k: v for k, v in own["loss"].items()
                                                          if k not in ("reduction", "standardize")}, own["model"])
+    # the 10k-step row: the Mixamo-convention "ours" trained five times longer, nothing else changed
+    long, short = (load_config(CONFIGS / f"{s}.yaml", profile="fast")
+                   for s in ("tdcn_ours_mixamo_convention_long", "tdcn_ours_mixamo_convention"))
+    assert (long["train"].pop("steps"), short["train"].pop("steps")) == (10000, 2000)
+    assert {k: v for k, v in long.items() if k not in ("name", "config_path")} \
+        == {k: v for k, v in short.items() if k not in ("name", "config_path")}
     assert config("tdcn_a2_unbalanced")["data"]["scale_range"] is None
     assert RetargetTraining(config("tdcn_a4_disc81")).discriminator.receptive_field == 81
 
