@@ -87,7 +87,7 @@ def one_run(keep: Path, ci: bool) -> dict:
                 run["notebooks" if name == "make" else "workshop notebooks"] = {
                     nb: t["seconds"] for nb, t in timings.items() if name == "make" or t["finished"] >= run["workshop from"]}
             if name == "make test":
-                run["workshop from"] = dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds")
+                run["workshop from"] = dt.datetime.now(dt.UTC).isoformat(timespec="seconds")
         return run
     finally:
         shutil.rmtree(clone, ignore_errors=True)

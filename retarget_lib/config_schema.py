@@ -18,8 +18,9 @@ Values shown in messages are cut short (:func:`~retarget_lib.errors.short_repr`)
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any
 
 from .errors import short_repr
 

@@ -41,11 +41,12 @@ import secrets
 import signal
 import stat
 import time
+from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
-from typing import Any, Iterable, Iterator
+from typing import Any
 from urllib.parse import unquote
 
 import numpy as np

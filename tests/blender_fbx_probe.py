@@ -30,7 +30,7 @@ for v in mesh.data.vertices:
 heads = []
 for frame in range(start, end + 1):
     scene.frame_set(frame)
-    heads.append([list((arm.matrix_world @ arm.pose.bones[n].head)) for n in names])
+    heads.append([list(arm.matrix_world @ arm.pose.bones[n].head) for n in names])
 heads = [[[x, z, -y] for x, y, z in frame] for frame in heads]
 # the skinned mesh as Blender deforms it at the last frame (world space, +Y up)
 scene.frame_set(end)

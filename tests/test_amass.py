@@ -7,12 +7,22 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from mannequin import Mannequin
 
-from retarget_lib.io.joint_maps import to_canonical22
-from retarget_lib.data.synthetic.amass_clip import AMASS_CLIP_BETAS, AMASS_CLIP_PATH, make_amass_clip
+from retarget_lib.core.rotations import (
+    quat_from_axis_angle,
+    quat_mul,
+    quat_rotate,
+    quat_to_axis_angle,
+)
+from retarget_lib.data.synthetic.amass_clip import (
+    AMASS_CLIP_BETAS,
+    AMASS_CLIP_PATH,
+    make_amass_clip,
+)
 from retarget_lib.errors import AMASSError, RetargetInputError
 from retarget_lib.io import load_bvh, save_bvh
-from retarget_lib.core.rotations import quat_from_axis_angle, quat_mul, quat_rotate, quat_to_axis_angle
-from retarget_lib.io.amass import SMPLX_TO_CANONICAL as ORDER, _pelvis_rest, load_amass, save_amass, smplx_skeleton
+from retarget_lib.io.amass import SMPLX_TO_CANONICAL as ORDER
+from retarget_lib.io.amass import _pelvis_rest, load_amass, save_amass, smplx_skeleton
+from retarget_lib.io.joint_maps import to_canonical22
 
 
 @settings(max_examples=10, deadline=None)

@@ -29,7 +29,13 @@ from retarget_lib.core.skeleton import JointSetError, Skeleton
 from retarget_lib.data.checkpoints import load_state, resolve_checkpoint
 from retarget_lib.data.manifest import checkpoint as shipped_checkpoint
 from retarget_lib.data.synthetic.characters import make_character
-from retarget_lib.errors import CheckpointError, InputFileError, LimitError, OutputPathError, RetargetInputError
+from retarget_lib.errors import (
+    CheckpointError,
+    InputFileError,
+    LimitError,
+    OutputPathError,
+    RetargetInputError,
+)
 from retarget_lib.files import REPO_ROOT, atomic_write, sweep_stale_temps
 from retarget_lib.io import BVHError, ShapeError, load_bvh, load_shape_npz, save_bvh, save_shape_npz
 from retarget_lib.io.bvh import MAX_FILE_BYTES

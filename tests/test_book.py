@@ -9,8 +9,13 @@ import nbformat
 import pytest
 
 from retarget_lib.notebook import book
-from retarget_lib.notebook.book import (LearningPath, build_book, load_learning_path, offline_outputs,
-                                        remote_references)
+from retarget_lib.notebook.book import (
+    LearningPath,
+    build_book,
+    load_learning_path,
+    offline_outputs,
+    remote_references,
+)
 from retarget_lib.notebook.viewer import VIEWER_PAGE
 
 ROOT = Path(__file__).resolve().parents[1]

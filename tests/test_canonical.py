@@ -8,8 +8,13 @@ import torch
 
 from retarget_lib.core.canonical import fold_to_canonical22, unfold_from_canonical22
 from retarget_lib.core.motion import Motion
-from retarget_lib.core.rotations import (quat_conjugate, quat_from_axis_angle, quat_mul, quat_rotate,
-                                         quat_to_matrix)
+from retarget_lib.core.rotations import (
+    quat_conjugate,
+    quat_from_axis_angle,
+    quat_mul,
+    quat_rotate,
+    quat_to_matrix,
+)
 from retarget_lib.core.skeleton import CANONICAL22, CANONICAL22_PARENTS, JointSetError, Skeleton
 from retarget_lib.data.sources.cmu import CMU_CLIPS, cmu_clip_path, load_cmu_clip
 from retarget_lib.io import load_bvh

@@ -237,8 +237,8 @@ def test_mannequin_identity_pose(mannequin):
 
 def test_mannequin_checksum():
     pytest.importorskip("mannequin", reason="mannequin-x is not installed")
-    from retarget_lib.files import sha256_file
     from retarget_lib.data.sources.mannequin import MANNEQUIN_SHA256, mannequin_path
+    from retarget_lib.files import sha256_file
 
     assert sha256_file(mannequin_path()) == MANNEQUIN_SHA256
 
@@ -246,8 +246,8 @@ def test_mannequin_checksum():
 def test_mannequin_missing_package_says_how_to_install(monkeypatch):
     import importlib.resources
 
-    from retarget_lib.files import DataError
     from retarget_lib.data.sources.mannequin import load_mannequin
+    from retarget_lib.files import DataError
 
     def missing(name):
         raise ModuleNotFoundError(name)

@@ -5,6 +5,7 @@ import itertools
 
 import numpy as np
 import pytest
+from skeletons import make_skeleton
 
 from retarget_lib.core.character import Character
 from retarget_lib.core.measures import estimated_standing_height
@@ -24,7 +25,6 @@ from retarget_lib.geometry.contacts import (
     vertex_correspondence,
     vertex_groups,
 )
-from skeletons import make_skeleton
 
 
 # ----------------------------------------------------------------------------- foot contacts

@@ -7,8 +7,13 @@ from retarget_lib.cli import main
 from retarget_lib.data import manifest, status
 from retarget_lib.data.splits import tdcn_split
 from retarget_lib.data.synthetic.characters import CHARACTER_NAMES
-from retarget_lib.data.synthetic.dataset import (dataset_path, fingerprint_of, load_synthetic, read_dataset,
-                                                 save_dataset)
+from retarget_lib.data.synthetic.dataset import (
+    dataset_path,
+    fingerprint_of,
+    load_synthetic,
+    read_dataset,
+    save_dataset,
+)
 from retarget_lib.data.synthetic.motions import MOTION_FAMILIES
 from retarget_lib.files import DataError, atomic_write, check_sha256, quantised_sha256, sha256_file
 

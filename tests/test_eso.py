@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 import torch
+from skeletons import make_skeleton
 
 from retarget_lib.core.character import Character
 from retarget_lib.core.quantities import MotionQuantities, motion_quantities
@@ -13,13 +14,22 @@ from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.data.synthetic.motions import make_motion
 from retarget_lib.geometry.penetration import InterpenetrationEnergy
 from retarget_lib.losses.contact import ContactEnergyWeights
+from retarget_lib.methods.eso import (
+    TERMS,
+    encoder_space_optimization,
+    eso_source,
+    eso_throughput,
+    reachable_pairs,
+    reached_joints,
+)
 from retarget_lib.methods.eso import frame as eso_frame
 from retarget_lib.methods.eso import step as eso_step
-from retarget_lib.methods.eso import (TERMS, encoder_space_optimization, eso_source, eso_throughput,
-                                      reachable_pairs, reached_joints)
-from retarget_lib.models.georet import DecoderState, GeometryConditionedRNN, motion_features, pose_outputs
-
-from skeletons import make_skeleton
+from retarget_lib.models.georet import (
+    DecoderState,
+    GeometryConditionedRNN,
+    motion_features,
+    pose_outputs,
+)
 
 ONLY_J2J = ContactEnergyWeights(lambda_j2j=100.0, beta_int=0.0, gamma_foot=0.0, rho=0.0, omega=0.0, hold=0.0)
 

@@ -8,8 +8,15 @@ from retarget_lib.core.transfer import retarget_ground_truth
 from retarget_lib.data.manifest import table_checkpoints
 from retarget_lib.data.synthetic.mixamo_convention import generate
 from retarget_lib.evaluation.paper import PAPER_TABLE4, TABLE4_COLUMNS
-from retarget_lib.evaluation.tdcn import (markdown_table, normalized_mse, ordering_checks, paper_comparison,
-                                          tdcn_cases, tdcn_table, write_table)
+from retarget_lib.evaluation.tdcn import (
+    markdown_table,
+    normalized_mse,
+    ordering_checks,
+    paper_comparison,
+    tdcn_cases,
+    tdcn_table,
+    write_table,
+)
 from retarget_lib.methods.copy import copy_rotations
 
 

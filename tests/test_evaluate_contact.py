@@ -6,9 +6,16 @@ import pytest
 from retarget_lib.core.measures import estimated_standing_height
 from retarget_lib.core.motion import Motion
 from retarget_lib.data.synthetic.characters import make_character
-from retarget_lib.evaluation.contact import (CONTACT_TARGETS, ablation_steps, contact_tables,
-                                             foot_contact_accuracy, foot_height_error,
-                                             foot_heights_in_contact, rerun_tolerance, vertex_contact_mse)
+from retarget_lib.evaluation.contact import (
+    CONTACT_TARGETS,
+    ablation_steps,
+    contact_tables,
+    foot_contact_accuracy,
+    foot_height_error,
+    foot_heights_in_contact,
+    rerun_tolerance,
+    vertex_contact_mse,
+)
 from retarget_lib.evaluation.paper import PAPER_TABLE1, PAPER_TABLE3
 from retarget_lib.geometry.contacts import SelfContacts, detect_foot_contacts
 

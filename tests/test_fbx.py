@@ -21,20 +21,31 @@ import numpy as np
 import pytest
 import torch
 from scipy.spatial import cKDTree
+from test_gltf import _unreal_rig, random_motion
 
 from retarget_lib.cli import main
 from retarget_lib.core.motion import Motion
 from retarget_lib.core.rig import Rig
-from retarget_lib.core.rotations import (quat_angle, quat_conjugate, quat_from_axis_angle, quat_from_euler, quat_mul,
-                                          quat_to_euler)
+from retarget_lib.core.rotations import (
+    quat_angle,
+    quat_conjugate,
+    quat_from_axis_angle,
+    quat_from_euler,
+    quat_mul,
+    quat_to_euler,
+)
 from retarget_lib.data.synthetic.amass_clip import AMASS_CLIP_PATH
 from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.errors import FBXError, GLTFError
 from retarget_lib.io.fbx import fbx_missing, load_fbx_motion, load_fbx_rig
-from retarget_lib.io.fbx_write import KTIME_PER_SECOND, _continuous_euler_xyz, fbx_time_mode, save_fbx
+from retarget_lib.io.fbx_write import (
+    KTIME_PER_SECOND,
+    _continuous_euler_xyz,
+    fbx_time_mode,
+    save_fbx,
+)
 from retarget_lib.io.gltf import load_gltf_motion, load_gltf_rig
 from retarget_lib.io.gltf_write import save_glb
-from test_gltf import _unreal_rig, random_motion
 
 FBX = "/usr/share/assimp/models/FBX"
 needs_assimp = pytest.mark.skipif(fbx_missing() is not None, reason=f"fbx extra not installed: {fbx_missing()}")

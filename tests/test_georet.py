@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 import torch
+from skeletons import make_skeleton
 
 from retarget_lib.core.kinematics import forward_kinematics
 from retarget_lib.core.rotations import quat_identity
@@ -17,8 +18,6 @@ from retarget_lib.models.georet import (
     normalize_rest_vertices,
     pose_outputs,
 )
-
-from skeletons import make_skeleton
 
 
 def _small_model(seed=0, **kw):

@@ -21,7 +21,13 @@ from retarget_lib.core.skeleton import CANONICAL22, J, JointSetError, Skeleton
 from retarget_lib.data.sources.mannequin import load_mannequin
 from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.errors import GLTFError, RetargetInputError
-from retarget_lib.io.gltf import NoSkinError, key_rate, load_gltf_animation, load_gltf_motion, load_gltf_rig
+from retarget_lib.io.gltf import (
+    NoSkinError,
+    key_rate,
+    load_gltf_animation,
+    load_gltf_motion,
+    load_gltf_rig,
+)
 from retarget_lib.io.gltf_validator import validate_gltf, validator_missing
 from retarget_lib.io.gltf_write import _Builder, save_glb
 from retarget_lib.io.rig_maps import RIG_MAPS, map_joints

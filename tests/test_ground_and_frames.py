@@ -3,10 +3,16 @@ the floor where the source's are, for every method and output format, and every 
 
 import numpy as np
 import pytest
+from skeletons import make_skeleton
 
 from retarget_lib.cli import main
-from retarget_lib.io.joint_maps import to_canonical22
-from retarget_lib.core.ground import clip_floor, floor_offset, foot_positions, sole_heights, standing_feet
+from retarget_lib.core.ground import (
+    clip_floor,
+    floor_offset,
+    foot_positions,
+    sole_heights,
+    standing_feet,
+)
 from retarget_lib.core.measures import foot_rest_heights, rest_ground
 from retarget_lib.core.rig import Rig
 from retarget_lib.data.sources.cmu import cmu_clip_path
@@ -15,7 +21,7 @@ from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.io import load_bvh, save_bvh, save_glb
 from retarget_lib.io.amass import load_amass
 from retarget_lib.io.gltf import load_gltf_motion, load_gltf_rig
-from skeletons import make_skeleton
+from retarget_lib.io.joint_maps import to_canonical22
 
 
 # ----------------------------------------------------------------------------- the rule, by hand

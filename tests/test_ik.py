@@ -3,14 +3,19 @@
 import numpy as np
 import pytest
 import torch
+from skeletons import make_skeleton
 
 from retarget_lib.core.kinematics import forward_kinematics
 from retarget_lib.core.motion import Motion
 from retarget_lib.core.rotations import quat_from_axis_angle, quat_mul
 from retarget_lib.core.skeleton import J
-from retarget_lib.geometry.ik import (apply_foot_contact_ik, limb_chain, solve_ik, two_bone_ik,
-                                      two_bone_positions)
-from skeletons import make_skeleton
+from retarget_lib.geometry.ik import (
+    apply_foot_contact_ik,
+    limb_chain,
+    solve_ik,
+    two_bone_ik,
+    two_bone_positions,
+)
 
 
 def random_pose(sk, T, scale, seed):

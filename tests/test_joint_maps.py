@@ -11,6 +11,7 @@ import torch
 import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from test_bad_inputs import assert_cli_error
 
 from retarget_lib.cli import main
 from retarget_lib.core.canonical import stand_upright
@@ -30,7 +31,6 @@ from retarget_lib.io.rig_maps import RIG_MAPS, load_mapping_file, map_joints
 from retarget_lib.io.shape import save_shape_npz
 from retarget_lib.methods.copy import copy_rotations
 from retarget_lib.methods.inputs import load_source, load_target
-from test_bad_inputs import assert_cli_error
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "joint-maps.md"
 

@@ -6,8 +6,13 @@ import numpy as np
 import torch
 
 from retarget_lib.core.kinematics import forward_kinematics, local_positions
-from retarget_lib.core.rotations import (quat_from_axis_angle, quat_identity, quat_mul, quat_normalize,
-                                         quat_rotate)
+from retarget_lib.core.rotations import (
+    quat_from_axis_angle,
+    quat_identity,
+    quat_mul,
+    quat_normalize,
+    quat_rotate,
+)
 from retarget_lib.core.skeleton import CANONICAL22_PARENTS
 
 D = torch.float64

@@ -4,8 +4,15 @@ import pytest
 import torch
 
 from retarget_lib.config import load_config
-from retarget_lib.losses.tdcn import (MotionTensors, PositionScale, adversarial_loss, cycle_loss, height_loss,
-                                      per_sample, twist_loss)
+from retarget_lib.losses.tdcn import (
+    MotionTensors,
+    PositionScale,
+    adversarial_loss,
+    cycle_loss,
+    height_loss,
+    per_sample,
+    twist_loss,
+)
 
 
 def test_frame_sum_sums_each_frame_and_averages_frames_by_hand():

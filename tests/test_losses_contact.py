@@ -5,6 +5,7 @@ import math
 import numpy as np
 import pytest
 import torch
+from skeletons import make_skeleton
 
 from retarget_lib.core.measures import foot_rest_heights
 from retarget_lib.core.quantities import (
@@ -35,8 +36,6 @@ from retarget_lib.losses.contact import (
     skeleton_energy,
     weak_energy,
 )
-
-from skeletons import make_skeleton
 
 F64 = torch.float64
 

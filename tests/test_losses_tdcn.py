@@ -11,11 +11,25 @@ import pytest
 import torch
 
 from retarget_lib.core.quantities import discriminator_inputs
-from retarget_lib.losses import (MotionTensors, NonFiniteLossError, TDCNLossWeights, adversarial_loss,
-                                 adversarial_loss_discriminator, adversarial_loss_generator, check_finite,
-                                 cycle_loss, height_loss, orientation_loss, reconstruction_loss,
-                                 regularization_loss, sigmoid_ce_discriminator_loss,
-                                 sigmoid_ce_generator_loss, smooth_l1, total_generator_loss, twist_loss)
+from retarget_lib.losses import (
+    MotionTensors,
+    NonFiniteLossError,
+    TDCNLossWeights,
+    adversarial_loss,
+    adversarial_loss_discriminator,
+    adversarial_loss_generator,
+    check_finite,
+    cycle_loss,
+    height_loss,
+    orientation_loss,
+    reconstruction_loss,
+    regularization_loss,
+    sigmoid_ce_discriminator_loss,
+    sigmoid_ce_generator_loss,
+    smooth_l1,
+    total_generator_loss,
+    twist_loss,
+)
 
 D = torch.float64
 DEG = math.pi / 180.0  # one degree in radians

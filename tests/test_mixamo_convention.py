@@ -9,12 +9,18 @@ import pytest
 from retarget_lib.config import load_config
 from retarget_lib.core.skeleton import canonical22_skeleton
 from retarget_lib.data.sources.real_characters import REAL_DIR, skeleton_proportions
-from retarget_lib.data.synthetic.proportions import height_scale, unscaled_offsets
-from retarget_lib.data.synthetic.mixamo_convention import (N_CHARACTERS, RANGE_MARGIN, RANGE_SOURCES, REAL_RIG_RANGES,
-                                                           generate,
-                                                           mixamo_convention_names, mixamo_convention_spec,
-                                                           mixamo_convention_split)
 from retarget_lib.data.splits import MotionId
+from retarget_lib.data.synthetic.mixamo_convention import (
+    N_CHARACTERS,
+    RANGE_MARGIN,
+    RANGE_SOURCES,
+    REAL_RIG_RANGES,
+    generate,
+    mixamo_convention_names,
+    mixamo_convention_spec,
+    mixamo_convention_split,
+)
+from retarget_lib.data.synthetic.proportions import height_scale, unscaled_offsets
 from retarget_lib.methods.copy import copy_rotations
 from retarget_lib.training import contact as contact_training
 

@@ -4,12 +4,21 @@ format of a download (BVH, GLB and FBX clips; shape.npz, GLB and FBX character f
 import numpy as np
 import pytest
 
-from retarget_lib.data import manifest
 from retarget_lib.cli import main
 from retarget_lib.core.character import Character
 from retarget_lib.core.rig import Rig
 from retarget_lib.core.skeleton import canonical22_skeleton
-from retarget_lib.data.sources.mixamo_local import load_mixamo_folder, load_mixamo_motion, scan_mixamo_folder
+from retarget_lib.data import manifest
+from retarget_lib.data.sources.mixamo_fixture import (
+    extend_motion_to_mixamo,
+    mixamo_rig,
+    write_mixamo_character,
+)
+from retarget_lib.data.sources.mixamo_local import (
+    load_mixamo_folder,
+    load_mixamo_motion,
+    scan_mixamo_folder,
+)
 from retarget_lib.data.status import check_sources
 from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.data.synthetic.dataset import load_synthetic
@@ -18,7 +27,6 @@ from retarget_lib.errors import FBXError, GLTFError, MixamoFolderError
 from retarget_lib.files import DataError
 from retarget_lib.io import load_bvh, load_shape_npz
 from retarget_lib.io.fbx import fbx_missing
-from retarget_lib.data.sources.mixamo_fixture import extend_motion_to_mixamo, mixamo_rig, write_mixamo_character
 from retarget_lib.io.fbx_write import save_fbx
 
 

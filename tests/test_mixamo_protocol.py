@@ -12,17 +12,26 @@ from retarget_lib.cli import main
 from retarget_lib.config import load_config
 from retarget_lib.core.character import Character
 from retarget_lib.core.skeleton import canonical22_skeleton
+from retarget_lib.data.mixamo_splits import (
+    folder_split,
+    mixamo_contact_training_set,
+    mixamo_training_set,
+    paper_pairs,
+    scenario_of,
+    unseen_motions,
+)
 from retarget_lib.data.sources.mixamo_fixture import write_mixamo_character, write_mixamo_fixture
 from retarget_lib.data.sources.mixamo_local import load_mixamo_folder
+from retarget_lib.data.status import check_sources
 from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.data.synthetic.motions import make_motion
-from retarget_lib.data.mixamo_splits import (folder_split, mixamo_contact_training_set, mixamo_training_set, paper_pairs,
-                                             scenario_of, unseen_motions)
-from retarget_lib.data.status import check_sources
 from retarget_lib.errors import MixamoFolderError
-from retarget_lib.io.fbx import fbx_missing
 from retarget_lib.evaluation.mixamo import CASE_COLUMNS, run_mixamo_tdcn_evaluation
-from retarget_lib.evaluation.mixamo_contact import mixamo_contact_cases, run_mixamo_contact_evaluation
+from retarget_lib.evaluation.mixamo_contact import (
+    mixamo_contact_cases,
+    run_mixamo_contact_evaluation,
+)
+from retarget_lib.io.fbx import fbx_missing
 from retarget_lib.methods.registry import get_method
 from retarget_lib.training.contact import ContactTraining
 from retarget_lib.training.contact import training_clips as contact_training_clips

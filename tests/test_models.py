@@ -14,12 +14,25 @@ from retarget_lib.core.kinematics import forward_kinematics
 from retarget_lib.core.measures import nkn_height
 from retarget_lib.core.rotations import quat_normalize
 from retarget_lib.core.skeleton import CANONICAL22_PARENTS, canonical22_skeleton
-from retarget_lib.models import (TABLE4_ROWS, NKNDiscriminator, NKNGenerator, PatchDiscriminator, TDCNGenerator,
-                                 build_model, count_parameters)
-from retarget_lib.models.features import (GENERATOR_LAYOUT, FeatureNormalizer, discriminator_features,
-                                          discriminator_input_channels, generator_features,
-                                          generator_input_channels, source_local_positions,
-                                          split_generator_features)
+from retarget_lib.models import (
+    TABLE4_ROWS,
+    NKNDiscriminator,
+    NKNGenerator,
+    PatchDiscriminator,
+    TDCNGenerator,
+    build_model,
+    count_parameters,
+)
+from retarget_lib.models.features import (
+    GENERATOR_LAYOUT,
+    FeatureNormalizer,
+    discriminator_features,
+    discriminator_input_channels,
+    generator_features,
+    generator_input_channels,
+    source_local_positions,
+    split_generator_features,
+)
 
 J = 22
 SMALL = 32  # channel width used for fast tests

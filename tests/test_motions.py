@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 import torch
+from skeletons import contact_runs, make_skeleton
 
 from retarget_lib.core.rotations import quat_rotate
-from retarget_lib.core.skeleton import FOOT_CONTACT_JOINTS
-from retarget_lib.core.skeleton import CANONICAL22_PARENTS, J
+from retarget_lib.core.skeleton import CANONICAL22_PARENTS, FOOT_CONTACT_JOINTS, J
 from retarget_lib.data.synthetic.motions import (
     DURATION_RANGES,
     FPS,
@@ -16,7 +16,6 @@ from retarget_lib.data.synthetic.motions import (
     make_motion,
     motion_library,
 )
-from skeletons import contact_runs, make_skeleton
 
 SKELETONS = {
     "short_apose": make_skeleton(height=1.3, leg_frac=0.42, arm_deg=45.0),

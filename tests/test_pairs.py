@@ -3,18 +3,22 @@
 import numpy as np
 import pytest
 import torch
+from skeletons import contact_runs, make_skeleton
 
 from retarget_lib.core.rotations import quat_conjugate, quat_mul
-from retarget_lib.core.skeleton import FOOT_CONTACT_JOINTS
-from retarget_lib.core.skeleton import CANONICAL22, J, JointSetError, Skeleton
-from retarget_lib.core.transfer import (PRIMARY_CHILD, change_rest_pose, random_rest_rotations, rest_alignment,
-                                        retarget_ground_truth)
+from retarget_lib.core.skeleton import CANONICAL22, FOOT_CONTACT_JOINTS, J, JointSetError, Skeleton
+from retarget_lib.core.transfer import (
+    PRIMARY_CHILD,
+    change_rest_pose,
+    random_rest_rotations,
+    rest_alignment,
+    retarget_ground_truth,
+)
 from retarget_lib.data.splits import MotionId, tdcn_splits
 from retarget_lib.data.synthetic.motions import MOTION_FAMILIES, make_motion
 from retarget_lib.geometry.ik import apply_foot_contact_ik
 from retarget_lib.methods.copy import copy_rotations
 from retarget_lib.methods.copy_rest import copy_rotations_rest_compensated
-from skeletons import contact_runs, make_skeleton
 
 A_POSE = make_skeleton(height=1.5, leg_frac=0.45, arm_deg=45.0, spine_curve_deg=6.0)
 T_POSE = make_skeleton(height=1.9, leg_frac=0.53, arm_deg=0.0)

@@ -10,13 +10,26 @@ import trimesh
 
 from retarget_lib.core.skeleton import J
 from retarget_lib.data.synthetic.characters import make_character
-from retarget_lib.geometry.collision import (SPLIT_DEPTH, TriangleBVH, brute_force_candidate_pairs,
-                                             colliding_triangle_pairs, triangles_intersect)
+from retarget_lib.geometry.collision import (
+    SPLIT_DEPTH,
+    TriangleBVH,
+    brute_force_candidate_pairs,
+    colliding_triangle_pairs,
+    triangles_intersect,
+)
 from retarget_lib.geometry.cone_field import circumcircle, cone_distance_field
-from retarget_lib.geometry.geodesic import GeodesicDistances, geodesic_distances, geodesic_pair_weights
+from retarget_lib.geometry.geodesic import (
+    GeodesicDistances,
+    geodesic_distances,
+    geodesic_pair_weights,
+)
 from retarget_lib.geometry.normals import vertex_normals
-from retarget_lib.geometry.penetration import (InterpenetrationEnergy, interpenetration_energy, interpenetration_score,
-                                               plan_energy)
+from retarget_lib.geometry.penetration import (
+    InterpenetrationEnergy,
+    interpenetration_energy,
+    interpenetration_score,
+    plan_energy,
+)
 from retarget_lib.geometry.penetration_rate import cap_holes, penetration_rate, ray_winding_numbers
 
 FLAT = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]  # normal +z, circumcentre (.5, .5, 0)
@@ -335,8 +348,8 @@ def test_penetration_rate_of_a_box_half_inside():
 
 # ----------------------------------------------------------------------------- a synthetic character
 def test_character_rest_pose_is_clean_and_forearm_in_torso_is_not():
-    from retarget_lib.evaluation.bench_contact import forearm_in_torso_pose
     from retarget_lib.data.synthetic.characters import make_character
+    from retarget_lib.evaluation.bench_contact import forearm_in_torso_pose
 
     character = make_character("ada")
     energy = InterpenetrationEnergy(character.faces, character.rest_vertices)

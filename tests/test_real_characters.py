@@ -15,9 +15,16 @@ from retarget_lib.cli import main
 from retarget_lib.core.skeleton import CANONICAL22
 from retarget_lib.data.manifest import source
 from retarget_lib.data.sources.cmu import cmu_clip_path
-from retarget_lib.data.sources.real_characters import (PROPORTION_COLUMNS, REAL_DIR, SOURCE_ID, joint_map_path,
-                                                       load_real_character, measure_proportions,
-                                                       real_character_names, real_character_path)
+from retarget_lib.data.sources.real_characters import (
+    PROPORTION_COLUMNS,
+    REAL_DIR,
+    SOURCE_ID,
+    joint_map_path,
+    load_real_character,
+    measure_proportions,
+    real_character_names,
+    real_character_path,
+)
 from retarget_lib.data.status import check_sources
 from retarget_lib.files import DataError, sha256_file
 from retarget_lib.io import load_bvh, save_bvh

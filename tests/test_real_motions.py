@@ -7,7 +7,11 @@ from retarget_lib.core.ground import clip_floor, foot_positions, sole_heights, s
 from retarget_lib.core.skeleton import J
 from retarget_lib.data.sources import real_motions
 from retarget_lib.data.sources.real_characters import load_real_character, real_character_names
-from retarget_lib.data.sources.real_motions import load_real_motion, real_motion_names, real_motion_path
+from retarget_lib.data.sources.real_motions import (
+    load_real_motion,
+    real_motion_names,
+    real_motion_path,
+)
 from retarget_lib.evaluation.real import CLIP_FRAMES, ROM_START
 from retarget_lib.files import DataError
 from retarget_lib.io.bvh import load_bvh

@@ -6,8 +6,15 @@ import pytest
 from retarget_lib.core.motion import Motion
 from retarget_lib.data.sources.real_characters import load_real_character
 from retarget_lib.data.synthetic.characters import make_character
-from retarget_lib.evaluation.real import (MEASURES, RealClip, _methods, evaluate_real, real_measures, real_table,
-                                         welded)
+from retarget_lib.evaluation.real import (
+    MEASURES,
+    RealClip,
+    _methods,
+    evaluate_real,
+    real_measures,
+    real_table,
+    welded,
+)
 from retarget_lib.methods.retarget import on_the_ground
 
 pytestmark = pytest.mark.data

@@ -7,10 +7,10 @@ import torch
 
 from retarget_lib.core.kinematics import align_local_rotations, forward_kinematics
 from retarget_lib.core.measures import leg_length
-from retarget_lib.losses import bone_direction_loss
-from retarget_lib.models import build_model
 from retarget_lib.core.rotations import quat_normalize
 from retarget_lib.core.skeleton import CANONICAL22_PARENTS
+from retarget_lib.losses import bone_direction_loss
+from retarget_lib.models import build_model
 
 PARENTS = CANONICAL22_PARENTS
 

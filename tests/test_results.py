@@ -95,7 +95,9 @@ def test_the_stored_results_cover_the_shipped_checkpoints():
     # a retrained checkpoint or a new row without stored numbers must be followed by `make tables`;
     # a code change is only flagged (the notebooks' live re-runs check that the numbers still hold)
     from retarget_lib.evaluation.contact import stored_contact_results
-    from retarget_lib.evaluation.contact_mixamo_convention import stored_mixamo_convention_contact_results
+    from retarget_lib.evaluation.contact_mixamo_convention import (
+        stored_mixamo_convention_contact_results,
+    )
     from retarget_lib.evaluation.real import stored_real_results
     from retarget_lib.evaluation.tdcn import stored_table4
 

@@ -2,15 +2,15 @@
 
 import numpy as np
 import pytest
+from skeletons import assert_same_up_to_floor_shift
 
 from retarget_lib.cli import main
-from retarget_lib.io.joint_maps import to_canonical22
 from retarget_lib.core.transfer import retarget_ground_truth
 from retarget_lib.data.sources.cmu import cmu_clip_path
 from retarget_lib.io import load_bvh, save_bvh
+from retarget_lib.io.joint_maps import to_canonical22
 from retarget_lib.methods.copy import copy_rotations
 from retarget_lib.methods.retarget import resolve_target
-from skeletons import assert_same_up_to_floor_shift
 
 pytestmark = pytest.mark.data  # CMU clips as sources and targets (`retarget data build`)
 

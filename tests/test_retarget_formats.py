@@ -6,6 +6,9 @@ the synthetic characters. Every GLB the command writes passes the Khronos valida
 
 import numpy as np
 import pytest
+from skeletons import assert_same_up_to_floor_shift
+from test_bad_inputs import assert_cli_error
+from test_gltf import _unreal_rig, assert_valid
 
 from retarget_lib.cli import main
 from retarget_lib.core.rig import Rig
@@ -18,9 +21,6 @@ from retarget_lib.io.amass import load_amass, save_amass
 from retarget_lib.io.gltf import load_gltf_motion, load_gltf_rig
 from retarget_lib.io.rig_maps import map_joints
 from retarget_lib.skeleton import fold_to_canonical22, to_canonical22
-from test_bad_inputs import assert_cli_error
-from skeletons import assert_same_up_to_floor_shift
-from test_gltf import _unreal_rig, assert_valid
 
 
 @pytest.fixture(scope="module")

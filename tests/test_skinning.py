@@ -8,7 +8,12 @@ import torch
 import trimesh
 
 from retarget_lib.core.kinematics import forward_kinematics
-from retarget_lib.core.rotations import quat_from_axis_angle, quat_identity, quat_normalize, quat_rotate
+from retarget_lib.core.rotations import (
+    quat_from_axis_angle,
+    quat_identity,
+    quat_normalize,
+    quat_rotate,
+)
 from retarget_lib.core.skinning import linear_blend_skinning, subsample_mesh
 from retarget_lib.data.synthetic.characters import make_character
 

@@ -84,7 +84,11 @@ def test_default_contact_method_with_eso_returns_a_clip_on_its_own_character():
 
 
 def test_default_contact_network_beats_copy_on_the_contact_cases(contact_network):
-    from retarget_lib.evaluation.contact import _skeleton_method, contact_cases, evaluate_contact_methods
+    from retarget_lib.evaluation.contact import (
+        _skeleton_method,
+        contact_cases,
+        evaluate_contact_methods,
+    )
 
     cases = contact_cases("fast")[::5]  # 8 of the 36 cases, skinny and bulky targets, several families
     methods = {"network": lambda case, eint: contact_network(case.source, case.target),

@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from test_untrusted_harness import memory_cap, retarget_argv, run_contained
 
 from retarget_lib.data.synthetic.amass_clip import AMASS_CLIP_PATH
 from retarget_lib.errors import AMASSError, LimitError
 from retarget_lib.io.amass import load_amass
-from test_untrusted_harness import memory_cap, retarget_argv, run_contained
 
 
 def clip_arrays() -> dict[str, np.ndarray]:

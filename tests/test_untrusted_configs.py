@@ -6,6 +6,7 @@ import pytest
 import yaml
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
+from test_untrusted_harness import kato_glb, retarget_argv, run_contained
 
 import retarget_lib.training.run
 from retarget_lib.config import load_config
@@ -13,7 +14,6 @@ from retarget_lib.config_schema import MAX_TRAINING_BYTES, memory_problem, valid
 from retarget_lib.core.skeleton import JointSetError
 from retarget_lib.files import REPO_ROOT
 from retarget_lib.io.rig_maps import load_mapping_file
-from test_untrusted_harness import kato_glb, retarget_argv, run_contained
 
 CONFIGS = REPO_ROOT / "configs"
 BOMB = "a: &a [x, x, x, x, x, x, x, x, x, x]\n" + "".join(

@@ -10,14 +10,14 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from test_gltf import random_motion
+from test_untrusted_harness import memory_cap, retarget_argv, run_contained
 
 from retarget_lib.core.rig import Rig
 from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.errors import FBXError, LimitError
 from retarget_lib.io import fbx, fbx_write
 from retarget_lib.io.fbx import fbx_missing, load_fbx_motion, load_fbx_rig
-from test_gltf import random_motion
-from test_untrusted_harness import memory_cap, retarget_argv, run_contained
 
 pytestmark = pytest.mark.skipif(fbx_missing() is not None, reason=f"fbx extra not installed: {fbx_missing()}")
 

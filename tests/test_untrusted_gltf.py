@@ -15,11 +15,11 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from test_untrusted_harness import kato_parts, memory_cap, pack_glb, retarget_argv, run_contained  # noqa: F401
 
 from retarget_lib.errors import GLTFError, LimitError
 from retarget_lib.io.bvh import load_bvh
 from retarget_lib.io.gltf import load_gltf_motion, load_gltf_rig
-from test_untrusted_harness import kato_parts, memory_cap, pack_glb, retarget_argv, run_contained  # noqa: F401
 
 IBM, TIMES = 4, 5  # accessor indices in kato's GLB: inverse bind matrices, key times
 

@@ -25,12 +25,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from test_gltf import random_motion
 
 from retarget_lib.cli import main
 from retarget_lib.core.rig import Rig
 from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.io.gltf_write import save_glb
-from test_gltf import random_motion
 
 #: the memory a case may take beyond what the process already uses
 CAP_BYTES = 2 * 2**30

@@ -11,12 +11,19 @@ import time
 from pathlib import Path
 
 import pytest
+from test_untrusted_harness import kato_glb, kato_parts, retarget_argv, run_contained, split_glb  # noqa: F401
 
 from retarget_lib.errors import GLTFError, OutputPathError
-from retarget_lib.files import (REPO_ROOT, TEMP_PREFIX, atomic_write, cache_dir, input_ledger, read_beside,
-                                sweep_stale_temps)
+from retarget_lib.files import (
+    REPO_ROOT,
+    TEMP_PREFIX,
+    atomic_write,
+    cache_dir,
+    input_ledger,
+    read_beside,
+    sweep_stale_temps,
+)
 from retarget_lib.io.gltf import load_gltf_rig
-from test_untrusted_harness import kato_glb, kato_parts, retarget_argv, run_contained, split_glb  # noqa: F401
 
 
 def gltf_with_buffer(folder: Path, uri: str, blob: bytes, kato_parts) -> Path:  # noqa: F811

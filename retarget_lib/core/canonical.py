@@ -9,14 +9,28 @@ only takes index maps ``{joint index: canonical index}``.
 
 from __future__ import annotations
 
-from typing import Mapping, Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 import torch
 
 from .motion import Motion
-from .rotations import matrix_to_quat, quat_between, quat_canonical, quat_conjugate, quat_mul, quat_rotate
-from .skeleton import CANONICAL22, CANONICAL22_PARENTS, J, JointSetError, Skeleton, canonical22_skeleton
+from .rotations import (
+    matrix_to_quat,
+    quat_between,
+    quat_canonical,
+    quat_conjugate,
+    quat_mul,
+    quat_rotate,
+)
+from .skeleton import (
+    CANONICAL22,
+    CANONICAL22_PARENTS,
+    J,
+    JointSetError,
+    Skeleton,
+    canonical22_skeleton,
+)
 from .virtual_joints import MAY_BE_ABSENT, with_virtual_joints
 
 

@@ -11,7 +11,6 @@ from .kinematics import forward_kinematics
 from .skeleton import Skeleton
 from .skinning import linear_blend_skinning, subsample_mesh
 
-
 #: bulk below which a character counts as "skinny", and at or above which as "bulky"
 SKINNY_BELOW, BULKY_FROM = 0.85, 1.25
 
@@ -73,11 +72,11 @@ class Character:
         """``(22, 3)`` world joint positions in the rest pose (metres)."""
         return self.skeleton.rest_positions()
 
-    def copy(self) -> "Character":
+    def copy(self) -> Character:
         return Character(self.name, self.skeleton.copy(), self.rest_vertices.copy(),
                          self.faces.copy(), self.weights.copy(), self.bulk, dict(self.style))
 
-    def decimated(self, vertices: int) -> "Character":
+    def decimated(self, vertices: int) -> Character:
         """A copy whose mesh is reduced to about ``vertices`` vertices, skinning weights carried
         (:func:`~retarget_lib.core.skinning.subsample_mesh`); the skeleton is the same.
 

@@ -22,9 +22,10 @@ sequential joint steps.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import NamedTuple, Sequence, cast
+from typing import NamedTuple, cast
 
 import numpy as np
 import torch

@@ -72,7 +72,7 @@ class Motion:
         """Length in seconds."""
         return self.num_frames / self.fps
 
-    def copy(self, **changes) -> "Motion":
+    def copy(self, **changes) -> Motion:
         kw: dict[str, Any] = dict(skeleton=self.skeleton.copy(), rotations=self.rotations.copy(),
                   root_positions=self.root_positions.copy(), fps=self.fps, name=self.name,
                   meta=dict(self.meta))
@@ -95,12 +95,12 @@ class Motion:
         return cast(np.ndarray, self.fk().positions)  # NumPy in, NumPy out
 
     # ---------------------------------------------------------------- editing
-    def slice(self, start: int, stop: int | None = None) -> "Motion":
+    def slice(self, start: int, stop: int | None = None) -> Motion:
         """Frames ``start:stop`` as a new motion."""
         return self.copy(rotations=self.rotations[start:stop].copy(),
                          root_positions=self.root_positions[start:stop].copy())
 
-    def windows(self, length: int, stride: int | None = None, pad_last: bool = False) -> list["Motion"]:
+    def windows(self, length: int, stride: int | None = None, pad_last: bool = False) -> list[Motion]:
         """Cut into fixed-length windows.
 
         Args:
@@ -125,7 +125,7 @@ class Motion:
             starts.append(T - length)
         return [self.slice(s, s + length) for s in starts]
 
-    def resample(self, fps: float) -> "Motion":
+    def resample(self, fps: float) -> Motion:
         """Resample in time: slerp for rotations, linear for root positions.
 
         Args:
@@ -146,7 +146,7 @@ class Motion:
                              f"gives {n_new} frames, beyond the limit of {MAX_FRAMES}")
         return self._at_frames(np.arange(n_new) * (self.fps / fps), fps)
 
-    def at_times(self, seconds: np.ndarray, fps: float | None = None) -> "Motion":
+    def at_times(self, seconds: np.ndarray, fps: float | None = None) -> Motion:
         """The motion at arbitrary times: slerp for rotations, linear for root positions.
 
         Args:
@@ -158,7 +158,7 @@ class Motion:
         """
         return self._at_frames(np.asarray(seconds, dtype=np.float64) * self.fps, self.fps if fps is None else fps)
 
-    def _at_frames(self, t: np.ndarray, fps: float) -> "Motion":
+    def _at_frames(self, t: np.ndarray, fps: float) -> Motion:
         """Frames at fractional frame positions ``t (N,)`` (clamped), with frame rate ``fps``."""
         T, n_new = self.num_frames, len(t)
         t = np.clip(t, 0.0, T - 1)
@@ -170,7 +170,7 @@ class Motion:
         root = self.root_positions[i0] * (1 - a[:, None]) + self.root_positions[i1] * a[:, None]
         return self.copy(rotations=rot.numpy(), root_positions=root, fps=fps)
 
-    def mirror(self) -> "Motion":
+    def mirror(self) -> Motion:
         """Left/right mirror image across the YZ plane (x -> -x); needs a symmetric joint set.
 
         Left and right joints swap (names starting with Left/Right); rotations are reflected
@@ -209,7 +209,7 @@ class Motion:
         fwd[:, 1] = 0.0
         return fwd / np.maximum(np.linalg.norm(fwd, axis=-1, keepdims=True), 1e-9)
 
-    def normalize_root(self, face_z: bool = True, on_ground: bool = True) -> "Motion":
+    def normalize_root(self, face_z: bool = True, on_ground: bool = True) -> Motion:
         """Put frame 0's root above the origin, facing +Z; optionally feet on the ground (y = 0).
 
         Rotates the whole clip about world +Y so the character faces +Z at frame 0, translates so the
@@ -232,7 +232,7 @@ class Motion:
             out.root_positions[:, 1] -= low
         return out
 
-    def with_skeleton(self, skeleton: Skeleton) -> "Motion":
+    def with_skeleton(self, skeleton: Skeleton) -> Motion:
         """The same local rotations on another skeleton with the same joint names (a 'copy')."""
         if skeleton.joint_names != self.skeleton.joint_names:
             raise ValueError("with_skeleton needs the same joint names")

@@ -14,7 +14,8 @@ feet's rest heights they use are those of :mod:`retarget_lib.core.measures`.
 
 from __future__ import annotations
 
-from typing import NamedTuple, Sequence, cast
+from collections.abc import Sequence
+from typing import NamedTuple, cast
 
 import numpy as np
 import torch

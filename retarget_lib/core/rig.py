@@ -68,7 +68,7 @@ class Rig:
                              f"{', '.join(MAY_BE_ABSENT)} may be absent (missing: {sorted(absent)})")
 
     @classmethod
-    def from_character(cls, character: Character) -> "Rig":
+    def from_character(cls, character: Character) -> Rig:
         """A canonical-22 character as a rig (identity joint map)."""
         return cls(character.name, character.skeleton.copy(), character.rest_vertices.copy(),
                    character.faces.copy(), character.weights.copy(), {c: c for c in range(22)},

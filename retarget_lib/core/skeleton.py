@@ -11,6 +11,7 @@ al. 2018) and TDCN (Kim et al. 2020, Sec. 5 "Data preprocessing").
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+
 import numpy as np
 
 from ..errors import RetargetInputError
@@ -99,11 +100,11 @@ class Skeleton:
     def children(self, j: int) -> list[int]:
         return [c for c, p in enumerate(self.parents) if p == j]
 
-    def copy(self) -> "Skeleton":
+    def copy(self) -> Skeleton:
         return Skeleton(self.joint_names, self.parents, self.offsets.copy(),
                         {k: v.copy() for k, v in self.end_sites.items()})
 
-    def scaled(self, factor: float) -> "Skeleton":
+    def scaled(self, factor: float) -> Skeleton:
         """The same skeleton with every length multiplied by ``factor``."""
         return Skeleton(self.joint_names, self.parents, self.offsets * factor,
                         {k: v * factor for k, v in self.end_sites.items()})

@@ -23,9 +23,23 @@ import torch
 from .kinematics import align_local_rotations
 from .motion import Motion
 from .quantities import leg_ratio
-from .rotations import (frame_rotation, quat_between, quat_canonical, quat_conjugate, quat_from_axis_angle,
-                        quat_identity, quat_rotate)
-from .skeleton import CANONICAL22, CANONICAL22_PARENTS, J, JointSetError, Skeleton, canonical22_skeleton
+from .rotations import (
+    frame_rotation,
+    quat_between,
+    quat_canonical,
+    quat_conjugate,
+    quat_from_axis_angle,
+    quat_identity,
+    quat_rotate,
+)
+from .skeleton import (
+    CANONICAL22,
+    CANONICAL22_PARENTS,
+    J,
+    JointSetError,
+    Skeleton,
+    canonical22_skeleton,
+)
 
 __all__ = [
     "PRIMARY_CHILD",

@@ -21,7 +21,7 @@ BVH, glTF/GLB/VRM, FBX and SMPL-X files (:mod:`retarget_lib.io.joint_maps`) and 
 
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 

@@ -22,9 +22,9 @@ motion except the appendix's 30 test motions.
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Mapping, Sequence
 
 from ..core.character import Character
 from ..core.motion import Motion

@@ -3,8 +3,9 @@ seen / unseen characters and motions, and the source -> target pairs of each sce
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import NamedTuple, Sequence
+from typing import NamedTuple
 
 import numpy as np
 

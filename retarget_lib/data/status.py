@@ -19,11 +19,11 @@ import numpy as np
 from ..errors import RetargetInputError
 from ..files import DataError, cache_dir, sha256_file, sweep_stale_temps
 from .manifest import checkpoint, load_manifest, mixamo_local_dir, source
+from .sources import real_characters, real_motions
 from .sources.cmu import cmu_clip_path
+from .sources.mixamo_local import read_splits_file, scan_mixamo_folder
 from .sources.model_viewer import SOURCE_ID as MODEL_VIEWER
 from .sources.model_viewer import model_viewer_path
-from .sources.mixamo_local import read_splits_file, scan_mixamo_folder
-from .sources import real_characters, real_motions
 from .synthetic.dataset import dataset_path, fingerprint_of
 
 

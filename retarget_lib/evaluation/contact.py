@@ -41,10 +41,10 @@ from __future__ import annotations
 
 import json
 import time
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
-from typing import Callable, Mapping
 
 import numpy as np
 import pandas as pd
@@ -53,7 +53,12 @@ from ..core.character import Character
 from ..core.measures import estimated_standing_height, foot_rest_heights
 from ..core.motion import Motion
 from ..core.quantities import FOOT_CONTACT_IDS
-from ..data.manifest import CheckpointEntry, checkpoint_entries, default_checkpoint, table_checkpoints
+from ..data.manifest import (
+    CheckpointEntry,
+    checkpoint_entries,
+    default_checkpoint,
+    table_checkpoints,
+)
 from ..data.sources.mannequin import load_mannequin
 from ..data.synthetic.characters import make_character
 from ..data.synthetic.motions import body_radii_from_mesh, make_motion
@@ -62,7 +67,12 @@ from ..geometry.ik import apply_foot_contact_ik
 from ..geometry.penetration import InterpenetrationEnergy, interpenetration_score
 from ..geometry.penetration_rate import penetration_rate
 from ..losses.contact import TABLE3_ROWS as ENERGY_ROWS
-from ..methods.contact import contact_clip, load_contact_model, retarget_with_eso, retarget_with_network
+from ..methods.contact import (
+    contact_clip,
+    load_contact_model,
+    retarget_with_eso,
+    retarget_with_network,
+)
 from ..methods.registry import get_method
 from .paper import CONTACT_PAPER_METRICS, PAPER_TABLE1, PAPER_TABLE3, PAPER_TABLE5, PAPER_TABLE6
 from .results import StoredResult, compare_with_stored, load_result, write_result
@@ -129,13 +139,13 @@ class ContactCase:
     contact_rich: bool
 
 
-@lru_cache(maxsize=None)
+@cache
 def _radii(name: str):
     c = _character(name)
     return body_radii_from_mesh(c.skeleton, c.rest_vertices, c.weights)
 
 
-@lru_cache(maxsize=None)
+@cache
 def _character(name: str) -> Character:
     return load_mannequin() if name == CONTACT_SOURCE else make_character(name)
 

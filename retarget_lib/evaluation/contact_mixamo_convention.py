@@ -28,8 +28,15 @@ import pandas as pd
 from ..data.synthetic.mixamo_convention import load_mixamo_convention, mixamo_convention_split
 from ..geometry.contacts import transfer_contacts
 from ..methods.contact import contact_clip
-from .contact import (CONTACT_PROFILES, CONTACT_RICH, ContactCase, contact_methods, contact_row_checkpoints,
-                      evaluate_contact_methods, summary_table)
+from .contact import (
+    CONTACT_PROFILES,
+    CONTACT_RICH,
+    ContactCase,
+    contact_methods,
+    contact_row_checkpoints,
+    evaluate_contact_methods,
+    summary_table,
+)
 from .results import StoredResult, load_result, write_result
 from .tdcn import write_table
 

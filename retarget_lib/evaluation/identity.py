@@ -12,7 +12,8 @@ character, two synthetic clips on the unseen mannequin-x body, and the three rea
 
 from __future__ import annotations
 
-from typing import Any, Callable, NamedTuple
+from collections.abc import Callable
+from typing import Any, NamedTuple
 
 import numpy as np
 import pandas as pd

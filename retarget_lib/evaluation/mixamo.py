@@ -30,9 +30,9 @@ also on root-relative positions (root subtracted from both, i.e. pose only).
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from functools import partial
 from pathlib import Path
-from typing import Mapping, Sequence
 
 import numpy as np
 import pandas as pd
@@ -43,8 +43,17 @@ from ..data.mixamo_splits import folder_split, paper_pairs
 from ..data.sources.mixamo_local import MixamoFolder, load_mixamo_folder
 from ..files import atomic_write
 from ..methods.tdcn import load_generator, retarget_motion_with
-from .tdcn import (EvalCase, Method, evaluate_methods, markdown_table, normalized_mse, short_chunks,
-                   table_from_cases, tdcn_methods, truth_frames)
+from .tdcn import (
+    EvalCase,
+    Method,
+    evaluate_methods,
+    markdown_table,
+    normalized_mse,
+    short_chunks,
+    table_from_cases,
+    tdcn_methods,
+    truth_frames,
+)
 
 __all__ = ["METHOD_FPS", "CASE_COLUMNS", "same_length",
            "mixamo_scores", "mixamo_tdcn_cases", "is_paper_case", "checkpoint_method", "mixamo_tdcn_per_case",

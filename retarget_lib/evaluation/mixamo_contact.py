@@ -20,8 +20,8 @@ of each clip, Eint every 3rd frame; ``paper``: whole clips, every frame).
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 import pandas as pd
 
@@ -31,8 +31,17 @@ from ..data.sources.mixamo_local import MixamoFolder, load_mixamo_folder
 from ..files import atomic_write
 from ..geometry.contacts import transfer_contacts
 from ..methods.contact import contact_clip
-from .contact import (CONTACT_PROFILES, METRICS, TABLE1_ROWS, TABLE3_ROWS, ContactCase, contact_methods,
-                      contact_row_checkpoints, evaluate_contact_methods, write_contact_tables)
+from .contact import (
+    CONTACT_PROFILES,
+    METRICS,
+    TABLE1_ROWS,
+    TABLE3_ROWS,
+    ContactCase,
+    contact_methods,
+    contact_row_checkpoints,
+    evaluate_contact_methods,
+    write_contact_tables,
+)
 from .mixamo import METHOD_FPS, same_length
 from .results import write_result
 

@@ -25,9 +25,9 @@ import os
 import platform
 import subprocess
 import sys
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Iterable, Mapping, Sequence
 
 import pandas as pd
 
@@ -183,7 +183,7 @@ def write_result(frame: pd.DataFrame, out_dir: str | Path, name: str, *, command
             rows[row] = {"id": Path(ck).name, "sha256": sha256_file(ck)}
     code_files = loaded_library_files()
     provenance = {"name": name, "command": command, "commit": _git_commit(code_files),
-                  "date": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
+                  "date": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
                   "machine": machine_description(), "profile": profile, "seconds": round(seconds, 1),
                   "checkpoints": rows, "code": code_fingerprint(code_files), "code_files": code_files,
                   "sha256": sha256_file(csv_path)}

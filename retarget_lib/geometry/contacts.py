@@ -26,8 +26,8 @@ Conventions: metres, +Y up, ground at ``y = 0``, canonical 22 joints, 30 fps unl
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
-from typing import Iterable, Sequence
 
 import fcl
 import numpy as np
@@ -238,7 +238,7 @@ class SelfContacts:
         mask[self.frames[keep]] = True
         return mask
 
-    def remap(self, correspondence: np.ndarray) -> "SelfContacts":
+    def remap(self, correspondence: np.ndarray) -> SelfContacts:
         """The constraints on another mesh: each vertex id mapped through ``correspondence``.
 
         Rows that become identical within a frame are kept once, and a pair whose two vertices map

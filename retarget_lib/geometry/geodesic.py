@@ -138,7 +138,7 @@ class GeodesicDistances:
         return sum(d.nbytes for d in self._from_face.values())
 
 
-def geodesic_pair_weights(pairs, faces, geodesic: "np.ndarray | GeodesicDistances",
+def geodesic_pair_weights(pairs, faces, geodesic: np.ndarray | GeodesicDistances,
                           eta: float | None = None) -> np.ndarray:
     """Eq. 5: ``w_ri = eta^-1 min_{v_j in f_r, v_k in f_i} D(v_j, v_k)``.
 

@@ -20,7 +20,7 @@ Rotations are local, unit wxyz; ``quat_mul(a, b)`` applies ``b`` first (see
 
 from __future__ import annotations
 
-from typing import Mapping, Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 import torch

@@ -25,12 +25,19 @@ Units: metres; ``psi`` is a length (metres), ``E_int`` is in square metres.
 
 from __future__ import annotations
 
-from typing import Mapping, NamedTuple, Sequence
+from collections.abc import Mapping, Sequence
+from typing import NamedTuple
 
 import numpy as np
 import torch
 
-from .collision import TriangleBVH, as_face_array, as_face_pairs, as_vertex_array, colliding_triangle_pairs
+from .collision import (
+    TriangleBVH,
+    as_face_array,
+    as_face_pairs,
+    as_vertex_array,
+    colliding_triangle_pairs,
+)
 from .cone_field import CONE_HEIGHT, RADIUS_SCALE, SIGMA, check_cone, cone_distance_field
 from .geodesic import GeodesicDistances, geodesic_pair_weights
 from .normals import area_weighted_normals, faces_around, normals_at, vertex_face_csr

@@ -53,12 +53,12 @@ import zlib
 import numpy as np
 import torch
 
-from ..geometry.normals import vertex_normals
 from ..core.motion import Motion
 from ..core.rig import Rig
 from ..core.rotations import quat_to_euler
 from ..errors import FBXError
 from ..files import atomic_write
+from ..geometry.normals import vertex_normals
 from .untrusted import name_problem
 
 __all__ = ["KTIME_PER_SECOND", "FBX_VERSION", "save_fbx", "fbx_time_mode"]
@@ -100,7 +100,7 @@ class _Node:
         self.name, self.props = name, [_typed(p) for p in props]
         self.children: list[_Node] = []
 
-    def add(self, name: str, *props) -> "_Node":
+    def add(self, name: str, *props) -> _Node:
         """Append a child record and return it."""
         child = _Node(name, *props)
         self.children.append(child)

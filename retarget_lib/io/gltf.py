@@ -65,14 +65,30 @@ import torch
 from ..core.canonical import upright_rotation
 from ..core.motion import Motion
 from ..core.rig import Rig
-from ..core.virtual_joints import MAY_BE_ABSENT
 from ..core.rotations import matrix_to_quat, quat_slerp, quat_to_matrix
 from ..core.skeleton import J, Skeleton
+from ..core.virtual_joints import MAY_BE_ABSENT
 from ..errors import GLTFError, LimitError
 from ..files import read_beside, readable_file
 from .rig_maps import RIG_MAPS, joint_key, map_joints, read_mapping
-from .untrusted import (ANY, COUNT, FLAG, INDEX, INT, MAX_ARRAY_BYTES, NUMBER, TEXT, Arr, JsonObject, Obj,
-                        check_array_bytes, check_count, check_motion_samples, parse_json, typed_json)
+from .untrusted import (
+    ANY,
+    COUNT,
+    FLAG,
+    INDEX,
+    INT,
+    MAX_ARRAY_BYTES,
+    NUMBER,
+    TEXT,
+    Arr,
+    JsonObject,
+    Obj,
+    check_array_bytes,
+    check_count,
+    check_motion_samples,
+    parse_json,
+    typed_json,
+)
 
 __all__ = ["GLTFError", "NoSkinError", "MAX_FILE_BYTES", "MAX_NODES", "MAX_JOINTS", "MAX_VERTICES", "MAX_TRIANGLES",
            "MAX_FRAMES", "DEFAULT_FPS", "key_rate", "load_gltf_rig", "load_gltf_motion", "load_gltf_animation",

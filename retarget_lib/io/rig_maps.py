@@ -39,7 +39,7 @@ file and every joint it could not map. Joints left unmapped (fingers, twist bone
 from __future__ import annotations
 
 import os
-from typing import Mapping, Sequence
+from collections.abc import Mapping, Sequence
 
 from ..core.skeleton import CANONICAL22, CANONICAL22_PARENTS, J, JointSetError
 from ..errors import short_repr

@@ -63,8 +63,8 @@ the metre values as they are.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
-from typing import Callable, Sequence
 
 import numpy as np
 import torch
@@ -175,13 +175,13 @@ class ContactEnergyWeights:
         return value / self.length_unit ** LENGTH_POWER[term]
 
     @classmethod
-    def eso(cls) -> "ContactEnergyWeights":
+    def eso(cls) -> ContactEnergyWeights:
         """App. B.1's relaxed test-time values ``ρ = 10, β = 1, λ = 100``, with ``hold`` and ``γ``
         as :meth:`relaxed` sets them."""
         return cls().relaxed()
 
     @classmethod
-    def row(cls, name: str) -> "ContactEnergyWeights":
+    def row(cls, name: str) -> ContactEnergyWeights:
         """Training weights for a Table 3 row (:data:`TABLE3_ROWS`).
 
         Raises:
@@ -191,12 +191,12 @@ class ContactEnergyWeights:
             raise ValueError(f"unknown Table 3 row {name!r}; rows: {list(TABLE3_ROWS)}")
         return cls(**TABLE3_ROWS[name])
 
-    def relaxed(self) -> "ContactEnergyWeights":
+    def relaxed(self) -> ContactEnergyWeights:
         """These weights with ESO's relaxed ``ρ = 10, β = 1, λ = 100`` and ``hold = 100`` (App. B.1);
         ``γ`` and the switches kept."""
         return replace(self, rho=10.0, beta_int=1.0, lambda_j2j=100.0, hold=100.0)
 
-    def with_foot_ramp(self, epoch: int, epochs: int) -> "ContactEnergyWeights":
+    def with_foot_ramp(self, epoch: int, epochs: int) -> ContactEnergyWeights:
         """``γ · epoch / epochs`` (App. B.1: "gradually introduce the foot contact loss")."""
         if epochs <= 0 or not 0 <= epoch <= epochs:
             raise ValueError(f"need 0 <= epoch <= epochs and epochs > 0, got {epoch}/{epochs}")

@@ -11,9 +11,10 @@ Source contacts are detected once per clip and cached (``.cache/contact_training
 from __future__ import annotations
 
 import os
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from functools import partial
-from typing import Any, Callable, Mapping
+from typing import Any
 
 import numpy as np
 import torch
@@ -26,7 +27,12 @@ from ..core.transfer import transfer_rotations
 from ..data.checkpoints import load_state
 from ..devices import module_device, resolve_device
 from ..files import atomic_write, cache_dir, quantised_sha256
-from ..geometry.contacts import SelfContacts, detect_foot_contacts, detect_self_contacts, transfer_contacts
+from ..geometry.contacts import (
+    SelfContacts,
+    detect_foot_contacts,
+    detect_self_contacts,
+    transfer_contacts,
+)
 from ..geometry.penetration import InterpenetrationEnergy
 from ..models.georet import GeometryConditionedRNN, ResidualBase, motion_features, pose_outputs
 from .eso import encoder_space_optimization, eso_source, use_compiled

@@ -4,7 +4,7 @@ by Kim et al. 2020: GRU, dense or dilated backbones), run like TDCN (:mod:`.tdcn
 from __future__ import annotations
 
 import os
-from typing import Callable
+from collections.abc import Callable
 
 import torch
 

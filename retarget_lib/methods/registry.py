@@ -14,8 +14,8 @@ A method's ``retarget`` function takes the canonical-22 source motion and the ta
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 from ..core.motion import Motion
 from ..data.manifest import default_checkpoint

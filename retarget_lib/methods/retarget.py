@@ -36,9 +36,9 @@ away (a corrupt checkpoint) is refused, not written.
 from __future__ import annotations
 
 import os
+from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Iterator
 
 import numpy as np
 

@@ -32,7 +32,8 @@ A2 (unbalanced data) and A3 (no ``L_h``) use the same network as "ours"; their r
 
 from __future__ import annotations
 
-from typing import Any, Mapping, NamedTuple
+from collections.abc import Mapping
+from typing import Any, NamedTuple
 
 from torch import nn
 
@@ -42,7 +43,13 @@ from ..config_schema import TDCN as TDCN_SCHEMA
 from .discriminator import PatchDiscriminator
 from .features import FeatureNormalizer, discriminator_features, generator_features
 from .nkn import NKNDiscriminator, NKNGenerator
-from .tdcn import DilatedStack, GeneratorOutput, TDCNGenerator, normalize_quaternions, quaternion_norm
+from .tdcn import (
+    DilatedStack,
+    GeneratorOutput,
+    TDCNGenerator,
+    normalize_quaternions,
+    quaternion_norm,
+)
 
 __all__ = [
     "build_model",

@@ -32,7 +32,7 @@ clip (instance statistics), so the 31-frame locality no longer holds.
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import torch
 from torch import nn

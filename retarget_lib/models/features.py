@@ -41,7 +41,7 @@ Discriminator input (TDCN Sec. 4.2, Eqs. 9-12 and 18-20). Per frame pair ``(t-1,
 
 from __future__ import annotations
 
-from typing import Iterable, Sequence
+from collections.abc import Iterable, Sequence
 
 import torch
 from torch import nn
@@ -284,7 +284,7 @@ class FeatureNormalizer(nn.Module):
         return not bool(self.fitted)
 
     @torch.no_grad()
-    def fit(self, features: Tensor | Iterable[Tensor]) -> "FeatureNormalizer":
+    def fit(self, features: Tensor | Iterable[Tensor]) -> FeatureNormalizer:
         """Compute per-channel mean and std over batch and time.
 
         Args:

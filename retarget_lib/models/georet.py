@@ -44,7 +44,8 @@ integration) and :func:`retarget_lib.core.skinning.linear_blend_skinning` with i
 
 from __future__ import annotations
 
-from typing import NamedTuple, Sequence
+from collections.abc import Sequence
+from typing import NamedTuple
 
 import numpy as np
 import torch
@@ -240,7 +241,7 @@ class ResidualBase(NamedTuple):
     rotations: Tensor
     root_velocity: Tensor
 
-    def frame(self, t: int) -> "ResidualBase":
+    def frame(self, t: int) -> ResidualBase:
         """Frame ``t``: ``rotations (B, 22, 4)``, ``root_velocity (B, 3)``."""
         return ResidualBase(self.rotations[:, t], self.root_velocity[:, t])
 

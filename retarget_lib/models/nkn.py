@@ -41,7 +41,7 @@ and a linear layer → one logit per clip. The sigmoid cross-entropy belongs to 
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import torch
 from torch import nn
@@ -50,10 +50,23 @@ from ..core.kinematics import forward_kinematics
 from ..core.measures import nkn_height
 from ..core.skeleton import CANONICAL22_PARENTS
 from .compiling import compile_frame_step
-from .features import (NUM_JOINTS, FeatureNormalizer, batched_offsets, nkn_input_channels,
-                       nkn_source_features, root_velocities, source_local_positions)
-from .tdcn import (DEFAULT_SLOPE, DilatedStack, GeneratorOutput, edge_pad, init_identity_head,
-                   normalize_quaternions)
+from .features import (
+    NUM_JOINTS,
+    FeatureNormalizer,
+    batched_offsets,
+    nkn_input_channels,
+    nkn_source_features,
+    root_velocities,
+    source_local_positions,
+)
+from .tdcn import (
+    DEFAULT_SLOPE,
+    DilatedStack,
+    GeneratorOutput,
+    edge_pad,
+    init_identity_head,
+    normalize_quaternions,
+)
 
 Tensor = torch.Tensor
 

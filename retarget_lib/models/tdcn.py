@@ -62,7 +62,8 @@ batch 1, features + network + FK: ≈ 88 ms fused vs ≈ 96 ms unfused at C=1024
 
 from __future__ import annotations
 
-from typing import NamedTuple, Sequence
+from collections.abc import Sequence
+from typing import NamedTuple
 
 import torch
 import torch.nn.functional as F
@@ -72,8 +73,14 @@ from ..core.kinematics import align_local_rotations
 from ..core.measures import leg_length
 from ..core.rotations import quat_conjugate, quat_mul, quat_normalize
 from ..core.skeleton import CANONICAL22_PARENTS
-from .features import (NUM_JOINTS, FeatureNormalizer, generator_features, generator_input_channels,
-                       residual_generator_features, residual_input_channels)
+from .features import (
+    NUM_JOINTS,
+    FeatureNormalizer,
+    generator_features,
+    generator_input_channels,
+    residual_generator_features,
+    residual_input_channels,
+)
 
 Tensor = torch.Tensor
 
@@ -378,7 +385,7 @@ class DilatedStack(nn.Module):
             outs.append(h)
         return torch.stack(outs)
 
-    def fuse_for_inference(self) -> "DilatedStack":
+    def fuse_for_inference(self) -> DilatedStack:
         """Fold BatchNorm into the convs and drop dropout (eval-only afterwards). Returns ``self``."""
         self.eval()
         for m in self.modules():
@@ -480,7 +487,7 @@ class TDCNGenerator(nn.Module):
     def fused(self) -> bool:
         return self.body.fused
 
-    def fuse_for_inference(self) -> "TDCNGenerator":
+    def fuse_for_inference(self) -> TDCNGenerator:
         """Fold BatchNorm into the convs, drop dropout, switch to the GEMM eval path.
 
         In place and irreversible (the model can no longer be trained; load weights *before*
@@ -489,7 +496,7 @@ class TDCNGenerator(nn.Module):
         self.body.fuse_for_inference()
         return self.eval()
 
-    def train(self, mode: bool = True) -> "TDCNGenerator":
+    def train(self, mode: bool = True) -> TDCNGenerator:
         if mode and self.fused:
             raise RuntimeError("this TDCNGenerator was fused for inference and cannot be trained")
         return super().train(mode)

@@ -231,7 +231,7 @@ def index_html(path: LearningPath, sources: dict[str, str], timings: dict[str, d
             f'<td>{workshop}</td><td class="note">{html.escape(sources.get(les.file, ""))}</td></tr>')
     total = sum(les.minutes for les in path.lessons)
     total_ws = sum(les.minutes for les in path.lessons if les.workshop)
-    built = dt.datetime.now(dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    built = dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8">
 <meta name="viewport" content="width=device-width, initial-scale=1.0">
@@ -275,7 +275,7 @@ def _source_for(lesson: Lesson, executed: Path | None, committed: Path) -> tuple
     if executed is not None:
         run = executed / lesson.file
         if run.exists():
-            stamp = dt.datetime.fromtimestamp(run.stat().st_mtime, dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+            stamp = dt.datetime.fromtimestamp(run.stat().st_mtime, dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
             return run, f"executed headless {stamp}"
     return committed / lesson.file, "outputs as committed in notebooks/ (not re-executed)"
 

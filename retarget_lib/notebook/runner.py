@@ -79,7 +79,7 @@ def run_notebook(notebook: Path, out_dir: Path, timeout: int = 900, force: bool 
     with atomic_write(out_dir / notebook.name, "w") as f:
         nbformat.write(nb, f)
     return {"seconds": round(time.perf_counter() - t0, 1), "cpu_seconds": round(_cpu_seconds() - c0, 1),
-            "finished": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
+            "finished": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
             "profile": active_profile()}
 
 

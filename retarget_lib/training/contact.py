@@ -49,12 +49,17 @@ from ..data.mixamo_splits import mixamo_contact_training_set
 from ..data.synthetic.dataset import dataset_path, fingerprint_of, load_synthetic
 from ..data.synthetic.mixamo_convention import data_path as mixamo_convention_path
 from ..data.synthetic.mixamo_convention import load_mixamo_convention, mixamo_convention_split
+from ..devices import autocast
 from ..geometry.contacts import vertex_correspondence
 from ..geometry.penetration import InterpenetrationEnergy
-from ..losses.contact import ContactEnergyWeights, foot_contact_energy, self_contact_energy, skeleton_energy
+from ..losses.contact import (
+    ContactEnergyWeights,
+    foot_contact_energy,
+    self_contact_energy,
+    skeleton_energy,
+)
 from ..methods.contact import ContactClip, contact_clip, eweak_rotations, model_from_config
 from ..models.georet import ResidualBase, batch_meshes, pose_outputs
-from ..devices import autocast
 from .distributed import SINGLE, Distributed, prepare_module
 from .loop import TrainTask, load_checkpoint, seed_everything
 

@@ -10,8 +10,9 @@ arguments.
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from pathlib import Path
-from typing import NamedTuple, Sequence
+from typing import NamedTuple
 
 from ..config import load_config
 from ..devices import resolve_device
@@ -66,9 +67,11 @@ def train_config(config_path: str | os.PathLike, overrides: Sequence[str] = (), 
     distributed.init_process_group(layout, place)
     try:
         if config.get("method") == "contact":
-            from .contact import ContactTraining as Training, export_model as export_fn
+            from .contact import ContactTraining as Training
+            from .contact import export_model as export_fn
         else:
-            from .tdcn import RetargetTraining as Training, export_generator as export_fn
+            from .tdcn import RetargetTraining as Training
+            from .tdcn import export_generator as export_fn
         run = Training(config, device=place, amp=amp, layout=layout)
         final = fit(run.task(), config, out, int(config["train"]["steps"]),
                     checkpoint_every=int(config["train"]["checkpoint_every"]), resume=resume, progress=progress,

@@ -79,15 +79,34 @@ import torch
 from ..core.measures import nkn_height
 from ..data.checkpoints import save_state
 from ..data.manifest import mixamo_local_dir
-from ..losses import (MotionTensors, PositionScale, TDCNLossWeights, adversarial_loss, adversarial_loss_discriminator,
-                      adversarial_loss_generator, bone_direction_loss, check_finite, cycle_loss, height_loss,
-                      orientation_loss, regularization_loss, sigmoid_ce_discriminator_loss,
-                      sigmoid_ce_generator_loss, total_generator_loss, twist_loss)
+from ..devices import autocast
+from ..losses import (
+    MotionTensors,
+    PositionScale,
+    TDCNLossWeights,
+    adversarial_loss,
+    adversarial_loss_discriminator,
+    adversarial_loss_generator,
+    bone_direction_loss,
+    check_finite,
+    cycle_loss,
+    height_loss,
+    orientation_loss,
+    regularization_loss,
+    sigmoid_ce_discriminator_loss,
+    sigmoid_ce_generator_loss,
+    total_generator_loss,
+    twist_loss,
+)
 from ..methods.tdcn import model_config
 from ..models import build_model, normalize_quaternions, resolve_config
-from ..models.features import (generator_features, nkn_source_features, residual_generator_features,
-                               root_velocities, source_local_positions)
-from ..devices import autocast
+from ..models.features import (
+    generator_features,
+    nkn_source_features,
+    residual_generator_features,
+    root_velocities,
+    source_local_positions,
+)
 from .distributed import SINGLE, Distributed, prepare_module
 from .loop import TrainTask, load_checkpoint, seed_everything
 from .tdcn_data import TrainingBatch, TrainingClips, WindowSampler, training_clips

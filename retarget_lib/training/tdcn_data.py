@@ -39,9 +39,10 @@ checkpoints, so a resumed run draws exactly the batches of an uninterrupted one.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import Mapping, NamedTuple, Sequence
+from typing import NamedTuple
 
 import torch
 

@@ -4,8 +4,8 @@ MP4 with imageio."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 import imageio.v3 as iio
 import numpy as np

@@ -4,7 +4,7 @@ categorical colours, and a fixed table of up to 24 distinct categorical colours.
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import matplotlib.pyplot as plt
 import numpy as np

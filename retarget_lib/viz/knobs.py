@@ -12,7 +12,7 @@ from __future__ import annotations
 import base64
 import html
 import uuid
-from typing import Callable, Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 

@@ -5,7 +5,7 @@ box that holds them and where each title goes.
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 

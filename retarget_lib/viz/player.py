@@ -13,7 +13,7 @@ to HTML show the PNG. ``mode="static"`` forces the still image and scrubber (no 
 
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
 
 import ipywidgets as widgets
 import numpy as np

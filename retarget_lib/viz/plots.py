@@ -3,7 +3,7 @@ lightweight stick figure for when 3-D rendering is not wanted."""
 
 from __future__ import annotations
 
-from typing import Mapping, Sequence
+from collections.abc import Mapping, Sequence
 
 import matplotlib.pyplot as plt
 import numpy as np

@@ -11,7 +11,8 @@ arrays. The floor sits at the lowest drawn point, so feet touch it.
 from __future__ import annotations
 
 import os
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 from matplotlib import colormaps
@@ -381,7 +382,7 @@ class SceneRenderer:
         return np.ascontiguousarray(self.pl.screenshot(return_img=True)[..., :3])
 
 
-def frame_and_title(r: "SceneRenderer", lo, hi, size: float, titles: Sequence[str], anchors,
+def frame_and_title(r: SceneRenderer, lo, hi, size: float, titles: Sequence[str], anchors,
                     points: np.ndarray | None = None, floor: float | None = None) -> None:
     """Fit the camera to the drawn subject, leaving a top band for the titles (re-fitted once if
     the labels need more than one line)."""

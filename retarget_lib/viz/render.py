@@ -9,8 +9,8 @@ to what is drawn (:mod:`retarget_lib.viz.camera`). Animations are :mod:`retarget
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 import numpy as np
 from PIL import Image

@@ -6,8 +6,9 @@ World conventions are the library's: +Y up, characters face +Z, a character's le
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 from matplotlib.colors import to_rgb
@@ -92,7 +93,7 @@ class Scene:
         """Characteristic size in metres (the largest extent of the points, at least 0.1)."""
         return max(float(np.ptp(self.points(), axis=0).max()), 0.1)
 
-    def translated(self, offset) -> "Scene":
+    def translated(self, offset) -> Scene:
         off = np.asarray(offset, dtype=np.float64)
         pp = self.point_pairs
         if pp is not None and np.asarray(pp).ndim == 3:

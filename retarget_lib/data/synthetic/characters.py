@@ -30,7 +30,7 @@ rotations.
 
 from __future__ import annotations
 
-from functools import lru_cache
+from functools import cache
 
 import numpy as np
 
@@ -122,7 +122,7 @@ def build_character(spec: CharacterSpec, target_vertices: int = 3000) -> Charact
                      bulk=spec.bulk, style=style)
 
 
-@lru_cache(maxsize=None)
+@cache
 def _cached(spec: CharacterSpec) -> Character:
     return build_character(spec)
 

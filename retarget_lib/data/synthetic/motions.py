@@ -18,14 +18,22 @@ stays planted while its heel lifts), and ``hand_contacts``: a list of :class:`Ha
 
 from __future__ import annotations
 
-from typing import Callable, Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
 from ...core.motion import Motion
 from ...core.skeleton import Skeleton
 from ...core.transfer import canonical_rest_skeleton
-from .authoring import FPS, HandContact, Plan, Rig, assemble, body_radii_from_mesh, default_body_radii
+from .authoring import (
+    FPS,
+    HandContact,
+    Plan,
+    Rig,
+    assemble,
+    body_radii_from_mesh,
+    default_body_radii,
+)
 from .families.fighting import kick, punch, squat
 from .families.gestures import clap, hands_on_hips, pray, touch_head, wave
 from .families.locomotion import jump, run, turn, walk

@@ -69,7 +69,7 @@ class PositionScale(NamedTuple):
     r_std: Tensor
 
     @classmethod
-    def fit(cls, p: Tensor, r: Tensor, min_std: float = 0.01) -> "PositionScale":
+    def fit(cls, p: Tensor, r: Tensor, min_std: float = 0.01) -> PositionScale:
         """Fit on ``p (B, T, J, 3)`` and ``r (B, T, 3)``; ``min_std`` in metres (1 cm)."""
         check_last_dim("p", p, 3, 4)
         check_last_dim("r", r, 3, 3)

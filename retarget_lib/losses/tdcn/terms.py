@@ -32,13 +32,21 @@ the same maths as :func:`height_loss` — pass NKN's per-frame root offsets
 from __future__ import annotations
 
 import math
-from typing import Literal, Sequence
+from collections.abc import Sequence
+from typing import Literal
 
 import torch
 
 from ...core.quantities import normalized_joint_displacements, normalized_root_distances
 from ...core.rotations import quat_angle
-from .tensors import MotionTensors, Reduction, check_last_dim, motion_mse, reduce_elements, smooth_l1
+from .tensors import (
+    MotionTensors,
+    Reduction,
+    check_last_dim,
+    motion_mse,
+    reduce_elements,
+    smooth_l1,
+)
 
 Tensor = torch.Tensor
 

@@ -8,8 +8,15 @@ from typing import cast
 import torch
 
 from ...geometry.penetration import plan_energy
-from ...losses.contact import (ContactEnergyWeights, end_effector_energy_per_frame, eso_self_contact_energy,
-                               foot_contact_energy_per_frame, reach_hold_energy, self_contact_energy, weak_energy)
+from ...losses.contact import (
+    ContactEnergyWeights,
+    end_effector_energy_per_frame,
+    eso_self_contact_energy,
+    foot_contact_energy_per_frame,
+    reach_hold_energy,
+    self_contact_energy,
+    weak_energy,
+)
 from ...models.georet import GeometryConditionedRNN
 from .frame import Constants, FrameInputs, Pose, decode
 

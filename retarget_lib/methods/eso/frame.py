@@ -17,7 +17,13 @@ from ...core.skeleton import J
 from ...core.skinning import linear_blend_skinning
 from ...geometry.penetration import PADDING_PAIR, InterpenetrationEnergy, PairPlan
 from ...losses.contact import ContactEnergyWeights
-from ...models.georet import DecoderGates, DecoderState, GeometryConditionedRNN, ResidualBase, TargetContext
+from ...models.georet import (
+    DecoderGates,
+    DecoderState,
+    GeometryConditionedRNN,
+    ResidualBase,
+    TargetContext,
+)
 
 Tensor = torch.Tensor
 
@@ -135,8 +141,8 @@ def decode(model: GeometryConditionedRNN, constants: Constants, state: DecoderSt
 class Frame:
     """The fixed data of one frame's ESO problem: its state, contacts, held joints, colliding pairs."""
 
-    def __init__(self, t: int, problem: "Problem", constants: Constants, state: DecoderState,
-                 h_enc: Tensor, previous: "Pose | None", redetect_every: int, padded: bool):
+    def __init__(self, t: int, problem: Problem, constants: Constants, state: DecoderState,
+                 h_enc: Tensor, previous: Pose | None, redetect_every: int, padded: bool):
         p = problem
         self.t, self.problem = t, p
         self.state = state

@@ -10,7 +10,8 @@ import torch
 
 from ...core.measures import estimated_standing_height
 from ...core.motion import Motion
-from ...core.quantities import MotionQuantities, leg_ratio as skeleton_leg_ratio, motion_quantities
+from ...core.quantities import MotionQuantities, motion_quantities
+from ...core.quantities import leg_ratio as skeleton_leg_ratio
 from ...core.transfer import transfer_rotations
 from ...geometry.contacts import detect_foot_contacts
 from ...models.georet import motion_features

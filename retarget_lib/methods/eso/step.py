@@ -7,7 +7,8 @@ from __future__ import annotations
 import functools
 import shutil
 import warnings
-from typing import Callable, NamedTuple
+from collections.abc import Callable
+from typing import NamedTuple
 
 import torch
 
@@ -70,7 +71,7 @@ class AdamState(NamedTuple):
     steps: Tensor
 
     @classmethod
-    def start(cls, variables: tuple[Tensor, Tensor]) -> "AdamState":
+    def start(cls, variables: tuple[Tensor, Tensor]) -> AdamState:
         zeros = tuple(torch.zeros_like(v) for v in variables)
         return cls(zeros, zeros, variables[0].new_zeros(()))  # type: ignore[arg-type]
 

@@ -6,7 +6,8 @@ hard to read (text under 9 pt, outside its box or the canvas, overlapping text).
 from __future__ import annotations
 
 import io
-from typing import NamedTuple, Sequence
+from collections.abc import Sequence
+from typing import NamedTuple
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg

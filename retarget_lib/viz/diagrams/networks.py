@@ -6,7 +6,8 @@ geometry-conditioned RNN (Villegas et al. 2021, Fig. 3).
 
 from __future__ import annotations
 
-from typing import Any, Mapping, Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 import torch

@@ -6,7 +6,8 @@ work (:func:`resolve_stage` finds it).
 from __future__ import annotations
 
 import importlib
-from typing import Any, Mapping, NamedTuple
+from collections.abc import Mapping
+from typing import Any, NamedTuple
 
 from matplotlib.figure import Figure
 

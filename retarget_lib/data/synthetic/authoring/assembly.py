@@ -5,8 +5,8 @@ arms solved with two-bone IK, the root lowered where a leg cannot reach, and the
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 import numpy as np
 import torch

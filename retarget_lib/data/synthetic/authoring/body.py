@@ -13,7 +13,6 @@ from ....core.measures import foot_rest_heights
 from ....core.skeleton import J, Skeleton
 from ....core.transfer import canonical_rest_skeleton
 
-
 FPS = 30.0
 
 SIDES = (("Left", 1.0), ("Right", -1.0))  # name prefix, sign of the character's left (+X)

@@ -3,7 +3,7 @@ keyframe interpolation, smooth noise, event times."""
 
 from __future__ import annotations
 
-from typing import Callable, Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 

@@ -8,13 +8,13 @@ import numpy as np
 from ....core.skeleton import J
 from ....core.transfer import transfer_rotations
 from ..authoring import (
-    fk,
     SIDES,
     HandGoal,
     Plan,
     Plant,
     Rig,
     event_times,
+    fk,
     foot_rot,
     keyframes,
     noise,
