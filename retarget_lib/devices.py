@@ -53,11 +53,15 @@ def resolve_device(name: str | torch.device | None = "auto", local_rank: int = 0
         name = "cuda" if torch.cuda.is_available() else "mps" if _mps_available() else "cpu"
     if name == "cuda":
         if not torch.cuda.is_available():
-            raise DeviceError("--device cuda: this torch build or machine has no CUDA device "
-                              f"(torch {torch.__version__}); use --device auto or cpu")
+            raise DeviceError(
+                "--device cuda: this torch build or machine has no CUDA device "
+                f"(torch {torch.__version__}); use --device auto or cpu"
+            )
         return torch.device("cuda", local_rank % torch.cuda.device_count())
     if name == "mps" and not _mps_available():
-        raise DeviceError("--device mps: Apple's Metal backend is not available here; use --device auto or cpu")
+        raise DeviceError(
+            "--device mps: Apple's Metal backend is not available here; use --device auto or cpu"
+        )
     return torch.device(name)
 
 

@@ -23,13 +23,18 @@ def test_the_range_of_motion_clip_reads_as_a_standing_person():
     assert real_motion_names() == ["motion_capture_rom"]
     raw = load_bvh(real_motion_path("motion_capture_rom"), unit="inch")
     assert raw.num_frames == 272 and raw.fps == pytest.approx(6.0)  # keys every 5 frames at 30 fps
-    assert raw.skeleton.joint_names[0] == "Bip01" and "Bip01 L Oberschenkel" in raw.skeleton.joint_names
+    assert (
+        raw.skeleton.joint_names[0] == "Bip01"
+        and "Bip01 L Oberschenkel" in raw.skeleton.joint_names
+    )
     m = load_real_motion("motion_capture_rom")
     # 45.2 s at 30 fps (the duration of 272 keys at 6 per second), 1.4-1.7 m tall in inches
     assert m.fps == 30 and m.num_frames == 1356 and 1.4 < m.skeleton.height() < 1.7
     pos = m.global_positions()
     upright = pos[:, J["Head"], 1] > pos[:, J["Hips"], 1] + 0.3
-    assert upright.mean() > 0.8 and upright[ROM_START:ROM_START + CLIP_FRAMES].all()  # bends down once (25 s)
+    assert (
+        upright.mean() > 0.8 and upright[ROM_START : ROM_START + CLIP_FRAMES].all()
+    )  # bends down once (25 s)
     soles = sole_heights(pos, m.skeleton)
     floor = clip_floor(soles)
     on_floor = (soles.min(axis=1) - floor) < 0.03  # a foot within 3 cm of the clip's floor
@@ -39,11 +44,15 @@ def test_the_range_of_motion_clip_reads_as_a_standing_person():
 
 def test_a_changed_file_is_refused_by_name(tmp_path, monkeypatch):
     copy = tmp_path / "motion_capture_rom.bvh"
-    copy.write_bytes(real_motion_path("motion_capture_rom").read_bytes().replace(b"Frames: 272", b"Frames: 271"))
+    copy.write_bytes(
+        real_motion_path("motion_capture_rom").read_bytes().replace(b"Frames: 272", b"Frames: 271")
+    )
     monkeypatch.setattr(real_motions, "MOTIONS_DIR", tmp_path)
     with pytest.raises(DataError, match=r"motion_capture_rom.bvh does not match its sha256"):
         load_real_motion("motion_capture_rom")
-    with pytest.raises(DataError, match="unknown real motion 'walk'; known: \\['motion_capture_rom'\\]"):
+    with pytest.raises(
+        DataError, match="unknown real motion 'walk'; known: \\['motion_capture_rom'\\]"
+    ):
         load_real_motion("walk")
 
 
@@ -55,10 +64,17 @@ def test_the_range_of_motion_clip_stands_on_every_real_characters_floor(name):
     source = load_real_motion("motion_capture_rom")
     pos = source.global_positions()
     soles = sole_heights(pos, source.skeleton)
-    standing = standing_feet(foot_positions(pos, source.skeleton), soles, clip_floor(soles), source.skeleton.height(),
-                             source.fps)
+    standing = standing_feet(
+        foot_positions(pos, source.skeleton),
+        soles,
+        clip_floor(soles),
+        source.skeleton.height(),
+        source.fps,
+    )
     character = load_real_character(name).character()
-    result = on_the_ground(get_method("copy-rest").retargeter()(source, character.skeleton), source, character)
+    result = on_the_ground(
+        get_method("copy-rest").retargeter()(source, character.skeleton), source, character
+    )
     assert result.num_frames == source.num_frames
     target = sole_heights(result.global_positions(), result.skeleton, character.rest_vertices)
     best = np.where(standing, np.abs(target), np.inf).min(axis=1)[standing.any(axis=1)]

@@ -44,13 +44,19 @@ class Character:
         self.faces = np.asarray(self.faces, dtype=np.int64)
         self.weights = np.asarray(self.weights, dtype=np.float64)
         if not self.skeleton.is_canonical22():
-            raise ValueError(f"character {self.name!r}: skeleton must be on the canonical 22 joints")
+            raise ValueError(
+                f"character {self.name!r}: skeleton must be on the canonical 22 joints"
+            )
         nv = len(self.rest_vertices)
         if self.rest_vertices.shape != (nv, 3) or self.weights.shape != (nv, 22):
-            raise ValueError(f"character {self.name!r}: rest_vertices {self.rest_vertices.shape} and "
-                             f"weights {self.weights.shape} must be (V, 3) and (V, 22)")
+            raise ValueError(
+                f"character {self.name!r}: rest_vertices {self.rest_vertices.shape} and "
+                f"weights {self.weights.shape} must be (V, 3) and (V, 22)"
+            )
         if self.faces.ndim != 2 or self.faces.shape[1] != 3:
-            raise ValueError(f"character {self.name!r}: faces must be (F, 3), got {self.faces.shape}")
+            raise ValueError(
+                f"character {self.name!r}: faces must be (F, 3), got {self.faces.shape}"
+            )
 
     @property
     def height(self) -> float:
@@ -73,8 +79,15 @@ class Character:
         return self.skeleton.rest_positions()
 
     def copy(self) -> Character:
-        return Character(self.name, self.skeleton.copy(), self.rest_vertices.copy(),
-                         self.faces.copy(), self.weights.copy(), self.bulk, dict(self.style))
+        return Character(
+            self.name,
+            self.skeleton.copy(),
+            self.rest_vertices.copy(),
+            self.faces.copy(),
+            self.weights.copy(),
+            self.bulk,
+            dict(self.style),
+        )
 
     def decimated(self, vertices: int) -> Character:
         """A copy whose mesh is reduced to about ``vertices`` vertices, skinning weights carried
@@ -84,8 +97,9 @@ class Character:
             vertices: the vertex count wanted (the result is within a few percent of it).
         """
         small = self.copy()
-        small.rest_vertices, small.faces, small.weights = subsample_mesh(self.rest_vertices, self.faces,
-                                                                         self.weights, vertices)
+        small.rest_vertices, small.faces, small.weights = subsample_mesh(
+            self.rest_vertices, self.faces, self.weights, vertices
+        )
         return small
 
     def skinned(self, rotations, root_positions):
@@ -101,9 +115,15 @@ class Character:
         """
         as_numpy = isinstance(rotations, np.ndarray)
         rot = torch.from_numpy(np.asarray(rotations, dtype=np.float64)) if as_numpy else rotations
-        root = torch.as_tensor(np.asarray(root_positions) if isinstance(root_positions, np.ndarray)
-                               else root_positions, dtype=rot.dtype, device=rot.device)
+        root = torch.as_tensor(
+            np.asarray(root_positions)
+            if isinstance(root_positions, np.ndarray)
+            else root_positions,
+            dtype=rot.dtype,
+            device=rot.device,
+        )
         pos, grot = forward_kinematics(rot, self.skeleton.offsets, self.skeleton.parents, root)
-        out = linear_blend_skinning(self.rest_vertices, self.weights, self.rest_joint_positions(),
-                                    grot, pos)
+        out = linear_blend_skinning(
+            self.rest_vertices, self.weights, self.rest_joint_positions(), grot, pos
+        )
         return out.numpy() if as_numpy else out

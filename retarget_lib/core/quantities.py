@@ -133,8 +133,9 @@ def discriminator_inputs(p: Tensor, r: Tensor, offsets: Tensor, h) -> Discrimina
     if offsets.dim() == 2:
         offsets = offsets.expand(batch, *offsets.shape)
     if offsets.shape != (batch, p.shape[2], 3):
-        raise ValueError(f"offsets must be (J,3) or (B,J,3) with J={p.shape[2]}, got "
-                         f"{tuple(offsets.shape)}")
+        raise ValueError(
+            f"offsets must be (J,3) or (B,J,3) with J={p.shape[2]}, got {tuple(offsets.shape)}"
+        )
     return DiscriminatorInputs(
         normalized_joint_displacements(p, h),
         normalized_root_displacements(r, h),
@@ -203,8 +204,13 @@ class MotionQuantities(NamedTuple):
     height: Scalar
 
 
-def motion_quantities(rotations: Tensor, root_positions: Tensor, offsets: Tensor | np.ndarray,
-                      height: Scalar, parents: Sequence[int] = CANONICAL22_PARENTS) -> MotionQuantities:
+def motion_quantities(
+    rotations: Tensor,
+    root_positions: Tensor,
+    offsets: Tensor | np.ndarray,
+    height: Scalar,
+    parents: Sequence[int] = CANONICAL22_PARENTS,
+) -> MotionQuantities:
     """:class:`MotionQuantities` of a motion: FK for ``g`` and :func:`forward_root_velocity`.
 
     Args:
@@ -214,5 +220,7 @@ def motion_quantities(rotations: Tensor, root_positions: Tensor, offsets: Tensor
         height: the character's height ``h`` (metres), float or ``(...)``.
         parents: joint parents.
     """
-    positions = cast(Tensor, forward_kinematics(rotations, offsets, parents, root_positions).positions)
+    positions = cast(
+        Tensor, forward_kinematics(rotations, offsets, parents, root_positions).positions
+    )
     return MotionQuantities(rotations, forward_root_velocity(root_positions), positions, height)

@@ -15,8 +15,10 @@ from .tdcn import generator_retargeter
 __all__ = ["load"]
 
 
-def load(checkpoint: str | os.PathLike, device: str | torch.device | None = None,
-         ) -> Callable[[Motion, Skeleton], Motion]:
+def load(
+    checkpoint: str | os.PathLike,
+    device: str | torch.device | None = None,
+) -> Callable[[Motion, Skeleton], Motion]:
     """The registry's loader: :func:`~retarget_lib.methods.tdcn.retarget_motion_with` an NKN
     generator (a Baseline row of Table 4) on ``device`` (default the CPU)."""
     return generator_retargeter(checkpoint, "nkn", device)

@@ -34,10 +34,17 @@ class TrainResult(NamedTuple):
     exported: Path | None
 
 
-def train_config(config_path: str | os.PathLike, overrides: Sequence[str] = (), profile: str | None = None,
-                 out: str | os.PathLike | None = None, resume: bool = False,
-                 export: str | os.PathLike | None = None, device: str = "auto", amp: bool = False,
-                 progress: bool = False) -> TrainResult:
+def train_config(
+    config_path: str | os.PathLike,
+    overrides: Sequence[str] = (),
+    profile: str | None = None,
+    out: str | os.PathLike | None = None,
+    resume: bool = False,
+    export: str | os.PathLike | None = None,
+    device: str = "auto",
+    amp: bool = False,
+    progress: bool = False,
+) -> TrainResult:
     """Train the row of ``config_path`` (see the module docstring).
 
     Args:
@@ -73,10 +80,21 @@ def train_config(config_path: str | os.PathLike, overrides: Sequence[str] = (), 
             from .tdcn import RetargetTraining as Training
             from .tdcn import export_generator as export_fn
         run = Training(config, device=place, amp=amp, layout=layout)
-        final = fit(run.task(), config, out, int(config["train"]["steps"]),
-                    checkpoint_every=int(config["train"]["checkpoint_every"]), resume=resume, progress=progress,
-                    layout=layout)
-        exported = export_fn(final, export) if export and layout.is_main else (Path(export) if export else None)
+        final = fit(
+            run.task(),
+            config,
+            out,
+            int(config["train"]["steps"]),
+            checkpoint_every=int(config["train"]["checkpoint_every"]),
+            resume=resume,
+            progress=progress,
+            layout=layout,
+        )
+        exported = (
+            export_fn(final, export)
+            if export and layout.is_main
+            else (Path(export) if export else None)
+        )
         layout.barrier()
     finally:
         distributed.shutdown()

@@ -13,7 +13,16 @@ from typing import Any
 import numpy as np
 from matplotlib.colors import to_rgb
 
-__all__ = ["CENTER_COLOR", "LEFT_COLOR", "MESH_COLOR", "PALETTE", "RIGHT_COLOR", "Scene", "as_rgb", "as_scene"]
+__all__ = [
+    "CENTER_COLOR",
+    "LEFT_COLOR",
+    "MESH_COLOR",
+    "PALETTE",
+    "RIGHT_COLOR",
+    "Scene",
+    "as_rgb",
+    "as_scene",
+]
 
 LEFT_COLOR, RIGHT_COLOR, CENTER_COLOR = "#2f6fbf", "#d1495b", "#4d4d4d"
 #: one tint per character when several are drawn (source / retargeted / ground truth, ...)
@@ -76,8 +85,10 @@ class Scene:
         if self.positions is not None:
             self.positions = np.asarray(self.positions, dtype=np.float64).reshape(-1, 3)
             if self.parents is None or len(self.parents) != len(self.positions):
-                raise ValueError(f"Scene: {len(self.positions)} joints need as many parents, "
-                                 f"got {None if self.parents is None else len(self.parents)}")
+                raise ValueError(
+                    f"Scene: {len(self.positions)} joints need as many parents, "
+                    f"got {None if self.parents is None else len(self.parents)}"
+                )
         if self.vertices is not None:
             self.vertices = np.asarray(self.vertices, dtype=np.float64).reshape(-1, 3)
             if self.faces is None:
@@ -98,8 +109,12 @@ class Scene:
         pp = self.point_pairs
         if pp is not None and np.asarray(pp).ndim == 3:
             pp = np.asarray(pp, dtype=np.float64) + off
-        return replace(self, positions=None if self.positions is None else self.positions + off,
-                       vertices=None if self.vertices is None else self.vertices + off, point_pairs=pp)
+        return replace(
+            self,
+            positions=None if self.positions is None else self.positions + off,
+            vertices=None if self.vertices is None else self.vertices + off,
+            point_pairs=pp,
+        )
 
 
 def as_scene(obj, parents: Sequence[int] | None = None, **kw) -> Scene:
@@ -109,6 +124,10 @@ def as_scene(obj, parents: Sequence[int] | None = None, **kw) -> Scene:
     if isinstance(obj, tuple) and len(obj) == 2 and not np.isscalar(obj[1]):
         return Scene(positions=obj[0], parents=obj[1], **kw)
     if hasattr(obj, "global_positions") and hasattr(obj, "skeleton"):
-        return Scene(positions=obj.global_positions()[0], parents=obj.skeleton.parents,
-                     joint_names=obj.skeleton.joint_names, **kw)
+        return Scene(
+            positions=obj.global_positions()[0],
+            parents=obj.skeleton.parents,
+            joint_names=obj.skeleton.joint_names,
+            **kw,
+        )
     return Scene(positions=obj, parents=parents, **kw)

@@ -8,29 +8,29 @@ sigmoid cross-entropy; :mod:`.total` — Eq. 6's weights and weighted total.
 """
 
 from .adversarial import (
-                          adversarial_loss,
-                          adversarial_loss_discriminator,
-                          adversarial_loss_generator,
-                          sigmoid_ce_discriminator_loss,
-                          sigmoid_ce_generator_loss,
+    adversarial_loss,
+    adversarial_loss_discriminator,
+    adversarial_loss_generator,
+    sigmoid_ce_discriminator_loss,
+    sigmoid_ce_generator_loss,
 )
 from .tensors import (
-                          MotionTensors,
-                          NonFiniteLossError,
-                          PositionScale,
-                          check_finite,
-                          per_sample,
-                          smooth_l1,
+    MotionTensors,
+    NonFiniteLossError,
+    PositionScale,
+    check_finite,
+    per_sample,
+    smooth_l1,
 )
 from .terms import (
-                          bone_direction_loss,
-                          cycle_loss,
-                          height_loss,
-                          orientation_loss,
-                          reconstruction_loss,
-                          regularization_loss,
-                          twist_loss,
-                          twist_penalty,
+    bone_direction_loss,
+    cycle_loss,
+    height_loss,
+    orientation_loss,
+    reconstruction_loss,
+    regularization_loss,
+    twist_loss,
+    twist_penalty,
 )
 from .total import TERM_WEIGHTS, TDCNLossWeights, total_generator_loss
 
