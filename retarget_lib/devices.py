@@ -13,7 +13,6 @@ range: no loss scaling is needed, so the optimiser code is the same with and wit
 from __future__ import annotations
 
 import contextlib
-from typing import ContextManager
 
 import torch
 
@@ -65,7 +64,7 @@ def resolve_device(name: str | torch.device | None = "auto", local_rank: int = 0
     return torch.device(name)
 
 
-def autocast(device: torch.device, enabled: bool) -> ContextManager:
+def autocast(device: torch.device, enabled: bool) -> contextlib.AbstractContextManager:
     """``torch.autocast`` in bfloat16 on CUDA when ``enabled``; a no-op context otherwise.
 
     Raises:

@@ -194,13 +194,13 @@ def test_frame_time_outside_its_bounds(tmp_path, capsys, src, frame_time):
     bad = tmp_path / "ft.bvh"
     text = src.read_text()
     line = (
-        text.splitlines().index(next(l for l in text.splitlines() if l.startswith("Frame Time")))
+        text.splitlines().index(next(ln for ln in text.splitlines() if ln.startswith("Frame Time")))
         + 1
     )
     bad.write_text(
         "\n".join(
-            f"Frame Time: {frame_time}" if l.startswith("Frame Time") else l
-            for l in text.splitlines()
+            f"Frame Time: {frame_time}" if ln.startswith("Frame Time") else ln
+            for ln in text.splitlines()
         )
     )
     with pytest.raises(

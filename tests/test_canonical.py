@@ -120,7 +120,7 @@ def test_zero_offset_rotating_intermediate_joints_fold_exactly():
     errors = kept_errors(m, c)
     assert max(e.max() for e in errors.values()) < 1e-6, {k: e.max() for k, e in errors.items()}
     # the folded offset is the rest-pose sum along the removed chain
-    for child, twist in twists.items():
+    for child, _twist in twists.items():
         i = m.skeleton.index(f"mixamorig:{child}")
         np.testing.assert_allclose(
             c.skeleton.offsets[CANONICAL22.index(child)], m.skeleton.offsets[i]

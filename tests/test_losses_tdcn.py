@@ -178,9 +178,9 @@ def test_discriminator_inputs_by_hand():
     # root steps (0,0,1) then (1.2,0,1.6) (length 2) -> δ = [1/2, 2/2]
     r = t([[[0.0, 0, 0], [0.0, 0, 1.0], [1.2, 0, 2.6]]])
     offsets = t([[0.0, 1.0, 0.0], [0.3, 0.0, 0.4]])  # bone lengths 1, 0.5
-    l, delta, bones = discriminator_inputs(p, r, offsets, 2.0)
-    assert l.shape == (1, 2, 2) and delta.shape == (1, 2) and bones.shape == (1, 2)
-    assert torch.allclose(l, t([[[0.0, 0.15], [0.0, 0.2]]]))
+    lv, delta, bones = discriminator_inputs(p, r, offsets, 2.0)
+    assert lv.shape == (1, 2, 2) and delta.shape == (1, 2) and bones.shape == (1, 2)
+    assert torch.allclose(lv, t([[[0.0, 0.15], [0.0, 0.2]]]))
     assert torch.allclose(delta, t([[0.5, 1.0]]))
     assert torch.allclose(bones, t([[1.0, 0.5]]))
     # per-sample offsets and heights

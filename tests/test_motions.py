@@ -122,7 +122,7 @@ def test_clap_and_pray_palms_meet(clips):
 
 
 def test_hands_rest_on_the_hips_surface(clips):
-    for key, sk in SKELETONS.items():
+    for key, _sk in SKELETONS.items():
         m = clips["hands_on_hips", key]
         r = m.meta["body_radii"]
         pos = m.global_positions()

@@ -115,7 +115,7 @@ def test_a_changed_rest_pose_moves_no_joint_in_any_frame(source):
     for leaf in (J["Head"], J["LeftHand"], J["LeftToeBase"]):
         assert turns[0, leaf, 0] == 1.0  # a zero rotation vector: cos(0) = 1 exactly on any CPU
     # the swing of a bone is perpendicular to it: the bone's angle is at most the 30° drawn
-    for j, c in enumerate(PRIMARY_CHILD):
+    for _j, c in enumerate(PRIMARY_CHILD):
         if c >= 0:
             a, b = offsets[0, c].numpy(), moved[0, c].numpy()
             angle = np.degrees(

@@ -51,7 +51,7 @@ class DiscriminatorInputs(NamedTuple):
         bones: ``(B, J)`` bone lengths in metres (``B^A``/``B^B`` of Eqs. 19/20), not normalised.
     """
 
-    l: Tensor
+    l: Tensor  # noqa: E741 (the paper's symbol; a public field name)
     delta: Tensor
     bones: Tensor
 

@@ -43,7 +43,6 @@ from __future__ import annotations
 import contextlib
 import os
 from dataclasses import dataclass
-from typing import ContextManager
 
 import numpy as np
 import torch
@@ -101,7 +100,9 @@ class Distributed:
         size = batch // self.world_size
         return slice(self.rank * size, (self.rank + 1) * size)
 
-    def rank_random(self, seed: int, step: int, device: torch.device) -> ContextManager:
+    def rank_random(
+        self, seed: int, step: int, device: torch.device
+    ) -> contextlib.AbstractContextManager:
         """A context whose torch RNG is seeded by ``(seed, rank, step)`` and restored after it
         (nothing with a single process: its one stream is used as before)."""
         if not self.enabled:

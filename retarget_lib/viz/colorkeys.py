@@ -25,9 +25,10 @@ def _strip(fig) -> np.ndarray:
 def _beside(image: np.ndarray, strip: np.ndarray) -> np.ndarray:
     """``image`` with ``strip`` pasted on its right (white-padded to the same height)."""
     h = max(image.shape[0], strip.shape[0])
-    pad = lambda im: np.concatenate(
-        [im, np.full((h - im.shape[0], im.shape[1], 3), 255, np.uint8)], 0
-    )
+
+    def pad(im):
+        return np.concatenate([im, np.full((h - im.shape[0], im.shape[1], 3), 255, np.uint8)], 0)
+
     return np.concatenate([pad(np.asarray(image, np.uint8)), pad(strip)], axis=1)
 
 

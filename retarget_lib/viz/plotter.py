@@ -162,7 +162,7 @@ class SceneRenderer:
         self.pl.clear_actors()
         self._items, self._floor = [], None
         radius = JOINT_RADIUS * size
-        for i, s in enumerate(scenes):
+        for _i, s in enumerate(scenes):
             g = Glyphs(s, radius)
             it: dict[str, Any] = {"geom": g}
             if s.positions is not None:

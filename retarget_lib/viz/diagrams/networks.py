@@ -397,7 +397,7 @@ def nkn_diagram(config: Mapping[str, Any] | None = None) -> Figure:
     bw, bh = 2.2, 0.42
     rows = {"fk": 2.95, "lin": 2.2, "dec": 1.45, "enc": 0.7}
     boxes = []
-    for i, (label, x) in enumerate(cols):
+    for i, (_label, x) in enumerate(cols):
         sub = ["t-1", "t", "t+1"][i]
         b = {
             "fk": cv.box(

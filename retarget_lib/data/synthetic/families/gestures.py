@@ -74,7 +74,10 @@ def clap(rig: Rig, rng: np.random.Generator, t: np.ndarray) -> Plan:
         contact[np.flatnonzero(m)[phase < touch]] = True
     drop = rng.uniform(-0.05, 0.1) * s
     depth = min(r["torso"] + rng.uniform(0.15, 0.25) * s, rig.front_reach(drop, closed))
-    center = lambda body: body.at("Spine2", (0.0, -drop, depth))
+
+    def center(body):
+        return body.at("Spine2", (0.0, -drop, depth))
+
     left, right = palm_targets(center, gap)
     hands = [
         HandGoal(0, left, weight, np.array([0.55, -0.75, -0.3]), ((-1, 0, 0), (0, 0.5, 0.85))),
