@@ -31,7 +31,7 @@ def main(run: str, action: str, name: str) -> None:
     elif action == "report":
         rows = [line.split("\t") for line in LOG.read_text().splitlines()] if LOG.exists() else []
         steps = [(step, float(s)) for r, step, s in rows if r == run]
-        total = (time.time() - int(run) / 1e9)
+        total = time.time() - int(run) / 1e9
         print(f"\n{name}: time of each step (build/step-times.tsv)")
         for step, s in steps:
             print(f"  {step:<34} {s:7.0f} s  ({s / 60:.1f} min)")

@@ -49,8 +49,10 @@ def training(table: str, config_path: Path, profile: str, batch: int):
     cfg = load_config(config_path, [f"train.batch={batch}"], profile)
     if table == "contact":
         from retarget_lib.training.contact import ContactTraining
+
         return ContactTraining(cfg), cfg
     from retarget_lib.training.tdcn import RetargetTraining
+
     return RetargetTraining(cfg), cfg
 
 
@@ -66,10 +68,17 @@ def step_flops(run) -> int:
 
 
 def rows_section(quick: bool) -> tuple[list[str], list[str]]:
-    speed = [f"Measured {time.strftime('%Y-%m-%d %H:%M')} UTC, {load()} at the start.", "",
-             "| table | row | s/step fast width | s/step paper width | paper / fast |", "|---|---|---|---|---|"]
-    cost = ["| table | row | GFLOP/step at batch 16/8 (paper width) | paper batch x steps | PFLOP total | "
-            "projected GPU-h at %.0f TFLOP/s |" % GPU_TFLOPS, "|---|---|---|---|---|---|"]
+    speed = [
+        f"Measured {time.strftime('%Y-%m-%d %H:%M')} UTC, {load()} at the start.",
+        "",
+        "| table | row | s/step fast width | s/step paper width | paper / fast |",
+        "|---|---|---|---|---|",
+    ]
+    cost = [
+        "| table | row | GFLOP/step at batch 16/8 (paper width) | paper batch x steps | PFLOP total | "
+        "projected GPU-h at %.0f TFLOP/s |" % GPU_TFLOPS,
+        "|---|---|---|---|---|---|",
+    ]
     repeat = 2 if quick else 3
     for table in ("tdcn", "contact"):
         for row, config in table_rows(table).items():
@@ -83,8 +92,10 @@ def rows_section(quick: bool) -> tuple[list[str], list[str]]:
             full = load_config(config, [], "paper")["train"]
             total = flops * full["batch"] / BATCH[table] * full["steps"]
             speed.append(f"| {table} | {row} | {fast:.2f} | {paper:.2f} | {paper / fast:.1f}x |")
-            cost.append(f"| {table} | {row} | {flops / 1e9:.1f} | {full['batch']} x {full['steps']} | "
-                        f"{total / 1e15:.0f} | {total / (GPU_TFLOPS * 1e12) / 3600:.1f} |")
+            cost.append(
+                f"| {table} | {row} | {flops / 1e9:.1f} | {full['batch']} x {full['steps']} | "
+                f"{total / 1e15:.0f} | {total / (GPU_TFLOPS * 1e12) / 3600:.1f} |"
+            )
             print(speed[-1], cost[-1], load(), flush=True)
     speed.append(f"\n{load()} at the end.")
     return speed, cost
@@ -93,26 +104,63 @@ def rows_section(quick: bool) -> tuple[list[str], list[str]]:
 def _median_step(run_dir: Path) -> float:
     with open(run_dir / "losses.csv") as f:
         seconds = [float(r["seconds"]) for r in csv.DictReader(f)]
-    return statistics.median(b - a for a, b in zip(seconds[1:], seconds[2:]))  # step 0 (warm-up) left out
+    return statistics.median(
+        b - a for a, b in zip(seconds[1:], seconds[2:])
+    )  # step 0 (warm-up) left out
 
 
 def scaling_section(quick: bool) -> list[str]:
     steps = 6 if quick else 10
-    args = ["--config", str(REPO_ROOT / "configs/tdcn_paper.yaml"), f"train.steps={steps}", "train.batch=16",
-            "--profile", "fast", "--device", "cpu"]
+    args = [
+        "--config",
+        str(REPO_ROOT / "configs/tdcn_paper.yaml"),
+        f"train.steps={steps}",
+        "train.batch=16",
+        "--profile",
+        "fast",
+        "--device",
+        "cpu",
+    ]
     env = dict(os.environ, OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
-    lines = ["| processes | global batch | per-process batch | median s/step | speed-up |", "|---|---|---|---|---|"]
+    lines = [
+        "| processes | global batch | per-process batch | median s/step | speed-up |",
+        "|---|---|---|---|---|",
+    ]
     with tempfile.TemporaryDirectory() as tmp:
         before = load()
-        subprocess.run([sys.executable, "-m", "retarget_lib", "train", *args, "--out", f"{tmp}/one"], env=env,
-                       check=True, capture_output=True)
-        subprocess.run([sys.executable, "-m", "torch.distributed.run", "--standalone", "--nproc-per-node", "2",
-                        "-m", "retarget_lib", "train", *args, "--out", f"{tmp}/two"], env=env, check=True,
-                       capture_output=True)
+        subprocess.run(
+            [sys.executable, "-m", "retarget_lib", "train", *args, "--out", f"{tmp}/one"],
+            env=env,
+            check=True,
+            capture_output=True,
+        )
+        subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "torch.distributed.run",
+                "--standalone",
+                "--nproc-per-node",
+                "2",
+                "-m",
+                "retarget_lib",
+                "train",
+                *args,
+                "--out",
+                f"{tmp}/two",
+            ],
+            env=env,
+            check=True,
+            capture_output=True,
+        )
         one, two = _median_step(Path(tmp) / "one"), _median_step(Path(tmp) / "two")
-    lines += [f"| 1 | 16 | 16 | {one:.3f} | 1.0x |", f"| 2 (gloo, torchrun) | 16 | 8 | {two:.3f} | {one / two:.2f}x |",
-              "", f"TDCN 'ours', fast width, {steps} steps each (median of steps 1…), one thread per process; "
-              f"{before} before, {load()} after."]
+    lines += [
+        f"| 1 | 16 | 16 | {one:.3f} | 1.0x |",
+        f"| 2 (gloo, torchrun) | 16 | 8 | {two:.3f} | {one / two:.2f}x |",
+        "",
+        f"TDCN 'ours', fast width, {steps} steps each (median of steps 1…), one thread per process; "
+        f"{before} before, {load()} after.",
+    ]
     return lines
 
 
@@ -124,10 +172,24 @@ def main() -> None:
     torch.set_num_threads(1)
     scaling = scaling_section(args.quick)
     speed, cost = rows_section(args.quick)
-    text = "\n".join(["# Scale-out measurements (generated by benchmarks/scale_out.py)", "",
-                      "## Step time per row on this CPU (1 thread)", "", *speed, "",
-                      "## Projected paper-schedule cost per row on one GPU", "", *cost, "",
-                      "## 2-process gloo scaling on this machine", "", *scaling, ""])
+    text = "\n".join(
+        [
+            "# Scale-out measurements (generated by benchmarks/scale_out.py)",
+            "",
+            "## Step time per row on this CPU (1 thread)",
+            "",
+            *speed,
+            "",
+            "## Projected paper-schedule cost per row on one GPU",
+            "",
+            *cost,
+            "",
+            "## 2-process gloo scaling on this machine",
+            "",
+            *scaling,
+            "",
+        ]
+    )
     with atomic_write(args.out, "w") as f:
         f.write(text)
     print(text)

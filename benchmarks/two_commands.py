@@ -60,7 +60,9 @@ def _steps(log: Path) -> dict[str, float]:
     steps = {}
     for line in log.read_text().splitlines():
         parts = line.split()
-        if len(parts) >= 5 and parts[-1] == "min)" and parts[-3] == "s":  # "  STEP   123 s  (2.1 min)"
+        if (
+            len(parts) >= 5 and parts[-1] == "min)" and parts[-3] == "s"
+        ):  # "  STEP   123 s  (2.1 min)"
             steps[" ".join(parts[:-4])] = float(parts[-4])
     return steps
 
@@ -69,25 +71,45 @@ def one_run(keep: Path, ci: bool) -> dict:
     clone = Path(tempfile.mkdtemp(prefix="retarget-fresh-"))
     try:
         subprocess.run(["git", "clone", "-q", str(REPO), str(clone)], check=True)
-        commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=clone, capture_output=True,
-                                text=True, check=True).stdout.strip()
-        run = {"date": dt.date.today().isoformat(), "commit": commit,
-               "load before": round(os.getloadavg()[0], 2)}
-        commands = [("make", ["make"]), ("make test", ["make", "test"]),
-                    ("make workshop", ["make", "workshop", "WORKSHOP_FLAGS=--force"])]
+        commit = subprocess.run(
+            ["git", "rev-parse", "--short", "HEAD"],
+            cwd=clone,
+            capture_output=True,
+            text=True,
+            check=True,
+        ).stdout.strip()
+        run = {
+            "date": dt.date.today().isoformat(),
+            "commit": commit,
+            "load before": round(os.getloadavg()[0], 2),
+        }
+        commands = [
+            ("make", ["make"]),
+            ("make test", ["make", "test"]),
+            ("make workshop", ["make", "workshop", "WORKSHOP_FLAGS=--force"]),
+        ]
         if ci:  # the rest of .ci/run: CI = make test (with set-up and data) + these two
-            commands += [("make test-slow", ["make", "test-slow"]), ("make unit-threads", ["make", "unit-threads"])]
+            commands += [
+                ("make test-slow", ["make", "test-slow"]),
+                ("make unit-threads", ["make", "unit-threads"]),
+            ]
         for name, cmd in commands:
             log = keep / f"{name.replace(' ', '-')}.log"
             run[name] = round(_timed(cmd, clone, log), 1)
             run["load after"] = max(run.get("load after", 0.0), round(os.getloadavg()[0], 2))
             run[f"{name} steps"] = _steps(log)
-            if name in ("make", "make workshop"):  # the runner's own per-notebook record of that command
+            if name in (
+                "make",
+                "make workshop",
+            ):  # the runner's own per-notebook record of that command
                 timings = json.loads((clone / "build/notebooks/timings.json").read_text())
                 run["notebooks" if name == "make" else "workshop notebooks"] = {
-                    nb: t["seconds"] for nb, t in timings.items() if name == "make" or t["finished"] >= run["workshop from"]}
+                    nb: t["seconds"]
+                    for nb, t in timings.items()
+                    if name == "make" or t["finished"] >= run["workshop from"]
+                }
             if name == "make test":
-                run["workshop from"] = dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds")
+                run["workshop from"] = dt.datetime.now(dt.UTC).isoformat(timespec="seconds")
         return run
     finally:
         shutil.rmtree(clone, ignore_errors=True)
@@ -102,65 +124,115 @@ def _machine(run: dict) -> str:
 
 def write(runs: list[dict]) -> None:
     names = sorted({nb for r in runs for nb in r["notebooks"]})
-    median = {nb: statistics.median(r["notebooks"][nb] for r in runs if nb in r["notebooks"]) for nb in names}
-    OUT_TIMES.write_text(json.dumps({nb: {"seconds": s} for nb, s in median.items()}, indent=1) + "\n")
-    lines = ["# The two commands, timed from a fresh clone",
-             "",
-             f"Measured by `python3 benchmarks/two_commands.py` (runs on {', '.join(sorted({r['date'] for r in runs}))}) on "
-             f"{_cpu()}, {os.cpu_count()} cores. Each run clones the "
-             "repository into a new folder and runs `make`, `make test`, then `make workshop "
-             "WORKSHOP_FLAGS=--force` there (the README's commands, as a first-time student types them).",
-             "",
-             "The machine column is the 1-minute load average before the run and the largest one seen after "
-             "a command (2 cores: a load near 2 means the run had the machine to itself; well above 2, other "
-             "work shared it and the run is slower than a student's), or a note where the load was not recorded.",
-             "",
-             "| run | commit | machine | `make` | `make test` | `make workshop` |",
-             "|---|---|---|---|---|---|"]
+    median = {
+        nb: statistics.median(r["notebooks"][nb] for r in runs if nb in r["notebooks"])
+        for nb in names
+    }
+    OUT_TIMES.write_text(
+        json.dumps({nb: {"seconds": s} for nb, s in median.items()}, indent=1) + "\n"
+    )
+    lines = [
+        "# The two commands, timed from a fresh clone",
+        "",
+        f"Measured by `python3 benchmarks/two_commands.py` (runs on {', '.join(sorted({r['date'] for r in runs}))}) on "
+        f"{_cpu()}, {os.cpu_count()} cores. Each run clones the "
+        "repository into a new folder and runs `make`, `make test`, then `make workshop "
+        "WORKSHOP_FLAGS=--force` there (the README's commands, as a first-time student types them).",
+        "",
+        "The machine column is the 1-minute load average before the run and the largest one seen after "
+        "a command (2 cores: a load near 2 means the run had the machine to itself; well above 2, other "
+        "work shared it and the run is slower than a student's), or a note where the load was not recorded.",
+        "",
+        "| run | commit | machine | `make` | `make test` | `make workshop` |",
+        "|---|---|---|---|---|---|",
+    ]
     for i, r in enumerate(runs, 1):
-        lines.append(f"| {i} | {r['commit']} | {_machine(r)} | "
-                     + " | ".join(f"{r[k] / 60:.1f} min" for k in LIMITS) + " |")
+        lines.append(
+            f"| {i} | {r['commit']} | {_machine(r)} | "
+            + " | ".join(f"{r[k] / 60:.1f} min" for k in LIMITS)
+            + " |"
+        )
     lines.append("| **limit** | | | " + " | ".join(f"{v} min" for v in LIMITS.values()) + " |")
-    lines += ["", "`make test` runs after `make` in the same clone, as the README orders them; typed first on a fresh clone it also pays the `setup` and `data` steps of `make` (add them)."]
+    lines += [
+        "",
+        "`make test` runs after `make` in the same clone, as the README orders them; typed first on a fresh clone it also pays the `setup` and `data` steps of `make` (add them).",
+    ]
     ci = [r for r in runs if "make test-slow" in r]
     for r in ci:
         setup = r["make steps"].get("setup", 0) + r["make steps"].get("data", 0)
         total = setup + r["make test"] + r["make test-slow"] + r["make unit-threads"]
-        lines += ["", f"CI (`.ci/run` on a fresh clone = set-up and data + `make test` + `make test-slow` + `make "
-                  f"unit-threads`), run {runs.index(r) + 1}: {setup / 60:.1f} + {r['make test'] / 60:.1f} + "
-                  f"{r['make test-slow'] / 60:.1f} + {r['make unit-threads'] / 60:.1f} = **{total / 60:.1f} min** "
-                  "(limit 25 min)."]
-    lines += ["", "Steps of each command (median over the runs, seconds):", "", "| command | step | seconds |", "|---|---|---|"]
+        lines += [
+            "",
+            f"CI (`.ci/run` on a fresh clone = set-up and data + `make test` + `make test-slow` + `make "
+            f"unit-threads`), run {runs.index(r) + 1}: {setup / 60:.1f} + {r['make test'] / 60:.1f} + "
+            f"{r['make test-slow'] / 60:.1f} + {r['make unit-threads'] / 60:.1f} = **{total / 60:.1f} min** "
+            "(limit 25 min).",
+        ]
+    lines += [
+        "",
+        "Steps of each command (median over the runs, seconds):",
+        "",
+        "| command | step | seconds |",
+        "|---|---|---|",
+    ]
     for cmd in LIMITS:
-        steps = sorted({s for r in runs for s in r[f"{cmd} steps"]}, key=lambda s: list(runs[0][f"{cmd} steps"]).index(s)
-                       if s in runs[0][f"{cmd} steps"] else 99)
+        steps = sorted(
+            {s for r in runs for s in r[f"{cmd} steps"]},
+            key=lambda s: (
+                list(runs[0][f"{cmd} steps"]).index(s) if s in runs[0][f"{cmd} steps"] else 99
+            ),
+        )
         for s in steps:
-            lines.append(f"| {cmd} | {s} | {statistics.median(r[f'{cmd} steps'][s] for r in runs if s in r[f'{cmd} steps']):.0f} |")
-    workshop = {nb: statistics.median(r["workshop notebooks"][nb] for r in runs if nb in r["workshop notebooks"])
-                for nb in names if any(nb in r["workshop notebooks"] for r in runs)}
-    lines += ["", "Each notebook's wall-clock seconds as the runner recorded them (`build/notebooks/timings.json`; two "
-              "at a time, one thread each; median over the runs, longest first):", "",
-              "| notebook | during `make` | during `make workshop` |", "|---|---|---|"]
-    lines += [f"| {nb} | {s:.0f} | {f'{workshop[nb]:.0f}' if nb in workshop else 'not run'} |"
-              for nb, s in sorted(median.items(), key=lambda kv: -kv[1])]
+            lines.append(
+                f"| {cmd} | {s} | {statistics.median(r[f'{cmd} steps'][s] for r in runs if s in r[f'{cmd} steps']):.0f} |"
+            )
+    workshop = {
+        nb: statistics.median(
+            r["workshop notebooks"][nb] for r in runs if nb in r["workshop notebooks"]
+        )
+        for nb in names
+        if any(nb in r["workshop notebooks"] for r in runs)
+    }
+    lines += [
+        "",
+        "Each notebook's wall-clock seconds as the runner recorded them (`build/notebooks/timings.json`; two "
+        "at a time, one thread each; median over the runs, longest first):",
+        "",
+        "| notebook | during `make` | during `make workshop` |",
+        "|---|---|---|",
+    ]
+    lines += [
+        f"| {nb} | {s:.0f} | {f'{workshop[nb]:.0f}' if nb in workshop else 'not run'} |"
+        for nb, s in sorted(median.items(), key=lambda kv: -kv[1])
+    ]
     OUT_MD.write_text("\n".join(lines) + "\n")
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=3)
-    parser.add_argument("--append", action="store_true", help="add to the runs in benchmarks/two-commands.json")
-    parser.add_argument("--ci-once", action="store_true",
-                        help="in the first run also time `make test-slow` and `make unit-threads` (the rest of CI)")
+    parser.add_argument(
+        "--append", action="store_true", help="add to the runs in benchmarks/two-commands.json"
+    )
+    parser.add_argument(
+        "--ci-once",
+        action="store_true",
+        help="in the first run also time `make test-slow` and `make unit-threads` (the rest of CI)",
+    )
     args = parser.parse_args()
     keep = Path(tempfile.mkdtemp(prefix="retarget-two-commands-logs-"))
     runs = json.loads(OUT_RUNS.read_text()) if args.append and OUT_RUNS.exists() else []
     for i in range(args.repeat):
         runs.append(one_run(keep, ci=args.ci_once and i == 0))
         OUT_RUNS.write_text(json.dumps(runs, indent=1) + "\n")
-        print(f"run {i + 1}: " + ", ".join(f"{k} {runs[-1][k] / 60:.1f} min" for k in LIMITS), flush=True)
+        print(
+            f"run {i + 1}: " + ", ".join(f"{k} {runs[-1][k] / 60:.1f} min" for k in LIMITS),
+            flush=True,
+        )
         write(runs)
-    print(f"wrote {OUT_MD.relative_to(REPO)}, {OUT_RUNS.relative_to(REPO)} and {OUT_TIMES.relative_to(REPO)}; logs in {keep}")
+    print(
+        f"wrote {OUT_MD.relative_to(REPO)}, {OUT_RUNS.relative_to(REPO)} and {OUT_TIMES.relative_to(REPO)}; logs in {keep}"
+    )
 
 
 if __name__ == "__main__":

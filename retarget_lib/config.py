@@ -32,8 +32,9 @@ from __future__ import annotations
 
 import copy
 import os
+from collections.abc import Iterable
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any
 
 import yaml
 
@@ -91,7 +92,9 @@ def _read(path: Path, seen: tuple[Path, ...] = ()) -> dict:
     if path in seen:
         raise ConfigError(f"config base cycle: {' -> '.join(str(p) for p in seen + (path,))}")
     if not path.is_file():
-        raise ConfigError(f"{path}: config file not found" if not path.exists() else f"{path}: not a file")
+        raise ConfigError(
+            f"{path}: config file not found" if not path.exists() else f"{path}: not a file"
+        )
     data = read_yaml(path, "config file", ConfigError)
     if not isinstance(data, dict):
         raise ConfigError(f"{path}: a config must be a mapping")
@@ -101,9 +104,17 @@ def _read(path: Path, seen: tuple[Path, ...] = ()) -> dict:
     if not isinstance(base, str) or not base:
         raise ConfigError(f"{path}: base must be the name of a config file, got {short_repr(base)}")
     base_path = path.parent / base
-    if not base_path.is_file():  # named by the file that refers to it: the base is that file's value
-        raise ConfigError(f"{path}: base {short_repr(base)} is " + ("not a file" if base_path.exists() else
-                                                                 "no config file (a path relative to this one)"))
+    if (
+        not base_path.is_file()
+    ):  # named by the file that refers to it: the base is that file's value
+        raise ConfigError(
+            f"{path}: base {short_repr(base)} is "
+            + (
+                "not a file"
+                if base_path.exists()
+                else "no config file (a path relative to this one)"
+            )
+        )
     merged = _read(base_path, seen + (path,))
     profiles = _pop_profiles(merged, path.parent / base)
     own_profiles = _pop_profiles(data, path)
@@ -136,15 +147,19 @@ def set_key(config: dict, keys: list[str], value: Any) -> None:
     node = config
     for i, k in enumerate(keys[:-1]):
         if k not in node or not isinstance(node[k], dict):
-            raise ConfigError(f"unknown config section {'.'.join(keys[: i + 1])!r}; "
-                              f"known: {sorted(kk for kk, vv in node.items() if isinstance(vv, dict))}")
+            raise ConfigError(
+                f"unknown config section {'.'.join(keys[: i + 1])!r}; "
+                f"known: {sorted(kk for kk, vv in node.items() if isinstance(vv, dict))}"
+            )
         node = node[k]
     if keys[-1] not in node:
         raise ConfigError(f"unknown config key {'.'.join(keys)!r}; known here: {sorted(node)}")
     node[keys[-1]] = value
 
 
-def load_config(path: str | os.PathLike, overrides: Iterable[str] = (), profile: str | None = None) -> dict:
+def load_config(
+    path: str | os.PathLike, overrides: Iterable[str] = (), profile: str | None = None
+) -> dict:
     """Read a config, apply its base chain, the profile and the overrides.
 
     Args:
@@ -158,11 +173,15 @@ def load_config(path: str | os.PathLike, overrides: Iterable[str] = (), profile:
     profile = active_profile(profile)
     cfg = _read(Path(path))
     profiles = cfg.pop("profiles", {}) or {}
-    if not isinstance(profiles, dict) or not all(isinstance(v, dict) for v in profiles.values() if v is not None):
+    if not isinstance(profiles, dict) or not all(
+        isinstance(v, dict) for v in profiles.values() if v is not None
+    ):
         raise ConfigError(f"{path}: 'profiles' must map profile names to config deltas")
     unknown = set(profiles) - set(PROFILES)
     if unknown:
-        raise ConfigError(f"{path}: unknown profiles {sorted(unknown)}; allowed: {', '.join(PROFILES)}")
+        raise ConfigError(
+            f"{path}: unknown profiles {sorted(unknown)}; allowed: {', '.join(PROFILES)}"
+        )
     for merged in [cfg] + [deep_merge(cfg, delta or {}) for delta in profiles.values()]:
         problem = validate(merged) or memory_problem(merged)  # also every profile's values
         if problem:

@@ -18,13 +18,27 @@ Values shown in messages are cut short (:func:`~retarget_lib.errors.short_repr`)
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any
 
 from .errors import short_repr
 
-__all__ = ["Rule", "TDCN", "CONTACT", "MAX_WIDTH", "MAX_BATCH", "MAX_WINDOW", "MAX_STEPS", "MAX_TRAINING_BYTES",
-           "schema_for", "check_value", "validate", "training_memory", "memory_problem"]
+__all__ = [
+    "Rule",
+    "TDCN",
+    "CONTACT",
+    "MAX_WIDTH",
+    "MAX_BATCH",
+    "MAX_WINDOW",
+    "MAX_STEPS",
+    "MAX_TRAINING_BYTES",
+    "schema_for",
+    "check_value",
+    "validate",
+    "training_memory",
+    "memory_problem",
+]
 
 #: bounds of the sizes a config sets (module docstring)
 MAX_WIDTH, MAX_BATCH, MAX_WINDOW, MAX_STEPS = 4096, 4096, 1000, 10_000_000
@@ -60,17 +74,28 @@ NONNEG_INT = Rule("an integer >= 0", lambda v: _is_int(v) and v >= 0)
 POS_NUM = Rule("a finite number > 0", lambda v: _is_num(v) and v > 0)
 NONNEG_NUM = Rule("a finite number >= 0", lambda v: _is_num(v) and v >= 0)
 FRACTION = Rule("a number in [0, 1]", lambda v: _is_num(v) and 0 <= v <= 1)
-DECAY_FROM = Rule("null (constant rate) or a number in [0, 1]",
-                  lambda v: v is None or (_is_num(v) and 0 <= v <= 1))
+DECAY_FROM = Rule(
+    "null (constant rate) or a number in [0, 1]",
+    lambda v: v is None or (_is_num(v) and 0 <= v <= 1),
+)
 DROPOUT = Rule("null or a number in [0, 1)", lambda v: v is None or (_is_num(v) and 0 <= v < 1))
 BOOL = Rule("true or false", lambda v: isinstance(v, bool))
 TEXT = Rule("a string", lambda v: isinstance(v, str) and bool(v))
-BETAS = Rule("two numbers in [0, 1), e.g. [0.5, 0.999]",
-             lambda v: isinstance(v, list) and len(v) == 2 and all(_is_num(b) and 0 <= b < 1 for b in v))
-SCALE_RANGE = Rule("null or [low, high] with 0 < low <= high",
-                   lambda v: v is None or (isinstance(v, list) and len(v) == 2 and all(_is_num(x) for x in v)
-                                           and 0 < v[0] <= v[1]))
-NAMES = Rule("a list of character names", lambda v: isinstance(v, list) and all(isinstance(n, str) for n in v))
+BETAS = Rule(
+    "two numbers in [0, 1), e.g. [0.5, 0.999]",
+    lambda v: isinstance(v, list) and len(v) == 2 and all(_is_num(b) and 0 <= b < 1 for b in v),
+)
+SCALE_RANGE = Rule(
+    "null or [low, high] with 0 < low <= high",
+    lambda v: (
+        v is None
+        or (isinstance(v, list) and len(v) == 2 and all(_is_num(x) for x in v) and 0 < v[0] <= v[1])
+    ),
+)
+NAMES = Rule(
+    "a list of character names",
+    lambda v: isinstance(v, list) and all(isinstance(n, str) for n in v),
+)
 
 
 def up_to(high: int) -> Rule:
@@ -78,11 +103,20 @@ def up_to(high: int) -> Rule:
     return Rule(f"an integer > 0 and at most {high}", lambda v: _is_int(v) and 1 <= v <= high)
 
 
-WIDTH, BATCH, WINDOW, STEPS = up_to(MAX_WIDTH), up_to(MAX_BATCH), up_to(MAX_WINDOW), up_to(MAX_STEPS)
+WIDTH, BATCH, WINDOW, STEPS = (
+    up_to(MAX_WIDTH),
+    up_to(MAX_BATCH),
+    up_to(MAX_WINDOW),
+    up_to(MAX_STEPS),
+)
 LAYERS = up_to(64)
 ITERATIONS = Rule("an integer >= 0 and at most 100000", lambda v: _is_int(v) and 0 <= v <= 100_000)
-DILATIONS = Rule(f"a list of at most 64 integers > 0 and at most {MAX_WINDOW}",
-                 lambda v: isinstance(v, list) and len(v) <= 64 and all(_is_int(x) and 1 <= x <= MAX_WINDOW for x in v))
+DILATIONS = Rule(
+    f"a list of at most 64 integers > 0 and at most {MAX_WINDOW}",
+    lambda v: (
+        isinstance(v, list) and len(v) <= 64 and all(_is_int(x) and 1 <= x <= MAX_WINDOW for x in v)
+    ),
+)
 
 
 def choice(*values: Any) -> Rule:
@@ -115,12 +149,22 @@ TABLE4_ROWS: dict[str, dict[str, Any]] = {
 
 #: ``data.source`` values: the embedded synthetic split (varied-rest profile), its Mixamo-convention
 #: profile, both profiles, a reviewer's Mixamo folder, or that folder and the synthetic split
-DATA_SOURCES = ("synthetic", "mixamo-convention", "synthetic+mixamo-convention", "mixamo-local",
-                "mixamo-local+synthetic")
+DATA_SOURCES = (
+    "synthetic",
+    "mixamo-convention",
+    "synthetic+mixamo-convention",
+    "mixamo-local",
+    "mixamo-local+synthetic",
+)
 
 #: ``data.source`` values of the contact-aware method (no Mixamo-local-only mix with the Mixamo-convention profile)
-CONTACT_DATA_SOURCES = ("synthetic", "mixamo-local", "mixamo-local+synthetic", "mixamo-convention",
-                        "synthetic+mixamo-convention")
+CONTACT_DATA_SOURCES = (
+    "synthetic",
+    "mixamo-local",
+    "mixamo-local+synthetic",
+    "mixamo-convention",
+    "synthetic+mixamo-convention",
+)
 
 
 def _data_sources():
@@ -129,47 +173,122 @@ def _data_sources():
 
 def _table3_rows():
     from .losses.contact import TABLE3_ROWS
+
     return TABLE3_ROWS
 
 
-_COMMON = {"name": TEXT, "seed": NONNEG_INT, "method": choice("tdcn", "contact"), "profile": choice("fast", "paper"),
-           "config_path": TEXT}
+_COMMON = {
+    "name": TEXT,
+    "seed": NONNEG_INT,
+    "method": choice("tdcn", "contact"),
+    "profile": choice("fast", "paper"),
+    "config_path": TEXT,
+}
 
 #: ``method: tdcn`` (default): TDCN and NKN rows of Kim et al. 2020, Table 4
 TDCN: dict[str, Any] = {
     **_COMMON,
-    "model": {"row": choice(*TABLE4_ROWS),
-              "kind": choice("tdcn", "nkn"), "variant": TEXT, "profile": choice("fast", "paper"),
-              "channels": WIDTH, "disc_channels": WIDTH, "disc_receptive_field": choice(31, 81),
-              "dropout": DROPOUT, "normalize_inputs": BOOL, "height_loss": BOOL, "dilations": DILATIONS,
-              "kernel": up_to(MAX_WINDOW), "slope": NONNEG_NUM, "head_hidden": WIDTH, "skip_projection": BOOL,
-              "num_layers": LAYERS, "disc_norm": TEXT, "causal": BOOL, "dense": BOOL, "residual": BOOL,
-              "normalize_root": BOOL, "backbone": TEXT, "data": TEXT, "loss": TEXT},
-    "data": {"window": WINDOW, "same_fraction": FRACTION, "scale_range": SCALE_RANGE, "scale_targets": BOOL,
-             "mirror": BOOL, "random_yaw": BOOL,
-             "rest_jitter_deg": Rule("a number of degrees in [0, 180]", lambda v: _is_num(v) and 0 <= v <= 180),
-             "rest_arm_drop_deg": Rule("a number of degrees in [0, 180]", lambda v: _is_num(v) and 0 <= v <= 180),
-             "source": lazy_choice("synthetic, mixamo-convention, synthetic+mixamo-convention, mixamo-local "
-                                   "($RETARGET_MIXAMO) or mixamo-local+synthetic", _data_sources)},
-    "loss": {"gan": choice("lsgan", "sigmoid_ce"), "twist_alpha_deg": NONNEG_NUM, "twist_exclude_root": BOOL,
-             "reduction": choice("mean", "frame_sum"), "standardize": BOOL,
-             **{f"lambda_{k}": NONNEG_NUM for k in "ctharogd"}},
-    "train": {"steps": STEPS, "batch": BATCH, "lr": POS_NUM, "betas": BETAS, "checkpoint_every": STEPS,
-              "decay_from": DECAY_FROM, "compile": BOOL},
+    "model": {
+        "row": choice(*TABLE4_ROWS),
+        "kind": choice("tdcn", "nkn"),
+        "variant": TEXT,
+        "profile": choice("fast", "paper"),
+        "channels": WIDTH,
+        "disc_channels": WIDTH,
+        "disc_receptive_field": choice(31, 81),
+        "dropout": DROPOUT,
+        "normalize_inputs": BOOL,
+        "height_loss": BOOL,
+        "dilations": DILATIONS,
+        "kernel": up_to(MAX_WINDOW),
+        "slope": NONNEG_NUM,
+        "head_hidden": WIDTH,
+        "skip_projection": BOOL,
+        "num_layers": LAYERS,
+        "disc_norm": TEXT,
+        "causal": BOOL,
+        "dense": BOOL,
+        "residual": BOOL,
+        "normalize_root": BOOL,
+        "backbone": TEXT,
+        "data": TEXT,
+        "loss": TEXT,
+    },
+    "data": {
+        "window": WINDOW,
+        "same_fraction": FRACTION,
+        "scale_range": SCALE_RANGE,
+        "scale_targets": BOOL,
+        "mirror": BOOL,
+        "random_yaw": BOOL,
+        "rest_jitter_deg": Rule(
+            "a number of degrees in [0, 180]", lambda v: _is_num(v) and 0 <= v <= 180
+        ),
+        "rest_arm_drop_deg": Rule(
+            "a number of degrees in [0, 180]", lambda v: _is_num(v) and 0 <= v <= 180
+        ),
+        "source": lazy_choice(
+            "synthetic, mixamo-convention, synthetic+mixamo-convention, mixamo-local "
+            "($RETARGET_MIXAMO) or mixamo-local+synthetic",
+            _data_sources,
+        ),
+    },
+    "loss": {
+        "gan": choice("lsgan", "sigmoid_ce"),
+        "twist_alpha_deg": NONNEG_NUM,
+        "twist_exclude_root": BOOL,
+        "reduction": choice("mean", "frame_sum"),
+        "standardize": BOOL,
+        **{f"lambda_{k}": NONNEG_NUM for k in "ctharogd"},
+    },
+    "train": {
+        "steps": STEPS,
+        "batch": BATCH,
+        "lr": POS_NUM,
+        "betas": BETAS,
+        "checkpoint_every": STEPS,
+        "decay_from": DECAY_FROM,
+        "compile": BOOL,
+    },
 }
 
 #: ``method: contact``: the contact-aware rows of Villegas et al. 2021, Table 3
 CONTACT: dict[str, Any] = {
     **_COMMON,
-    "model": {"hidden": WIDTH, "layers": LAYERS, "geometry": WIDTH, "dropout": DROPOUT, "residual": BOOL},
-    "energy": {"row": lazy_choice("the Table 3 rows (retarget_lib.losses.contact.TABLE3_ROWS)", _table3_rows),
-               "lambda_j2j": NONNEG_NUM, "beta_int": NONNEG_NUM, "gamma_foot": NONNEG_NUM, "rho": NONNEG_NUM,
-               "omega": NONNEG_NUM, "length_unit": POS_NUM},
-    "data": {"window": WINDOW, "held_out_seed": NONNEG_INT, "train_characters": NAMES,
-             "source": choice(*CONTACT_DATA_SOURCES)},
-    "train": {"steps": STEPS, "epochs": STEPS, "batch": BATCH, "lr": POS_NUM, "betas": BETAS,
-              "lr_decay": Rule("a number in (0, 1]", lambda v: _is_num(v) and 0 < v <= 1),
-              "checkpoint_every": STEPS, "compile": BOOL},
+    "model": {
+        "hidden": WIDTH,
+        "layers": LAYERS,
+        "geometry": WIDTH,
+        "dropout": DROPOUT,
+        "residual": BOOL,
+    },
+    "energy": {
+        "row": lazy_choice(
+            "the Table 3 rows (retarget_lib.losses.contact.TABLE3_ROWS)", _table3_rows
+        ),
+        "lambda_j2j": NONNEG_NUM,
+        "beta_int": NONNEG_NUM,
+        "gamma_foot": NONNEG_NUM,
+        "rho": NONNEG_NUM,
+        "omega": NONNEG_NUM,
+        "length_unit": POS_NUM,
+    },
+    "data": {
+        "window": WINDOW,
+        "held_out_seed": NONNEG_INT,
+        "train_characters": NAMES,
+        "source": choice(*CONTACT_DATA_SOURCES),
+    },
+    "train": {
+        "steps": STEPS,
+        "epochs": STEPS,
+        "batch": BATCH,
+        "lr": POS_NUM,
+        "betas": BETAS,
+        "lr_decay": Rule("a number in (0, 1]", lambda v: _is_num(v) and 0 < v <= 1),
+        "checkpoint_every": STEPS,
+        "compile": BOOL,
+    },
     "eso": {"iterations": ITERATIONS, "lr": POS_NUM, "reach": POS_NUM, "blend": FRACTION},
 }
 
@@ -187,8 +306,10 @@ def _problem(schema: dict, keys: list[str], value: Any) -> str | None:
         if not isinstance(node, dict):
             return f"{'.'.join(keys[:i])!r} is not a section"
         if k not in node:
-            return (f"unknown key {'.'.join(keys[: i + 1])!r}; allowed {'in ' + repr(where) if where else 'at the top'}: "
-                    f"{', '.join(sorted(node))}")
+            return (
+                f"unknown key {'.'.join(keys[: i + 1])!r}; allowed {'in ' + repr(where) if where else 'at the top'}: "
+                f"{', '.join(sorted(node))}"
+            )
         node = node[k]
     if isinstance(node, dict):
         if not isinstance(value, dict):
@@ -223,8 +344,12 @@ def training_memory(config: dict) -> int:
     ``batch x window x width x`` :data:`_ACTIVATION_BYTES` plus parameters, gradients and Adam's
     two moments ``16 x 64 x width^2`` (width: the widest of the model's sizes; a size the config
     leaves to the model's defaults counts as the paper's 1024)."""
-    model, data, train = (config.get(k) if isinstance(config.get(k), dict) else {} for k in ("model", "data", "train"))
-    sizes = [model.get(k) for k in ("channels", "disc_channels", "head_hidden", "hidden", "geometry")]
+    model, data, train = (
+        config.get(k) if isinstance(config.get(k), dict) else {} for k in ("model", "data", "train")
+    )
+    sizes = [
+        model.get(k) for k in ("channels", "disc_channels", "head_hidden", "hidden", "geometry")
+    ]
     width = max([v for v in sizes if _is_int(v)] or [1024])
     batch, window = (v if _is_int(v) else 1 for v in (train.get("batch"), data.get("window")))
     return batch * window * width * _ACTIVATION_BYTES + 16 * 64 * width * width
@@ -235,5 +360,7 @@ def memory_problem(config: dict) -> str | None:
     need = training_memory(config)
     if need <= MAX_TRAINING_BYTES:
         return None
-    return (f"train.batch x data.window x the model's width would need about {need / 2**30:,.0f} GiB to train "
-            f"(estimate), beyond the {MAX_TRAINING_BYTES / 2**30:.0f} GiB limit; make them smaller")
+    return (
+        f"train.batch x data.window x the model's width would need about {need / 2**30:,.0f} GiB to train "
+        f"(estimate), beyond the {MAX_TRAINING_BYTES / 2**30:.0f} GiB limit; make them smaller"
+    )

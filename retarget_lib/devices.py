@@ -13,7 +13,6 @@ range: no loss scaling is needed, so the optimiser code is the same with and wit
 from __future__ import annotations
 
 import contextlib
-from typing import ContextManager
 
 import torch
 
@@ -53,15 +52,19 @@ def resolve_device(name: str | torch.device | None = "auto", local_rank: int = 0
         name = "cuda" if torch.cuda.is_available() else "mps" if _mps_available() else "cpu"
     if name == "cuda":
         if not torch.cuda.is_available():
-            raise DeviceError("--device cuda: this torch build or machine has no CUDA device "
-                              f"(torch {torch.__version__}); use --device auto or cpu")
+            raise DeviceError(
+                "--device cuda: this torch build or machine has no CUDA device "
+                f"(torch {torch.__version__}); use --device auto or cpu"
+            )
         return torch.device("cuda", local_rank % torch.cuda.device_count())
     if name == "mps" and not _mps_available():
-        raise DeviceError("--device mps: Apple's Metal backend is not available here; use --device auto or cpu")
+        raise DeviceError(
+            "--device mps: Apple's Metal backend is not available here; use --device auto or cpu"
+        )
     return torch.device(name)
 
 
-def autocast(device: torch.device, enabled: bool) -> ContextManager:
+def autocast(device: torch.device, enabled: bool) -> contextlib.AbstractContextManager:
     """``torch.autocast`` in bfloat16 on CUDA when ``enabled``; a no-op context otherwise.
 
     Raises:

@@ -44,8 +44,19 @@ from __future__ import annotations
 import reprlib
 from typing import Any
 
-__all__ = ["short_repr", "RetargetInputError", "InputFileError", "OutputPathError", "LimitError", "CheckpointError",
-           "GLTFError", "AMASSError", "FBXError", "DeviceError", "MixamoFolderError"]
+__all__ = [
+    "short_repr",
+    "RetargetInputError",
+    "InputFileError",
+    "OutputPathError",
+    "LimitError",
+    "CheckpointError",
+    "GLTFError",
+    "AMASSError",
+    "FBXError",
+    "DeviceError",
+    "MixamoFolderError",
+]
 
 
 _SHORT = reprlib.Repr()
@@ -103,4 +114,3 @@ class RetargetWarning(UserWarning):
     """Something the user should know about an input that was still used (e.g. a target mesh whose
     skeleton differs from the target's by 1-5 % of its height and was rebound); the command line
     prints it as one ``retarget CMD: warning: ...`` line on stderr."""
-

@@ -41,11 +41,12 @@ import secrets
 import signal
 import stat
 import time
+from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
-from typing import Any, Iterable, Iterator
+from typing import Any
 from urllib.parse import unquote
 
 import numpy as np
@@ -115,8 +116,10 @@ def check_sha256(path: str | os.PathLike, expected: str | None) -> None:
         return
     got = sha256_file(path)
     if got != expected:
-        raise DataError(f"checksum mismatch for {path}: expected sha256 {expected}, got {got}. "
-                        "Delete the file and run `retarget data build` to fetch it again.")
+        raise DataError(
+            f"checksum mismatch for {path}: expected sha256 {expected}, got {got}. "
+            "Delete the file and run `retarget data build` to fetch it again."
+        )
 
 
 # ------------------------------------------------------------------------------ what a run reads
@@ -157,8 +160,9 @@ def record_input(path: str | os.PathLike, st: os.stat_result | None = None) -> N
         ledger.files.setdefault(_file_key(st or os.stat(path)), str(path))
 
 
-def refuse_overwriting_inputs(out: str | os.PathLike, inputs: Iterable[str | os.PathLike | None] = (),
-                              force: bool = False) -> None:
+def refuse_overwriting_inputs(
+    out: str | os.PathLike, inputs: Iterable[str | os.PathLike | None] = (), force: bool = False
+) -> None:
     """Raise :class:`~retarget_lib.errors.OutputPathError` if ``out`` exists and is one of
     ``inputs`` or of the current run's recorded inputs (same device and inode: hard links and
     symbolic links included), unless ``force`` or the run's ``force``."""
@@ -174,7 +178,9 @@ def refuse_overwriting_inputs(out: str | os.PathLike, inputs: Iterable[str | os.
         if src is not None and Path(src).is_file():
             known.setdefault(_file_key(os.stat(src)), str(src))
     if key in known:
-        raise OutputPathError(f"{out}: is the input {known[key]}; refusing to overwrite an input (use --force)")
+        raise OutputPathError(
+            f"{out}: is the input {known[key]}; refusing to overwrite an input (use --force)"
+        )
 
 
 # ------------------------------------------------------------------------------------ inputs
@@ -196,7 +202,11 @@ def readable_file(path: str | os.PathLike, what: str, max_bytes: int | None = No
     if not path.exists():
         raise InputFileError(f"{path}: no such {what}")
     if not path.is_file():
-        raise InputFileError(f"{path}: is a directory, not a {what}" if path.is_dir() else f"{path}: not a regular file")
+        raise InputFileError(
+            f"{path}: is a directory, not a {what}"
+            if path.is_dir()
+            else f"{path}: not a regular file"
+        )
     if not os.access(path, os.R_OK):
         raise InputFileError(f"{path}: permission denied (cannot read the {what})")
     st = path.stat()
@@ -209,12 +219,19 @@ def _check_size(path: str | os.PathLike, size: int, what: str, max_bytes: int | 
     if size == 0:
         raise InputFileError(f"{path}: empty file (expected a {what})")
     if max_bytes is not None and size > max_bytes:
-        raise InputFileError(f"{path}: {size / 2**20:.0f} MiB exceeds the {max_bytes / 2**20:.0f} MiB limit for a "
-                             f"{what}")
+        raise InputFileError(
+            f"{path}: {size / 2**20:.0f} MiB exceeds the {max_bytes / 2**20:.0f} MiB limit for a "
+            f"{what}"
+        )
 
 
-def read_beside(container: str | os.PathLike, reference: str, what: str, max_bytes: int,
-                error: type[RetargetInputError] = InputFileError) -> bytes:
+def read_beside(
+    container: str | os.PathLike,
+    reference: str,
+    what: str,
+    max_bytes: int,
+    error: type[RetargetInputError] = InputFileError,
+) -> bytes:
     """The bytes of a file that an input file names (a ``.gltf`` buffer URI), under the rules of
     the module docstring: a relative reference, resolved with its symbolic links to a regular
     file inside the folder of ``container``.
@@ -233,20 +250,33 @@ def read_beside(container: str | os.PathLike, reference: str, what: str, max_byt
     container = Path(container)
     name = unquote(reference)
     rel = PurePosixPath(name)
-    if not name or "\x00" in name or "\\" in name or ":" in name or rel.is_absolute() or ".." in rel.parts:
-        raise error(f"{container}: {what} URI {reference!r} is not a file beside it (absolute paths, '..' and URLs "
-                    "are refused)")
+    if (
+        not name
+        or "\x00" in name
+        or "\\" in name
+        or ":" in name
+        or rel.is_absolute()
+        or ".." in rel.parts
+    ):
+        raise error(
+            f"{container}: {what} URI {reference!r} is not a file beside it (absolute paths, '..' and URLs "
+            "are refused)"
+        )
     folder = os.path.realpath(container.absolute().parent)
     real = os.path.realpath(os.path.join(folder, *rel.parts))
     if os.path.commonpath([real, folder]) != folder:
-        raise error(f"{container}: {what} URI {reference!r} resolves to {real}, outside the folder {folder} (a "
-                    "symbolic link?); a file may only name files beside it")
+        raise error(
+            f"{container}: {what} URI {reference!r} resolves to {real}, outside the folder {folder} (a "
+            "symbolic link?); a file may only name files beside it"
+        )
     try:
         fd = os.open(real, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK | os.O_CLOEXEC)
     except FileNotFoundError:
         raise InputFileError(f"{container}: {what} file {name!r} not found beside it") from None
     except PermissionError:
-        raise InputFileError(f"{real}: permission denied (cannot read {what} of {container})") from None
+        raise InputFileError(
+            f"{real}: permission denied (cannot read {what} of {container})"
+        ) from None
     with os.fdopen(fd, "rb") as f:
         st = os.fstat(f.fileno())
         if not stat.S_ISREG(st.st_mode):
@@ -256,8 +286,12 @@ def read_beside(container: str | os.PathLike, reference: str, what: str, max_byt
         return f.read(max_bytes)
 
 
-def check_output(out: str | os.PathLike, inputs: list[str | os.PathLike | None], suffixes: tuple[str, ...],
-                 force: bool = False) -> Path:
+def check_output(
+    out: str | os.PathLike,
+    inputs: list[str | os.PathLike | None],
+    suffixes: tuple[str, ...],
+    force: bool = False,
+) -> Path:
     """Check an output path before any work is done.
 
     Args:
@@ -275,8 +309,10 @@ def check_output(out: str | os.PathLike, inputs: list[str | os.PathLike | None],
     if out.is_dir():
         raise OutputPathError(f"{out}: is a directory; give a file name")
     if out.suffix.lower() not in suffixes:
-        raise OutputPathError(f"{out}: cannot write a {out.suffix or 'suffix-less'} file; supported: "
-                              f"{', '.join(suffixes)}")
+        raise OutputPathError(
+            f"{out}: cannot write a {out.suffix or 'suffix-less'} file; supported: "
+            f"{', '.join(suffixes)}"
+        )
     parent = next((p for p in out.absolute().parents if p.exists()), None)
     if parent is not None and not parent.is_dir():
         raise OutputPathError(f"{out}: cannot create it, {parent} is a file")
@@ -302,8 +338,12 @@ class _BoundedLoader(yaml.SafeLoader):
         self._depth += 1
         try:
             if self._depth > MAX_YAML_DEPTH:
-                raise yaml.composer.ComposerError(None, None, f"nested more than {MAX_YAML_DEPTH} deep (the limit)",
-                                                  self.peek_event().start_mark)
+                raise yaml.composer.ComposerError(
+                    None,
+                    None,
+                    f"nested more than {MAX_YAML_DEPTH} deep (the limit)",
+                    self.peek_event().start_mark,
+                )
             return super().compose_node(parent, index)
         finally:
             self._depth -= 1
@@ -314,8 +354,12 @@ class _BoundedLoader(yaml.SafeLoader):
             if isinstance(key_node, yaml.ScalarNode) and key_node.tag != "tag:yaml.org,2002:merge":
                 if key_node.value in first:
                     raise yaml.constructor.ConstructorError(
-                        None, None, f"key {key_node.value!r} is given twice (first on line "
-                        f"{first[key_node.value].line + 1}); each key may appear once", key_node.start_mark)
+                        None,
+                        None,
+                        f"key {key_node.value!r} is given twice (first on line "
+                        f"{first[key_node.value].line + 1}); each key may appear once",
+                        key_node.start_mark,
+                    )
                 first[key_node.value] = key_node.start_mark
         return super().construct_mapping(node, deep=deep)
 
@@ -362,8 +406,10 @@ def load_yaml(text: str, where: str, error: type[RetargetInputError]) -> Any:
         if loader is not None:
             loader.dispose()
     if _expands_beyond(data, MAX_YAML_VALUES):
-        raise error(f"{where}: holds more than {MAX_YAML_VALUES} values once its aliases are expanded (the limit; "
-                    "a YAML alias bomb?)")
+        raise error(
+            f"{where}: holds more than {MAX_YAML_VALUES} values once its aliases are expanded (the limit; "
+            "a YAML alias bomb?)"
+        )
     return data
 
 
@@ -400,8 +446,14 @@ def _record_temp(tmp: Path, fd: int) -> Path | None:
         return None
     st = os.fstat(fd)
     record = folder / f"{os.getpid()}-{secrets.token_hex(8)}.json"
-    entry = dict(path=str(tmp), folder=str(tmp.parent), dev=st.st_dev, ino=st.st_ino, pid=os.getpid(),
-                 created=time.time())
+    entry = dict(
+        path=str(tmp),
+        folder=str(tmp.parent),
+        dev=st.st_dev,
+        ino=st.st_ino,
+        pid=os.getpid(),
+        created=time.time(),
+    )
     try:
         with open(record, "x") as f:
             json.dump(entry, f)
@@ -438,7 +490,12 @@ def _sweep_record(record: Path, folder: str, now: float) -> Path | None:
         st = os.lstat(path)
         ledger = _LEDGER.get()
         is_input = ledger is not None and _file_key(st) in ledger.files
-        if stat.S_ISREG(st.st_mode) and _file_key(st) == key and path.name.startswith(TEMP_PREFIX) and not is_input:
+        if (
+            stat.S_ISREG(st.st_mode)
+            and _file_key(st) == key
+            and path.name.startswith(TEMP_PREFIX)
+            and not is_input
+        ):
             path.unlink()
             removed = path
     except FileNotFoundError:
@@ -499,11 +556,18 @@ def atomic_write(path: str | os.PathLike, mode: str = "wb") -> Iterator:
     if path.is_dir():
         raise OutputPathError(f"{path}: is a directory; give a file name")
     sweep_stale_temps(path.parent)
-    tmp = path.absolute().parent / f"{TEMP_PREFIX}{os.getpid()}-{secrets.token_hex(6)}-{path.name[:40]}.tmp"
+    tmp = (
+        path.absolute().parent
+        / f"{TEMP_PREFIX}{os.getpid()}-{secrets.token_hex(6)}-{path.name[:40]}.tmp"
+    )
     try:
-        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC, 0o600)
+        fd = os.open(
+            tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC, 0o600
+        )
     except PermissionError:  # name the output the user gave, not the temporary file
-        raise OutputPathError(f"{path}: cannot write into {path.parent} (permission denied)") from None
+        raise OutputPathError(
+            f"{path}: cannot write into {path.parent} (permission denied)"
+        ) from None
     record = None
     try:
         record = _record_temp(tmp, fd)

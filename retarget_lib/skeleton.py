@@ -9,14 +9,35 @@ lives; the library itself imports from there.
 """
 
 from .core.canonical import fit_global_rotations, fold_to_canonical22, unfold_from_canonical22
-from .core.skeleton import (CANONICAL22, CANONICAL22_PARENTS, FOOT_CONTACT_JOINTS, HEIGHT_BONES, MIRROR22, J,
-                            JointSetError, Skeleton, canonical22_skeleton)
+from .core.skeleton import (
+    CANONICAL22,
+    CANONICAL22_PARENTS,
+    FOOT_CONTACT_JOINTS,
+    HEIGHT_BONES,
+    MIRROR22,
+    J,
+    JointSetError,
+    Skeleton,
+    canonical22_skeleton,
+)
 from .io.joint_maps import to_canonical22
 from .io.rig_maps import RIG_MAPS, map_joints, strip_prefix
 
 __all__ = [
-    "CANONICAL22", "CANONICAL22_PARENTS", "FOOT_CONTACT_JOINTS", "HEIGHT_BONES", "MIRROR22", "J", "JointSetError",
-    "Skeleton", "canonical22_skeleton",
-    "RIG_MAPS", "fit_global_rotations", "fold_to_canonical22", "map_joints", "strip_prefix", "to_canonical22",
+    "CANONICAL22",
+    "CANONICAL22_PARENTS",
+    "FOOT_CONTACT_JOINTS",
+    "HEIGHT_BONES",
+    "MIRROR22",
+    "J",
+    "JointSetError",
+    "Skeleton",
+    "canonical22_skeleton",
+    "RIG_MAPS",
+    "fit_global_rotations",
+    "fold_to_canonical22",
+    "map_joints",
+    "strip_prefix",
+    "to_canonical22",
     "unfold_from_canonical22",
 ]

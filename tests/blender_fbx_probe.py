@@ -30,18 +30,24 @@ for v in mesh.data.vertices:
 heads = []
 for frame in range(start, end + 1):
     scene.frame_set(frame)
-    heads.append([list((arm.matrix_world @ arm.pose.bones[n].head)) for n in names])
+    heads.append([list(arm.matrix_world @ arm.pose.bones[n].head) for n in names])
 heads = [[[x, z, -y] for x, y, z in frame] for frame in heads]
 # the skinned mesh as Blender deforms it at the last frame (world space, +Y up)
 scene.frame_set(end)
 evaluated = mesh.evaluated_get(bpy.context.evaluated_depsgraph_get())
-deformed = [[w.x, w.z, -w.y] for w in (evaluated.matrix_world @ v.co for v in evaluated.data.vertices)]
+deformed = [
+    [w.x, w.z, -w.y] for w in (evaluated.matrix_world @ v.co for v in evaluated.data.vertices)
+]
 out = {
     "import": sorted(result),
-    "armatures": len(armatures), "meshes": len(meshes),
-    "bones": names, "parents": [b.parent.name if b.parent else None for b in arm.data.bones],
+    "armatures": len(armatures),
+    "meshes": len(meshes),
+    "bones": names,
+    "parents": [b.parent.name if b.parent else None for b in arm.data.bones],
     "vertices": len(mesh.data.vertices),
-    "mesh_vertices": [[w.x, w.z, -w.y] for w in (mesh.matrix_world @ v.co for v in mesh.data.vertices)],
+    "mesh_vertices": [
+        [w.x, w.z, -w.y] for w in (mesh.matrix_world @ v.co for v in mesh.data.vertices)
+    ],
     "weights": weights,
     "fps": scene.render.fps / scene.render.fps_base,
     "frame_range": [start, end],

@@ -29,7 +29,13 @@ from retarget_lib.core.skeleton import JointSetError, Skeleton
 from retarget_lib.data.checkpoints import load_state, resolve_checkpoint
 from retarget_lib.data.manifest import checkpoint as shipped_checkpoint
 from retarget_lib.data.synthetic.characters import make_character
-from retarget_lib.errors import CheckpointError, InputFileError, LimitError, OutputPathError, RetargetInputError
+from retarget_lib.errors import (
+    CheckpointError,
+    InputFileError,
+    LimitError,
+    OutputPathError,
+    RetargetInputError,
+)
 from retarget_lib.files import REPO_ROOT, atomic_write, sweep_stale_temps
 from retarget_lib.io import BVHError, ShapeError, load_bvh, load_shape_npz, save_bvh, save_shape_npz
 from retarget_lib.io.bvh import MAX_FILE_BYTES
@@ -54,8 +60,18 @@ def src(tmp_path):
 
 
 def retarget_args(source, out, target="kato", method="copy", *extra):
-    return ["retarget", "--source", str(source), "--target", str(target), "--method", method, "--out", str(out),
-            *extra]
+    return [
+        "retarget",
+        "--source",
+        str(source),
+        "--target",
+        str(target),
+        "--method",
+        method,
+        "--out",
+        str(out),
+        *extra,
+    ]
 
 
 def assert_cli_error(capsys, argv, *fragments):
@@ -91,11 +107,17 @@ class _Payload:
 def test_a_crafted_checkpoint_is_refused_without_running_code(tmp_path, monkeypatch, capsys, src):
     monkeypatch.chdir(tmp_path)
     evil = tmp_path / "evil.pt"
-    torch.save({"config": {}, "modules": {}, "x": _Payload()}, evil)  # torch.load(weights_only=False) runs it
+    torch.save(
+        {"config": {}, "modules": {}, "x": _Payload()}, evil
+    )  # torch.load(weights_only=False) runs it
     with pytest.raises(CheckpointError, match="evil.pt"):
         load_state(evil)
-    assert_cli_error(capsys, retarget_args(src, tmp_path / "o.bvh", "kato", "tdcn", "--checkpoint", str(evil)),
-                     "evil.pt", "not a readable checkpoint")
+    assert_cli_error(
+        capsys,
+        retarget_args(src, tmp_path / "o.bvh", "kato", "tdcn", "--checkpoint", str(evil)),
+        "evil.pt",
+        "not a readable checkpoint",
+    )
     assert not (tmp_path / "pwned").exists()
 
 
@@ -112,10 +134,17 @@ def test_out_equal_to_an_input_is_refused(tmp_path, capsys, src, which):
     save_bvh(clip("gus", frames=2), target)
     before = {p: p.read_bytes() for p in (src, target)}
     out = src if which == "source" else target
-    assert_cli_error(capsys, retarget_args(src, out, target), str(out), "refusing to overwrite an input", "--force")
+    assert_cli_error(
+        capsys,
+        retarget_args(src, out, target),
+        str(out),
+        "refusing to overwrite an input",
+        "--force",
+    )
     assert all(p.read_bytes() == b for p, b in before.items())
     with pytest.raises(OutputPathError):
         from retarget_lib.methods.retarget import retarget_file
+
         retarget_file(src, str(target), "copy", out)
     assert main(retarget_args(src, out, target, "copy", "--force")) == 0  # allowed when asked for
 
@@ -124,8 +153,8 @@ def test_only_recorded_temp_files_of_gone_processes_are_swept(tmp_path):
     """Files that merely look like temporary files (a user's ``.notes.tmp``, the old
     ``.NAME.<pid>.<random>.tmp`` pattern of a dead process) are never removed; the temporary file
     of a write whose process is gone is, from its record (tests/test_untrusted_paths.py: SIGKILL)."""
-    dead = tmp_path / ".out.bvh.999999999.abcd1234.tmp"       # pid beyond pid_max: its process is gone
-    legacy = tmp_path / ".out.bvh.abcd1234.tmp"                 # before temp names carried a pid
+    dead = tmp_path / ".out.bvh.999999999.abcd1234.tmp"  # pid beyond pid_max: its process is gone
+    legacy = tmp_path / ".out.bvh.abcd1234.tmp"  # before temp names carried a pid
     notes = tmp_path / ".notes.tmp"
     for p in (dead, legacy, notes):
         p.write_bytes(b"x" * 100)
@@ -135,7 +164,9 @@ def test_only_recorded_temp_files_of_gone_processes_are_swept(tmp_path):
     with atomic_write(tmp_path / "out.bvh", "w") as f:
         f.write("data")
     assert sweep_stale_temps(tmp_path) == []
-    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([dead.name, legacy.name, notes.name, "out.bvh"])
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
+        [dead.name, legacy.name, notes.name, "out.bvh"]
+    )
 
 
 @pytest.mark.parametrize("signame", ["SIGTERM", "SIGINT"])
@@ -144,13 +175,15 @@ def test_a_killed_write_leaves_no_temp_file(tmp_path, signame):
         import os, signal
         from retarget_lib.files import atomic_write, exit_on_signals
         exit_on_signals()
-        with atomic_write({str(tmp_path / 'big.bin')!r}) as f:
+        with atomic_write({str(tmp_path / "big.bin")!r}) as f:
             f.write(b"x" * 1000)
             os.kill(os.getpid(), signal.{signame})
             f.write(b"never")
     """)
     env = dict(os.environ, PYTHONPATH=str(REPO_ROOT))
-    proc = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, timeout=60)
+    proc = subprocess.run(
+        [sys.executable, "-c", script], env=env, capture_output=True, text=True, timeout=60
+    )
     assert proc.returncode == 128 + {"SIGTERM": 15, "SIGINT": 2}[signame], proc.stderr
     assert list(tmp_path.iterdir()) == []
 
@@ -160,28 +193,48 @@ def test_a_killed_write_leaves_no_temp_file(tmp_path, signame):
 def test_frame_time_outside_its_bounds(tmp_path, capsys, src, frame_time):
     bad = tmp_path / "ft.bvh"
     text = src.read_text()
-    line = text.splitlines().index(next(l for l in text.splitlines() if l.startswith("Frame Time"))) + 1
-    bad.write_text("\n".join(f"Frame Time: {frame_time}" if l.startswith("Frame Time") else l
-                             for l in text.splitlines()))
-    with pytest.raises(BVHError, match=f"line {line}: frame time must be positive and within the limits 0.001-1 s"):
+    line = (
+        text.splitlines().index(next(ln for ln in text.splitlines() if ln.startswith("Frame Time")))
+        + 1
+    )
+    bad.write_text(
+        "\n".join(
+            f"Frame Time: {frame_time}" if ln.startswith("Frame Time") else ln
+            for ln in text.splitlines()
+        )
+    )
+    with pytest.raises(
+        BVHError, match=f"line {line}: frame time must be positive and within the limits 0.001-1 s"
+    ):
         load_bvh(bad)
-    assert_cli_error(capsys, retarget_args(bad, tmp_path / "o.bvh"), "ft.bvh", f"line {line}", "0.001-1 s")
+    assert_cli_error(
+        capsys, retarget_args(bad, tmp_path / "o.bvh"), "ft.bvh", f"line {line}", "0.001-1 s"
+    )
 
 
-@pytest.mark.parametrize("column,value,problem", [
-    (5, "1e308", "rotation beyond |a| <= 100000 degrees"),
-    (0, "1e300", "position beyond |x| <= 1e+06 file units"),
-])
+@pytest.mark.parametrize(
+    "column,value,problem",
+    [
+        (5, "1e308", "rotation beyond |a| <= 100000 degrees"),
+        (0, "1e300", "position beyond |x| <= 1e+06 file units"),
+    ],
+)
 def test_huge_rotations_and_positions(tmp_path, capsys, src, column, value, problem):
     bad, line = edit_frame_line(src, column, value, tmp_path / "huge.bvh")
-    with pytest.raises(BVHError, match=f"line {line}: .*" + problem.replace("|", r"\|").replace("+", r"\+")):
+    with pytest.raises(
+        BVHError, match=f"line {line}: .*" + problem.replace("|", r"\|").replace("+", r"\+")
+    ):
         load_bvh(bad)
-    assert_cli_error(capsys, retarget_args(bad, tmp_path / "o.bvh"), "huge.bvh", f"line {line}", problem)
+    assert_cli_error(
+        capsys, retarget_args(bad, tmp_path / "o.bvh"), "huge.bvh", f"line {line}", problem
+    )
 
 
 def test_huge_offset(tmp_path):
-    text = "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 1e300 0\n  CHANNELS 3 Zrotation Xrotation Yrotation\n}\n" \
-           "MOTION\nFrames: 1\nFrame Time: 0.033\n0 0 0\n"
+    text = (
+        "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 1e300 0\n  CHANNELS 3 Zrotation Xrotation Yrotation\n}\n"
+        "MOTION\nFrames: 1\nFrame Time: 0.033\n0 0 0\n"
+    )
     (tmp_path / "off.bvh").write_text(text)
     with pytest.raises(BVHError, match=r"line 4: OFFSET value beyond the limit \|x\| <= 1e\+06"):
         load_bvh(tmp_path / "off.bvh")
@@ -192,10 +245,14 @@ def test_a_resampled_clip_beyond_the_frame_limit(src):
         load_bvh(src).resample(2e7)
 
 
-@pytest.mark.parametrize("name,problem", [
-    ("nan", "non-finite (NaN or inf) rotations"), ("fps", "cannot write frame rate -30 fps"),
-    ("huge", "root positions beyond the limit"),
-])
+@pytest.mark.parametrize(
+    "name,problem",
+    [
+        ("nan", "non-finite (NaN or inf) rotations"),
+        ("fps", "cannot write frame rate -30 fps"),
+        ("huge", "root positions beyond the limit"),
+    ],
+)
 def test_save_bvh_refuses_what_load_bvh_would_reject(tmp_path, name, problem):
     m = clip(frames=3)
     if name == "nan":
@@ -213,7 +270,9 @@ def _scaled_checkpoint(tmp_path, factor=None, nan=False):
     state = torch.load(shipped_checkpoint("tdcn-ours-fast").path, weights_only=True)
     weights = state["modules"]["generator"]
     name = next(k for k, v in weights.items() if v.is_floating_point() and v.abs().max() > 0.1)
-    weights[name] = weights[name].float() * factor if factor else weights[name].float().fill_(float("nan"))
+    weights[name] = (
+        weights[name].float() * factor if factor else weights[name].float().fill_(float("nan"))
+    )
     path = tmp_path / "bad.pt"
     torch.save(state, path)
     return path, name
@@ -225,8 +284,13 @@ def test_corrupted_checkpoint_weights(tmp_path, capsys, src, nan):
     problem = "NaN or inf weights" if nan else "weights beyond the limit"
     with pytest.raises(CheckpointError, match=problem):
         load_state(path)
-    assert_cli_error(capsys, retarget_args(src, tmp_path / "o.bvh", "kato", "tdcn", "--checkpoint", str(path)),
-                     "bad.pt", name, problem)
+    assert_cli_error(
+        capsys,
+        retarget_args(src, tmp_path / "o.bvh", "kato", "tdcn", "--checkpoint", str(path)),
+        "bad.pt",
+        name,
+        problem,
+    )
 
 
 def test_bit_flipped_checkpoint(tmp_path, capsys, src):
@@ -234,43 +298,68 @@ def test_bit_flipped_checkpoint(tmp_path, capsys, src):
     for k in np.random.default_rng(1).integers(1000, len(data) - 1000, 2000):
         data[k] ^= 0xFF
     (tmp_path / "flip.pt").write_bytes(bytes(data))
-    assert_cli_error(capsys, retarget_args(src, tmp_path / "o.bvh", "kato", "tdcn", "--checkpoint",
-                                           str(tmp_path / "flip.pt")), "flip.pt")
+    assert_cli_error(
+        capsys,
+        retarget_args(
+            src, tmp_path / "o.bvh", "kato", "tdcn", "--checkpoint", str(tmp_path / "flip.pt")
+        ),
+        "flip.pt",
+    )
     assert not (tmp_path / "o.bvh").exists()
 
 
-@pytest.mark.parametrize("delta,key", [
-    ("trian: {steps: 3}", "unknown key 'trian'"),
-    ("train: {stesp: 3}", "unknown key 'train.stesp'; allowed in 'train': batch, betas"),
-    ("loss: {lambda_hh: 3}", "unknown key 'loss.lambda_hh'"),
-    ("train: {steps: abc}", "train.steps = 'abc' is invalid: must be an integer > 0"),
-    ("model: {channels: -4}", "model.channels = -4 is invalid: must be an integer > 0"),
-    ("train: [unclosed", "line 3 malformed YAML"),
-])
+@pytest.mark.parametrize(
+    "delta,key",
+    [
+        ("trian: {steps: 3}", "unknown key 'trian'"),
+        ("train: {stesp: 3}", "unknown key 'train.stesp'; allowed in 'train': batch, betas"),
+        ("loss: {lambda_hh: 3}", "unknown key 'loss.lambda_hh'"),
+        ("train: {steps: abc}", "train.steps = 'abc' is invalid: must be an integer > 0"),
+        ("model: {channels: -4}", "model.channels = -4 is invalid: must be an integer > 0"),
+        ("train: [unclosed", "line 3 malformed YAML"),
+    ],
+)
 def test_config_file_errors_stop_before_any_work(tmp_path, capsys, delta, key):
     cfg = tmp_path / "bad.yaml"
     cfg.write_text(f"base: {CONFIGS / 'tdcn_paper.yaml'}\n{delta}\n")
     with pytest.raises(ConfigError, match=key.replace("[", r"\[")):
         load_config(cfg)
-    assert_cli_error(capsys, ["train", "--config", str(cfg), "--out", str(tmp_path / "run")], "bad.yaml", key)
+    assert_cli_error(
+        capsys, ["train", "--config", str(cfg), "--out", str(tmp_path / "run")], "bad.yaml", key
+    )
     assert not (tmp_path / "run").exists()
 
 
 def test_contact_config_typo(tmp_path):
     cfg = tmp_path / "c.yaml"
     cfg.write_text(f"base: {CONFIGS / 'contact_paper.yaml'}\ndata: {{windw: 30}}\n")
-    with pytest.raises(ConfigError, match="unknown key 'data.windw'; allowed in 'data': held_out_seed"):
+    with pytest.raises(
+        ConfigError, match="unknown key 'data.windw'; allowed in 'data': held_out_seed"
+    ):
         load_config(cfg)
 
 
-@pytest.mark.parametrize("override,problem", [
-    ("model.channels=-4", "model.channels = -4 is invalid: must be an integer > 0"),
-    ("train.lr=abc", "train.lr = 'abc' is invalid"),
-    ("train.stesp=3", "unknown config key 'train.stesp'"),
-])
+@pytest.mark.parametrize(
+    "override,problem",
+    [
+        ("model.channels=-4", "model.channels = -4 is invalid: must be an integer > 0"),
+        ("train.lr=abc", "train.lr = 'abc' is invalid"),
+        ("train.stesp=3", "unknown config key 'train.stesp'"),
+    ],
+)
 def test_config_override_errors(tmp_path, capsys, override, problem):
-    assert_cli_error(capsys, ["train", "--config", str(CONFIGS / "tdcn_paper.yaml"), override,
-                              "--out", str(tmp_path / "run")], problem)
+    assert_cli_error(
+        capsys,
+        [
+            "train",
+            "--config",
+            str(CONFIGS / "tdcn_paper.yaml"),
+            override,
+            "--out",
+            str(tmp_path / "run"),
+        ],
+        problem,
+    )
     assert not (tmp_path / "run").exists()
 
 
@@ -281,21 +370,34 @@ def test_every_shipped_config_is_valid():
 
 
 def test_a_mesh_for_a_skeleton_only_method_is_refused(tmp_path, capsys, src):
-    assert_cli_error(capsys, retarget_args(src, tmp_path / "o.bvh", "kato", "copy", "--target-mesh", "x.npz"),
-                     "x.npz", "--target-mesh is only used by methods that need meshes", "--method copy")
+    assert_cli_error(
+        capsys,
+        retarget_args(src, tmp_path / "o.bvh", "kato", "copy", "--target-mesh", "x.npz"),
+        "x.npz",
+        "--target-mesh is only used by methods that need meshes",
+        "--method copy",
+    )
 
 
 def test_a_mesh_of_another_character_is_refused(tmp_path, capsys, src):
     save_shape_npz(make_character("kato"), tmp_path / "kato.npz")
     target = tmp_path / "gus.bvh"
     save_bvh(clip("gus", frames=2), target)
-    assert_cli_error(capsys, retarget_args(src, tmp_path / "o.bvh", target, "contact", "--target-mesh",
-                                           str(tmp_path / "kato.npz")), "kato.npz", "differs from the target")
+    assert_cli_error(
+        capsys,
+        retarget_args(
+            src, tmp_path / "o.bvh", target, "contact", "--target-mesh", str(tmp_path / "kato.npz")
+        ),
+        "kato.npz",
+        "differs from the target",
+    )
 
 
 @pytest.mark.parametrize("name", ["out.obj", "out.txt", "out"])
 def test_output_formats_that_cannot_be_written(tmp_path, capsys, src, name):
-    assert_cli_error(capsys, retarget_args(src, tmp_path / name), name, "supported: .bvh, .glb, .fbx")
+    assert_cli_error(
+        capsys, retarget_args(src, tmp_path / name), name, "supported: .bvh, .glb, .fbx"
+    )
     assert not (tmp_path / name).exists()
 
 
@@ -305,14 +407,20 @@ def test_a_directory_as_a_path(tmp_path, capsys, src, role):
     folder = tmp_path / "folder.bvh"
     folder.mkdir()
     paths = {"--source": src, "--target": "kato", "--out": tmp_path / "o.bvh", role: folder}
-    assert_cli_error(capsys, retarget_args(paths["--source"], paths["--out"], paths["--target"]),
-                     "folder.bvh", "is a directory")
+    assert_cli_error(
+        capsys,
+        retarget_args(paths["--source"], paths["--out"], paths["--target"]),
+        "folder.bvh",
+        "is a directory",
+    )
 
 
 def test_missing_source(tmp_path, capsys):
     with pytest.raises(InputFileError, match="no such BVH file"):
         load_bvh(tmp_path / "nope.bvh")
-    assert_cli_error(capsys, retarget_args(tmp_path / "nope.bvh", tmp_path / "o.bvh"), "nope.bvh", "no such")
+    assert_cli_error(
+        capsys, retarget_args(tmp_path / "nope.bvh", tmp_path / "o.bvh"), "nope.bvh", "no such"
+    )
 
 
 @pytest.mark.skipif(os.geteuid() == 0, reason="root reads files whatever their mode")
@@ -325,13 +433,20 @@ def test_out_whose_parent_is_a_file(tmp_path, capsys, src):
     (tmp_path / "afile").write_text("x")
     with pytest.raises(OutputPathError, match="is a file"):
         save_bvh(clip(frames=2), tmp_path / "afile" / "o.bvh")
-    assert_cli_error(capsys, retarget_args(src, tmp_path / "afile" / "o.bvh"), "o.bvh", "afile is a file")
+    assert_cli_error(
+        capsys, retarget_args(src, tmp_path / "afile" / "o.bvh"), "o.bvh", "afile is a file"
+    )
 
 
-@pytest.mark.parametrize("content,problem", [
-    (b"", "empty file"), (b"hello, not a checkpoint", "not a readable checkpoint"),
-    ("truncated", "not a readable checkpoint"), ("state-only", "expected a mapping with 'config' and 'modules'"),
-])
+@pytest.mark.parametrize(
+    "content,problem",
+    [
+        (b"", "empty file"),
+        (b"hello, not a checkpoint", "not a readable checkpoint"),
+        ("truncated", "not a readable checkpoint"),
+        ("state-only", "expected a mapping with 'config' and 'modules'"),
+    ],
+)
 def test_unreadable_checkpoints(tmp_path, capsys, src, content, problem):
     path = tmp_path / "c.pt"
     if content == "truncated":
@@ -342,16 +457,28 @@ def test_unreadable_checkpoints(tmp_path, capsys, src, content, problem):
         path.write_bytes(content)
     with pytest.raises(RetargetInputError, match=problem):
         load_state(path)
-    assert_cli_error(capsys, retarget_args(src, tmp_path / "o.bvh", "kato", "tdcn", "--checkpoint", str(path)),
-                     "c.pt", problem)
+    assert_cli_error(
+        capsys,
+        retarget_args(src, tmp_path / "o.bvh", "kato", "tdcn", "--checkpoint", str(path)),
+        "c.pt",
+        problem,
+    )
 
 
 def test_a_checkpoint_of_another_model(tmp_path, capsys, src):
     state = torch.load(shipped_checkpoint("tdcn-ours-fast").path, weights_only=True)
-    state["modules"]["generator"] = {k: v[..., :1] if v.dim() else v for k, v in state["modules"]["generator"].items()}
+    state["modules"]["generator"] = {
+        k: v[..., :1] if v.dim() else v for k, v in state["modules"]["generator"].items()
+    }
     torch.save(state, tmp_path / "small.pt")
-    assert_cli_error(capsys, retarget_args(src, tmp_path / "o.bvh", "kato", "tdcn", "--checkpoint",
-                                           str(tmp_path / "small.pt")), "small.pt", "not a valid tdcn checkpoint")
+    assert_cli_error(
+        capsys,
+        retarget_args(
+            src, tmp_path / "o.bvh", "kato", "tdcn", "--checkpoint", str(tmp_path / "small.pt")
+        ),
+        "small.pt",
+        "not a valid tdcn checkpoint",
+    )
 
 
 @pytest.mark.parametrize("cut", [0.5, 0.9])
@@ -361,40 +488,65 @@ def test_truncated_mesh(tmp_path, capsys, src, cut):
     (tmp_path / "cut.npz").write_bytes(data[: int(len(data) * cut)])
     with pytest.raises(ShapeError, match="cut.npz: not a readable .npz file"):
         load_shape_npz(tmp_path / "cut.npz")
-    assert_cli_error(capsys, retarget_args(src, tmp_path / "o.bvh", "kato", "contact", "--target-mesh",
-                                           str(tmp_path / "cut.npz")), "cut.npz", "not a readable .npz")
+    assert_cli_error(
+        capsys,
+        retarget_args(
+            src, tmp_path / "o.bvh", "kato", "contact", "--target-mesh", str(tmp_path / "cut.npz")
+        ),
+        "cut.npz",
+        "not a readable .npz",
+    )
 
 
 def nested(depth):
-    joints = "".join(f"JOINT j{k}\n{{\nOFFSET 0 1 0\nCHANNELS 3 Zrotation Xrotation Yrotation\n" for k in range(depth))
-    return ("HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nCHANNELS 3 Zrotation Xrotation Yrotation\n" + joints
-            + "}\n" * (depth + 1) + "MOTION\nFrames: 1\nFrame Time: 0.0333\n" + " ".join(["0"] * (3 * (depth + 1))))
+    joints = "".join(
+        f"JOINT j{k}\n{{\nOFFSET 0 1 0\nCHANNELS 3 Zrotation Xrotation Yrotation\n"
+        for k in range(depth)
+    )
+    return (
+        "HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nCHANNELS 3 Zrotation Xrotation Yrotation\n"
+        + joints
+        + "}\n" * (depth + 1)
+        + "MOTION\nFrames: 1\nFrame Time: 0.0333\n"
+        + " ".join(["0"] * (3 * (depth + 1)))
+    )
 
 
 def test_deep_nesting(tmp_path, capsys):
     (tmp_path / "deep.bvh").write_text(nested(3000))
     with pytest.raises(BVHError, match="line 402: joints nested more than 100 deep"):
         load_bvh(tmp_path / "deep.bvh")
-    assert_cli_error(capsys, retarget_args(tmp_path / "deep.bvh", tmp_path / "o.bvh"), "deep.bvh", "nested")
+    assert_cli_error(
+        capsys, retarget_args(tmp_path / "deep.bvh", tmp_path / "o.bvh"), "deep.bvh", "nested"
+    )
 
 
 def test_unknown_convention():
     sk = Skeleton(["root", "tip"], [-1, 0], np.array([[0.0, 1.0, 0.0], [0.0, 0.5, 0.0]]))
     motion = Motion(sk, np.tile([1.0, 0, 0, 0], (2, 2, 1)), np.zeros((2, 3)), 30.0)
-    with pytest.raises(JointSetError, match="m.bvh: unknown joint-name convention 'martian'; known: mixamo, cmu"):
+    with pytest.raises(
+        JointSetError, match="m.bvh: unknown joint-name convention 'martian'; known: mixamo, cmu"
+    ):
         to_canonical22(motion, "martian", what="m.bvh")
 
 
 # --------------------------------------------------------------------------------------- hangs
 def test_many_joints_fail_fast_and_loading_is_linear(tmp_path, capsys):
     def wide(n):
-        return ("HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nCHANNELS 3 Zrotation Xrotation Yrotation\n"
-                + "".join(f"JOINT j{k}\n{{\nOFFSET 0 1 0\n}}\n" for k in range(n))
-                + "}\nMOTION\nFrames: 1\nFrame Time: 0.0333\n0 0 0\n")
+        return (
+            "HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nCHANNELS 3 Zrotation Xrotation Yrotation\n"
+            + "".join(f"JOINT j{k}\n{{\nOFFSET 0 1 0\n}}\n" for k in range(n))
+            + "}\nMOTION\nFrames: 1\nFrame Time: 0.0333\n0 0 0\n"
+        )
+
     (tmp_path / "wide.bvh").write_text(wide(40_000))
     start = time.perf_counter()
-    assert_cli_error(capsys, retarget_args(tmp_path / "wide.bvh", tmp_path / "o.bvh"), "wide.bvh",
-                     "more than 1000 joints")
+    assert_cli_error(
+        capsys,
+        retarget_args(tmp_path / "wide.bvh", tmp_path / "o.bvh"),
+        "wide.bvh",
+        "more than 1000 joints",
+    )
     assert time.perf_counter() - start < 5.0  # measured 0.2 s; quadratic loading took > 18 s
     # at the limit: 999 joints load in well under a second
     (tmp_path / "limit.bvh").write_text(wide(999))
@@ -413,7 +565,9 @@ def test_garbage_and_oversized_files_fail_before_being_read(tmp_path, capsys):
     huge = tmp_path / "huge.bvh"
     with open(huge, "wb") as f:  # sparse: no disk used
         f.truncate(MAX_FILE_BYTES + 1)
-    assert_cli_error(capsys, retarget_args(huge, tmp_path / "o.bvh"), "huge.bvh", "exceeds the 64 MiB limit")
+    assert_cli_error(
+        capsys, retarget_args(huge, tmp_path / "o.bvh"), "huge.bvh", "exceeds the 64 MiB limit"
+    )
 
 
 # ------------------------------------------------------------------------------ units and fps
@@ -421,7 +575,9 @@ def test_output_keeps_the_sources_frame_rate_and_unit(tmp_path, src):
     out = tmp_path / "o.bvh"
     assert main(retarget_args(src, out)) == 0
     written = load_bvh(out)
-    assert written.fps == 60 and written.num_frames == 60  # every source frame (31 at 30 fps in between)
+    assert (
+        written.fps == 60 and written.num_frames == 60
+    )  # every source frame (31 at 30 fps in between)
     assert written.meta["unit"] == "inch" and "Frame Time: 0.01666667" in out.read_text()
     assert main(retarget_args(src, out, "kato", "copy", "--fps", "24")) == 0
     resampled = load_bvh(out)  # 59 / 60 s at 24 fps: floor(23.6) + 1 frames
@@ -458,9 +614,35 @@ Frame Time: 0.0333333
 0 90 0 10 20 30 1 2 3
 1 91 0 11 21 31 2 3 4
 """
-_FUZZ_TOKENS = ["{", "}", "ROOT", "JOINT", "End", "Site", "OFFSET", "CHANNELS", "MOTION", "Frames:", "Frame",
-                "Time:", "3", "-1", "0", "1e308", "nan", "inf", "1e-12", "100", "Xrotation", "Zposition", "", "\t",
-                "99999999999", "é", "\x00"]
+_FUZZ_TOKENS = [
+    "{",
+    "}",
+    "ROOT",
+    "JOINT",
+    "End",
+    "Site",
+    "OFFSET",
+    "CHANNELS",
+    "MOTION",
+    "Frames:",
+    "Frame",
+    "Time:",
+    "3",
+    "-1",
+    "0",
+    "1e308",
+    "nan",
+    "inf",
+    "1e-12",
+    "100",
+    "Xrotation",
+    "Zposition",
+    "",
+    "\t",
+    "99999999999",
+    "é",
+    "\x00",
+]
 
 
 @st.composite
@@ -488,7 +670,9 @@ def mutated_bvh(draw):
     return "\n".join(lines) + "\n"
 
 
-@settings(max_examples=300, deadline=1000, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(
+    max_examples=300, deadline=1000, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
 @given(text=mutated_bvh())
 def test_any_mutation_loads_within_bounds_or_names_a_line(tmp_path, text):
     path = tmp_path / "fuzz.bvh"
@@ -506,11 +690,15 @@ def test_any_mutation_loads_within_bounds_or_names_a_line(tmp_path, text):
     assert np.isfinite(m.skeleton.offsets).all()
     assert np.abs(m.root_positions).max() <= 1e6 * m.meta["unit_scale"]
     assert 1 <= m.fps <= 1000 and 1 <= m.num_frames <= 1_000_000
-    np.testing.assert_allclose(np.linalg.norm(m.rotations, axis=-1), 1.0, atol=1e-9)  # unit quaternions
+    np.testing.assert_allclose(
+        np.linalg.norm(m.rotations, axis=-1), 1.0, atol=1e-9
+    )  # unit quaternions
 
 
 # -------------------------------------------------------------------------------- data verify
-def test_data_verify_names_truncated_empty_and_bit_flipped_cache_files(tmp_path, monkeypatch, capsys):
+def test_data_verify_names_truncated_empty_and_bit_flipped_cache_files(
+    tmp_path, monkeypatch, capsys
+):
     from retarget_lib.data.status import check_cache
 
     monkeypatch.setenv("RETARGET_CACHE", str(tmp_path))
@@ -525,13 +713,21 @@ def test_data_verify_names_truncated_empty_and_bit_flipped_cache_files(tmp_path,
     (folder / "flip.npz").write_bytes(bytes(flipped))
     status = check_cache()
     assert status.state == "BAD" and "3 bad file(s)" in status.detail
-    for name in ("cut.npz: truncated or corrupt", "empty.npz: empty file", "flip.npz: truncated or corrupt"):
+    for name in (
+        "cut.npz: truncated or corrupt",
+        "empty.npz: empty file",
+        "flip.npz: truncated or corrupt",
+    ):
         assert name in status.detail
     assert "good.npz" not in status.detail
-    assert_cli_error(capsys, ["data", "verify"], "data verification failed", "flip.npz", "cut.npz", "empty.npz")
+    assert_cli_error(
+        capsys, ["data", "verify"], "data verification failed", "flip.npz", "cut.npz", "empty.npz"
+    )
 
 
-def test_an_output_folder_that_cannot_be_written_names_the_output(tmp_path, capsys, src, monkeypatch):
+def test_an_output_folder_that_cannot_be_written_names_the_output(
+    tmp_path, capsys, src, monkeypatch
+):
     """A read-only folder (simulated: the suite runs as root, which writes anywhere): the error
     names the --out file, not the temporary file beside it."""
     import retarget_lib.files as files
@@ -547,4 +743,8 @@ def test_an_output_folder_that_cannot_be_written_names_the_output(tmp_path, caps
     capsys.readouterr()
     assert main(retarget_args(src, tmp_path / "o.bvh")) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and f"{tmp_path / 'o.bvh'}: cannot write into" in err[0] and ".tmp" not in err[0], err
+    assert (
+        len(err) == 1
+        and f"{tmp_path / 'o.bvh'}: cannot write into" in err[0]
+        and ".tmp" not in err[0]
+    ), err

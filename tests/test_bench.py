@@ -16,8 +16,12 @@ def test_references_compute_the_same_fk():
     rot /= np.linalg.norm(rot, axis=-1, keepdims=True)
     off, root = rng.normal(size=(22, 3)), rng.normal(size=(4, 3))
     expected = forward_kinematics(rot, off, CANONICAL22_PARENTS, root).positions
-    np.testing.assert_allclose(numpy_fk_loop(rot, off, CANONICAL22_PARENTS, root), expected, atol=1e-12)
-    got = torch_fk_per_joint(torch.from_numpy(rot), torch.from_numpy(off), CANONICAL22_PARENTS, torch.from_numpy(root))
+    np.testing.assert_allclose(
+        numpy_fk_loop(rot, off, CANONICAL22_PARENTS, root), expected, atol=1e-12
+    )
+    got = torch_fk_per_joint(
+        torch.from_numpy(rot), torch.from_numpy(off), CANONICAL22_PARENTS, torch.from_numpy(root)
+    )
     np.testing.assert_allclose(got.numpy(), expected, atol=1e-12)
 
 
@@ -41,7 +45,11 @@ def test_eso_bench_row_reports_per_frame_cost_against_the_network():
     assert ten_k.seconds > 0 and ten_k.reference_seconds > 0
     assert "full real body (13380 vertices" in full.name
     assert full.seconds > 0 and full.reference_seconds > 0
-    assert "Eint setup on 13380 vertices" in setup.name and setup.seconds > 0 and setup.reference_seconds is None
+    assert (
+        "Eint setup on 13380 vertices" in setup.name
+        and setup.seconds > 0
+        and setup.reference_seconds is None
+    )
 
 
 @pytest.mark.slow

@@ -9,8 +9,13 @@ import nbformat
 import pytest
 
 from retarget_lib.notebook import book
-from retarget_lib.notebook.book import (LearningPath, build_book, load_learning_path, offline_outputs,
-                                        remote_references)
+from retarget_lib.notebook.book import (
+    LearningPath,
+    build_book,
+    load_learning_path,
+    offline_outputs,
+    remote_references,
+)
 from retarget_lib.notebook.viewer import VIEWER_PAGE
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -37,13 +42,17 @@ def test_learning_path_is_in_file_order():
 
 def test_learning_path_rejects_a_need_that_comes_later(tmp_path):
     bad = tmp_path / "learning_path.yaml"
-    bad.write_text("notebooks:\n"
-                   "  - {file: a.ipynb, title: A, teaches: x, needs: [b.ipynb], minutes: 5, workshop: yes}\n"
-                   "  - {file: b.ipynb, title: B, teaches: y, needs: [], minutes: 5, workshop: yes}\n")
+    bad.write_text(
+        "notebooks:\n"
+        "  - {file: a.ipynb, title: A, teaches: x, needs: [b.ipynb], minutes: 5, workshop: yes}\n"
+        "  - {file: b.ipynb, title: B, teaches: y, needs: [], minutes: 5, workshop: yes}\n"
+    )
     with pytest.raises(ValueError, match="needs b.ipynb"):
         load_learning_path(bad)
-    bad.write_text("notebooks:\n"
-                   "  - {file: a.ipynb, title: A, teaches: x, needs: [], minutes: 5, workshop: no}\n")
+    bad.write_text(
+        "notebooks:\n"
+        "  - {file: a.ipynb, title: A, teaches: x, needs: [], minutes: 5, workshop: no}\n"
+    )
     with pytest.raises(ValueError, match="workshop_note"):
         load_learning_path(bad)
 
@@ -75,11 +84,27 @@ def test_widget_view_is_dropped_where_a_picture_or_html_is_there():
     png = base64.b64encode(b"\x89PNG fake").decode()
     nb = nbformat.v4.new_notebook()
     nb.metadata["widgets"] = {"application/vnd.jupyter.widget-state+json": {"state": {}}}
-    nb.cells = [nbformat.v4.new_code_cell("p", outputs=[
-        nbformat.v4.new_output("display_data", data={book.WIDGET_VIEW: {"model_id": "x"}, "image/png": png,
-                                                     "text/plain": "player"}),
-        nbformat.v4.new_output("display_data", data={book.WIDGET_VIEW: {"model_id": "y"}, "text/plain": "w"}),
-        nbformat.v4.new_output("display_data", data={"image/gif": png, "text/plain": "gif"})])]
+    nb.cells = [
+        nbformat.v4.new_code_cell(
+            "p",
+            outputs=[
+                nbformat.v4.new_output(
+                    "display_data",
+                    data={
+                        book.WIDGET_VIEW: {"model_id": "x"},
+                        "image/png": png,
+                        "text/plain": "player",
+                    },
+                ),
+                nbformat.v4.new_output(
+                    "display_data", data={book.WIDGET_VIEW: {"model_id": "y"}, "text/plain": "w"}
+                ),
+                nbformat.v4.new_output(
+                    "display_data", data={"image/gif": png, "text/plain": "gif"}
+                ),
+            ],
+        )
+    ]
     assert book.widget_only_outputs(nb) == [0]
     offline_outputs(nb)
     with_png, widget_only, gif = (o["data"] for o in nb.cells[0].outputs)
@@ -124,7 +149,8 @@ def test_book_from_a_fixture_shows_the_player_and_knob_offline(tmp_path):
 
     nb = nbformat.v4.new_notebook()
     nb.cells = [nbformat.v4.new_code_cell(c) for c in FIXTURE_CELLS[:3]] + [
-        nbformat.v4.new_markdown_cell(FIXTURE_CELLS[3])]
+        nbformat.v4.new_markdown_cell(FIXTURE_CELLS[3])
+    ]
     src = tmp_path / "src" / "fixture.ipynb"
     src.parent.mkdir()
     nbformat.write(nb, src)
@@ -136,10 +162,18 @@ def test_book_from_a_fixture_shows_the_player_and_knob_offline(tmp_path):
     assert {book.WIDGET_VIEW, "image/png", "text/html"} <= set(player_out)
 
     out = tmp_path / "book"
-    pages = build_book(out, executed=None, committed=src.parent, path=LearningPath("fixture"),
-                       extra=[executed / "fixture.ipynb"], verbose=False)
+    pages = build_book(
+        out,
+        executed=None,
+        committed=src.parent,
+        path=LearningPath("fixture"),
+        extra=[executed / "fixture.ipynb"],
+        verbose=False,
+    )
     page = (out / "fixture.html").read_text()
-    assert pages[0].name == "index.html" and (out / "_static" / "mathjax" / "tex-svg-full.js").exists()
+    assert (
+        pages[0].name == "index.html" and (out / "_static" / "mathjax" / "tex-svg-full.js").exists()
+    )
     assert remote_references(page) == []
     assert "application/vnd.jupyter.widget" not in page
     pictures = set(re.findall(r"data:image/png;base64,([A-Za-z0-9+/=]+)", page))
@@ -154,7 +188,9 @@ def test_book_from_the_committed_notebooks_is_offline_and_keeps_every_picture(tm
     """The book built from notebooks/ as committed (no execution): every page loads nothing from
     another host, and every picture output of a notebook is inline in its page."""
     pages = build_book(tmp_path, executed=None, verbose=False)
-    assert [p.name for p in pages[1:-1]] == [les.stem + ".html" for les in load_learning_path().lessons]
+    assert [p.name for p in pages[1:-1]] == [
+        les.stem + ".html" for les in load_learning_path().lessons
+    ]
     assert pages[-1].name == VIEWER_PAGE
     for page_path in pages:
         page = page_path.read_text()
@@ -191,7 +227,9 @@ def test_player_bundle_carries_an_offline_scrubber():
     bundle = live._repr_mimebundle_()
     assert {book.WIDGET_VIEW, "text/html", "image/png"} <= set(bundle)
     frames = set(re.findall(r"data:image/png;base64,([A-Za-z0-9+/=]+)", bundle["text/html"]))
-    assert len(frames) == 4 + 1   # 0, 3, 6, 9 and the current frame 5: the root slides, so all differ
+    assert (
+        len(frames) == 4 + 1
+    )  # 0, 3, 6, 9 and the current frame 5: the root slides, so all differ
     assert remote_references(bundle["text/html"]) == []
     live.close()
     still = viz.player(motions, mode="static", window_size=(120, 90), offline_frames=0)

@@ -36,26 +36,52 @@ def book(tmp_path_factory):
 def test_every_script_and_model_is_a_file_of_the_book(book):
     page = (book / VIEWER_PAGE).read_text()
     assert remote_references(page) == []
-    local = [r for r in re.findall(r'(?:src|href)="([^"#]+)"', page) if r != "index.html"]  # the book's front page
-    assert {"_static/model-viewer/model-viewer-umd.min.js", "_static/models/gus_wave.glb.js",
-            "_static/models/gus_wave.glb"} <= set(local)
+    local = [
+        r for r in re.findall(r'(?:src|href)="([^"#]+)"', page) if r != "index.html"
+    ]  # the book's front page
+    assert {
+        "_static/model-viewer/model-viewer-umd.min.js",
+        "_static/models/gus_wave.glb.js",
+        "_static/models/gus_wave.glb",
+    } <= set(local)
     for ref in local:
         assert not ref.startswith(("http:", "https:", "//", "/")) and (book / ref).is_file(), ref
     script = (book / "_static/models/gus_wave.glb.js").read_text()
     data = re.search(r'= "([A-Za-z0-9+/=]+)";', script).group(1)
-    assert base64.b64decode(data) == (book / "_static/models/gus_wave.glb").read_bytes()  # the same bytes
+    assert (
+        base64.b64decode(data) == (book / "_static/models/gus_wave.glb").read_bytes()
+    )  # the same bytes
 
 
 def _chromium() -> str | None:
-    return shutil.which("chromium") or shutil.which("chromium-browser") or shutil.which("google-chrome")
+    return (
+        shutil.which("chromium")
+        or shutil.which("chromium-browser")
+        or shutil.which("google-chrome")
+    )
 
 
 def _screenshot(page: Path, png: Path) -> np.ndarray:
-    subprocess.run([_chromium(), "--headless=new", "--no-sandbox", "--use-angle=swiftshader",
-                    "--enable-unsafe-swiftshader", "--hide-scrollbars", "--window-size=900,700",
-                    "--virtual-time-budget=20000", f"--screenshot={png}", page.as_uri()],
-                   check=True, capture_output=True, timeout=180)
-    return np.asarray(Image.open(png).convert("RGB"))[200:590, 20:880]  # inside the viewer, below the text
+    subprocess.run(
+        [
+            _chromium(),
+            "--headless=new",
+            "--no-sandbox",
+            "--use-angle=swiftshader",
+            "--enable-unsafe-swiftshader",
+            "--hide-scrollbars",
+            "--window-size=900,700",
+            "--virtual-time-budget=20000",
+            f"--screenshot={png}",
+            page.as_uri(),
+        ],
+        check=True,
+        capture_output=True,
+        timeout=180,
+    )
+    return np.asarray(Image.open(png).convert("RGB"))[
+        200:590, 20:880
+    ]  # inside the viewer, below the text
 
 
 def _drawn(pixels: np.ndarray) -> float:

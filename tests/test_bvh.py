@@ -56,7 +56,11 @@ def assert_same_motion(a: Motion, b: Motion, tol=1e-5):
     np.testing.assert_allclose(a.skeleton.offsets, b.skeleton.offsets, atol=tol, rtol=0)
     # the writer adds an End Site to leaves that had none (as exporters do); known ones survive
     leaves = {j for j in range(a.skeleton.num_joints) if not a.skeleton.children(j)}
-    assert a.skeleton.end_sites.keys() <= b.skeleton.end_sites.keys() <= a.skeleton.end_sites.keys() | leaves
+    assert (
+        a.skeleton.end_sites.keys()
+        <= b.skeleton.end_sites.keys()
+        <= a.skeleton.end_sites.keys() | leaves
+    )
     for j, e in a.skeleton.end_sites.items():
         np.testing.assert_allclose(e, b.skeleton.end_sites[j], atol=tol, rtol=0)
     np.testing.assert_allclose(a.root_positions, b.root_positions, atol=tol, rtol=0)
@@ -82,8 +86,14 @@ def test_reader_semantics_by_hand(tmp_path):
     np.testing.assert_allclose(chest_z, [1, 0, 0], atol=1e-12)
     # the end site (0,5,0) in Chest's frame: Rz(90) Rx(90) (0,5,0) = Rz(90) (0,0,5) = (0,0,5)
     np.testing.assert_allclose(end, [5 + 10, 6, 8 + 5], atol=1e-12)
-    assert m.meta["channels"][0] == ["Xposition", "Yposition", "Zposition",
-                                     "Xrotation", "Yrotation", "Zrotation"]
+    assert m.meta["channels"][0] == [
+        "Xposition",
+        "Yposition",
+        "Zposition",
+        "Xrotation",
+        "Yrotation",
+        "Zrotation",
+    ]
     assert m.meta["unit"] == "m" and m.meta["unit_scale"] == 1.0
     assert m.meta["file_joint_names"] == ["Hips", "Chest"]
 
@@ -99,7 +109,9 @@ def test_whitespace_tabs_crlf_and_blank_lines_are_tolerated(tmp_path):
 
 
 def test_prefixed_names_are_stripped_and_written_back(tmp_path):
-    text = GOOD.replace("ROOT Hips", "ROOT mixamorig:Hips").replace("JOINT Chest", "JOINT mixamorig:Chest")
+    text = GOOD.replace("ROOT Hips", "ROOT mixamorig:Hips").replace(
+        "JOINT Chest", "JOINT mixamorig:Chest"
+    )
     m = load_bvh(write(tmp_path, text), unit="cm")
     assert m.skeleton.joint_names == ("Hips", "Chest")
     assert m.meta["file_joint_names"] == ["mixamorig:Hips", "mixamorig:Chest"]
@@ -119,12 +131,16 @@ CHEST_POSITIONS = "    CHANNELS 6 Zrotation Xrotation Yrotation Yposition Xposit
 
 
 def test_non_root_position_channels_fold_or_drop(tmp_path):
-    const = replace_lines(GOOD, {9: CHEST_POSITIONS, 19: "5 6 7 90 0 90 0 0 0 4 3 2",
-                                 20: "5 6 8 0 0 0 90 90 0 4 3 2"})
+    const = replace_lines(
+        GOOD, {9: CHEST_POSITIONS, 19: "5 6 7 90 0 90 0 0 0 4 3 2", 20: "5 6 8 0 0 0 90 90 0 4 3 2"}
+    )
     m = load_bvh(write(tmp_path, const), unit="m")
     # constant channel values replace the OFFSET (10, 0, 0); Y, X, Z order in the file
     np.testing.assert_allclose(m.skeleton.offsets[1], [3, 4, 2])
-    assert m.meta["position_channels_folded"] == ["Chest"] and m.meta["position_channels_dropped"] == []
+    assert (
+        m.meta["position_channels_folded"] == ["Chest"]
+        and m.meta["position_channels_dropped"] == []
+    )
     # the layout survives a write: the constant channels are written again and re-folded
     save_bvh(m, tmp_path / "out.bvh")
     m2 = load_bvh(tmp_path / "out.bvh", unit="m")
@@ -134,12 +150,22 @@ def test_non_root_position_channels_fold_or_drop(tmp_path):
     varying = replace_lines(const, {20: "5 6 8 0 0 0 90 90 0 6 3 2"})
     m = load_bvh(write(tmp_path, varying), unit="m")
     np.testing.assert_allclose(m.skeleton.offsets[1], [3, 5, 2])  # the mean over frames
-    assert m.meta["position_channels_dropped"] == ["Chest"] and m.meta["position_channels_folded"] == []
+    assert (
+        m.meta["position_channels_dropped"] == ["Chest"]
+        and m.meta["position_channels_folded"] == []
+    )
 
 
 def test_root_without_position_channels_and_joint_without_channels(tmp_path):
-    text = replace_lines(GOOD, {5: "CHANNELS 3 Yrotation Xrotation Zrotation", 9: "CHANNELS 0",
-                                19: "10 20 30", 20: "0 0 45"})
+    text = replace_lines(
+        GOOD,
+        {
+            5: "CHANNELS 3 Yrotation Xrotation Zrotation",
+            9: "CHANNELS 0",
+            19: "10 20 30",
+            20: "0 0 45",
+        },
+    )
     m = load_bvh(write(tmp_path, text), unit="m")
     np.testing.assert_allclose(m.root_positions, [[1, 2, 3], [1, 2, 3]])  # the root OFFSET
     np.testing.assert_allclose(m.rotations[:, 1], [[1, 0, 0, 0]] * 2)
@@ -150,9 +176,10 @@ def test_root_without_position_channels_and_joint_without_channels(tmp_path):
     moved = m.copy(rotations=rot, root_positions=rng.normal(size=(2, 3)))
     save_bvh(moved, tmp_path / "out.bvh")
     back = load_bvh(tmp_path / "out.bvh", unit="m")
-    assert back.meta["channels"] == [["Xposition", "Yposition", "Zposition",
-                                      "Yrotation", "Xrotation", "Zrotation"],
-                                     ["Zrotation", "Xrotation", "Yrotation"]]
+    assert back.meta["channels"] == [
+        ["Xposition", "Yposition", "Zposition", "Yrotation", "Xrotation", "Zrotation"],
+        ["Zrotation", "Xrotation", "Yrotation"],
+    ]
     assert_same_motion(moved, back)
 
 
@@ -233,9 +260,14 @@ def header_value(path, key):
     return float(m.group(1))
 
 
-@pytest.mark.parametrize("name,joints,fps,unit", [
-    ("01_01.bvh", 31, 120.0, "cmu"), ("01_03.bvh", 31, 120.0, "cmu"),
-    ("Boxing_Toes.bvh", 21, 100.0, "cm")])
+@pytest.mark.parametrize(
+    "name,joints,fps,unit",
+    [
+        ("01_01.bvh", 31, 120.0, "cmu"),
+        ("01_03.bvh", 31, 120.0, "cmu"),
+        ("Boxing_Toes.bvh", 21, 100.0, "cm"),
+    ],
+)
 @pytest.mark.data
 def test_real_clips_load_with_plausible_units(real_clips, name, joints, fps, unit):
     m = real_clips[name]
@@ -264,12 +296,20 @@ def test_real_clips_round_trip(real_clips, tmp_path, name):
     assert back.meta["unit"] == m.meta["unit"]
     assert back.meta["channels"] == m.meta["channels"]
     assert back.meta["file_joint_names"] == m.meta["file_joint_names"]
+
     # written in the file's own unit: the OFFSET lines carry the original numbers
     def offsets(text):
-        return np.array([[float(v) for v in line.split()[1:]]
-                         for line in text.splitlines() if line.strip().startswith("OFFSET")])
-    np.testing.assert_allclose(offsets(out.read_text()), offsets(cmu.cmu_clip_path(name).read_text()),
-                               atol=1e-6)
+        return np.array(
+            [
+                [float(v) for v in line.split()[1:]]
+                for line in text.splitlines()
+                if line.strip().startswith("OFFSET")
+            ]
+        )
+
+    np.testing.assert_allclose(
+        offsets(out.read_text()), offsets(cmu.cmu_clip_path(name).read_text()), atol=1e-6
+    )
 
 
 def odd_order_motion(seed=0, frames=50):
@@ -278,12 +318,21 @@ def odd_order_motion(seed=0, frames=50):
     parents = (-1, 0, 1, 1, 0, 4)
     offsets = rng.normal(size=(6, 3)) * 0.3
     rot = quat_from_axis_angle(torch.from_numpy(rng.normal(size=(frames, 6, 3)) * 1.5)).numpy()
-    meta = {"file_joint_names": list(names), "channels": [
-        ["Zposition", "Xposition", "Yposition", "Yrotation", "Xrotation", "Zrotation"],
-        ["Xrotation", "Yrotation", "Zrotation"], ["Yrotation", "Xrotation", "Zrotation"],
-        ["Zrotation", "Yrotation", "Xrotation"], ["Xrotation", "Zrotation", "Yrotation"],
-        ["Yrotation", "Zrotation", "Xrotation"]], "unit_scale": 0.001}
-    sk = Skeleton(names, parents, offsets, {2: np.array([0.0, 0.1, 0.0]), 5: np.array([0.2, 0, 0.1])})
+    meta = {
+        "file_joint_names": list(names),
+        "channels": [
+            ["Zposition", "Xposition", "Yposition", "Yrotation", "Xrotation", "Zrotation"],
+            ["Xrotation", "Yrotation", "Zrotation"],
+            ["Yrotation", "Xrotation", "Zrotation"],
+            ["Zrotation", "Yrotation", "Xrotation"],
+            ["Xrotation", "Zrotation", "Yrotation"],
+            ["Yrotation", "Zrotation", "Xrotation"],
+        ],
+        "unit_scale": 0.001,
+    }
+    sk = Skeleton(
+        names, parents, offsets, {2: np.array([0.0, 0.1, 0.0]), 5: np.array([0.2, 0, 0.1])}
+    )
     return Motion(sk, rot, rng.normal(size=(frames, 3)), fps=60, meta=meta)
 
 
@@ -324,20 +373,32 @@ MALFORMED = {
     "wrong value count": (replace_lines(GOOD, {20: "5 6 8 0 0 0 90 90"}), 20, "8 values"),
     "bad number": (replace_lines(GOOD, {19: "5 6 7 90 zero 90 0 0 0"}), 19, "'zero'"),
     "non-finite number": (replace_lines(GOOD, {19: "5 6 7 90 nan 90 0 0 0"}), 19, "non-finite"),
-    "multiple roots": (GOOD.replace("MOTION", "ROOT Other\n{\n  OFFSET 0 0 0\n}\nMOTION"), 16,
-                       "multiple ROOT"),
+    "multiple roots": (
+        GOOD.replace("MOTION", "ROOT Other\n{\n  OFFSET 0 0 0\n}\nMOTION"),
+        16,
+        "multiple ROOT",
+    ),
     "zero frames": (GOOD.replace("Frames: 2", "Frames: 0"), 17, "0 frames"),
     "bad frame count": (GOOD.replace("Frames: 2", "Frames: two"), 17, "frame count"),
     "bad frame time": (GOOD.replace("Frame Time: 0.1", "Frame Time: -0.1"), 18, "positive"),
     "missing brace": (replace_lines(GOOD, {14: ""}), 16, "unbalanced braces"),
     "extra brace": (GOOD.replace("MOTION", "}\nMOTION"), 16, "unmatched '}'"),
     "unexpected end of file": ("\n".join(GOOD.splitlines()[:9]) + "\n", 9, "end of file"),
-    "unknown channel": (GOOD.replace("Zrotation Xrotation Yrotation", "Zrotation Xrotation Wrotation"),
-                        9, "'Wrotation'"),
-    "channel count": (GOOD.replace("3 Zrotation Xrotation Yrotation", "3 Zrotation Xrotation"),
-                      9, "says 3 but lists 2"),
-    "repeated axis": (GOOD.replace("Zrotation Xrotation Yrotation", "Zrotation Xrotation Xrotation"),
-                      9, "each of X, Y, Z once"),
+    "unknown channel": (
+        GOOD.replace("Zrotation Xrotation Yrotation", "Zrotation Xrotation Wrotation"),
+        9,
+        "'Wrotation'",
+    ),
+    "channel count": (
+        GOOD.replace("3 Zrotation Xrotation Yrotation", "3 Zrotation Xrotation"),
+        9,
+        "says 3 but lists 2",
+    ),
+    "repeated axis": (
+        GOOD.replace("Zrotation Xrotation Yrotation", "Zrotation Xrotation Xrotation"),
+        9,
+        "each of X, Y, Z once",
+    ),
     "bad offset": (GOOD.replace("OFFSET 10 0 0", "OFFSET 10 O 0"), 8, "bad number"),
     "short offset": (GOOD.replace("OFFSET 10 0 0", "OFFSET 10 0"), 8, "needs 3 numbers"),
     "missing MOTION": ("\n".join(GOOD.splitlines()[:15]) + "\n", 15, "missing MOTION"),
@@ -400,9 +461,12 @@ def test_cmu_fallback_unpacks_the_deb_into_the_cache(tmp_path, monkeypatch):
         assert sha256_file(path) == cmu.CMU_SHA256[name]
     assert len(list((tmp_path / "cache/downloads").glob("*.deb"))) == 1
     # no temporary folders are left behind, and only the BVH folder was unpacked
-    assert not list((tmp_path / "cache").rglob(".apt-*")) + list((tmp_path / "cache").rglob(".unpack-*"))
-    assert [p.name for p in (tmp_path / "cache/assimp-testmodels/usr/share/assimp/models").iterdir()] \
-        == ["BVH"]
+    assert not list((tmp_path / "cache").rglob(".apt-*")) + list(
+        (tmp_path / "cache").rglob(".unpack-*")
+    )
+    assert [
+        p.name for p in (tmp_path / "cache/assimp-testmodels/usr/share/assimp/models").iterdir()
+    ] == ["BVH"]
 
 
 def test_cmu_without_apt_says_how_to_install(tmp_path, monkeypatch):
@@ -434,7 +498,9 @@ def test_canonical_order_is_not_depth_first_yet_round_trips(tmp_path):
     rng = np.random.default_rng(5)
     rot = rng.normal(size=(4, 22, 4))
     rot /= np.linalg.norm(rot, axis=-1, keepdims=True)
-    m = Motion(canonical22_skeleton(rng.normal(size=(22, 3)) * 0.2), rot, rng.normal(size=(4, 3)), 30.0)
+    m = Motion(
+        canonical22_skeleton(rng.normal(size=(22, 3)) * 0.2), rot, rng.normal(size=(4, 3)), 30.0
+    )
     save_bvh(m, tmp_path / "c.bvh")
     back = load_bvh(tmp_path / "c.bvh")
     assert set(back.skeleton.joint_names) == set(CANONICAL22)

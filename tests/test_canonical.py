@@ -8,8 +8,13 @@ import torch
 
 from retarget_lib.core.canonical import fold_to_canonical22, unfold_from_canonical22
 from retarget_lib.core.motion import Motion
-from retarget_lib.core.rotations import (quat_conjugate, quat_from_axis_angle, quat_mul, quat_rotate,
-                                         quat_to_matrix)
+from retarget_lib.core.rotations import (
+    quat_conjugate,
+    quat_from_axis_angle,
+    quat_mul,
+    quat_rotate,
+    quat_to_matrix,
+)
 from retarget_lib.core.skeleton import CANONICAL22, CANONICAL22_PARENTS, JointSetError, Skeleton
 from retarget_lib.data.sources.cmu import CMU_CLIPS, cmu_clip_path, load_cmu_clip
 from retarget_lib.io import load_bvh
@@ -27,26 +32,35 @@ def mixamo_motion(seed=0, frames=40, twists=None, rename=None) -> Motion:
         rename: ``{name: new name}`` applied last.
     """
     twists = twists or {}
-    spec = [("Hips", None, (0, 1.0, 0)), ("Spine", "Hips", (0, 0.1, 0)),
-            ("Spine1", "Spine", (0, 0.12, 0)), ("Spine2", "Spine1", (0, 0.12, 0)),
-            ("Neck", "Spine2", (0, 0.15, 0)), ("Head", "Neck", (0, 0.1, 0.02)),
-            ("HeadTop_End", "Head", (0, 0.18, 0))]
+    spec = [
+        ("Hips", None, (0, 1.0, 0)),
+        ("Spine", "Hips", (0, 0.1, 0)),
+        ("Spine1", "Spine", (0, 0.12, 0)),
+        ("Spine2", "Spine1", (0, 0.12, 0)),
+        ("Neck", "Spine2", (0, 0.15, 0)),
+        ("Head", "Neck", (0, 0.1, 0.02)),
+        ("HeadTop_End", "Head", (0, 0.18, 0)),
+    ]
     for side, s in (("Left", 1), ("Right", -1)):
-        spec += [(f"{side}Shoulder", "Spine2", (s * 0.06, 0.1, 0)),
-                 (f"{side}Arm", f"{side}Shoulder", (s * 0.12, 0, 0)),
-                 (f"{side}ForeArm", f"{side}Arm", (s * 0.27, 0, 0)),
-                 (f"{side}Hand", f"{side}ForeArm", (s * 0.25, 0, 0))]
+        spec += [
+            (f"{side}Shoulder", "Spine2", (s * 0.06, 0.1, 0)),
+            (f"{side}Arm", f"{side}Shoulder", (s * 0.12, 0, 0)),
+            (f"{side}ForeArm", f"{side}Arm", (s * 0.27, 0, 0)),
+            (f"{side}Hand", f"{side}ForeArm", (s * 0.25, 0, 0)),
+        ]
         for finger, z in (("Thumb", 0.03), ("Index", 0.01), ("Middle", -0.01)):
             parent = f"{side}Hand"
             for k in range(1, 5):
                 spec.append((f"{side}Hand{finger}{k}", parent, (s * 0.03, 0, z)))
                 parent = f"{side}Hand{finger}{k}"
     for side, s in (("Left", 1), ("Right", -1)):
-        spec += [(f"{side}UpLeg", "Hips", (s * 0.09, -0.06, 0)),
-                 (f"{side}Leg", f"{side}UpLeg", (0, -0.42, 0)),
-                 (f"{side}Foot", f"{side}Leg", (0, -0.4, 0)),
-                 (f"{side}ToeBase", f"{side}Foot", (0, -0.08, 0.12)),
-                 (f"{side}Toe_End", f"{side}ToeBase", (0, 0, 0.06))]
+        spec += [
+            (f"{side}UpLeg", "Hips", (s * 0.09, -0.06, 0)),
+            (f"{side}Leg", f"{side}UpLeg", (0, -0.42, 0)),
+            (f"{side}Foot", f"{side}Leg", (0, -0.4, 0)),
+            (f"{side}ToeBase", f"{side}Foot", (0, -0.08, 0.12)),
+            (f"{side}Toe_End", f"{side}ToeBase", (0, 0, 0.06)),
+        ]
     rng = np.random.default_rng(seed)
     names, parents, offsets = [], [], []
     for name, parent, off in spec:
@@ -60,7 +74,9 @@ def mixamo_motion(seed=0, frames=40, twists=None, rename=None) -> Motion:
         offsets.append(np.array(off) + rng.normal(size=3) * 0.01)
     names = [(rename or {}).get(n, n) for n in names]
     sk = Skeleton([f"mixamorig:{n}" for n in names], parents, np.array(offsets))
-    rot = quat_from_axis_angle(torch.from_numpy(rng.normal(size=(frames, len(names), 3)) * 0.7)).numpy()
+    rot = quat_from_axis_angle(
+        torch.from_numpy(rng.normal(size=(frames, len(names), 3)) * 0.7)
+    ).numpy()
     return Motion(sk, rot, rng.normal(size=(frames, 3)), fps=30)
 
 
@@ -104,9 +120,11 @@ def test_zero_offset_rotating_intermediate_joints_fold_exactly():
     errors = kept_errors(m, c)
     assert max(e.max() for e in errors.values()) < 1e-6, {k: e.max() for k, e in errors.items()}
     # the folded offset is the rest-pose sum along the removed chain
-    for child, twist in twists.items():
+    for child, _twist in twists.items():
         i = m.skeleton.index(f"mixamorig:{child}")
-        np.testing.assert_allclose(c.skeleton.offsets[CANONICAL22.index(child)], m.skeleton.offsets[i])
+        np.testing.assert_allclose(
+            c.skeleton.offsets[CANONICAL22.index(child)], m.skeleton.offsets[i]
+        )
     # the parent's new global rotation is the old one followed by a pure swing: the swing axis is
     # perpendicular to where the old rotation pointed the bone, i.e. the old twist is kept
     neck = CANONICAL22.index("Neck")
@@ -131,8 +149,12 @@ def test_a_22_joint_set_in_another_order_is_only_reordered():
     c = to_canonical22(m)
     order = list(SMPLX_TO_CANONICAL)  # canonical c is SMPL-X joint order[c]
     back = [order.index(j) for j in range(22)]
-    smplx = Motion(Skeleton(SMPLX_BODY_NAMES, SMPLX_BODY_PARENTS, c.skeleton.offsets[back]), c.rotations[:, back],
-                   c.root_positions, c.fps)
+    smplx = Motion(
+        Skeleton(SMPLX_BODY_NAMES, SMPLX_BODY_PARENTS, c.skeleton.offsets[back]),
+        c.rotations[:, back],
+        c.root_positions,
+        c.fps,
+    )
     again = to_canonical22(smplx)
     assert again.meta["folded_from"] == "smplx"
     np.testing.assert_array_equal(again.skeleton.offsets, c.skeleton.offsets)
@@ -171,8 +193,9 @@ def test_cmu_fold_error_is_the_neck_length_change(folded, name):
     g = m.global_positions()
     length = np.linalg.norm(g[:, n.index("Head")] - g[:, n.index("Neck")], axis=-1)
     rest = np.linalg.norm(c.skeleton.offsets[CANONICAL22.index("Head")])
-    assert rest == pytest.approx(np.linalg.norm(m.skeleton.offsets[n.index("Neck1")]
-                                                + m.skeleton.offsets[n.index("Head")]))
+    assert rest == pytest.approx(
+        np.linalg.norm(m.skeleton.offsets[n.index("Neck1")] + m.skeleton.offsets[n.index("Head")])
+    )
     np.testing.assert_allclose(errors["Head"], np.abs(length - rest), atol=1e-9, rtol=0)
     assert errors["Head"].max() < 0.025  # measured: 2.17 cm (01_01), 1.32 cm (01_03)
 
@@ -195,8 +218,8 @@ def test_resample_120_to_30_keeps_duration_and_frames(folded):
     r = load_cmu_clip("01_01.bvh", fps=30, normalize=False)
     assert r.fps == 30 and abs(r.duration - c.duration) < 1 / 30
     # 120 / 30 = 4: every resampled frame is an original frame
-    np.testing.assert_allclose(r.root_positions, c.root_positions[::4][:r.num_frames], atol=1e-12)
-    assert same_rotation(r.rotations, c.rotations[::4][:r.num_frames], 1e-9)
+    np.testing.assert_allclose(r.root_positions, c.root_positions[::4][: r.num_frames], atol=1e-12)
+    assert same_rotation(r.rotations, c.rotations[::4][: r.num_frames], 1e-9)
     b = load_cmu_clip("Boxing_Toes.bvh", fps=30, normalize=False)
     assert abs(b.duration - folded["Boxing_Toes.bvh"][1].duration) < 1 / 30
 
@@ -215,14 +238,17 @@ def test_normalize_root_faces_z_at_the_origin(name):
     np.testing.assert_allclose(across / np.linalg.norm(across), [1, 0, 0], atol=1e-9)
     # feet on the ground over the first second
     assert pos[:30, :, 1].min() == pytest.approx(0, abs=1e-9)
+
     # a rigid motion of the whole clip: horizontal root path lengths and heights above the lowest
     # joint are unchanged
     def path(r):
         return np.linalg.norm(np.diff(r[:, [0, 2]], axis=0), axis=-1)
+
     np.testing.assert_allclose(path(m.root_positions), path(raw.root_positions), atol=1e-9)
     raw_pos = raw.global_positions()
-    np.testing.assert_allclose(pos[..., 1] - pos[..., 1].min(), raw_pos[..., 1] - raw_pos[..., 1].min(),
-                               atol=1e-9)
+    np.testing.assert_allclose(
+        pos[..., 1] - pos[..., 1].min(), raw_pos[..., 1] - raw_pos[..., 1].min(), atol=1e-9
+    )
 
 
 @pytest.mark.data
@@ -234,9 +260,14 @@ def test_unfold_from_canonical22_restores_the_full_joint_set(name):
     full = unfold_from_canonical22(folded, raw.skeleton, present_map(raw.skeleton)[0])
     assert full.skeleton.joint_names == raw.skeleton.joint_names
     pos = full.global_positions()
-    kept = [raw.skeleton.joint_names.index(n) for n in
-            (("Hips", "LeftUpLeg", "LeftFoot", "RightHand", "Head") if name != "Boxing_Toes.bvh"
-             else ("Hips", "LeftHip", "LeftAnkle", "RightWrist", "Head"))]
+    kept = [
+        raw.skeleton.joint_names.index(n)
+        for n in (
+            ("Hips", "LeftUpLeg", "LeftFoot", "RightHand", "Head")
+            if name != "Boxing_Toes.bvh"
+            else ("Hips", "LeftHip", "LeftAnkle", "RightWrist", "Head")
+        )
+    ]
     canon = folded.global_positions()
     cidx = [CANONICAL22.index(n) for n in ("Hips", "LeftUpLeg", "LeftFoot", "RightHand", "Head")]
     err = np.abs(pos[:, kept] - canon[:, cidx]).max()

@@ -146,7 +146,9 @@ def test_rest_poses_differ(chars):
     tags = {c.style["rest_pose"] for c in chars}
     assert tags == {"T-pose", "A-pose"}
     assert any(c.style["knee_bend_deg"] > 0 for c in chars)
-    assert any(c.style["spine_curve_deg"] > 0 for c in chars) and any(c.style["spine_curve_deg"] < 0 for c in chars)
+    assert any(c.style["spine_curve_deg"] > 0 for c in chars) and any(
+        c.style["spine_curve_deg"] < 0 for c in chars
+    )
 
 
 def test_skinny_and_bulky(chars):
@@ -161,7 +163,9 @@ def test_identity_pose_skins_to_rest(chars):
     rot = np.zeros((2, 22, 4))
     rot[..., 0] = 1.0
     root = np.repeat(c.skeleton.offsets[:1], 2, axis=0)
-    np.testing.assert_allclose(c.skinned(rot, root), np.repeat(c.rest_vertices[None], 2, 0), atol=1e-12)
+    np.testing.assert_allclose(
+        c.skinned(rot, root), np.repeat(c.rest_vertices[None], 2, 0), atol=1e-12
+    )
     out = c.skinned(torch.tensor(rot, dtype=torch.float32), torch.tensor(root, dtype=torch.float32))
     assert out.dtype == torch.float32 and out.shape == (2, c.num_vertices, 3)
 
@@ -169,7 +173,9 @@ def test_identity_pose_skins_to_rest(chars):
 def test_deterministic_and_cached_copies():
     spec = CHARACTER_SPECS[3]
     a, b = build_character(spec), build_character(spec)
-    np.testing.assert_array_equal(a.rest_vertices, b.rest_vertices)  # the same code twice in one process: exact
+    np.testing.assert_array_equal(
+        a.rest_vertices, b.rest_vertices
+    )  # the same code twice in one process: exact
     np.testing.assert_array_equal(a.faces, b.faces)
     np.testing.assert_array_equal(a.weights, b.weights)
     np.testing.assert_array_equal(a.skeleton.offsets, b.skeleton.offsets)
@@ -180,7 +186,9 @@ def test_deterministic_and_cached_copies():
 
 def test_random_characters():
     a, b, c = random_character(7), random_character(7), random_character(8)
-    np.testing.assert_array_equal(a.rest_vertices, b.rest_vertices)  # copied (cached), not recomputed: exact
+    np.testing.assert_array_equal(
+        a.rest_vertices, b.rest_vertices
+    )  # copied (cached), not recomputed: exact
     assert a.name == "random-7" and a.height != c.height
     for x in (a, c):
         assert 1.2 <= x.height <= 2.1 and 1000 <= x.num_vertices <= 5000
@@ -237,8 +245,8 @@ def test_mannequin_identity_pose(mannequin):
 
 def test_mannequin_checksum():
     pytest.importorskip("mannequin", reason="mannequin-x is not installed")
-    from retarget_lib.files import sha256_file
     from retarget_lib.data.sources.mannequin import MANNEQUIN_SHA256, mannequin_path
+    from retarget_lib.files import sha256_file
 
     assert sha256_file(mannequin_path()) == MANNEQUIN_SHA256
 
@@ -246,8 +254,8 @@ def test_mannequin_checksum():
 def test_mannequin_missing_package_says_how_to_install(monkeypatch):
     import importlib.resources
 
-    from retarget_lib.files import DataError
     from retarget_lib.data.sources.mannequin import load_mannequin
+    from retarget_lib.files import DataError
 
     def missing(name):
         raise ModuleNotFoundError(name)

@@ -21,16 +21,29 @@ def small():
     motion = make_motion("clap", performer.skeleton, 0, duration=3.0, body_radii=radii)
     clips = [contact_clip(motion, performer)]
     targets = {n: make_character(n) for n in ("dex", "fern")}
-    config = load_config("configs/contact_paper.yaml", ["model.hidden=32", "model.geometry=16", "train.batch=2",
-                                                          "train.steps=4", "train.epochs=2", "data.window=20",
-                                                          "train.checkpoint_every=2", "train.compile=false"],
-                         profile="fast")
+    config = load_config(
+        "configs/contact_paper.yaml",
+        [
+            "model.hidden=32",
+            "model.geometry=16",
+            "train.batch=2",
+            "train.steps=4",
+            "train.epochs=2",
+            "data.window=20",
+            "train.checkpoint_every=2",
+            "train.compile=false",
+        ],
+        profile="fast",
+    )
     return clips, targets, config
 
 
 def test_clip_has_detected_hand_contacts(small):
     clips, _, _ = small
-    assert len(clips[0].self_contacts) > 0 and clips[0].foot_contacts.shape == (clips[0].motion.num_frames, 4)
+    assert len(clips[0].self_contacts) > 0 and clips[0].foot_contacts.shape == (
+        clips[0].motion.num_frames,
+        4,
+    )
 
 
 @pytest.mark.slow
@@ -42,17 +55,34 @@ def test_training_logs_every_term_and_resumes_exactly(small, tmp_path):
     assert losses["foot"] == 0.0  # App. B.1: Efoot is ramped in from 0 in the first epoch
     assert run.epoch(3) == 1
 
-    full = fit(ContactTraining(config, clips, targets).task(), config, tmp_path / "full", 4, 2, progress=False)
+    full = fit(
+        ContactTraining(config, clips, targets).task(),
+        config,
+        tmp_path / "full",
+        4,
+        2,
+        progress=False,
+    )
     part = tmp_path / "part"
     fit(ContactTraining(config, clips, targets).task(), config, part, 2, 2, progress=False)
-    resumed = fit(ContactTraining(config, clips, targets).task(), config, part, 4, 2, resume=True, progress=False)
+    resumed = fit(
+        ContactTraining(config, clips, targets).task(),
+        config,
+        part,
+        4,
+        2,
+        resume=True,
+        progress=False,
+    )
     a, b = torch.load(full, weights_only=False), torch.load(resumed, weights_only=False)
     for k, v in a["modules"]["model"].items():
         torch.testing.assert_close(v, b["modules"]["model"][k])
 
     slim = export_model(full, tmp_path / "model.pt")
     stored = torch.load(slim, weights_only=True)["modules"]["model"]
-    assert all(v.dtype == torch.float32 for v in stored.values() if v.is_floating_point())  # see export_model
+    assert all(
+        v.dtype == torch.float32 for v in stored.values() if v.is_floating_point()
+    )  # see export_model
     model, cfg = load_contact_model(slim)
     out = retarget_with_network(model, clips[0].motion.slice(0, 10), targets["dex"])
     assert out.rotations.shape == (10, 22, 4) and out.skeleton is targets["dex"].skeleton
@@ -65,9 +95,13 @@ def test_a_compiled_decoder_trains_like_the_eager_one(small):
     clips, targets, config = small
     # no dropout: compiled code draws its random masks from another stream than eager code
     config = {**config, "model": {**config["model"], "dropout": 0.0}}
-    eager, compiled = (ContactTraining({**config, "train": {**config["train"], "compile": flag}}, clips, targets)
-                       for flag in (False, True))
-    for step in range(2):  # the second step runs after one Adam update through the compiled backward
+    eager, compiled = (
+        ContactTraining({**config, "train": {**config["train"], "compile": flag}}, clips, targets)
+        for flag in (False, True)
+    )
+    for step in range(
+        2
+    ):  # the second step runs after one Adam update through the compiled backward
         seed_everything(step)  # both draw the same batch from the global RNGs
         a = eager.step(step)
         seed_everything(step)
@@ -84,11 +118,40 @@ def test_contact_method_on_the_command_line(tmp_path, capsys):
     short = tmp_path / "short.bvh"
     save_bvh(load_bvh(cmu_clip_path("01_03.bvh")).slice(0, 24), short)
     out = tmp_path / "contact.bvh"
-    assert main(["retarget", "--source", str(short), "--target", "gus", "--method", "contact", "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "retarget",
+                "--source",
+                str(short),
+                "--target",
+                "gus",
+                "--method",
+                "contact",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     result = load_bvh(out)
     # the method runs at 30 fps (7 frames: 6 over 5/30 s and the source's last at 23/120 s); the
     # output comes back at the source's 120 fps with every one of its 24 frames
     assert result.fps == pytest.approx(120.0) and result.num_frames == 24
-    assert main(["retarget", "--source", str(short), "--target", str(cmu_clip_path("Boxing_Toes.bvh")),
-                 "--method", "contact", "--out", str(out)]) == 2
+    assert (
+        main(
+            [
+                "retarget",
+                "--source",
+                str(short),
+                "--target",
+                str(cmu_clip_path("Boxing_Toes.bvh")),
+                "--method",
+                "contact",
+                "--out",
+                str(out),
+            ]
+        )
+        == 2
+    )
     assert "--target-mesh" in capsys.readouterr().err

@@ -5,6 +5,7 @@ import itertools
 
 import numpy as np
 import pytest
+from skeletons import make_skeleton
 
 from retarget_lib.core.character import Character
 from retarget_lib.core.measures import estimated_standing_height
@@ -24,7 +25,6 @@ from retarget_lib.geometry.contacts import (
     vertex_correspondence,
     vertex_groups,
 )
-from skeletons import make_skeleton
 
 
 # ----------------------------------------------------------------------------- foot contacts
@@ -45,7 +45,9 @@ def test_a_lifted_toe_or_a_moving_foot_is_not_in_contact():
     sk = make_skeleton()
     lifted = detect_foot_contacts(_standing_clip(sk, lift=0.05), sk, character_height=1.8)
     assert lifted[:, :2].all() and not lifted[:, 2:].any()  # heels only need to be still
-    sliding = detect_foot_contacts(_standing_clip(sk, step=(0.0, 0.0, 0.02)), sk, character_height=1.8)
+    sliding = detect_foot_contacts(
+        _standing_clip(sk, step=(0.0, 0.0, 0.02)), sk, character_height=1.8
+    )
     assert not sliding.any()  # 2 cm per frame > 1 cm
 
 
@@ -82,14 +84,17 @@ def test_toe_height_is_measured_from_the_toe_rest_height():
     assert detect_foot_contacts(_standing_clip(high_toes), high_toes, character_height=1.8).all()
 
 
-@pytest.mark.parametrize("pattern, expected", [
-    ("11011", "11111"),      # a one-frame gap is filled
-    ("110011", "111111"),    # a two-frame gap: 3 of 5 around each missing frame
-    ("1100011", "1100011"),  # a three-frame gap is not
-    ("00100", "00100"),      # fill only: an isolated contact frame stays, nothing is added
-    ("011000", "111000"),    # clip edge: frame 0 sees frames 0-2 and 2 of them are contact
-    ("000110", "000111"),    # last frame sees frames 3-5: 2 of 3
-])
+@pytest.mark.parametrize(
+    "pattern, expected",
+    [
+        ("11011", "11111"),  # a one-frame gap is filled
+        ("110011", "111111"),  # a two-frame gap: 3 of 5 around each missing frame
+        ("1100011", "1100011"),  # a three-frame gap is not
+        ("00100", "00100"),  # fill only: an isolated contact frame stays, nothing is added
+        ("011000", "111000"),  # clip edge: frame 0 sees frames 0-2 and 2 of them are contact
+        ("000110", "000111"),  # last frame sees frames 3-5: 2 of 3
+    ],
+)
 def test_five_frame_window_fill(pattern, expected):
     mask = np.array([c == "1" for c in pattern])
     np.testing.assert_array_equal(fill_contacts(mask, 5), [c == "1" for c in expected])
@@ -114,8 +119,11 @@ def test_foot_contacts_reject_bad_shapes():
 @pytest.mark.data
 def test_foot_contacts_match_a_synthetic_walk(synthetic):
     clip = synthetic.clip("walk_000")
-    detected = detect_foot_contacts(clip.motion.global_positions(), clip.motion.skeleton,
-                                    estimated_standing_height(clip.motion.skeleton))
+    detected = detect_foot_contacts(
+        clip.motion.global_positions(),
+        clip.motion.skeleton,
+        estimated_standing_height(clip.motion.skeleton),
+    )
     # toes match closely; a heel also reads "still" in the first frames of its slow lift-off
     # (the paper's heel rule has no height test), so its precision is lower (measured 0.74-0.80)
     for k, least_precision in enumerate((0.7, 0.7, 0.95, 0.95)):
@@ -125,11 +133,9 @@ def test_foot_contacts_match_a_synthetic_walk(synthetic):
 
 # ----------------------------------------------------------------------------- vertex groups
 def test_vertex_groups_and_their_faces_by_hand():
-    weights = np.array([[0.6, 0.4, 0.0],
-                        [0.5, 0.5, 0.0],
-                        [0.2, 0.3, 0.5],
-                        [0.0, 0.0, 1.0],
-                        [0.4, 0.3, 0.3]])
+    weights = np.array(
+        [[0.6, 0.4, 0.0], [0.5, 0.5, 0.0], [0.2, 0.3, 0.5], [0.0, 0.0, 1.0], [0.4, 0.3, 0.3]]
+    )
     groups = vertex_groups(weights)
     assert [g.tolist() for g in groups] == [[0, 1], [1], [2, 3]]  # vertex 4 has no weight >= 0.5
     faces = np.array([[0, 1, 2], [0, 1, 1], [2, 3, 2], [1, 2, 3]])
@@ -141,19 +147,36 @@ def test_vertex_groups_and_their_faces_by_hand():
 def _cube(origin, size):
     """8 corners in ``itertools.product`` order (x slowest) and 12 outward triangles."""
     corners = np.array(list(itertools.product((0.0, 1.0), repeat=3)))
-    faces = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5],   # x = 0, x = 1
-                      [0, 4, 5], [0, 5, 1], [2, 3, 7], [2, 7, 6],   # y = 0, y = 1
-                      [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]])  # z = 0, z = 1
+    faces = np.array(
+        [
+            [0, 1, 3],
+            [0, 3, 2],
+            [4, 6, 7],
+            [4, 7, 5],  # x = 0, x = 1
+            [0, 4, 5],
+            [0, 5, 1],
+            [2, 3, 7],
+            [2, 7, 6],  # y = 0, y = 1
+            [0, 2, 6],
+            [0, 6, 4],
+            [1, 5, 7],
+            [1, 7, 3],
+        ]
+    )  # z = 0, z = 1
     return np.asarray(origin) + size * corners, faces
 
 
-def _two_cubes(gap, frames=3, velocity_a=(0.0, 0.0, 0.0), velocity_b=(0.0, 0.0, 0.0), joint_b="Hips"):
+def _two_cubes(
+    gap, frames=3, velocity_a=(0.0, 0.0, 0.0), velocity_b=(0.0, 0.0, 0.0), joint_b="Hips"
+):
     """A 4 cm cube skinned to LeftHand (vertices 0-7) and one to ``joint_b`` (8-15), ``gap``
     metres to its +x side, each moving by its velocity (metres per frame)."""
     va, fa = _cube((0.0, 1.0, 0.0), 0.04)
     vb, fb = _cube((0.04 + gap, 1.0, 0.0), 0.04)
     t = np.arange(frames)[:, None, None]
-    vertices = np.concatenate([va + t * np.asarray(velocity_a), vb + t * np.asarray(velocity_b)], axis=1)
+    vertices = np.concatenate(
+        [va + t * np.asarray(velocity_a), vb + t * np.asarray(velocity_b)], axis=1
+    )
     weights = np.zeros((16, 22))
     weights[:8, J["LeftHand"]] = 1.0
     weights[8:, J[joint_b]] = 1.0
@@ -179,11 +202,13 @@ def test_cubes_apart_give_no_contact():
 
 def test_cubes_moving_together_are_a_contact_by_the_cosine_rule():
     # 5 mm apart: inside the 1 cm margin but not within 0.2 cm, so only the velocity rule can fire
-    together = detect_self_contacts(*_two_cubes(0.005, velocity_a=(0, 0.01, 0), velocity_b=(0, 0.01, 0)),
-                                    character_height=1.38)
+    together = detect_self_contacts(
+        *_two_cubes(0.005, velocity_a=(0, 0.01, 0), velocity_b=(0, 0.01, 0)), character_height=1.38
+    )
     assert together.frame_mask().all()
-    opposite = detect_self_contacts(*_two_cubes(0.005, velocity_a=(0, 0.01, 0), velocity_b=(0, -0.01, 0)),
-                                    character_height=1.38)
+    opposite = detect_self_contacts(
+        *_two_cubes(0.005, velocity_a=(0, 0.01, 0), velocity_b=(0, -0.01, 0)), character_height=1.38
+    )
     assert len(opposite) == 0
     # the margin is scaled with the height too: 5.8 mm at 0.8 m, 4.3 mm at 0.6 m (still cubes
     # count as moving together)
@@ -192,9 +217,14 @@ def test_cubes_moving_together_are_a_contact_by_the_cosine_rule():
 
 
 def test_the_hands_own_forearm_is_skipped_but_the_other_hand_is_not():
-    assert len(detect_self_contacts(*_two_cubes(0.001, joint_b="LeftForeArm"), character_height=1.38)) == 0
+    assert (
+        len(detect_self_contacts(*_two_cubes(0.001, joint_b="LeftForeArm"), character_height=1.38))
+        == 0
+    )
     hands = detect_self_contacts(*_two_cubes(0.001, joint_b="RightHand"), character_height=1.38)
-    np.testing.assert_array_equal(np.unique(hands.groups, axis=0), [[J["LeftHand"], J["RightHand"]]])
+    np.testing.assert_array_equal(
+        np.unique(hands.groups, axis=0), [[J["LeftHand"], J["RightHand"]]]
+    )
     assert hands.frame_mask("RightHand").all() and not hands.frame_mask("Hips").any()
 
 
@@ -207,8 +237,12 @@ def test_self_contacts_reject_bad_input():
 
 
 def test_remap_maps_vertices_and_drops_duplicates_and_empty_pairs():
-    contacts = SelfContacts(4, frames=[1, 1, 1, 1, 3], pairs=[[0, 2], [1, 2], [0, 3], [3, 2], [1, 3]],
-                            groups=[[17, 0]] * 5)
+    contacts = SelfContacts(
+        4,
+        frames=[1, 1, 1, 1, 3],
+        pairs=[[0, 2], [1, 2], [0, 3], [3, 2], [1, 3]],
+        groups=[[17, 0]] * 5,
+    )
     mapped = contacts.remap(np.array([5, 6, 7, 5]))
     # (0,3) -> (5,5) is empty; (3,2) -> (5,7) repeats (0,2) in frame 1
     np.testing.assert_array_equal(mapped.frames, [1, 1, 3])
@@ -238,7 +272,9 @@ def test_correspondence_features_by_hand_on_one_vertex(ada):
     expected = (ada.rest_joint_positions()[joint] - ada.rest_vertices[v]) / ada.height
     np.testing.assert_allclose(features[v, :22], ada.weights[v])
     np.testing.assert_allclose(features[v, 22:], expected)
-    np.testing.assert_allclose(correspondence_features(ada, 2.0, canonical_pose=False)[v, 22:], 2 * expected)
+    np.testing.assert_allclose(
+        correspondence_features(ada, 2.0, canonical_pose=False)[v, 22:], 2 * expected
+    )
 
 
 @pytest.mark.parametrize("canonical_pose", [True, False])
@@ -248,13 +284,17 @@ def test_correspondence_to_itself_is_the_identity(ada, canonical_pose):
 
 
 def test_correspondence_to_a_scaled_copy_is_nearly_the_identity(ada):
-    big = Character("ada-x1.2", ada.skeleton.scaled(1.2), 1.2 * ada.rest_vertices, ada.faces, ada.weights)
+    big = Character(
+        "ada-x1.2", ada.skeleton.scaled(1.2), 1.2 * ada.rest_vertices, ada.faces, ada.weights
+    )
     corr = vertex_correspondence(ada, big)
     assert (corr == np.arange(ada.num_vertices)).mean() > 0.99
 
 
 def test_transfer_contacts_goes_through_the_correspondence(ada):
-    contacts = SelfContacts(2, frames=[0, 1], pairs=[[10, 20], [30, 40]], groups=[[17, 0], [17, 21]])
+    contacts = SelfContacts(
+        2, frames=[0, 1], pairs=[[10, 20], [30, 40]], groups=[[17, 0], [17, 21]]
+    )
     moved = transfer_contacts(contacts, ada, ada)
     np.testing.assert_array_equal(moved.pairs, contacts.pairs)
     np.testing.assert_array_equal(moved.groups, contacts.groups)
@@ -274,8 +314,9 @@ def test_hand_hand_contacts_of_a_synthetic_clip_on_its_performer(synthetic, name
     clip = synthetic.clip(name)
     performer = synthetic.characters[clip.performer]
     vertices = performer.skinned(clip.motion.rotations, clip.motion.root_positions)
-    contacts = detect_self_contacts(vertices, performer.faces, performer.weights,
-                                    estimated_standing_height(performer.skeleton))
+    contacts = detect_self_contacts(
+        vertices, performer.faces, performer.weights, estimated_standing_height(performer.skeleton)
+    )
     detected = contacts.frame_mask("RightHand") & contacts.frame_mask("LeftHand")
     expected = authored_contact_frames(clip.hand_contacts, len(vertices), "LeftHand")
     precision, recall = frame_precision_recall(detected, expected)

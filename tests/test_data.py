@@ -7,8 +7,13 @@ from retarget_lib.cli import main
 from retarget_lib.data import manifest, status
 from retarget_lib.data.splits import tdcn_split
 from retarget_lib.data.synthetic.characters import CHARACTER_NAMES
-from retarget_lib.data.synthetic.dataset import (dataset_path, fingerprint_of, load_synthetic, read_dataset,
-                                                 save_dataset)
+from retarget_lib.data.synthetic.dataset import (
+    dataset_path,
+    fingerprint_of,
+    load_synthetic,
+    read_dataset,
+    save_dataset,
+)
 from retarget_lib.data.synthetic.motions import MOTION_FAMILIES
 from retarget_lib.files import DataError, atomic_write, check_sha256, quantised_sha256, sha256_file
 
@@ -21,8 +26,15 @@ def ds():
 @pytest.mark.data
 def test_every_source_has_id_license_origin_and_check():
     m = manifest.load_manifest()
-    assert set(m["sources"]) == {"synthetic", "cmu-assimp", "mannequin-x", "model-viewer", "real-characters",
-                                 "real-motions", "mixamo-local"}
+    assert set(m["sources"]) == {
+        "synthetic",
+        "cmu-assimp",
+        "mannequin-x",
+        "model-viewer",
+        "real-characters",
+        "real-motions",
+        "mixamo-local",
+    }
     for sid, src in m["sources"].items():
         assert src["license"] and src["origin"], sid
     statuses = {s.id: s for s in status.verify()}
@@ -36,7 +48,9 @@ def test_missing_source_says_how_to_get_it(monkeypatch, tmp_path):
     with pytest.raises(DataError, match="retarget data build"):
         read_or_fail()
     statuses = {s.id: s for s in status.check_sources()}
-    assert not statuses["synthetic"].present and "retarget data build" in statuses["synthetic"].detail
+    assert (
+        not statuses["synthetic"].present and "retarget data build" in statuses["synthetic"].detail
+    )
     with pytest.raises(DataError, match="synthetic"):
         status.verify()
 
@@ -90,8 +104,11 @@ def test_dataset_feet_planted_and_hands_touch(ds):
             assert slide.size == 0 or slide.max() < 2e-3, clip.name
     clap = ds.family("clap")[0]
     h = clap.hand_contacts[0]
-    gap = np.linalg.norm(clap.motion.global_positions()[h.start:h.stop, J["LeftHand"]]
-                         - clap.motion.global_positions()[h.start:h.stop, J["RightHand"]], axis=-1)
+    gap = np.linalg.norm(
+        clap.motion.global_positions()[h.start : h.stop, J["LeftHand"]]
+        - clap.motion.global_positions()[h.start : h.stop, J["RightHand"]],
+        axis=-1,
+    )
     assert gap.max() < 0.12  # wrist joints: palms touching, hand thickness apart
 
 
@@ -100,7 +117,9 @@ def test_save_read_round_trip_and_fingerprint(ds, tmp_path):
     small = type(ds)({k: ds.characters[k] for k in list(ds.characters)[:2]}, ds.clips[:3])
     save_dataset(small, tmp_path / "d.npz")
     back = read_dataset(tmp_path / "d.npz")
-    np.testing.assert_allclose(back.clips[1].motion.rotations, small.clips[1].motion.rotations, atol=1e-6)
+    np.testing.assert_allclose(
+        back.clips[1].motion.rotations, small.clips[1].motion.rotations, atol=1e-6
+    )
     assert fingerprint_of(tmp_path / "d.npz") != fingerprint_of(dataset_path())
 
 
@@ -111,7 +130,9 @@ def test_manifest_records_the_split_the_code_makes():
     assert list(s.test_characters) == rec["test_characters"]
     assert list(s.test_families) == rec["test_families"]
     for k, pairs in s.scenarios.items():
-        assert [f"{p.source} -> {p.target} : {p.motion.family}_{p.motion.seed:03d}" for p in pairs] == rec["scenarios"][k]
+        assert [
+            f"{p.source} -> {p.target} : {p.motion.family}_{p.motion.seed:03d}" for p in pairs
+        ] == rec["scenarios"][k]
     assert not set(s.train_characters) & set(s.test_characters)
 
 
@@ -130,8 +151,14 @@ def test_checkpoint_lookup_checks_presence_and_checksum(tmp_path, monkeypatch):
     ckpt = tmp_path / "m.pt"
     ckpt.write_bytes(b"weights")
     data = dict(manifest.load_manifest())
-    data["checkpoints"] = {"toy": {"path": str(ckpt), "sha256": sha256_file(ckpt), "config": "configs/x.yaml",
-                                   "command": "retarget train --config configs/x.yaml"}}
+    data["checkpoints"] = {
+        "toy": {
+            "path": str(ckpt),
+            "sha256": sha256_file(ckpt),
+            "config": "configs/x.yaml",
+            "command": "retarget train --config configs/x.yaml",
+        }
+    }
     path = tmp_path / "manifest.yaml"
     path.write_text(yaml.safe_dump(data))
     manifest.load_manifest.cache_clear()
@@ -151,9 +178,9 @@ def test_checkpoint_lookup_checks_presence_and_checksum(tmp_path, monkeypatch):
 def test_quantised_sha256_ignores_float_noise_but_not_real_changes():
     a = np.linspace(0.0, 1.0, 101).reshape(-1, 1) + 0.123
     digest = quantised_sha256([("x", a)], 1e4)
-    assert quantised_sha256([("x", a + 1e-12)], 1e4) == digest        # last-bit noise of another CPU
-    assert quantised_sha256([("x", a + 1e-3)], 1e4) != digest         # ten quantisation steps
-    assert quantised_sha256([("y", a)], 1e4) != digest                # names count
+    assert quantised_sha256([("x", a + 1e-12)], 1e4) == digest  # last-bit noise of another CPU
+    assert quantised_sha256([("x", a + 1e-3)], 1e4) != digest  # ten quantisation steps
+    assert quantised_sha256([("y", a)], 1e4) != digest  # names count
     assert quantised_sha256([("x", a.astype(np.float32))], 1e4) == digest
 
 

@@ -37,8 +37,13 @@ def test_missing_accelerators_and_cpu_mixed_precision_are_refused():
 
 
 @pytest.mark.skipif(torch.cuda.is_available(), reason="this machine has CUDA")
-@pytest.mark.parametrize("flags, message", [(["--device", "cuda"], "no CUDA device"),
-                                            (["--device", "cpu", "--amp"], "needs --device cuda")])
+@pytest.mark.parametrize(
+    "flags, message",
+    [
+        (["--device", "cuda"], "no CUDA device"),
+        (["--device", "cpu", "--amp"], "needs --device cuda"),
+    ],
+)
 def test_cli_train_refuses_an_unusable_device_in_one_line(flags, message, tmp_path, capsys):
     assert main(["train", "--config", CONFIG, "--out", str(tmp_path / "run"), *flags]) == 2
     err = capsys.readouterr().err.strip().splitlines()

@@ -16,8 +16,15 @@ def _texts(fig):
     return [t.get_text() for t in fig.findobj(Text)]
 
 
-@pytest.mark.parametrize("config", [None, {"row": "ours", "profile": "paper"}, {"row": "A5", "profile": "fast"},
-                                    {"row": "A1", "profile": "fast"}])
+@pytest.mark.parametrize(
+    "config",
+    [
+        None,
+        {"row": "ours", "profile": "paper"},
+        {"row": "A5", "profile": "fast"},
+        {"row": "A1", "profile": "fast"},
+    ],
+)
 def test_tdcn_diagram_draws_the_models_receptive_field(config):
     fig = viz.tdcn_generator_diagram(config)
     gen = build_model(config or {"row": "ours", "profile": "fast"}).generator
@@ -30,7 +37,9 @@ def test_tdcn_diagram_draws_the_models_receptive_field(config):
 def test_dilation_offsets_cover_the_receptive_field_without_gaps():
     levels = diagrams.dilation_offsets([(3, 1), (3, 3), (1, 1), (3, 9), (3, 27)])
     assert levels[-1].tolist() == [0]
-    assert levels[0].tolist() == list(range(-40, 41))  # 1 + 2(1 + 3 + 9 + 27) = 81 frames, every one seen
+    assert levels[0].tolist() == list(
+        range(-40, 41)
+    )  # 1 + 2(1 + 3 + 9 + 27) = 81 frames, every one seen
     causal = diagrams.dilation_offsets([(3, 1), (3, 3), (3, 9), (3, 27)], causal=True)
     assert causal[0].tolist() == list(range(-80, 1))
 
@@ -39,7 +48,10 @@ def test_patch_discriminator_diagram_counts_scores_like_the_model():
     fig = viz.patch_discriminator_diagram(clip_frames=120)
     disc = build_model({"row": "ours", "profile": "fast"}).discriminator
     assert fig.receptive_field == disc.receptive_field
-    assert fig.scores == (120 - disc.receptive_field + 1, 1)  # valid convolutions; one logit per clip
+    assert fig.scores == (
+        120 - disc.receptive_field + 1,
+        1,
+    )  # valid convolutions; one logit per clip
     assert any(f"{fig.scores[0]} scores" in t for t in _texts(fig))
     assert diagrams.layout_problems(fig) == []
 
@@ -67,7 +79,10 @@ def test_dataflow_covers_every_registered_method_with_real_functions():
         for stage in fig.stages:
             assert callable(diagrams.resolve_stage(stage)), stage
             assert stage.short in _texts(fig)
-        assert fig.stages[0].function == "io.bvh.load_bvh" and fig.stages[-1].function == "io.bvh.save_bvh"
+        assert (
+            fig.stages[0].function == "io.bvh.load_bvh"
+            and fig.stages[-1].function == "io.bvh.save_bvh"
+        )
     with pytest.raises(ValueError):
         viz.method_dataflow_diagram("magic")
 

@@ -37,8 +37,13 @@ pytestmark = pytest.mark.slow
 CONFIG = Path(__file__).resolve().parents[1] / "configs" / "tdcn_paper.yaml"
 #: tiny widths; every pair A ≠ B (see the module docstring of distributed: the D fake term is then
 #: a mean over the whole shard); no dropout (its masks are per rank by design)
-OVERRIDES = ["model.channels=16", "model.disc_channels=8", "train.batch=4", "data.same_fraction=0.0",
-             "model.dropout=0.0"]
+OVERRIDES = [
+    "model.channels=16",
+    "model.disc_channels=8",
+    "train.batch=4",
+    "data.same_fraction=0.0",
+    "model.dropout=0.0",
+]
 STEPS = 4
 RTOL = 1e-4
 
@@ -50,26 +55,55 @@ def tiny_clips() -> TrainingClips:
     t = torch.linspace(0, 1, frames)[:, None, None]
     axis = torch.randn(clips, 1, 22, 3, generator=g)
     angle = 0.3 * torch.sin(2 * torch.pi * (t + torch.rand(clips, 1, 22, 1, generator=g)))
-    rotations = quat_from_axis_angle(axis / axis.norm(dim=-1, keepdim=True) * angle).reshape(clips * frames, 22, 4)
+    rotations = quat_from_axis_angle(axis / axis.norm(dim=-1, keepdim=True) * angle).reshape(
+        clips * frames, 22, 4
+    )
     offsets = torch.randn(22, 3, generator=g) * 0.1 + torch.tensor([0.0, 0.1, 0.0])
     scale = torch.tensor([0.8, 1.0, 1.2])
-    root = torch.stack([torch.linspace(0, 1, clips * frames), torch.full((clips * frames,), 0.9),
-                        torch.zeros(clips * frames)], -1)
-    return TrainingClips(("a", "b", "c"), ("c0", "c1"), torch.tensor([0, frames, 2 * frames]),
-                         offsets * scale[:, None, None], rotations.expand(chars, -1, -1, -1).contiguous(),
-                         root * scale[:, None, None])
+    root = torch.stack(
+        [
+            torch.linspace(0, 1, clips * frames),
+            torch.full((clips * frames,), 0.9),
+            torch.zeros(clips * frames),
+        ],
+        -1,
+    )
+    return TrainingClips(
+        ("a", "b", "c"),
+        ("c0", "c1"),
+        torch.tensor([0, frames, 2 * frames]),
+        offsets * scale[:, None, None],
+        rotations.expand(chars, -1, -1, -1).contiguous(),
+        root * scale[:, None, None],
+    )
 
 
 def train(out: Path, steps: int, layout=distributed.SINGLE, resume: bool = False) -> None:
     torch.set_num_threads(1)
-    config = load_config(CONFIG, OVERRIDES + [f"train.steps={steps}", "train.checkpoint_every=2"], "fast")
+    config = load_config(
+        CONFIG, OVERRIDES + [f"train.steps={steps}", "train.checkpoint_every=2"], "fast"
+    )
     run = RetargetTraining(config, tiny_clips(), layout=layout)
-    fit(run.task(), config, out, steps, checkpoint_every=2, resume=resume, progress=False, layout=layout)
+    fit(
+        run.task(),
+        config,
+        out,
+        steps,
+        checkpoint_every=2,
+        resume=resume,
+        progress=False,
+        layout=layout,
+    )
 
 
 def _worker(rank: int, world: int, port: int, out: str, steps: int) -> None:
-    os.environ.update(RANK=str(rank), WORLD_SIZE=str(world), LOCAL_RANK=str(rank), MASTER_ADDR="127.0.0.1",
-                      MASTER_PORT=str(port))
+    os.environ.update(
+        RANK=str(rank),
+        WORLD_SIZE=str(world),
+        LOCAL_RANK=str(rank),
+        MASTER_ADDR="127.0.0.1",
+        MASTER_PORT=str(port),
+    )
     layout = distributed.from_environment()
     distributed.init_process_group(layout, torch.device("cpu"))
     try:
@@ -83,7 +117,9 @@ def train_processes(out: Path, steps: int, world: int = 2) -> None:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
-    mp.start_processes(_worker, args=(world, port, str(out), steps), nprocs=world, start_method="spawn")
+    mp.start_processes(
+        _worker, args=(world, port, str(out), steps), nprocs=world, start_method="spawn"
+    )
 
 
 def losses(run: Path) -> np.ndarray:
@@ -111,7 +147,9 @@ def test_a_two_process_checkpoint_resumes_in_one_process(runs, tmp_path):
     """Steps 0-1 in two processes, steps 2-3 resumed from its ``last.pt`` in one."""
     train_processes(tmp_path / "half", 2)
     train(tmp_path / "half", STEPS, resume=True)
-    np.testing.assert_allclose(losses(tmp_path / "half"), losses(runs / "one"), rtol=RTOL, atol=1e-7)
+    np.testing.assert_allclose(
+        losses(tmp_path / "half"), losses(runs / "one"), rtol=RTOL, atol=1e-7
+    )
 
 
 def test_a_batch_that_does_not_split_over_the_processes_is_refused():

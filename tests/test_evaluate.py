@@ -8,8 +8,15 @@ from retarget_lib.core.transfer import retarget_ground_truth
 from retarget_lib.data.manifest import table_checkpoints
 from retarget_lib.data.synthetic.mixamo_convention import generate
 from retarget_lib.evaluation.paper import PAPER_TABLE4, TABLE4_COLUMNS
-from retarget_lib.evaluation.tdcn import (markdown_table, normalized_mse, ordering_checks, paper_comparison,
-                                          tdcn_cases, tdcn_table, write_table)
+from retarget_lib.evaluation.tdcn import (
+    markdown_table,
+    normalized_mse,
+    ordering_checks,
+    paper_comparison,
+    tdcn_cases,
+    tdcn_table,
+    write_table,
+)
 from retarget_lib.methods.copy import copy_rotations
 
 
@@ -35,12 +42,16 @@ def cases():
 def test_cases_cover_the_four_scenarios(cases):
     assert sorted({c.scenario for c in cases}) == [1, 2, 3, 4]
     assert all(c.source_name != c.target_name for c in cases)
-    assert all(c.truth.skeleton is not None and c.truth.num_frames == c.source.num_frames for c in cases)
+    assert all(
+        c.truth.skeleton is not None and c.truth.num_frames == c.source.num_frames for c in cases
+    )
 
 
 @pytest.mark.data
 def test_ground_truth_method_scores_zero_and_copy_does_not(cases, tmp_path):
-    table, per_case = tdcn_table({"copy-rest": retarget_ground_truth, "copy": copy_rotations}, cases[::4])
+    table, per_case = tdcn_table(
+        {"copy-rest": retarget_ground_truth, "copy": copy_rotations}, cases[::4]
+    )
     ours = [f"ours {c}" for c in TABLE4_COLUMNS]
     assert np.allclose(table.loc["copy-rest", ours].astype(float), 0.0, atol=1e-9)
     assert (per_case.query("method == 'copy'")["long"] > 0).all()
@@ -73,14 +84,32 @@ def test_cli_evaluate_writes_every_table4_row_with_provenance(tmp_path, capsys, 
     # here (the whole profile is built on first use by `make tables`, 3.5 min)
     two = generate(count=2, clip_ids=[("walk", 8)])
     walk = two.clips["walk_008"]
-    mc = [tdcn.EvalCase(s, "tp01", "tp02", "walk_008", walk["tp01"], two.characters["tp02"].skeleton, walk["tp02"])
-          for s in (1, 2, 3, 4)]
+    mc = [
+        tdcn.EvalCase(
+            s,
+            "tp01",
+            "tp02",
+            "walk_008",
+            walk["tp01"],
+            two.characters["tp02"].skeleton,
+            walk["tp02"],
+        )
+        for s in (1, 2, 3, 4)
+    ]
     monkeypatch.setattr(tdcn, "mixamo_convention_cases", lambda: mc)
     assert main(["evaluate", "--table", "tdcn", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     assert "no trained checkpoint yet for:" not in out  # every Table 4 row ships a checkpoint
-    for name in ("table4.csv", "table4.md", "table4_h2.csv", "table4_cases.csv", "table4_cmu_cases.csv",
-                 "table4_windowed_cases.csv", "table4_mixamo_convention.md", "table4_mixamo_convention_cases.csv"):
+    for name in (
+        "table4.csv",
+        "table4.md",
+        "table4_h2.csv",
+        "table4_cases.csv",
+        "table4_cmu_cases.csv",
+        "table4_windowed_cases.csv",
+        "table4_mixamo_convention.md",
+        "table4_mixamo_convention_cases.csv",
+    ):
         assert (tmp_path / name).exists()
     t = pd.read_csv(tmp_path / "table4.csv", index_col=0)
     assert set(PAPER_TABLE4) <= set(t.index), set(PAPER_TABLE4) - set(t.index)
@@ -93,9 +122,14 @@ def test_cli_evaluate_writes_every_table4_row_with_provenance(tmp_path, capsys, 
     assert load_result("table4_cmu_cases", results_dir=tmp_path).frame["clip"].nunique() == 1
     windowed = load_result("table4_windowed_cases", results_dir=tmp_path)
     assert list(windowed.provenance["checkpoints"]) == [tdcn.WINDOWED_ROW]
-    mc_stored = load_result("table4_mixamo_convention_cases", rows=tdcn.mixamo_convention_checkpoints(),
-                            results_dir=tmp_path)
-    assert mc_stored.stale == [] and {"copy", "copy-rest", "ours", "ours-residual"} <= set(mc_stored.frame["method"])
+    mc_stored = load_result(
+        "table4_mixamo_convention_cases",
+        rows=tdcn.mixamo_convention_checkpoints(),
+        results_dir=tmp_path,
+    )
+    assert mc_stored.stale == [] and {"copy", "copy-rest", "ours", "ours-residual"} <= set(
+        mc_stored.frame["method"]
+    )
 
 
 def test_contact_rows_can_be_recomputed_alone_only_for_the_contact_tables(tmp_path, capsys):
@@ -107,12 +141,24 @@ def test_contact_rows_can_be_recomputed_alone_only_for_the_contact_tables(tmp_pa
 
 def test_ordering_checks_compare_directions_with_the_paper():
     cols = [f"{w} {length} avg" for w in ("ours", "paper") for length in ("short", "long")]
-    table = pd.DataFrame([[2.0, 4.0, 2.45, 2.48],     # ours
-                          [4.0, 2.0, 4.94, 6.20]],    # A2: worse short, better long here
-                         index=["ours", "A2"], columns=cols)
+    table = pd.DataFrame(
+        [
+            [2.0, 4.0, 2.45, 2.48],  # ours
+            [4.0, 2.0, 4.94, 6.20],
+        ],  # A2: worse short, better long here
+        index=["ours", "A2"],
+        columns=cols,
+    )
     checks = ordering_checks(table)
     assert list(checks.index) == ["A2"]
     assert checks.loc["A2", "ours short avg ratio"] == pytest.approx(2.0)
     assert checks.loc["A2", "paper long avg ratio"] == pytest.approx(6.20 / 2.48)
-    assert bool(checks.loc["A2", "short reproduces"]) and not bool(checks.loc["A2", "long reproduces"])
-    assert list(paper_comparison(table).columns) == ["ours short avg", "paper short avg", "ours long avg", "paper long avg"]
+    assert bool(checks.loc["A2", "short reproduces"]) and not bool(
+        checks.loc["A2", "long reproduces"]
+    )
+    assert list(paper_comparison(table).columns) == [
+        "ours short avg",
+        "paper short avg",
+        "ours long avg",
+        "paper long avg",
+    ]

@@ -6,9 +6,16 @@ import pytest
 from retarget_lib.core.measures import estimated_standing_height
 from retarget_lib.core.motion import Motion
 from retarget_lib.data.synthetic.characters import make_character
-from retarget_lib.evaluation.contact import (CONTACT_TARGETS, ablation_steps, contact_tables,
-                                             foot_contact_accuracy, foot_height_error,
-                                             foot_heights_in_contact, rerun_tolerance, vertex_contact_mse)
+from retarget_lib.evaluation.contact import (
+    CONTACT_TARGETS,
+    ablation_steps,
+    contact_tables,
+    foot_contact_accuracy,
+    foot_height_error,
+    foot_heights_in_contact,
+    rerun_tolerance,
+    vertex_contact_mse,
+)
 from retarget_lib.evaluation.paper import PAPER_TABLE1, PAPER_TABLE3
 from retarget_lib.geometry.contacts import SelfContacts, detect_foot_contacts
 
@@ -19,13 +26,22 @@ def test_vertex_contact_mse_known_value():
     contacts = SelfContacts(3, frames=[1, 2], pairs=[[0, 2], [0, 1]], groups=[[0, 0], [0, 0]])
     # pairs: 25 cm² and 0 cm² -> mean 12.5 cm², divided by H = 150 cm
     assert vertex_contact_mse(vertices, contacts, 1.5) == pytest.approx(12.5 / 150)
-    assert np.isnan(vertex_contact_mse(vertices, SelfContacts(3, [], np.zeros((0, 2)), np.zeros((0, 2))), 1.5))
+    assert np.isnan(
+        vertex_contact_mse(vertices, SelfContacts(3, [], np.zeros((0, 2)), np.zeros((0, 2))), 1.5)
+    )
 
 
 def test_foot_contact_accuracy_of_a_still_pose_against_labels():
     c = make_character("ada")
-    still = Motion(c.skeleton, np.tile([1.0, 0, 0, 0], (20, 22, 1)), np.tile(c.skeleton.offsets[0], (20, 1)), 30.0)
-    detected = detect_foot_contacts(still.global_positions(), still.skeleton, estimated_standing_height(still.skeleton))
+    still = Motion(
+        c.skeleton,
+        np.tile([1.0, 0, 0, 0], (20, 22, 1)),
+        np.tile(c.skeleton.offsets[0], (20, 1)),
+        30.0,
+    )
+    detected = detect_foot_contacts(
+        still.global_positions(), still.skeleton, estimated_standing_height(still.skeleton)
+    )
     assert detected.all()  # standing still in the rest pose: every foot joint in contact
     assert foot_contact_accuracy(still, np.ones((20, 4), bool)) == 1.0
     half = np.ones((20, 4), bool)
@@ -39,11 +55,21 @@ def test_foot_height_error_sees_sinking_feet_that_accuracy_counts_as_contacts():
     rest = np.tile([1.0, 0, 0, 0], (20, 22, 1))
     labels = np.ones((20, 4), bool)
     standing = Motion(c.skeleton, rest, root, 30.0)
-    assert foot_height_error(standing, labels) == pytest.approx(0.0, abs=1e-9)  # feet at their rest heights
-    sunk = Motion(c.skeleton, rest, root - [0.0, 0.05, 0.0], 30.0)  # the whole body 5 cm into the floor
-    assert foot_height_error(sunk, labels) == pytest.approx(5.0, abs=1e-6)  # cm; float64 round-off only
-    np.testing.assert_allclose(foot_heights_in_contact(sunk, labels), -5.0, atol=1e-6)  # signed: below
-    assert foot_contact_accuracy(sunk, labels) == 1.0  # the paper's toe test (height <= 3 cm) passes
+    assert foot_height_error(standing, labels) == pytest.approx(
+        0.0, abs=1e-9
+    )  # feet at their rest heights
+    sunk = Motion(
+        c.skeleton, rest, root - [0.0, 0.05, 0.0], 30.0
+    )  # the whole body 5 cm into the floor
+    assert foot_height_error(sunk, labels) == pytest.approx(
+        5.0, abs=1e-6
+    )  # cm; float64 round-off only
+    np.testing.assert_allclose(
+        foot_heights_in_contact(sunk, labels), -5.0, atol=1e-6
+    )  # signed: below
+    assert (
+        foot_contact_accuracy(sunk, labels) == 1.0
+    )  # the paper's toe test (height <= 3 cm) passes
     lifted = Motion(c.skeleton, rest, root + [0.0, 0.02, 0.0], 30.0)
     only_left_heel = np.zeros((20, 4), bool)
     only_left_heel[5:10, 0] = True
@@ -57,15 +83,27 @@ def test_tables_put_paper_numbers_beside_ours_and_split_by_body_type():
     rows = []
     for body, names in CONTACT_TARGETS.items():
         for name in names:
-            rows.append({"method": "Ours", "body": body, "target": name, "interpenetration": 1.0 if body == "skinny" else 3.0,
-                         "vertex contact MSE": 2.0, "foot contact accuracy": 0.9, "global position MSE": 0.5,
-                         "penetration rate": 0.1, "foot height error": 1.0})
+            rows.append(
+                {
+                    "method": "Ours",
+                    "body": body,
+                    "target": name,
+                    "interpenetration": 1.0 if body == "skinny" else 3.0,
+                    "vertex contact MSE": 2.0,
+                    "foot contact accuracy": 0.9,
+                    "global position MSE": 0.5,
+                    "penetration rate": 0.1,
+                    "foot height error": 1.0,
+                }
+            )
     tables = contact_tables(pd.DataFrame(rows))
     assert tables["table1"].loc["Ours", "ours interpenetration"] == pytest.approx(2.0)
     assert tables["table5"].loc["Ours", "ours interpenetration"] == pytest.approx(1.0)
     assert tables["table6"].loc["Ours", "ours interpenetration"] == pytest.approx(3.0)
     assert tables["table1"].loc["NKN", "paper vertex contact MSE"] == PAPER_TABLE1["NKN"][1]
-    assert np.isnan(tables["table1"].loc["SAN", "ours interpenetration"])  # not implemented: never faked
+    assert np.isnan(
+        tables["table1"].loc["SAN", "ours interpenetration"]
+    )  # not implemented: never faked
 
 
 def test_ablation_steps_compare_each_change_with_the_paper():
@@ -73,20 +111,40 @@ def test_ablation_steps_compare_each_change_with_the_paper():
 
     # ours: Efoot raises foot accuracy (as in the paper, 0.71 -> 0.80) but also raises interpenetration
     # (the paper lowers it, 1.67 -> 1.59)
-    rows = [{"method": "Eskel", "body": "skinny", "interpenetration": 1.0, "vertex contact MSE": 4.0,
-             "foot contact accuracy": 0.5, "global position MSE": 1.0, "penetration rate": 0.0,
-             "foot height error": 1.0},
-            {"method": "Eskel+Efoot", "body": "skinny", "interpenetration": 1.5, "vertex contact MSE": 4.0,
-             "foot contact accuracy": 0.75, "global position MSE": 1.0, "penetration rate": 0.0,
-             "foot height error": 1.0}]
+    rows = [
+        {
+            "method": "Eskel",
+            "body": "skinny",
+            "interpenetration": 1.0,
+            "vertex contact MSE": 4.0,
+            "foot contact accuracy": 0.5,
+            "global position MSE": 1.0,
+            "penetration rate": 0.0,
+            "foot height error": 1.0,
+        },
+        {
+            "method": "Eskel+Efoot",
+            "body": "skinny",
+            "interpenetration": 1.5,
+            "vertex contact MSE": 4.0,
+            "foot contact accuracy": 0.75,
+            "global position MSE": 1.0,
+            "penetration rate": 0.0,
+            "foot height error": 1.0,
+        },
+    ]
     table3 = contact_tables(pd.DataFrame(rows))["table3"]
     steps = ablation_steps(table3, (("Eskel", "Eskel+Efoot"),))
     foot = steps.loc[("Eskel → Eskel+Efoot", "foot contact accuracy")]
     assert foot["ours change"] == pytest.approx(0.25)
-    assert foot["paper change"] == pytest.approx(PAPER_TABLE3["Eskel+Efoot"][2] - PAPER_TABLE3["Eskel"][2])
+    assert foot["paper change"] == pytest.approx(
+        PAPER_TABLE3["Eskel+Efoot"][2] - PAPER_TABLE3["Eskel"][2]
+    )
     assert foot["same direction"]
     assert not steps.loc[("Eskel → Eskel+Efoot", "interpenetration"), "same direction"]
-    assert not steps.loc[("Eskel → Eskel+Efoot", "vertex contact MSE"), "same direction"]  # ours unchanged
+    assert not steps.loc[
+        ("Eskel → Eskel+Efoot", "vertex contact MSE"), "same direction"
+    ]  # ours unchanged
     assert len(steps) == 4
 
 

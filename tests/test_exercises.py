@@ -25,8 +25,11 @@ def exercises(nb) -> list[tuple[int, int, str]]:
 
 
 def _check_call(source: str) -> ast.Call:
-    calls = [n for n in ast.walk(ast.parse(source)) if isinstance(n, ast.Call)
-             and getattr(n.func, "id", None) == "check_answer"]
+    calls = [
+        n
+        for n in ast.walk(ast.parse(source))
+        if isinstance(n, ast.Call) and getattr(n.func, "id", None) == "check_answer"
+    ]
     assert len(calls) == 1, source
     return calls[0]
 
@@ -39,15 +42,26 @@ def test_only_student_cells_assign_answer_and_every_check_judges_it(path):
     students = {s for s, _, _ in found}
     for s, sol, label in found:
         student = nb.cells[s].source
-        assert nb.cells[s].cell_type == "code" and student.startswith("# your code here"), (label, student)
+        assert nb.cells[s].cell_type == "code" and student.startswith("# your code here"), (
+            label,
+            student,
+        )
         assert student.rstrip().endswith("answer = None"), (label, student)
         call = _check_call(nb.cells[sol].source)
-        assert isinstance(call.args[1], ast.Name) and call.args[1].id == "answer", (label, "judges something else")
+        assert isinstance(call.args[1], ast.Name) and call.args[1].id == "answer", (
+            label,
+            "judges something else",
+        )
         assert "solution" in {k.arg for k in call.keywords}, (label, "shows no reference solution")
     for i, cell in enumerate(nb.cells):
         if cell.cell_type == "code" and i not in students:
-            assigned = {t.id for n in ast.walk(ast.parse(cell.source)) if isinstance(n, (ast.Assign, ast.AugAssign))
-                        for t in (n.targets if isinstance(n, ast.Assign) else [n.target]) if isinstance(t, ast.Name)}
+            assigned = {
+                t.id
+                for n in ast.walk(ast.parse(cell.source))
+                if isinstance(n, (ast.Assign, ast.AugAssign))
+                for t in (n.targets if isinstance(n, ast.Assign) else [n.target])
+                if isinstance(t, ast.Name)
+            }
             assert "answer" not in assigned, f"{path.name} cell {i} assigns answer"
 
 
@@ -75,7 +89,9 @@ def _inject_wrong_answers(nb) -> None:
         source = nb.cells[sol].source
         call = _check_call(source)
         lines = source.splitlines()
-        before = "\n".join(lines[:call.lineno - 1])  # the solution's computation, without the check
+        before = "\n".join(
+            lines[: call.lineno - 1]
+        )  # the solution's computation, without the check
         solution = ast.unparse(next(k.value for k in call.keywords if k.arg == "solution"))
         nb.cells[s].source = f"{PERTURB}\n{before}\nanswer = _wrong({solution})"
 
@@ -85,15 +101,26 @@ def _wrong_answers_fail(path: Path) -> None:
 
     nb = nbformat.read(path, as_version=4)
     _inject_wrong_answers(nb)
-    NotebookClient(nb, timeout=900, kernel_name="python3", allow_errors=True,
-                   resources={"metadata": {"path": str(NOTEBOOK_DIR)}}).execute()
+    NotebookClient(
+        nb,
+        timeout=900,
+        kernel_name="python3",
+        allow_errors=True,
+        resources={"metadata": {"path": str(NOTEBOOK_DIR)}},
+    ).execute()
     for s, sol, label in exercises(nb):
         student_errors = [o for o in nb.cells[s].outputs if o.output_type == "error"]
-        assert not student_errors, f"{label}: the injected answer itself failed: {student_errors[0].evalue}"
+        assert not student_errors, (
+            f"{label}: the injected answer itself failed: {student_errors[0].evalue}"
+        )
         errors = [o for o in nb.cells[sol].outputs if o.output_type == "error"]
-        assert errors, f"{label}: a wrong answer passed its check: {json.dumps(nb.cells[sol].outputs)[:300]}"
-        assert errors[0].ename == "AssertionError" and f"exercise {label}: your answer" in errors[0].evalue, (
-            label, errors[0].ename, errors[0].evalue)
+        assert errors, (
+            f"{label}: a wrong answer passed its check: {json.dumps(nb.cells[sol].outputs)[:300]}"
+        )
+        assert (
+            errors[0].ename == "AssertionError"
+            and f"exercise {label}: your answer" in errors[0].evalue
+        ), (label, errors[0].ename, errors[0].evalue)
 
 
 # Two classes, so that `make test-slow` (pytest-xdist --dist loadscope) runs the two halves of the

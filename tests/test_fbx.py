@@ -21,23 +21,36 @@ import numpy as np
 import pytest
 import torch
 from scipy.spatial import cKDTree
+from test_gltf import _unreal_rig, random_motion
 
 from retarget_lib.cli import main
 from retarget_lib.core.motion import Motion
 from retarget_lib.core.rig import Rig
-from retarget_lib.core.rotations import (quat_angle, quat_conjugate, quat_from_axis_angle, quat_from_euler, quat_mul,
-                                          quat_to_euler)
+from retarget_lib.core.rotations import (
+    quat_angle,
+    quat_conjugate,
+    quat_from_axis_angle,
+    quat_from_euler,
+    quat_mul,
+    quat_to_euler,
+)
 from retarget_lib.data.synthetic.amass_clip import AMASS_CLIP_PATH
 from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.errors import FBXError, GLTFError
 from retarget_lib.io.fbx import fbx_missing, load_fbx_motion, load_fbx_rig
-from retarget_lib.io.fbx_write import KTIME_PER_SECOND, _continuous_euler_xyz, fbx_time_mode, save_fbx
+from retarget_lib.io.fbx_write import (
+    KTIME_PER_SECOND,
+    _continuous_euler_xyz,
+    fbx_time_mode,
+    save_fbx,
+)
 from retarget_lib.io.gltf import load_gltf_motion, load_gltf_rig
 from retarget_lib.io.gltf_write import save_glb
-from test_gltf import _unreal_rig, random_motion
 
 FBX = "/usr/share/assimp/models/FBX"
-needs_assimp = pytest.mark.skipif(fbx_missing() is not None, reason=f"fbx extra not installed: {fbx_missing()}")
+needs_assimp = pytest.mark.skipif(
+    fbx_missing() is not None, reason=f"fbx extra not installed: {fbx_missing()}"
+)
 #: the file stores positions as float64 and key values (degrees, metres) as float32: float32's
 #: 6e-8 relative error on ~100° and ~1 m keys, through FK of <= 28 joints, stays below 1e-6 m;
 #: assimp's FBX -> glTF conversion stores float32 again (see test_gltf's F32_FK)
@@ -62,8 +75,11 @@ def _nearest(reference: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.
 def test_a_real_rigged_fbx_is_read_and_checked():
     """assimp's test rig (14 bones in two chains, Bone ... and Bone.007 ...) parses; it is not one
     skeleton, and the error names the FBX (not the temporary GLB) and both roots."""
-    with pytest.raises(GLTFError, match=r"animation_with_skeleton.fbx: the skin's joints form 2 trees "
-                                        r"\(roots \['Bone', 'Bone.007'\]\)") as e:
+    with pytest.raises(
+        GLTFError,
+        match=r"animation_with_skeleton.fbx: the skin's joints form 2 trees "
+        r"\(roots \['Bone', 'Bone.007'\]\)",
+    ) as e:
         load_fbx_rig(f"{FBX}/animation_with_skeleton.fbx")
     assert ".glb" not in str(e.value)
 
@@ -95,8 +111,11 @@ def test_an_ascii_fbx_character_with_animation_reads_like_its_glb(tmp_path):
     got = rig.character()
     assert rig.meta["unit_scale"] == 0.01
     np.testing.assert_allclose(got.skeleton.offsets * 100, character.skeleton.offsets, atol=1e-5)
-    np.testing.assert_allclose(np.sort(got.rest_vertices, axis=0) * 100, np.sort(character.rest_vertices, axis=0),
-                               atol=1e-5)
+    np.testing.assert_allclose(
+        np.sort(got.rest_vertices, axis=0) * 100,
+        np.sort(character.rest_vertices, axis=0),
+        atol=1e-5,
+    )
     motion, _ = load_fbx_motion(fbx)
     assert motion.skeleton.num_joints == 22
 
@@ -108,7 +127,9 @@ def _assert_round_trip(rig: Rig, motion: Motion, path: Path) -> None:
     back = load_fbx_rig(path)
     assert back.skeleton.joint_names == rig.skeleton.joint_names
     assert list(back.skeleton.parents) == list(rig.skeleton.parents)
-    np.testing.assert_allclose(back.skeleton.rest_positions(), rig.skeleton.rest_positions(), atol=1e-6)
+    np.testing.assert_allclose(
+        back.skeleton.rest_positions(), rig.skeleton.rest_positions(), atol=1e-6
+    )
     idx, dist = _nearest(rig.rest_vertices, back.rest_vertices)  # assimp reorders the vertices
     assert len(back.rest_vertices) == len(rig.rest_vertices) and len(set(idx)) == len(idx)
     assert dist.max() < 1e-6  # float64 in the file, float32 in assimp's glTF
@@ -134,7 +155,9 @@ def test_extra_joints_and_frame_rates_round_trip(tmp_path, fps):
     every joint; standard (24, 120) and custom (29.97) frame rates come back as written."""
     character = make_character("kato")
     rig, _ = _unreal_rig(character)
-    motion = rig.motion_from_canonical(random_motion(character.skeleton, frames=30, deg=40.0, fps=fps))
+    motion = rig.motion_from_canonical(
+        random_motion(character.skeleton, frames=30, deg=40.0, fps=fps)
+    )
     path = tmp_path / "manny.fbx"
     save_fbx(rig, path, motion)
     assert load_fbx_rig(path).meta["rig"] == "unreal"
@@ -192,7 +215,7 @@ def _records(data: bytes, start: int, end: int) -> list[tuple[str, int, int]]:
         stop, count, _, length = struct.unpack_from("<3IB", data, at)
         if stop == 0:
             break
-        out.append((data[at + 13:at + 13 + length].decode(), count, stop))
+        out.append((data[at + 13 : at + 13 + length].decode(), count, stop))
         at = stop
     return out
 
@@ -207,20 +230,36 @@ def test_the_container_is_well_formed_and_deterministic(tmp_path):
     save_fbx(rig, b, motion)
     data = a.read_bytes()
     assert data == b.read_bytes()
-    assert data[:23] == b"Kaydara FBX Binary  \x00\x1a\x00" and struct.unpack_from("<I", data, 23)[0] == 7400
+    assert (
+        data[:23] == b"Kaydara FBX Binary  \x00\x1a\x00"
+        and struct.unpack_from("<I", data, 23)[0] == 7400
+    )
     top = _records(data, 27, len(data))
-    assert [name for name, _, _ in top] == ["FBXHeaderExtension", "FileId", "CreationTime", "Creator",
-                                            "GlobalSettings", "Documents", "References", "Definitions", "Objects",
-                                            "Connections", "Takes"]
+    assert [name for name, _, _ in top] == [
+        "FBXHeaderExtension",
+        "FileId",
+        "CreationTime",
+        "Creator",
+        "GlobalSettings",
+        "Documents",
+        "References",
+        "Definitions",
+        "Objects",
+        "Connections",
+        "Takes",
+    ]
     last = top[-1][2]
-    assert data[last:last + 13] == b"\x00" * 13
+    assert data[last : last + 13] == b"\x00" * 13
     assert len(data) % 16 == 0 and struct.unpack_from("<I", data, len(data) - 140)[0] == 7400
     vertices = data.index(b"Vertices")  # its one property: a float64 array, zlib-compressed
     code, count, encoding, size = struct.unpack_from("<c3I", data, vertices + 8)
     assert (code, count, encoding) == (b"d", rig.rest_vertices.size, 1)
-    raw = zlib.decompress(data[vertices + 21:vertices + 21 + size])
+    raw = zlib.decompress(data[vertices + 21 : vertices + 21 + size])
     np.testing.assert_array_equal(np.frombuffer(raw, "<f8").reshape(-1, 3), rig.rest_vertices)
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.fbx", "b.fbx"]  # no temporary file left
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        "a.fbx",
+        "b.fbx",
+    ]  # no temporary file left
 
 
 def test_time_modes_and_errors(tmp_path):
@@ -228,7 +267,9 @@ def test_time_modes_and_errors(tmp_path):
     assert KTIME_PER_SECOND == 46_186_158_000
     rig = Rig.from_character(make_character("hana"))
     other = random_motion(_unreal_rig(make_character("kato"))[0].skeleton, frames=2)
-    with pytest.raises(FBXError, match="o.fbx: the motion's joints are not the rig 'hana''s joints"):
+    with pytest.raises(
+        FBXError, match="o.fbx: the motion's joints are not the rig 'hana''s joints"
+    ):
         save_fbx(rig, tmp_path / "o.fbx", other)
     assert not any(tmp_path.iterdir())
 
@@ -241,11 +282,32 @@ def test_cli_writes_fbx_like_glb(tmp_path):
     manny, _ = _unreal_rig(make_character("gus"))
     save_glb(manny, tmp_path / "manny.glb")
     save_fbx(manny, tmp_path / "manny_target.fbx")
-    glb_out, fbx_out, fbx_out2 = tmp_path / "walk.glb", tmp_path / "walk.fbx", tmp_path / "walk2.fbx"
-    for target, out in ((tmp_path / "manny.glb", glb_out), (tmp_path / "manny.glb", fbx_out),
-                        (tmp_path / "manny_target.fbx", fbx_out2)):
-        assert main(["retarget", "--source", str(AMASS_CLIP_PATH), "--target", str(target), "--method", "copy-rest",
-                     "--out", str(out)]) == 0
+    glb_out, fbx_out, fbx_out2 = (
+        tmp_path / "walk.glb",
+        tmp_path / "walk.fbx",
+        tmp_path / "walk2.fbx",
+    )
+    for target, out in (
+        (tmp_path / "manny.glb", glb_out),
+        (tmp_path / "manny.glb", fbx_out),
+        (tmp_path / "manny_target.fbx", fbx_out2),
+    ):
+        assert (
+            main(
+                [
+                    "retarget",
+                    "--source",
+                    str(AMASS_CLIP_PATH),
+                    "--target",
+                    str(target),
+                    "--method",
+                    "copy-rest",
+                    "--out",
+                    str(out),
+                ]
+            )
+            == 0
+        )
     expected, _ = load_gltf_motion(glb_out)
     rig = load_gltf_rig(glb_out)
     for out in (fbx_out, fbx_out2):
@@ -267,22 +329,34 @@ def _manny_fbx(tmp_path, fps: float):
     character = make_character("kato")
     rig, _ = _unreal_rig(character)
     frames = int(fps)
-    motion = rig.motion_from_canonical(random_motion(character.skeleton, frames=frames, deg=40.0, fps=fps))
+    motion = rig.motion_from_canonical(
+        random_motion(character.skeleton, frames=frames, deg=40.0, fps=fps)
+    )
     path = tmp_path / "manny.fbx"
     save_fbx(rig, path, motion)
     return rig, motion, path
 
 
 BPY_PYTHON = _tool("RETARGET_BPY_PYTHON", "/work/bpy-venv/bin/python")
-FBX2GLTF = _tool("RETARGET_FBX2GLTF", str(Path(sys.prefix) / "node" / "node_modules" / "fbx2gltf" / "bin" / "Linux" / "FBX2glTF"))
+FBX2GLTF = _tool(
+    "RETARGET_FBX2GLTF",
+    str(Path(sys.prefix) / "node" / "node_modules" / "fbx2gltf" / "bin" / "Linux" / "FBX2glTF"),
+)
 
 
-@pytest.mark.skipif(BPY_PYTHON is None, reason="no Python with Blender's bpy (set RETARGET_BPY_PYTHON)")
+@pytest.mark.skipif(
+    BPY_PYTHON is None, reason="no Python with Blender's bpy (set RETARGET_BPY_PYTHON)"
+)
 def test_blender_imports_the_armature_mesh_weights_and_action(tmp_path):
     rig, motion, path = _manny_fbx(tmp_path, fps=24.0)
     probe = Path(__file__).with_name("blender_fbx_probe.py")
-    run = subprocess.run([BPY_PYTHON, str(probe), str(path)], capture_output=True, text=True, timeout=300,
-                         env={**os.environ, "OMP_NUM_THREADS": "1"})
+    run = subprocess.run(
+        [BPY_PYTHON, str(probe), str(path)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env={**os.environ, "OMP_NUM_THREADS": "1"},
+    )
     assert run.returncode == 0, run.stderr[-2000:]
     out = json.loads(run.stdout.strip().splitlines()[-1])
     assert out["import"] == ["FINISHED"] and out["armatures"] == 1 and out["meshes"] == 1
@@ -307,11 +381,27 @@ def test_blender_imports_the_armature_mesh_weights_and_action(tmp_path):
     np.testing.assert_allclose(np.array(out["deformed_last_frame"]), expected, atol=FK_TOL)
 
 
-@pytest.mark.skipif(FBX2GLTF is None, reason="no FBX2glTF (the Autodesk FBX SDK's converter): run .ci/node-deps.sh or set RETARGET_FBX2GLTF")
+@pytest.mark.skipif(
+    FBX2GLTF is None,
+    reason="no FBX2glTF (the Autodesk FBX SDK's converter): run .ci/node-deps.sh or set RETARGET_FBX2GLTF",
+)
 def test_the_autodesk_fbx_sdk_reads_it(tmp_path):
     rig, motion, path = _manny_fbx(tmp_path, fps=30.0)
-    run = subprocess.run([FBX2GLTF, "--binary", "--anim-framerate", "bake30", "--input", str(path), "--output",
-                          str(tmp_path / "sdk")], capture_output=True, text=True, timeout=300)
+    run = subprocess.run(
+        [
+            FBX2GLTF,
+            "--binary",
+            "--anim-framerate",
+            "bake30",
+            "--input",
+            str(path),
+            "--output",
+            str(tmp_path / "sdk"),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert run.returncode == 0 and "Warning" not in run.stdout + run.stderr, run.stdout + run.stderr
     back = load_gltf_rig(tmp_path / "sdk.glb")
     assert back.skeleton.joint_names == rig.skeleton.joint_names

@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 import torch
+from skeletons import make_skeleton
 
 from retarget_lib.core.kinematics import forward_kinematics
 from retarget_lib.core.rotations import quat_identity
@@ -17,8 +18,6 @@ from retarget_lib.models.georet import (
     normalize_rest_vertices,
     pose_outputs,
 )
-
-from skeletons import make_skeleton
 
 
 def _small_model(seed=0, **kw):
@@ -130,12 +129,22 @@ def test_decoder_step_is_two_torch_gru_cells():
     source, offsets, verts, weights = _inputs(2, 1)
     context = model.target_context(offsets, verts, weights)
     g = torch.Generator().manual_seed(3)
-    state = model.initial_state(context)._replace(hidden=torch.randn(2, 2, 32, generator=g),
-                                                  root_velocity=0.01 * torch.randn(2, 3, generator=g))
+    state = model.initial_state(context)._replace(
+        hidden=torch.randn(2, 2, 32, generator=g),
+        root_velocity=0.01 * torch.randn(2, 3, generator=g),
+    )
     h_enc = model.encode(source)[:, 0]
     h = context.height.view(2, 1)
-    x = torch.cat((h_enc, state.local_positions.reshape(2, -1) / h, state.root_velocity / h, context.skeleton,
-                   context.geometry), dim=-1)
+    x = torch.cat(
+        (
+            h_enc,
+            state.local_positions.reshape(2, -1) / h,
+            state.root_velocity / h,
+            context.skeleton,
+            context.geometry,
+        ),
+        dim=-1,
+    )
     expected = []
     for i, cell in enumerate(model.decoder):
         x = cell(x, state.hidden[i])
@@ -152,7 +161,9 @@ def test_decoder_gates_do_not_depend_on_the_optimised_inputs():
     context = model.target_context(offsets, verts, weights)
     state = model.initial_state(context)
     gates = model.decoder_gates(state, context)
-    for t, velocity in enumerate((torch.tensor([[0.02, 0.0, -0.01]]), torch.tensor([[-0.3, 0.1, 0.2]]))):
+    for t, velocity in enumerate(
+        (torch.tensor([[0.02, 0.0, -0.01]]), torch.tensor([[-0.3, 0.1, 0.2]]))
+    ):
         moved = state._replace(root_velocity=velocity)
         h_enc = model.encode(source)[:, t]
         kept = model.decode_step(h_enc, moved, context, None, gates)
@@ -180,7 +191,11 @@ def test_step_state_integrates_the_root_from_the_start():
 def test_gradients_reach_every_parameter():
     model = _small_model(dropout=0.0).train()
     out = model(*_inputs(2, 5))
-    loss = (out.rotations[..., 1:] ** 2).sum() + out.root_velocity.pow(2).sum() + out.local_positions.sum()
+    loss = (
+        (out.rotations[..., 1:] ** 2).sum()
+        + out.root_velocity.pow(2).sum()
+        + out.local_positions.sum()
+    )
     loss.backward()
     for name, p in model.named_parameters():
         assert p.grad is not None and p.grad.abs().sum() > 0, name
@@ -191,7 +206,10 @@ def test_default_sizes_match_appendix_b():
     assert model.encoder.hidden_size == 512 and model.encoder.num_layers == 2
     assert len(model.decoder) == 2 and model.decoder[0].hidden_size == 512
     assert model.decoder[0].input_size == 512 + 66 + 3 + 66 + 256
-    assert [m.out_features for m in model.pointnet.mlp if isinstance(m, torch.nn.Linear)] == [256, 256]
+    assert [m.out_features for m in model.pointnet.mlp if isinstance(m, torch.nn.Linear)] == [
+        256,
+        256,
+    ]
     n = sum(p.numel() for p in model.parameters())
     print(f"GeometryConditionedRNN parameters: {n:,}")
     assert n == 6_669_703
@@ -211,10 +229,17 @@ def test_motion_features_of_a_rest_pose_walking_forward_by_hand():
     m = motion_features(rot, root, skel.offsets, CANONICAL22_PARENTS)
     assert m.shape == (1, 3, 267)
     rest = skel.rest_positions() - skel.rest_positions()[0]
-    np.testing.assert_allclose(m[0, 1, MOTION_FEATURE_LAYOUT["positions"]].numpy(), rest.reshape(-1) / h, atol=1e-6)
-    np.testing.assert_allclose(m[0, 2, MOTION_FEATURE_LAYOUT["rotations"]].numpy(), np.tile(np.eye(3).ravel(), 22))
-    np.testing.assert_allclose(m[0, :, MOTION_FEATURE_LAYOUT["root_velocity"]].numpy(),
-                               np.tile([0.0, 0.0, 0.03 / h], (3, 1)), atol=1e-7)
+    np.testing.assert_allclose(
+        m[0, 1, MOTION_FEATURE_LAYOUT["positions"]].numpy(), rest.reshape(-1) / h, atol=1e-6
+    )
+    np.testing.assert_allclose(
+        m[0, 2, MOTION_FEATURE_LAYOUT["rotations"]].numpy(), np.tile(np.eye(3).ravel(), 22)
+    )
+    np.testing.assert_allclose(
+        m[0, :, MOTION_FEATURE_LAYOUT["root_velocity"]].numpy(),
+        np.tile([0.0, 0.0, 0.03 / h], (3, 1)),
+        atol=1e-7,
+    )
     with pytest.raises(ValueError, match="rotations"):
         motion_features(rot[0], root[0], skel.offsets)
 
@@ -224,8 +249,14 @@ def test_pose_outputs_integrate_root_velocities_by_hand():
     rot = quat_identity((1, 3, 22))
     vel = torch.tensor([[[0.1, 0.0, 0.0]] * 3])
     posed = pose_outputs(rot, vel, skel.offsets, start=torch.tensor([0.0, 1.0, 0.0]))
-    torch.testing.assert_close(posed.root_positions[0], torch.tensor([[0.0, 1, 0], [0.1, 1, 0], [0.2, 1, 0]]))
-    expected = forward_kinematics(rot, torch.as_tensor(skel.offsets, dtype=torch.float32), CANONICAL22_PARENTS,
-                                  posed.root_positions).positions
+    torch.testing.assert_close(
+        posed.root_positions[0], torch.tensor([[0.0, 1, 0], [0.1, 1, 0], [0.2, 1, 0]])
+    )
+    expected = forward_kinematics(
+        rot,
+        torch.as_tensor(skel.offsets, dtype=torch.float32),
+        CANONICAL22_PARENTS,
+        posed.root_positions,
+    ).positions
     torch.testing.assert_close(posed.positions, expected)
     assert posed.global_rotations.shape == (1, 3, 22, 4)

@@ -21,7 +21,13 @@ from retarget_lib.core.skeleton import CANONICAL22, J, JointSetError, Skeleton
 from retarget_lib.data.sources.mannequin import load_mannequin
 from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.errors import GLTFError, RetargetInputError
-from retarget_lib.io.gltf import NoSkinError, key_rate, load_gltf_animation, load_gltf_motion, load_gltf_rig
+from retarget_lib.io.gltf import (
+    NoSkinError,
+    key_rate,
+    load_gltf_animation,
+    load_gltf_motion,
+    load_gltf_rig,
+)
 from retarget_lib.io.gltf_validator import validate_gltf, validator_missing
 from retarget_lib.io.gltf_write import _Builder, save_glb
 from retarget_lib.io.rig_maps import RIG_MAPS, map_joints
@@ -43,8 +49,9 @@ def assert_valid(path):
 
 def random_motion(skeleton, frames=12, seed=0, deg=25.0, fps=30.0):
     rng = np.random.default_rng(seed)
-    rot = quat_from_euler(torch.from_numpy(rng.normal(0, deg, (frames, skeleton.num_joints, 3))), "ZXY",
-                          degrees=True).numpy()
+    rot = quat_from_euler(
+        torch.from_numpy(rng.normal(0, deg, (frames, skeleton.num_joints, 3))), "ZXY", degrees=True
+    ).numpy()
     root = skeleton.offsets[0] + np.cumsum(rng.normal(0, 0.02, (frames, 3)), axis=0)
     return Motion(skeleton, rot, root, fps, name="random")
 
@@ -62,7 +69,9 @@ def test_synthetic_character_round_trip(tmp_path, name):
     got = back.character()
     np.testing.assert_allclose(got.rest_vertices, character.rest_vertices, atol=F32_POS)
     np.testing.assert_array_equal(got.faces, character.faces)
-    np.testing.assert_allclose(got.weights, character.weights, atol=1e-6)  # float32 weights renormalised
+    np.testing.assert_allclose(
+        got.weights, character.weights, atol=1e-6
+    )  # float32 weights renormalised
     np.testing.assert_allclose(got.skeleton.offsets, character.skeleton.offsets, atol=F32_POS)
     read, _ = load_gltf_motion(path)
     assert read.num_frames == motion.num_frames and read.fps == motion.fps
@@ -89,14 +98,23 @@ def _armature_file(rig, motion, path, scale=0.01, seed=1):
     metres and turns the body, inverse bind matrices = inverses of the joints' world transforms."""
     sk, rng = rig.skeleton, np.random.default_rng(seed)
     q = rng.normal(size=(sk.num_joints, 4))
-    b_rest = quat_to_matrix(torch.from_numpy(q / np.linalg.norm(q, axis=1, keepdims=True))).numpy()  # joint frames
+    b_rest = quat_to_matrix(
+        torch.from_numpy(q / np.linalg.norm(q, axis=1, keepdims=True))
+    ).numpy()  # joint frames
     arm_rot = quat_to_matrix(torch.tensor([np.cos(0.3), 0.0, np.sin(0.3), 0.0])).numpy()
     arm_t = np.array([0.1, 0.0, -0.2])
     to_arm = lambda x: (x - arm_t) @ arm_rot / scale  # world -> armature space  # noqa: E731
     p = to_arm(sk.rest_positions())
     fk = motion.fk()
-    s_rot = np.swapaxes(arm_rot, -1, -2) @ quat_to_matrix(torch.from_numpy(fk.rotations)).numpy() @ arm_rot @ b_rest
-    xyzw = lambda m: matrix_to_quat(torch.from_numpy(np.ascontiguousarray(m))).numpy()[..., [1, 2, 3, 0]]  # noqa: E731
+    s_rot = (
+        np.swapaxes(arm_rot, -1, -2)
+        @ quat_to_matrix(torch.from_numpy(fk.rotations)).numpy()
+        @ arm_rot
+        @ b_rest
+    )
+    xyzw = lambda m: matrix_to_quat(torch.from_numpy(np.ascontiguousarray(m))).numpy()[  # noqa: E731
+        ..., [1, 2, 3, 0]
+    ]
     build = _Builder()
     g = build.gltf
     local_rot = b_rest.copy()
@@ -107,34 +125,73 @@ def _armature_file(rig, motion, path, scale=0.01, seed=1):
         local_t[j] = b_rest[par].T @ (p[j] - p[par])
         anim_rot[:, j] = np.swapaxes(s_rot[:, par], -1, -2) @ s_rot[:, j]
     for j, name in enumerate(sk.joint_names):
-        g.nodes.append(pygltflib.Node(name=f"mixamorig:{name}", translation=local_t[j].tolist(),
-                                      rotation=xyzw(local_rot[j]).astype(np.float32).tolist(), children=sk.children(j) or None))
+        g.nodes.append(
+            pygltflib.Node(
+                name=f"mixamorig:{name}",
+                translation=local_t[j].tolist(),
+                rotation=xyzw(local_rot[j]).astype(np.float32).tolist(),
+                children=sk.children(j) or None,
+            )
+        )
     world = np.tile(np.eye(4), (sk.num_joints, 1, 1))
     world[:, :3, :3] = scale * arm_rot @ b_rest
     world[:, :3, 3] = sk.rest_positions()
     ibm = np.linalg.inv(world).astype(np.float32)
-    attrs = pygltflib.Attributes(POSITION=build.add(rig.rest_vertices.astype(np.float32), 5126, 34962, True))
+    attrs = pygltflib.Attributes(
+        POSITION=build.add(rig.rest_vertices.astype(np.float32), 5126, 34962, True)
+    )
     order = np.argsort(-rig.weights, axis=1)[:, :4]
     attrs.JOINTS_0 = build.add(order.astype(np.uint16), 5123, 34962)
     w = np.take_along_axis(rig.weights, order, 1).astype(np.float32)
     attrs.WEIGHTS_0 = build.add(w / w.sum(1, keepdims=True), 5126, 34962)
     faces = build.add(rig.faces.astype(np.uint32).reshape(-1, 1), 5125, 34963)
-    g.meshes.append(pygltflib.Mesh(primitives=[pygltflib.Primitive(attributes=attrs, indices=faces)]))
-    g.skins.append(pygltflib.Skin(joints=list(range(sk.num_joints)),
-                                  inverseBindMatrices=build.add(ibm.transpose(0, 2, 1).copy(), 5126)))
+    g.meshes.append(
+        pygltflib.Mesh(primitives=[pygltflib.Primitive(attributes=attrs, indices=faces)])
+    )
+    g.skins.append(
+        pygltflib.Skin(
+            joints=list(range(sk.num_joints)),
+            inverseBindMatrices=build.add(ibm.transpose(0, 2, 1).copy(), 5126),
+        )
+    )
     n = sk.num_joints
-    g.nodes.append(pygltflib.Node(name="Armature", children=[0], scale=[scale] * 3, translation=arm_t.tolist(),
-                                  rotation=xyzw(arm_rot).tolist()))
+    g.nodes.append(
+        pygltflib.Node(
+            name="Armature",
+            children=[0],
+            scale=[scale] * 3,
+            translation=arm_t.tolist(),
+            rotation=xyzw(arm_rot).tolist(),
+        )
+    )
     g.nodes.append(pygltflib.Node(name="Body", mesh=0, skin=0))
     g.scenes.append(pygltflib.Scene(nodes=[n, n + 1]))
-    times = build.add((np.arange(motion.num_frames) / motion.fps).astype(np.float32).reshape(-1, 1), 5126, bounds=True)
-    samplers = [pygltflib.AnimationSampler(input=times, output=build.add(to_arm(motion.root_positions).astype(np.float32),
-                                                                         5126))]
-    channels = [pygltflib.AnimationChannel(sampler=0, target=pygltflib.AnimationChannelTarget(node=0, path="translation"))]
+    times = build.add(
+        (np.arange(motion.num_frames) / motion.fps).astype(np.float32).reshape(-1, 1),
+        5126,
+        bounds=True,
+    )
+    samplers = [
+        pygltflib.AnimationSampler(
+            input=times, output=build.add(to_arm(motion.root_positions).astype(np.float32), 5126)
+        )
+    ]
+    channels = [
+        pygltflib.AnimationChannel(
+            sampler=0, target=pygltflib.AnimationChannelTarget(node=0, path="translation")
+        )
+    ]
     for j in range(n):
-        samplers.append(pygltflib.AnimationSampler(input=times, output=build.add(xyzw(anim_rot[:, j]).astype(np.float32), 5126)))
-        channels.append(pygltflib.AnimationChannel(sampler=j + 1,
-                                                   target=pygltflib.AnimationChannelTarget(node=j, path="rotation")))
+        samplers.append(
+            pygltflib.AnimationSampler(
+                input=times, output=build.add(xyzw(anim_rot[:, j]).astype(np.float32), 5126)
+            )
+        )
+        channels.append(
+            pygltflib.AnimationChannel(
+                sampler=j + 1, target=pygltflib.AnimationChannelTarget(node=j, path="rotation")
+            )
+        )
     g.animations.append(pygltflib.Animation(samplers=samplers, channels=channels))
     path.write_bytes(build.to_bytes())
 
@@ -149,8 +206,12 @@ def test_joint_rest_orientations_and_armature_scale(tmp_path):
     assert_valid(path)
     read, back = load_gltf_motion(path)
     assert back.skeleton.joint_names == tuple(f"mixamorig:{n}" for n in CANONICAL22)
-    np.testing.assert_allclose(back.rest_vertices, rig.rest_vertices, atol=1e-5)  # cm-scale float32 matrices
-    np.testing.assert_allclose(back.skeleton.rest_positions(), rig.skeleton.rest_positions(), atol=1e-5)
+    np.testing.assert_allclose(
+        back.rest_vertices, rig.rest_vertices, atol=1e-5
+    )  # cm-scale float32 matrices
+    np.testing.assert_allclose(
+        back.skeleton.rest_positions(), rig.skeleton.rest_positions(), atol=1e-5
+    )
     np.testing.assert_allclose(read.global_positions(), motion.global_positions(), atol=1e-4)
 
 
@@ -165,7 +226,11 @@ def _unreal_rig(character):
     for c, name in enumerate(CANONICAL22):
         p = sk.parents[c]
         if name == "Neck":  # spine_04 halfway between spine_03 and neck_01
-            names.append("spine_04"), parents.append(index[p]), pos.append(0.5 * (rest[p] + rest[c]))
+            (
+                names.append("spine_04"),
+                parents.append(index[p]),
+                pos.append(0.5 * (rest[p] + rest[c])),
+            )
             p_idx = len(names) - 1
         else:
             p_idx = index[p] if p >= 0 else 0
@@ -184,8 +249,14 @@ def _unreal_rig(character):
     weights = np.zeros((character.num_vertices, len(names)))
     for c in range(22):
         weights[:, index[c]] = character.weights[:, c]
-    return Rig("manny", full, character.rest_vertices, character.faces, weights,
-               {index[c]: c for c in range(22)}), index
+    return Rig(
+        "manny",
+        full,
+        character.rest_vertices,
+        character.faces,
+        weights,
+        {index[c]: c for c in range(22)},
+    ), index
 
 
 def test_extra_joints_are_kept_and_follow_their_parents(tmp_path):
@@ -195,7 +266,9 @@ def test_extra_joints_are_kept_and_follow_their_parents(tmp_path):
     save_glb(rig, path)
     back = load_gltf_rig(path)
     assert back.meta["rig"] == "unreal" and back.skeleton.joint_names == rig.skeleton.joint_names
-    np.testing.assert_allclose(back.character().skeleton.offsets, character.skeleton.offsets, atol=F32_POS)
+    np.testing.assert_allclose(
+        back.character().skeleton.offsets, character.skeleton.offsets, atol=F32_POS
+    )
     motion22 = random_motion(character.skeleton, frames=8)
     full = back.motion_from_canonical(motion22)
     out = tmp_path / "manny_anim.glb"
@@ -203,18 +276,28 @@ def test_extra_joints_are_kept_and_follow_their_parents(tmp_path):
     assert_valid(out)
     read, _ = load_gltf_motion(out)
     pos = read.global_positions()
-    np.testing.assert_allclose(pos[:, [index[c] for c in range(22)]], motion22.global_positions(), atol=F32_FK)
+    np.testing.assert_allclose(
+        pos[:, [index[c] for c in range(22)]], motion22.global_positions(), atol=F32_FK
+    )
     # the fingers move rigidly with the hand; the root stays under the hips
-    hand, finger = index[CANONICAL22.index("LeftHand")], rig.skeleton.joint_names.index("index_02_l")
+    hand, finger = (
+        index[CANONICAL22.index("LeftHand")],
+        rig.skeleton.joint_names.index("index_02_l"),
+    )
     bone = np.linalg.norm(pos[:, finger] - pos[:, hand], axis=-1)
-    np.testing.assert_allclose(bone, np.linalg.norm(rig.skeleton.rest_positions()[finger] - rig.skeleton.rest_positions()[hand]),
-                               atol=F32_FK)
+    np.testing.assert_allclose(
+        bone,
+        np.linalg.norm(rig.skeleton.rest_positions()[finger] - rig.skeleton.rest_positions()[hand]),
+        atol=F32_FK,
+    )
     np.testing.assert_allclose(read.rotations[:, 0], np.tile([1.0, 0, 0, 0], (8, 1)), atol=1e-6)
     folded = back.motion_to_canonical(read)
     np.testing.assert_allclose(folded.global_positions(), motion22.global_positions(), atol=F32_FK)
 
 
-@pytest.mark.parametrize("rig_name", ["mixamo", "smplx", "smpl", "vrm", "vroid", "unreal", "rigify", "cmu"])
+@pytest.mark.parametrize(
+    "rig_name", ["mixamo", "smplx", "smpl", "vrm", "vroid", "unreal", "rigify", "cmu"]
+)
 def test_every_rig_naming_maps(rig_name):
     names22 = {v: k for k, v in RIG_MAPS[rig_name].items()}
     prefix = "DEF-" if rig_name == "rigify" else ("mixamorig:" if rig_name == "mixamo" else "")
@@ -228,7 +311,9 @@ def test_mapping_file_completes_a_custom_rig(tmp_path):
     parents = make_character("hana").skeleton.parents
     names = list(CANONICAL22)
     names[5], names[17] = "Skull", "L_Palm"
-    with pytest.raises(JointSetError, match=r"cannot map joints \['Head', 'LeftHand'\].*give a joint map"):
+    with pytest.raises(
+        JointSetError, match=r"cannot map joints \['Head', 'LeftHand'\].*give a joint map"
+    ):
         map_joints(names, parents)
     mapping = tmp_path / "map.yaml"
     mapping.write_text("Head: Skull\nLeftHand: L_Palm\n")
@@ -260,17 +345,26 @@ def test_bad_files_give_one_clear_error(tmp_path):
     # a GLB whose magic is damaged: said in glTF's terms, not as a text decoding error
     damaged = tmp_path / "damaged.glb"
     damaged.write_bytes(b"\x98\x98\x98\x98" + good.read_bytes()[4:])
-    with pytest.raises(GLTFError, match=r"damaged.glb: not a glTF 2.0 file: a binary .glb starts with the bytes 'glTF'"):
+    with pytest.raises(
+        GLTFError,
+        match=r"damaged.glb: not a glTF 2.0 file: a binary .glb starts with the bytes 'glTF'",
+    ):
         load_gltf_rig(damaged)
 
 
-@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(
+    max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
 @given(data=st.data())
 def test_corrupted_glb_loads_or_raises_an_input_error(tmp_path_factory, data):
     """Any byte-level corruption of a valid GLB either loads or raises a RetargetInputError."""
     folder = tmp_path_factory.mktemp("fuzz")
     good = folder / "good.glb"
-    save_glb(Rig.from_character(make_character("kato")), good, random_motion(make_character("kato").skeleton, 3))
+    save_glb(
+        Rig.from_character(make_character("kato")),
+        good,
+        random_motion(make_character("kato").skeleton, 3),
+    )
     raw = bytearray(good.read_bytes())
     for _ in range(data.draw(st.integers(1, 8))):
         raw[data.draw(st.integers(0, len(raw) - 1))] = data.draw(st.integers(0, 255))
@@ -295,7 +389,10 @@ def test_a_motion_without_a_skin_round_trips(tmp_path):
     assert_valid(bare)
     got, joint_map = load_gltf_animation(bare)
     ref, _ = load_gltf_motion(skinned)
-    assert joint_map == {c: c for c in range(22)} and got.skeleton.joint_names == ref.skeleton.joint_names
+    assert (
+        joint_map == {c: c for c in range(22)}
+        and got.skeleton.joint_names == ref.skeleton.joint_names
+    )
     np.testing.assert_allclose(got.skeleton.offsets, ref.skeleton.offsets, atol=0)
     np.testing.assert_allclose(got.global_positions(), ref.global_positions(), atol=0)
     np.testing.assert_allclose(got.global_positions(), motion.global_positions(), atol=F32_FK)
@@ -324,18 +421,26 @@ def test_a_blender_style_clip_without_a_skin_at_60_fps(tmp_path):
     gltf.nodes[body].mesh = gltf.nodes[body].skin = None
     gltf.save(str(path))
     read, joint_map = load_gltf_animation(path)
-    assert read.fps == 60.0 and read.num_frames == 10 and read.skeleton.joint_names[0] == "mixamorig:Hips"
+    assert (
+        read.fps == 60.0
+        and read.num_frames == 10
+        and read.skeleton.joint_names[0] == "mixamorig:Hips"
+    )
     assert joint_map == {c: c for c in range(22)}
-    np.testing.assert_allclose(read.global_positions(), motion.global_positions(), atol=1e-4)  # as the skinned file
+    np.testing.assert_allclose(
+        read.global_positions(), motion.global_positions(), atol=1e-4
+    )  # as the skinned file
 
 
 def test_key_rate_of_baked_keys():
     frames = np.arange(50)
-    assert key_rate([frames / 30.0]) == 30.0 and key_rate([(frames / 60.0).astype(np.float32)]) == 60.0
+    assert (
+        key_rate([frames / 30.0]) == 30.0 and key_rate([(frames / 60.0).astype(np.float32)]) == 60.0
+    )
     assert key_rate([frames / 29.97]) == pytest.approx(29.97)
-    assert key_rate([np.array([0.0, 1.0])]) is None                  # two keys: no grid
-    assert key_rate([np.array([0.0, 0.1, 0.25, 0.3])]) is None        # keys off any one grid
-    assert key_rate([frames * 33.3]) is None                         # 0.03 fps: not a frame rate
+    assert key_rate([np.array([0.0, 1.0])]) is None  # two keys: no grid
+    assert key_rate([np.array([0.0, 0.1, 0.25, 0.3])]) is None  # keys off any one grid
+    assert key_rate([frames * 33.3]) is None  # 0.03 fps: not a frame rate
 
 
 def _with_prop_armature(src, dst, at, joints=1):
@@ -344,8 +449,8 @@ def _with_prop_armature(src, dst, at, joints=1):
     the chain's first joint."""
     data = src.read_bytes()
     json_len = struct.unpack_from("<I", data, 12)[0]
-    gltf = json.loads(data[20:20 + json_len])
-    binary = bytearray(data[20 + json_len + 8:])
+    gltf = json.loads(data[20 : 20 + json_len])
+    binary = bytearray(data[20 + json_len + 8 :])
 
     def add(array, target=None):
         while len(binary) % 4:
@@ -356,8 +461,15 @@ def _with_prop_armature(src, dst, at, joints=1):
         return len(gltf["bufferViews"]) - 1
 
     def accessor(array, kind, component, **extra):
-        gltf["accessors"].append({"bufferView": add(array), "componentType": component, "count": len(array),
-                                  "type": kind, **extra})
+        gltf["accessors"].append(
+            {
+                "bufferView": add(array),
+                "componentType": component,
+                "count": len(array),
+                "type": kind,
+                **extra,
+            }
+        )
         return len(gltf["accessors"]) - 1
 
     tri = np.array([[0.0, 0.0, 0.0], [0.1, 0.0, 0.0], [0.0, 0.05, 0.1]], np.float32)
@@ -365,14 +477,33 @@ def _with_prop_armature(src, dst, at, joints=1):
     joint_ids = accessor(np.zeros((3, 4), np.uint8), "VEC4", 5121)
     weights = accessor(np.tile(np.array([1, 0, 0, 0], np.float32), (3, 1)), "VEC4", 5126)
     indices = accessor(np.array([0, 1, 2], np.uint16), "SCALAR", 5123)
-    gltf["meshes"].append({"primitives": [{"attributes": {"POSITION": position, "JOINTS_0": joint_ids,
-                                                          "WEIGHTS_0": weights}, "indices": indices}]})
+    gltf["meshes"].append(
+        {
+            "primitives": [
+                {
+                    "attributes": {
+                        "POSITION": position,
+                        "JOINTS_0": joint_ids,
+                        "WEIGHTS_0": weights,
+                    },
+                    "indices": indices,
+                }
+            ]
+        }
+    )
     first = len(gltf["nodes"])
-    chain = [{"name": f"PropBone{k}", "translation": list(map(float, at)) if k == 0 else [0.0, 0.05, 0.0]}
-             for k in range(joints)]
+    chain = [
+        {
+            "name": f"PropBone{k}",
+            "translation": list(map(float, at)) if k == 0 else [0.0, 0.05, 0.0],
+        }
+        for k in range(joints)
+    ]
     for k in range(joints - 1):
         chain[k]["children"] = [first + k + 1]
-    gltf["nodes"] += chain + [{"name": "Prop", "mesh": len(gltf["meshes"]) - 1, "skin": len(gltf["skins"])}]
+    gltf["nodes"] += chain + [
+        {"name": "Prop", "mesh": len(gltf["meshes"]) - 1, "skin": len(gltf["skins"])}
+    ]
     gltf["skins"].append({"joints": list(range(first, first + joints))})
     gltf["scenes"][gltf.get("scene", 0)]["nodes"] += [first, first + joints]
     gltf["buffers"][0]["byteLength"] = len(binary)
@@ -381,7 +512,12 @@ def _with_prop_armature(src, dst, at, joints=1):
     while len(binary) % 4:
         binary.append(0)
     out = struct.pack("<III", 0x46546C67, 2, 12 + 8 + len(text) + 8 + len(binary))
-    out += struct.pack("<II", len(text), 0x4E4F534A) + text + struct.pack("<II", len(binary), 0x004E4942) + binary
+    out += (
+        struct.pack("<II", len(text), 0x4E4F534A)
+        + text
+        + struct.pack("<II", len(binary), 0x004E4942)
+        + binary
+    )
     dst.write_bytes(out)
 
 
@@ -399,14 +535,21 @@ def test_a_prop_on_its_own_armature_hangs_under_the_nearest_joint(tmp_path):
     rig = load_gltf_rig(hat)
     names = rig.skeleton.joint_names
     assert names[rig.skeleton.parents[names.index("PropBone0")]] == "Head"
-    np.testing.assert_allclose(rig.skeleton.rest_positions()[names.index("PropBone0")], head, atol=F32_POS)
+    np.testing.assert_allclose(
+        rig.skeleton.rest_positions()[names.index("PropBone0")], head, atol=F32_POS
+    )
     body = rig.character()
     assert body.num_vertices == character.num_vertices + 3
-    np.testing.assert_allclose(body.rest_vertices[-3:] - head, [[0, 0, 0], [0.1, 0, 0], [0, 0.05, 0.1]], atol=F32_POS)
+    np.testing.assert_allclose(
+        body.rest_vertices[-3:] - head, [[0, 0, 0], [0.1, 0, 0], [0, 0.05, 0.1]], atol=F32_POS
+    )
     np.testing.assert_allclose(body.weights[-3:, J["Head"]], 1.0)
     twin = tmp_path / "twin.glb"
     _with_prop_armature(src, twin, head, joints=len(CANONICAL22))
-    with pytest.raises(GLTFError, match=r"twin.glb: the skin's joints form 2 trees .* a character needs one skeleton"):
+    with pytest.raises(
+        GLTFError,
+        match=r"twin.glb: the skin's joints form 2 trees .* a character needs one skeleton",
+    ):
         load_gltf_rig(twin)
 
 
@@ -432,9 +575,14 @@ def test_a_biped_style_clip_without_a_skin(tmp_path):
     anim = gltf.animations[0]
     anim.channels = [c for c in anim.channels if c.target.node != neck]  # the neck is never keyed
     hand = names.index("LeftHand")
-    gltf.nodes.append(pygltflib.Node(name="LeftHandNub", translation=[0.0, 0.05, 0.0], scale=[-1.0, -1.0, -1.0]))
+    gltf.nodes.append(
+        pygltflib.Node(name="LeftHandNub", translation=[0.0, 0.05, 0.0], scale=[-1.0, -1.0, -1.0])
+    )
     gltf.nodes.append(pygltflib.Node(name="Sword", mesh=box, translation=[0.0, 0.1, 0.0]))
-    gltf.nodes[hand].children = list(gltf.nodes[hand].children or []) + [len(gltf.nodes) - 2, len(gltf.nodes) - 1]
+    gltf.nodes[hand].children = list(gltf.nodes[hand].children or []) + [
+        len(gltf.nodes) - 2,
+        len(gltf.nodes) - 1,
+    ]
     gltf.save(str(path))
     read, joint_map = load_gltf_animation(path)
     assert set(read.skeleton.joint_names) == set(CANONICAL22) | {"LeftHandNub"}

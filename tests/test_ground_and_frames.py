@@ -3,10 +3,16 @@ the floor where the source's are, for every method and output format, and every 
 
 import numpy as np
 import pytest
+from skeletons import make_skeleton
 
 from retarget_lib.cli import main
-from retarget_lib.io.joint_maps import to_canonical22
-from retarget_lib.core.ground import clip_floor, floor_offset, foot_positions, sole_heights, standing_feet
+from retarget_lib.core.ground import (
+    clip_floor,
+    floor_offset,
+    foot_positions,
+    sole_heights,
+    standing_feet,
+)
 from retarget_lib.core.measures import foot_rest_heights, rest_ground
 from retarget_lib.core.rig import Rig
 from retarget_lib.data.sources.cmu import cmu_clip_path
@@ -15,7 +21,7 @@ from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.io import load_bvh, save_bvh, save_glb
 from retarget_lib.io.amass import load_amass
 from retarget_lib.io.gltf import load_gltf_motion, load_gltf_rig
-from skeletons import make_skeleton
+from retarget_lib.io.joint_maps import to_canonical22
 
 
 # ----------------------------------------------------------------------------- the rule, by hand
@@ -30,11 +36,15 @@ def test_floor_offset_by_hand():
     target[1, 0], target[3, 0], target[3, 2] = 0.20, -0.05, -0.01
     shift = floor_offset(target, source, 0.10, standing, ratio=2.0)
     # frame 1: 2 * 0.01 - 0.20 = -0.18; frame 3: max(0 - (-0.05), 0.04 - (-0.01)) = 0.05
-    np.testing.assert_allclose(shift, [-0.18, -0.18, -0.065, 0.05, 0.05], atol=1e-12)  # exact arithmetic
+    np.testing.assert_allclose(
+        shift, [-0.18, -0.18, -0.065, 0.05, 0.05], atol=1e-12
+    )  # exact arithmetic
 
 
 def test_no_standing_frame_gives_no_shift():
-    assert not floor_offset(np.ones((3, 4)), np.ones((3, 4)), 0.0, np.zeros((3, 4), bool), 1.0).any()
+    assert not floor_offset(
+        np.ones((3, 4)), np.ones((3, 4)), 0.0, np.zeros((3, 4), bool), 1.0
+    ).any()
 
 
 def test_clip_floor_ignores_a_few_frames_through_the_floor():
@@ -67,9 +77,15 @@ def test_rest_ground_is_the_rest_meshs_lowest_point_else_the_lowest_foot_joint()
     assert rest_ground(character.skeleton, character.rest_vertices) == pytest.approx(mesh_low)
     lifted = character.skeleton.copy()
     lifted.offsets[0, 1] -= 1.0  # a BVH-like skeleton whose feet are below y = 0
-    feet = lifted.rest_positions()[[lifted.index("LeftToeBase"), lifted.index("RightToeBase")], 1].min()
-    assert rest_ground(lifted) == pytest.approx(min(feet, lifted.rest_positions()[
-        [lifted.index("LeftFoot"), lifted.index("RightFoot")], 1].min()))
+    feet = lifted.rest_positions()[
+        [lifted.index("LeftToeBase"), lifted.index("RightToeBase")], 1
+    ].min()
+    assert rest_ground(lifted) == pytest.approx(
+        min(
+            feet,
+            lifted.rest_positions()[[lifted.index("LeftFoot"), lifted.index("RightFoot")], 1].min(),
+        )
+    )
     # a toe joint resting on the mesh's sole reads its height above it
     assert (foot_rest_heights(character.skeleton, character.rest_vertices) >= 0).all()
 
@@ -77,7 +93,9 @@ def test_rest_ground_is_the_rest_meshs_lowest_point_else_the_lowest_foot_joint()
 def test_a_foot_flat_on_the_floor_reads_zero():
     skeleton = make_skeleton()
     rest = skeleton.rest_positions()[None]
-    np.testing.assert_allclose(sole_heights(rest, skeleton).min(), 0.0, atol=1e-12)  # copied rest values
+    np.testing.assert_allclose(
+        sole_heights(rest, skeleton).min(), 0.0, atol=1e-12
+    )  # copied rest values
     assert foot_positions(rest, skeleton).shape == (1, 4, 3)
 
 
@@ -97,11 +115,17 @@ def files(tmp_path_factory):
 
 def _source_soles(source_path):
     """The source's sole heights above its own floor ``(T, 4)`` and where it stands ``(T, 4)``."""
-    source = load_amass(source_path) if source_path.suffix == ".npz" else to_canonical22(load_bvh(source_path))
+    source = (
+        load_amass(source_path)
+        if source_path.suffix == ".npz"
+        else to_canonical22(load_bvh(source_path))
+    )
     pos = source.global_positions()
     soles = sole_heights(pos, source.skeleton)
     floor = clip_floor(soles)
-    standing = standing_feet(foot_positions(pos, source.skeleton), soles, floor, source.skeleton.height(), source.fps)
+    standing = standing_feet(
+        foot_positions(pos, source.skeleton), soles, floor, source.skeleton.height(), source.fps
+    )
     return soles - floor, standing, source.skeleton.height()
 
 
@@ -121,14 +145,37 @@ def _errors(out, target_glb, source_path):
 
 def _run(files, tmp_path, method, suffix, target, source="walk.bvh"):
     out = tmp_path / f"{method}_{target}{suffix}"
-    assert main(["retarget", "--source", str(files / source), "--target", str(files / f"{target}.glb"),
-                 "--method", method, "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "retarget",
+                "--source",
+                str(files / source),
+                "--target",
+                str(files / f"{target}.glb"),
+                "--method",
+                method,
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     return out
 
 
-@pytest.mark.parametrize("method,suffix,target", [("copy", ".bvh", "gus"), ("copy-rest", ".glb", "hana"),
-                                                  ("tdcn", ".glb", "gus"), ("copy", ".fbx", "hana")])
-def test_feet_stand_on_the_targets_floor_where_the_sources_do(files, tmp_path, method, suffix, target):
+@pytest.mark.parametrize(
+    "method,suffix,target",
+    [
+        ("copy", ".bvh", "gus"),
+        ("copy-rest", ".glb", "hana"),
+        ("tdcn", ".glb", "gus"),
+        ("copy", ".fbx", "hana"),
+    ],
+)
+def test_feet_stand_on_the_targets_floor_where_the_sources_do(
+    files, tmp_path, method, suffix, target
+):
     out = _run(files, tmp_path, method, suffix, target)
     if suffix == ".fbx":  # written; the same run's result read back through its glTF twin
         out = _run(files, tmp_path, method, ".glb", target)
@@ -150,8 +197,22 @@ def test_feet_stand_on_the_targets_floor_where_the_sources_do(files, tmp_path, m
 def test_an_amass_clip_stands_on_the_targets_floor(files, tmp_path):
     """SMPL+H clips came out 5-9 cm under the floor before the rule (issue 28)."""
     out = tmp_path / "amass_gus.glb"
-    assert main(["retarget", "--source", str(AMASS_CLIP_PATH), "--target", str(files / "gus.glb"), "--method",
-                 "copy", "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "retarget",
+                "--source",
+                str(AMASS_CLIP_PATH),
+                "--target",
+                str(files / "gus.glb"),
+                "--method",
+                "copy",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     error, standing = _errors(out, files / "gus.glb", AMASS_CLIP_PATH)
     assert standing.any(axis=1).mean() > 0.5
     lowest = np.where(standing, error, np.inf).min(axis=1)[standing.any(axis=1)]
@@ -161,19 +222,37 @@ def test_an_amass_clip_stands_on_the_targets_floor(files, tmp_path):
 def test_a_sources_floor_need_not_be_at_zero(files, tmp_path):
     a = _run(files, tmp_path, "copy", ".bvh", "gus")
     b = _run(files, tmp_path, "copy", ".bvh", "gus", source="raised.bvh")
-    np.testing.assert_allclose(load_bvh(a).global_positions(), load_bvh(b).global_positions(),
-                               atol=2e-4)  # 6-decimal BVH text of the same result
+    np.testing.assert_allclose(
+        load_bvh(a).global_positions(), load_bvh(b).global_positions(), atol=2e-4
+    )  # 6-decimal BVH text of the same result
 
 
 # ----------------------------------------------------------------------------- frames
-@pytest.mark.parametrize("frames,fps", [(120, 120.0), (60, 60.0), (120, 100.0), (45, 30.0), (7, 24.0)])
+@pytest.mark.parametrize(
+    "frames,fps", [(120, 120.0), (60, 60.0), (120, 100.0), (45, 30.0), (7, 24.0)]
+)
 def test_every_source_frame_is_kept(files, tmp_path, frames, fps):
     clip = load_bvh(cmu_clip_path("01_01.bvh")).slice(0, frames)
     clip.fps = fps
     src = tmp_path / "src.bvh"
     save_bvh(clip, src)
     out = tmp_path / "out.bvh"
-    assert main(["retarget", "--source", str(src), "--target", "kato", "--method", "copy", "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "retarget",
+                "--source",
+                str(src),
+                "--target",
+                "kato",
+                "--method",
+                "copy",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     written = load_bvh(out)
     assert written.num_frames == frames and written.fps == pytest.approx(fps)
 
@@ -185,8 +264,24 @@ def test_a_30_fps_source_comes_back_frame_for_frame(files, tmp_path):
     clip.fps = 30.0
     src, out = tmp_path / "src.bvh", tmp_path / "out.bvh"
     save_bvh(clip, src)
-    assert main(["retarget", "--source", str(src), "--target", str(cmu_clip_path("01_03.bvh")), "--method", "copy",
-                 "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "retarget",
+                "--source",
+                str(src),
+                "--target",
+                str(cmu_clip_path("01_03.bvh")),
+                "--method",
+                "copy",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     written, source = to_canonical22(load_bvh(out)), to_canonical22(load_bvh(src))
     assert written.num_frames == 30
-    np.testing.assert_allclose(np.abs((written.rotations * source.rotations).sum(-1)), 1.0, atol=1e-6)  # text
+    np.testing.assert_allclose(
+        np.abs((written.rotations * source.rotations).sum(-1)), 1.0, atol=1e-6
+    )  # text

@@ -3,14 +3,19 @@
 import numpy as np
 import pytest
 import torch
+from skeletons import make_skeleton
 
 from retarget_lib.core.kinematics import forward_kinematics
 from retarget_lib.core.motion import Motion
 from retarget_lib.core.rotations import quat_from_axis_angle, quat_mul
 from retarget_lib.core.skeleton import J
-from retarget_lib.geometry.ik import (apply_foot_contact_ik, limb_chain, solve_ik, two_bone_ik,
-                                      two_bone_positions)
-from skeletons import make_skeleton
+from retarget_lib.geometry.ik import (
+    apply_foot_contact_ik,
+    limb_chain,
+    solve_ik,
+    two_bone_ik,
+    two_bone_positions,
+)
 
 
 def random_pose(sk, T, scale, seed):
@@ -21,8 +26,14 @@ def random_pose(sk, T, scale, seed):
 
 
 def bone_lengths(pos, parents):
-    return np.stack([np.linalg.norm(pos[..., j, :] - pos[..., p, :], axis=-1)
-                     for j, p in enumerate(parents) if p >= 0], axis=-1)
+    return np.stack(
+        [
+            np.linalg.norm(pos[..., j, :] - pos[..., p, :], axis=-1)
+            for j, p in enumerate(parents)
+            if p >= 0
+        ],
+        axis=-1,
+    )
 
 
 @pytest.mark.parametrize("limb", ["left_leg", "right_arm"])
@@ -39,11 +50,15 @@ def test_two_bone_reaches_reachable_targets_exactly(limb):
     out = two_bone_ik(rot, sk.offsets, sk.parents, root, chain, target)
     new = forward_kinematics(out, sk.offsets, sk.parents, root).positions
     assert np.abs(new[:, chain[2]] - target).max() < 1e-5
-    np.testing.assert_allclose(bone_lengths(new, sk.parents), bone_lengths(pos, sk.parents), atol=1e-9)
+    np.testing.assert_allclose(
+        bone_lengths(new, sk.parents), bone_lengths(pos, sk.parents), atol=1e-9
+    )
     untouched = [j for j in range(22) if j not in chain]
     np.testing.assert_allclose(out[:, untouched], rot[:, untouched])
     # the end joint keeps its local rotation by default
-    np.testing.assert_allclose(np.abs((out[:, chain[2]] * rot[:, chain[2]]).sum(-1)), 1.0, atol=1e-9)
+    np.testing.assert_allclose(
+        np.abs((out[:, chain[2]] * rot[:, chain[2]]).sum(-1)), 1.0, atol=1e-9
+    )
 
 
 def test_two_bone_knee_bends_towards_pole_and_takes_end_rotation():
@@ -53,10 +68,20 @@ def test_two_bone_knee_bends_towards_pole_and_takes_end_rotation():
     root = np.tile(sk.offsets[0], (T, 1))
     chain = limb_chain(sk, "left_leg")
     hip = sk.rest_positions()[J["LeftUpLeg"]]
-    target = hip + np.stack([np.zeros(T), -np.linspace(0.5, 0.75, T), np.linspace(-0.2, 0.3, T)], -1)
+    target = hip + np.stack(
+        [np.zeros(T), -np.linspace(0.5, 0.75, T), np.linspace(-0.2, 0.3, T)], -1
+    )
     foot = quat_from_axis_angle(torch.tensor([0.0, 0.3, 0.0])).numpy()
-    out = two_bone_ik(rot, sk.offsets, sk.parents, root, chain, target,
-                      pole=np.array([0.0, 0.0, 1.0]), end_rotation=foot)
+    out = two_bone_ik(
+        rot,
+        sk.offsets,
+        sk.parents,
+        root,
+        chain,
+        target,
+        pole=np.array([0.0, 0.0, 1.0]),
+        end_rotation=foot,
+    )
     pos, grot = forward_kinematics(out, sk.offsets, sk.parents, root)
     np.testing.assert_allclose(pos[:, chain[2]], target, atol=1e-9)
     knee, line_mid = pos[:, chain[1]], 0.5 * (pos[:, chain[0]] + pos[:, chain[2]])
@@ -86,9 +111,14 @@ def test_two_bone_torch_batched_matches_numpy_and_positions_helper():
     pos = forward_kinematics(rot, sk.offsets, sk.parents, root).positions
     target = pos[:, chain[2]] + np.random.default_rng(5).normal(size=(12, 3)) * 0.1
     ref = two_bone_ik(rot, sk.offsets, sk.parents, root, chain, target)
-    batched = two_bone_ik(torch.from_numpy(rot).reshape(3, 4, 22, 4), torch.from_numpy(sk.offsets),
-                          sk.parents, torch.from_numpy(root).reshape(3, 4, 3), chain,
-                          torch.from_numpy(target).reshape(3, 4, 3))
+    batched = two_bone_ik(
+        torch.from_numpy(rot).reshape(3, 4, 22, 4),
+        torch.from_numpy(sk.offsets),
+        sk.parents,
+        torch.from_numpy(root).reshape(3, 4, 3),
+        chain,
+        torch.from_numpy(target).reshape(3, 4, 3),
+    )
     assert isinstance(batched, torch.Tensor)
     np.testing.assert_allclose(batched.reshape(12, 22, 4).numpy(), ref, atol=1e-10)
     b_new, c_new = two_bone_positions(*(pos[:, k] for k in chain), target)
@@ -100,8 +130,12 @@ def test_two_bone_torch_batched_matches_numpy_and_positions_helper():
 def test_solve_ik_reaches_several_targets_and_keeps_other_joints():
     sk = make_skeleton()
     rot, root = random_pose(sk, 100, 0.2, seed=6)
-    other = quat_mul(torch.from_numpy(rot), quat_from_axis_angle(
-        torch.from_numpy(np.random.default_rng(7).normal(size=(100, 22, 3)) * 0.15))).numpy()
+    other = quat_mul(
+        torch.from_numpy(rot),
+        quat_from_axis_angle(
+            torch.from_numpy(np.random.default_rng(7).normal(size=(100, 22, 3)) * 0.15)
+        ),
+    ).numpy()
     goal = forward_kinematics(other, sk.offsets, sk.parents, root + 0.03).positions
     targets = {j: goal[:, j] for j in (J["LeftHand"], J["RightHand"], J["LeftFoot"], J["Head"])}
     free = [j for j in range(22) if j not in (J["LeftToeBase"], J["RightLeg"])]
@@ -109,15 +143,20 @@ def test_solve_ik_reaches_several_targets_and_keeps_other_joints():
     pos = forward_kinematics(out, sk.offsets, sk.parents, out_root).positions
     for j, t in targets.items():
         assert np.abs(pos[:, j] - t).max() < 1e-5
-    np.testing.assert_allclose(out[:, [J["LeftToeBase"], J["RightLeg"]]],
-                               rot[:, [J["LeftToeBase"], J["RightLeg"]]], atol=1e-12)
+    np.testing.assert_allclose(
+        out[:, [J["LeftToeBase"], J["RightLeg"]]],
+        rot[:, [J["LeftToeBase"], J["RightLeg"]]],
+        atol=1e-12,
+    )
 
 
 def test_solve_ik_targets_already_met_leave_pose_unchanged():
     sk = make_skeleton()
     rot, root = random_pose(sk, 10, 0.3, seed=8)
     pos = forward_kinematics(rot, sk.offsets, sk.parents, root).positions
-    out, out_root = solve_ik(rot, sk.offsets, sk.parents, root, {J["LeftHand"]: pos[:, J["LeftHand"]]})
+    out, out_root = solve_ik(
+        rot, sk.offsets, sk.parents, root, {J["LeftHand"]: pos[:, J["LeftHand"]]}
+    )
     np.testing.assert_allclose(np.abs((out * rot).sum(-1)), 1.0, atol=1e-9)
     np.testing.assert_allclose(out_root, root, atol=1e-9)
 
@@ -150,7 +189,9 @@ def test_foot_contact_ik_pins_feet_and_blends_smoothly():
                 assert np.abs(pos[s:e, j] - pos[s, j]).max() < 1e-6
     # blending spreads the catch-up over several frames instead of one jump
     jump = apply_foot_contact_ik(m, contacts, blend_frames=0).global_positions()
-    speed = lambda p: np.linalg.norm(np.diff(p[:, [J["LeftFoot"], J["RightFoot"]]], axis=0), axis=-1)
+    speed = lambda p: np.linalg.norm(  # noqa: E731
+        np.diff(p[:, [J["LeftFoot"], J["RightFoot"]]], axis=0), axis=-1
+    )
     assert speed(pos).max() < 0.7 * speed(jump).max()
     np.testing.assert_allclose(out.root_positions, m.root_positions)
     np.testing.assert_allclose(pos[:, :6], before[:, :6], atol=1e-9)  # upper body untouched

@@ -11,6 +11,7 @@ import torch
 import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from test_bad_inputs import assert_cli_error
 
 from retarget_lib.cli import main
 from retarget_lib.core.canonical import stand_upright
@@ -30,7 +31,6 @@ from retarget_lib.io.rig_maps import RIG_MAPS, load_mapping_file, map_joints
 from retarget_lib.io.shape import save_shape_npz
 from retarget_lib.methods.copy import copy_rotations
 from retarget_lib.methods.inputs import load_source, load_target
-from test_bad_inputs import assert_cli_error
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "joint-maps.md"
 
@@ -66,8 +66,12 @@ def rig_clip(clip: Motion, mapping: dict) -> Motion:
         while p >= 0 and CANONICAL22[p] not in keep:
             p = sk.parents[p]
         parents.append(keep.index(CANONICAL22[p]) if p >= 0 else -1)
-    offsets = np.array([rest[sk.index(n)] - (rest[sk.index(keep[p])] if p >= 0 else 0.0)
-                        for n, p in zip(keep, parents)])
+    offsets = np.array(
+        [
+            rest[sk.index(n)] - (rest[sk.index(keep[p])] if p >= 0 else 0.0)
+            for n, p in zip(keep, parents)
+        ]
+    )
     offsets[0] = sk.offsets[0]
     _, grot = clip.fk()
     g = torch.from_numpy(grot[:, [sk.index(n) for n in keep]])
@@ -76,7 +80,12 @@ def rig_clip(clip: Motion, mapping: dict) -> Motion:
         if p >= 0:
             local[:, k] = quat_mul(quat_conjugate(g[:, p]), g[:, k])
     names = tuple(mapping.get(n, n) for n in keep)
-    return Motion(Skeleton(names, tuple(parents), offsets), local.numpy(), clip.root_positions.copy(), clip.fps)
+    return Motion(
+        Skeleton(names, tuple(parents), offsets),
+        local.numpy(),
+        clip.root_positions.copy(),
+        clip.fps,
+    )
 
 
 BANDAI = doc_examples()["Bandai-Namco Research Motion dataset (BVH)"]
@@ -86,9 +95,14 @@ SMALL = doc_examples()["A game rig with two spine joints, no clavicles and no to
 # ----------------------------------------------------------------------------- the doc's examples
 #: the doc's example of each convention of the one table (io.rig_maps.RIG_MAPS)
 CONVENTION_OF_EXAMPLE = {
-    "Mixamo": "mixamo", "Unreal mannequin (UE4/UE5)": "unreal", "Rigify (Blender)": "rigify", "VRoid (VRM)": "vroid",
-    "SMPL / SMPL-H exports": "smpl", "CMU (cgspeed BVH conversion)": "cmu",
-    "Biovision / MotionBuilder (BVH, 21 joints)": "biovision", "SMPL-X body joints (AMASS, mannequin-x)": "smplx",
+    "Mixamo": "mixamo",
+    "Unreal mannequin (UE4/UE5)": "unreal",
+    "Rigify (Blender)": "rigify",
+    "VRoid (VRM)": "vroid",
+    "SMPL / SMPL-H exports": "smpl",
+    "CMU (cgspeed BVH conversion)": "cmu",
+    "Biovision / MotionBuilder (BVH, 21 joints)": "biovision",
+    "SMPL-X body joints (AMASS, mannequin-x)": "smplx",
     "VRM humanoid bones": "vrm",
 }
 
@@ -105,15 +119,18 @@ def test_every_example_of_the_doc_maps_its_rig(title, clip):
     assert set(mapping) == set(CANONICAL22)
     rig = rig_clip(clip, mapping)
     found, _ = present_map(rig.skeleton, mapping, what=title)
-    assert {CANONICAL22[c]: rig.skeleton.joint_names[i] for i, c in found.items()} == \
-        {k: v for k, v in mapping.items() if v is not None}
+    assert {CANONICAL22[c]: rig.skeleton.joint_names[i] for i, c in found.items()} == {
+        k: v for k, v in mapping.items() if v is not None
+    }
     if title in CONVENTION_OF_EXAMPLE:  # a known convention: the detection alone finds the same map
         assert present_map(rig.skeleton, what=title) == (found, CONVENTION_OF_EXAMPLE[title])
     folded = to_canonical22(rig, mapping=mapping, what=title)
     present = [c for c in range(22) if mapping[CANONICAL22[c]] is not None]
     own = [rig.skeleton.joint_names.index(mapping[CANONICAL22[c]]) for c in present]
     # the rig's own joints keep their world positions (sums of the same rotated offsets)
-    np.testing.assert_allclose(folded.global_positions()[:, present], rig.global_positions()[:, own], atol=1e-9)
+    np.testing.assert_allclose(
+        folded.global_positions()[:, present], rig.global_positions()[:, own], atol=1e-9
+    )
 
 
 # ----------------------------------------------------------------------------- absent joints
@@ -123,19 +140,30 @@ def test_virtual_joints_sit_on_the_bone_and_do_not_move_the_rig(clip):
     augmented, full = with_virtual_joints(rig, found)
     names = augmented.skeleton.joint_names
     assert sorted(full.values()) == list(range(22))
-    assert {n for n in names if n.endswith("(virtual)")} == {f"{c} (virtual)" for c, v in SMALL.items() if v is None}
+    assert {n for n in names if n.endswith("(virtual)")} == {
+        f"{c} (virtual)" for c, v in SMALL.items() if v is None
+    }
     pos = augmented.global_positions()
     idx = {CANONICAL22[c]: i for i, c in full.items()}
     # Spine1 halfway between Spine and Spine2; a clavicle halfway between Spine2 and the arm;
     # a toe on its foot (zero-length bone); parents before children
     for mid, a, b in (("Spine1", "Spine", "Spine2"), ("LeftShoulder", "Spine2", "LeftArm")):
-        np.testing.assert_allclose(pos[:, idx[mid]], 0.5 * (pos[:, idx[a]] + pos[:, idx[b]]), atol=1e-9)
+        np.testing.assert_allclose(
+            pos[:, idx[mid]], 0.5 * (pos[:, idx[a]] + pos[:, idx[b]]), atol=1e-9
+        )
     np.testing.assert_allclose(pos[:, idx["LeftToeBase"]], pos[:, idx["LeftFoot"]], atol=1e-12)
     assert all(p < k for k, p in enumerate(augmented.skeleton.parents))
     # each virtual joint hangs from its canonical parent's joint, and the arm from its clavicle
     parent_of = {names[k]: names[p] for k, p in enumerate(augmented.skeleton.parents) if p >= 0}
-    assert parent_of["LeftShoulder (virtual)"] == parent_of["RightShoulder (virtual)"] == SMALL["Spine2"]
-    assert parent_of[SMALL["LeftArm"]] == "LeftShoulder (virtual)" and parent_of[SMALL["Spine2"]] == "Spine1 (virtual)"
+    assert (
+        parent_of["LeftShoulder (virtual)"]
+        == parent_of["RightShoulder (virtual)"]
+        == SMALL["Spine2"]
+    )
+    assert (
+        parent_of[SMALL["LeftArm"]] == "LeftShoulder (virtual)"
+        and parent_of[SMALL["Spine2"]] == "Spine1 (virtual)"
+    )
     assert parent_of["LeftToeBase (virtual)"] == SMALL["LeftFoot"]
     original = rig.global_positions()
     for i, name in enumerate(rig.skeleton.joint_names):
@@ -148,20 +176,66 @@ def test_a_two_spine_bandai_namco_bvh_as_source_and_as_target(clip, tmp_path, ca
     (tmp_path / "bn.yaml").write_text(yaml.safe_dump(BANDAI))
     # without a map: one line naming the file, every missing joint and the way to say absent
     capsys.readouterr()
-    assert main(["retarget", "--source", str(tmp_path / "bn.bvh"), "--target", "gus", "--method", "copy",
-                 "--out", str(tmp_path / "o.bvh")]) == 2
+    assert (
+        main(
+            [
+                "retarget",
+                "--source",
+                str(tmp_path / "bn.bvh"),
+                "--target",
+                "gus",
+                "--method",
+                "copy",
+                "--out",
+                str(tmp_path / "o.bvh"),
+            ]
+        )
+        == 2
+    )
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "bn.bvh: cannot map joints" in err[0] and "null" in err[0], err
     assert "'Spine1'" in err[0] and "--source-joint-map" in err[0]
     # as a source
     out = tmp_path / "bn_gus.bvh"
-    assert main(["retarget", "--source", str(tmp_path / "bn.bvh"), "--source-joint-map", str(tmp_path / "bn.yaml"),
-                 "--target", "gus", "--method", "copy", "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "retarget",
+                "--source",
+                str(tmp_path / "bn.bvh"),
+                "--source-joint-map",
+                str(tmp_path / "bn.yaml"),
+                "--target",
+                "gus",
+                "--method",
+                "copy",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     assert load_bvh(out).num_frames == rig.num_frames
     # as a target: the result has exactly the rig's joints, in its order
     out = tmp_path / "cmu_bn.bvh"
-    assert main(["retarget", "--source", str(cmu_clip_path("01_03.bvh")), "--target", str(tmp_path / "bn.bvh"),
-                 "--joint-map", str(tmp_path / "bn.yaml"), "--method", "copy", "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "retarget",
+                "--source",
+                str(cmu_clip_path("01_03.bvh")),
+                "--target",
+                str(tmp_path / "bn.bvh"),
+                "--joint-map",
+                str(tmp_path / "bn.yaml"),
+                "--method",
+                "copy",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     written = load_bvh(out)
     assert written.skeleton.joint_names == load_bvh(tmp_path / "bn.bvh").skeleton.joint_names
 
@@ -174,9 +248,26 @@ def test_written_on_a_rig_without_some_joints_the_legs_match_the_result(clip, tm
     save_bvh(rig, tmp_path / "small.bvh")
     (tmp_path / "small.yaml").write_text(yaml.safe_dump(SMALL))
     out = tmp_path / "o.bvh"
-    assert main(["retarget", "--source", str(tmp_path / "small.bvh"), "--source-joint-map",
-                 str(tmp_path / "small.yaml"), "--target", str(tmp_path / "small.bvh"), "--joint-map",
-                 str(tmp_path / "small.yaml"), "--method", "copy", "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "retarget",
+                "--source",
+                str(tmp_path / "small.bvh"),
+                "--source-joint-map",
+                str(tmp_path / "small.yaml"),
+                "--target",
+                str(tmp_path / "small.bvh"),
+                "--joint-map",
+                str(tmp_path / "small.yaml"),
+                "--method",
+                "copy",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     written, target = load_bvh(out), load_bvh(tmp_path / "small.bvh")
     assert written.skeleton.joint_names == target.skeleton.joint_names
     # onto itself with copy: the virtual joints never rotate, so every joint comes back (6-decimal text,
@@ -190,7 +281,9 @@ def test_written_on_a_rig_without_some_joints_the_legs_match_the_result(clip, tm
 # ----------------------------------------------------------------------------- errors
 def test_a_required_joint_cannot_be_absent(clip, tmp_path):
     rig = rig_clip(clip, BANDAI)
-    with pytest.raises(JointSetError, match=r"rig: the map marks LeftHand absent \(null\); only Spine, "):
+    with pytest.raises(
+        JointSetError, match=r"rig: the map marks LeftHand absent \(null\); only Spine, "
+    ):
         present_map(rig.skeleton, dict(BANDAI, LeftHand=None), what="rig", mapping_source="the map")
 
 
@@ -225,8 +318,13 @@ def renamed(tmp_path_factory):
     names = [f"bone{k:02d}" for k in range(raw.skeleton.num_joints)]
     sk = raw.skeleton
     save_bvh(raw, folder / "plain.bvh")
-    save_bvh(raw.copy(skeleton=Skeleton(names, sk.parents, sk.offsets, sk.end_sites),
-                      meta=dict(raw.meta, file_joint_names=names)), folder / "renamed.bvh")
+    save_bvh(
+        raw.copy(
+            skeleton=Skeleton(names, sk.parents, sk.offsets, sk.end_sites),
+            meta=dict(raw.meta, file_joint_names=names),
+        ),
+        folder / "renamed.bvh",
+    )
     mapping = {canon: names[sk.index(name)] for name, canon in RIG_MAPS["cmu"].items()}
     (folder / "map.yaml").write_text(yaml.safe_dump(mapping))
     return folder, names, mapping
@@ -241,17 +339,44 @@ def test_a_bvh_of_no_convention_reads_with_its_map_as_the_clip_it_is(renamed):
     np.testing.assert_array_equal(mapped.rotations, plain.rotations)
     np.testing.assert_array_equal(mapped.root_positions, plain.root_positions)
     target = load_target(str(folder / "renamed.bvh"), joint_map=folder / "map.yaml")
-    np.testing.assert_array_equal(target.skeleton.offsets, load_target(str(folder / "plain.bvh")).skeleton.offsets)
+    np.testing.assert_array_equal(
+        target.skeleton.offsets, load_target(str(folder / "plain.bvh")).skeleton.offsets
+    )
     assert len(target.bvh_map) == 22 and target.bvh.skeleton.joint_names == tuple(names)
 
 
-def test_a_bvh_of_no_convention_with_its_map_as_source_and_target_on_the_command_line(renamed, tmp_path):
+def test_a_bvh_of_no_convention_with_its_map_as_source_and_target_on_the_command_line(
+    renamed, tmp_path
+):
     folder, names, _ = renamed
     for kind in ("plain", "renamed"):
-        extra = ["--source-joint-map", str(folder / "map.yaml"), "--joint-map", str(folder / "map.yaml")] \
-            if kind == "renamed" else []
-        assert main(["retarget", "--source", str(folder / f"{kind}.bvh"), "--target", str(folder / f"{kind}.bvh"),
-                     "--method", "copy", "--out", str(tmp_path / f"{kind}.bvh"), *extra]) == 0
+        extra = (
+            [
+                "--source-joint-map",
+                str(folder / "map.yaml"),
+                "--joint-map",
+                str(folder / "map.yaml"),
+            ]
+            if kind == "renamed"
+            else []
+        )
+        assert (
+            main(
+                [
+                    "retarget",
+                    "--source",
+                    str(folder / f"{kind}.bvh"),
+                    "--target",
+                    str(folder / f"{kind}.bvh"),
+                    "--method",
+                    "copy",
+                    "--out",
+                    str(tmp_path / f"{kind}.bvh"),
+                    *extra,
+                ]
+            )
+            == 0
+        )
     plain, mapped = load_bvh(tmp_path / "plain.bvh"), load_bvh(tmp_path / "renamed.bvh")
     assert mapped.skeleton.joint_names == tuple(names)  # the target's own joints and names
     np.testing.assert_array_equal(mapped.global_positions(), plain.global_positions())
@@ -259,33 +384,93 @@ def test_a_bvh_of_no_convention_with_its_map_as_source_and_target_on_the_command
 
 def test_without_a_map_every_missing_joint_is_named_on_one_line(renamed, capsys):
     folder, _, mapping = renamed
-    line = assert_cli_error(capsys, ["retarget", "--source", str(folder / "renamed.bvh"), "--target", "gus",
-                                     "--method", "copy", "--out", str(folder / "o.bvh")],
-                            f"{folder / 'renamed.bvh'}: cannot map joints", "'bone00'")
-    assert ast.literal_eval(re.search(r"cannot map joints (\[.*?\])", line).group(1)) == list(CANONICAL22)
+    line = assert_cli_error(
+        capsys,
+        [
+            "retarget",
+            "--source",
+            str(folder / "renamed.bvh"),
+            "--target",
+            "gus",
+            "--method",
+            "copy",
+            "--out",
+            str(folder / "o.bvh"),
+        ],
+        f"{folder / 'renamed.bvh'}: cannot map joints",
+        "'bone00'",
+    )
+    assert ast.literal_eval(re.search(r"cannot map joints (\[.*?\])", line).group(1)) == list(
+        CANONICAL22
+    )
     # a map that names 20 of them: the other two, at once, and the map
-    (folder / "part.yaml").write_text(yaml.safe_dump({k: v for k, v in mapping.items()
-                                                      if k not in ("Spine1", "LeftHand")}))
-    assert_cli_error(capsys, ["retarget", "--source", str(folder / "plain.bvh"), "--target",
-                              str(folder / "renamed.bvh"), "--joint-map", str(folder / "part.yaml"), "--method", "copy",
-                              "--out", str(folder / "o.bvh")],
-                     f"{folder / 'renamed.bvh'}: cannot map joints ['Spine1', 'LeftHand']", "part.yaml")
+    (folder / "part.yaml").write_text(
+        yaml.safe_dump({k: v for k, v in mapping.items() if k not in ("Spine1", "LeftHand")})
+    )
+    assert_cli_error(
+        capsys,
+        [
+            "retarget",
+            "--source",
+            str(folder / "plain.bvh"),
+            "--target",
+            str(folder / "renamed.bvh"),
+            "--joint-map",
+            str(folder / "part.yaml"),
+            "--method",
+            "copy",
+            "--out",
+            str(folder / "o.bvh"),
+        ],
+        f"{folder / 'renamed.bvh'}: cannot map joints ['Spine1', 'LeftHand']",
+        "part.yaml",
+    )
 
 
 def test_two_canonical_joints_on_one_bone_on_the_command_line(renamed, tmp_path, capsys):
     folder, _, mapping = renamed
-    (tmp_path / "two.yaml").write_text(yaml.safe_dump(dict(mapping, LeftForeArm=mapping["LeftArm"])))
-    assert_cli_error(capsys, ["retarget", "--source", str(folder / "renamed.bvh"), "--source-joint-map",
-                              str(tmp_path / "two.yaml"), "--target", "gus", "--method", "copy",
-                              "--out", str(tmp_path / "o.bvh")],
-                     "two.yaml: maps both LeftArm and LeftForeArm to", repr(mapping["LeftArm"]))
+    (tmp_path / "two.yaml").write_text(
+        yaml.safe_dump(dict(mapping, LeftForeArm=mapping["LeftArm"]))
+    )
+    assert_cli_error(
+        capsys,
+        [
+            "retarget",
+            "--source",
+            str(folder / "renamed.bvh"),
+            "--source-joint-map",
+            str(tmp_path / "two.yaml"),
+            "--target",
+            "gus",
+            "--method",
+            "copy",
+            "--out",
+            str(tmp_path / "o.bvh"),
+        ],
+        "two.yaml: maps both LeftArm and LeftForeArm to",
+        repr(mapping["LeftArm"]),
+    )
     # a line that takes a bone the detection gave another canonical joint
     (tmp_path / "taken.yaml").write_text("LeftForeArm: LeftArm\n")
-    assert_cli_error(capsys, ["retarget", "--source", str(folder / "plain.bvh"), "--source-joint-map",
-                              str(tmp_path / "taken.yaml"), "--target", "gus", "--method", "copy",
-                              "--out", str(tmp_path / "o.bvh")],
-                     f"{folder / 'plain.bvh'}: cannot map joints ['LeftArm']",
-                     "'LeftArm' stood for LeftArm but the joint map", "maps LeftForeArm to it")
+    assert_cli_error(
+        capsys,
+        [
+            "retarget",
+            "--source",
+            str(folder / "plain.bvh"),
+            "--source-joint-map",
+            str(tmp_path / "taken.yaml"),
+            "--target",
+            "gus",
+            "--method",
+            "copy",
+            "--out",
+            str(tmp_path / "o.bvh"),
+        ],
+        f"{folder / 'plain.bvh'}: cannot map joints ['LeftArm']",
+        "'LeftArm' stood for LeftArm but the joint map",
+        "maps LeftForeArm to it",
+    )
 
 
 def test_a_bvh_target_uses_the_names_of_a_glb_rig(clip, tmp_path):
@@ -295,8 +480,22 @@ def test_a_bvh_target_uses_the_names_of_a_glb_rig(clip, tmp_path):
         target = tmp_path / f"{CONVENTION_OF_EXAMPLE[title]}.bvh"
         save_bvh(rig_clip(clip, names).slice(0, 2), target)
         out = tmp_path / f"out_{target.name}"
-        assert main(["retarget", "--source", str(cmu_clip_path("01_03.bvh")), "--target", str(target),
-                     "--method", "copy", "--out", str(out)]) == 0
+        assert (
+            main(
+                [
+                    "retarget",
+                    "--source",
+                    str(cmu_clip_path("01_03.bvh")),
+                    "--target",
+                    str(target),
+                    "--method",
+                    "copy",
+                    "--out",
+                    str(out),
+                ]
+            )
+            == 0
+        )
         assert load_bvh(out).skeleton.joint_names == load_bvh(target).skeleton.joint_names
 
 
@@ -314,16 +513,49 @@ def test_an_smplx_file_takes_a_joint_map_like_any_other(tmp_path, capsys):
     keep = [c for c in range(22) if CANONICAL22[c] != "Spine2"]
     np.testing.assert_allclose(rest[keep], rest_plain[keep], atol=1e-12)
     legs = [CANONICAL22.index(n) for n in ("Hips", "LeftFoot", "RightToeBase")]
-    np.testing.assert_allclose(fewer.global_positions()[:, legs], plain.global_positions()[:, legs], atol=1e-9)
+    np.testing.assert_allclose(
+        fewer.global_positions()[:, legs], plain.global_positions()[:, legs], atol=1e-9
+    )
     out = tmp_path / "o.bvh"
-    assert main(["retarget", "--source", str(AMASS_CLIP_PATH), "--source-joint-map", str(tmp_path / "two_spine.yaml"),
-                 "--target", str(AMASS_CLIP_PATH), "--joint-map", str(tmp_path / "same.yaml"), "--method", "copy",
-                 "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "retarget",
+                "--source",
+                str(AMASS_CLIP_PATH),
+                "--source-joint-map",
+                str(tmp_path / "two_spine.yaml"),
+                "--target",
+                str(AMASS_CLIP_PATH),
+                "--joint-map",
+                str(tmp_path / "same.yaml"),
+                "--method",
+                "copy",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     (tmp_path / "bad.yaml").write_text("Hips: hips_bone\n")
-    assert_cli_error(capsys, ["retarget", "--source", str(AMASS_CLIP_PATH), "--source-joint-map",
-                              str(tmp_path / "bad.yaml"), "--target", "gus", "--method", "copy", "--out", str(out)],
-                     f"{AMASS_CLIP_PATH}: the joint map {tmp_path / 'bad.yaml'} maps Hips to 'hips_bone', "
-                     "which is not a joint")
+    assert_cli_error(
+        capsys,
+        [
+            "retarget",
+            "--source",
+            str(AMASS_CLIP_PATH),
+            "--source-joint-map",
+            str(tmp_path / "bad.yaml"),
+            "--target",
+            "gus",
+            "--method",
+            "copy",
+            "--out",
+            str(out),
+        ],
+        f"{AMASS_CLIP_PATH}: the joint map {tmp_path / 'bad.yaml'} maps Hips to 'hips_bone', "
+        "which is not a joint",
+    )
 
 
 def test_a_shape_file_of_other_names_takes_a_joint_map(tmp_path, capsys):
@@ -334,27 +566,64 @@ def test_a_shape_file_of_other_names_takes_a_joint_map(tmp_path, capsys):
     np.savez(tmp_path / "renamed.npz", **dict(data, joint_names=np.array(names)))
     (tmp_path / "map.yaml").write_text(yaml.safe_dump(dict(zip(CANONICAL22, names))))
     mapped = load_target(str(tmp_path / "renamed.npz"), joint_map=tmp_path / "map.yaml")
-    np.testing.assert_array_equal(mapped.skeleton.offsets, load_target(str(tmp_path / "gus.npz")).skeleton.offsets)
-    args = ["retarget", "--source", str(cmu_clip_path("01_03.bvh")), "--target", str(tmp_path / "renamed.npz"),
-            "--method", "copy", "--out", str(tmp_path / "o.bvh")]
+    np.testing.assert_array_equal(
+        mapped.skeleton.offsets, load_target(str(tmp_path / "gus.npz")).skeleton.offsets
+    )
+    args = [
+        "retarget",
+        "--source",
+        str(cmu_clip_path("01_03.bvh")),
+        "--target",
+        str(tmp_path / "renamed.npz"),
+        "--method",
+        "copy",
+        "--out",
+        str(tmp_path / "o.bvh"),
+    ]
     line = assert_cli_error(capsys, args, f"{tmp_path / 'renamed.npz'}: cannot map joints", "'b0'")
-    assert ast.literal_eval(re.search(r"cannot map joints (\[.*?\])", line).group(1)) == list(CANONICAL22)
+    assert ast.literal_eval(re.search(r"cannot map joints (\[.*?\])", line).group(1)) == list(
+        CANONICAL22
+    )
     (tmp_path / "null.yaml").write_text(yaml.safe_dump(dict(zip(CANONICAL22, names), Spine1=None)))
-    assert_cli_error(capsys, args + ["--joint-map", str(tmp_path / "null.yaml")], "renamed.npz", "null.yaml",
-                     "marks Spine1 absent (null); no joint may be absent in this format")
+    assert_cli_error(
+        capsys,
+        args + ["--joint-map", str(tmp_path / "null.yaml")],
+        "renamed.npz",
+        "null.yaml",
+        "marks Spine1 absent (null); no joint may be absent in this format",
+    )
     assert main(args + ["--joint-map", str(tmp_path / "map.yaml")]) == 0
 
 
 def test_a_character_name_takes_no_joint_map(tmp_path, capsys):
     (tmp_path / "m.yaml").write_text("Hips: Hips\n")
-    assert_cli_error(capsys, ["retarget", "--source", str(cmu_clip_path("01_03.bvh")), "--target", "gus",
-                              "--joint-map", str(tmp_path / "m.yaml"), "--method", "copy", "--out",
-                              str(tmp_path / "o.bvh")], "m.yaml", "the character 'gus' is on the canonical 22")
+    assert_cli_error(
+        capsys,
+        [
+            "retarget",
+            "--source",
+            str(cmu_clip_path("01_03.bvh")),
+            "--target",
+            "gus",
+            "--joint-map",
+            str(tmp_path / "m.yaml"),
+            "--method",
+            "copy",
+            "--out",
+            str(tmp_path / "o.bvh"),
+        ],
+        "m.yaml",
+        "the character 'gus' is on the canonical 22",
+    )
 
 
 @settings(max_examples=60, deadline=None)
-@given(st.dictionaries(st.sampled_from(list(CANONICAL22) + ["Tail", "hips"]),
-                       st.one_of(st.none(), st.sampled_from(["Hips", "Spine", "Chest", "UpperArm_L", "nope", ""]))))
+@given(
+    st.dictionaries(
+        st.sampled_from(list(CANONICAL22) + ["Tail", "hips"]),
+        st.one_of(st.none(), st.sampled_from(["Hips", "Spine", "Chest", "UpperArm_L", "nope", ""])),
+    )
+)
 def test_fuzz_maps_give_a_map_or_one_joint_set_error(mapping):
     """Any map applied to the Bandai-Namco rig: a complete map or a JointSetError, never another
     exception."""
@@ -368,33 +637,77 @@ def test_fuzz_maps_give_a_map_or_one_joint_set_error(mapping):
     assert {CANONICAL22[c] for c in absent} <= set(MAY_BE_ABSENT)
 
 
-BANDAI_NAMES = ["Hips", "Spine", "Chest", "Neck", "Head", "Shoulder_L", "UpperArm_L", "LowerArm_L", "Hand_L",
-                "Shoulder_R", "UpperArm_R", "LowerArm_R", "Hand_R", "UpperLeg_L", "LowerLeg_L", "Foot_L", "Toes_L",
-                "UpperLeg_R", "LowerLeg_R", "Foot_R", "Toes_R"]
+BANDAI_NAMES = [
+    "Hips",
+    "Spine",
+    "Chest",
+    "Neck",
+    "Head",
+    "Shoulder_L",
+    "UpperArm_L",
+    "LowerArm_L",
+    "Hand_L",
+    "Shoulder_R",
+    "UpperArm_R",
+    "LowerArm_R",
+    "Hand_R",
+    "UpperLeg_L",
+    "LowerLeg_L",
+    "Foot_L",
+    "Toes_L",
+    "UpperLeg_R",
+    "LowerLeg_R",
+    "Foot_R",
+    "Toes_R",
+]
 BANDAI_PARENTS = [-1, 0, 1, 2, 3, 2, 5, 6, 7, 2, 9, 10, 11, 0, 13, 14, 15, 0, 17, 18, 19]
 
 
 @pytest.mark.data  # the CMU clip (assimp-testmodels)
-def test_a_glb_rig_without_clavicles_and_one_spine_joint_is_retargeted_and_keeps_its_joints(tmp_path):
+def test_a_glb_rig_without_clavicles_and_one_spine_joint_is_retargeted_and_keeps_its_joints(
+    tmp_path,
+):
     # Mr. Fixit's GLB has the clavicles and Spine1 only as inserted joints without weight; a map that
     # marks them absent (null) treats it as the rig it was: two spine joints, no clavicles
     full = load_mapping_file(joint_map_path("mrfixit"))
     absent = dict(full, Spine1=None, LeftShoulder=None, RightShoulder=None)
-    (tmp_path / "map.yaml").write_text("\n".join(f"{k}: {'null' if v is None else v}" for k, v in absent.items()))
+    (tmp_path / "map.yaml").write_text(
+        "\n".join(f"{k}: {'null' if v is None else v}" for k, v in absent.items())
+    )
     rig = load_gltf_rig(real_character_path("mrfixit"), tmp_path / "map.yaml")
     assert len(rig.joint_map) == 19
     character = rig.character()
     with_all = load_gltf_rig(real_character_path("mrfixit"), full).character()
     # the three inserted joints sit where the file's inserted joints are: midway (clavicles on the
     # bone Spine2 -> UpperArm, Spine1 between Spine and Spine2, as the conversion placed them)
-    np.testing.assert_allclose(character.skeleton.rest_positions(), with_all.skeleton.rest_positions(), atol=0.02)
+    np.testing.assert_allclose(
+        character.skeleton.rest_positions(), with_all.skeleton.rest_positions(), atol=0.02
+    )
     source = tmp_path / "clip.bvh"
     save_bvh(load_bvh(cmu_clip_path("01_01.bvh")).slice(0, 40), source)
     out = tmp_path / "out.glb"
-    assert main(["retarget", "--source", str(source), "--target", str(real_character_path("mrfixit")),
-                 "--joint-map", str(tmp_path / "map.yaml"), "--method", "copy", "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "retarget",
+                "--source",
+                str(source),
+                "--target",
+                str(real_character_path("mrfixit")),
+                "--joint-map",
+                str(tmp_path / "map.yaml"),
+                "--method",
+                "copy",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     motion, written = load_gltf_motion(out, mapping=absent)
-    assert written.skeleton.joint_names == rig.skeleton.joint_names  # the file's own joints, none added
+    assert (
+        written.skeleton.joint_names == rig.skeleton.joint_names
+    )  # the file's own joints, none added
     back = written.motion_to_canonical(motion)
     assert back.num_frames == 40
     assert back.global_positions()[..., 1].min() > -0.03  # on the floor
@@ -406,15 +719,27 @@ def test_a_bvh_whose_rest_pose_lies_along_x_is_read_standing(tmp_path):
     # must stand (hips to head along +Y) so that copying its rotations keeps the target standing
 
     standing = make_character("ada").skeleton
-    clip = Motion(standing.copy(), np.tile([1.0, 0.0, 0.0, 0.0], (5, 22, 1)),
-                  np.tile(standing.offsets[0], (5, 1)), 30.0)
-    turn = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])  # +90 degrees about Z: up -> -X
+    clip = Motion(
+        standing.copy(),
+        np.tile([1.0, 0.0, 0.0, 0.0], (5, 22, 1)),
+        np.tile(standing.offsets[0], (5, 1)),
+        30.0,
+    )
+    turn = np.array(
+        [[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]
+    )  # +90 degrees about Z: up -> -X
     q = quat_from_axis_angle(torch.tensor([0.0, 0.0, np.pi / 2], dtype=torch.float64))
-    lying = clip.copy(skeleton=Skeleton(standing.joint_names, standing.parents, standing.offsets @ turn.T))
+    lying = clip.copy(
+        skeleton=Skeleton(standing.joint_names, standing.parents, standing.offsets @ turn.T)
+    )
     rot = torch.from_numpy(lying.rotations)
-    rot[:, 0] = quat_mul(rot[:, 0], torch.cat([q[:1], -q[1:]]).expand_as(rot[:, 0]))  # frames undo the lie
+    rot[:, 0] = quat_mul(
+        rot[:, 0], torch.cat([q[:1], -q[1:]]).expand_as(rot[:, 0])
+    )  # frames undo the lie
     lying.rotations = rot.numpy()
-    np.testing.assert_allclose(lying.global_positions(), clip.global_positions(), atol=1e-9)  # float64 FK
+    np.testing.assert_allclose(
+        lying.global_positions(), clip.global_positions(), atol=1e-9
+    )  # float64 FK
     upright = stand_upright(lying)
     np.testing.assert_allclose(upright.global_positions(), clip.global_positions(), atol=1e-9)
     rest = upright.skeleton.rest_positions()

@@ -6,8 +6,13 @@ import numpy as np
 import torch
 
 from retarget_lib.core.kinematics import forward_kinematics, local_positions
-from retarget_lib.core.rotations import (quat_from_axis_angle, quat_identity, quat_mul, quat_normalize,
-                                         quat_rotate)
+from retarget_lib.core.rotations import (
+    quat_from_axis_angle,
+    quat_identity,
+    quat_mul,
+    quat_normalize,
+    quat_rotate,
+)
 from retarget_lib.core.skeleton import CANONICAL22_PARENTS
 
 D = torch.float64
@@ -24,8 +29,11 @@ def test_three_joint_chain_by_hand():
     expected = torch.tensor([[1.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, -1.0, 0.0]], dtype=D)
     assert torch.allclose(pos, expected, atol=1e-12)
     # global rotation of joint 2 = 180° about Z
-    assert torch.allclose(quat_rotate(grot[2], torch.tensor([1.0, 0, 0], dtype=D)),
-                          torch.tensor([-1.0, 0, 0], dtype=D), atol=1e-12)
+    assert torch.allclose(
+        quat_rotate(grot[2], torch.tensor([1.0, 0, 0], dtype=D)),
+        torch.tensor([-1.0, 0, 0], dtype=D),
+        atol=1e-12,
+    )
 
 
 def naive_fk(rot, off, parents, root):
@@ -67,7 +75,9 @@ def test_differentiable_gradcheck():
     rot = quat_normalize(torch.randn(2, 5, 4, dtype=D)).requires_grad_()
     off = torch.randn(5, 3, dtype=D, requires_grad=True)
     root = torch.randn(2, 3, dtype=D, requires_grad=True)
-    assert torch.autograd.gradcheck(lambda r, o, t: forward_kinematics(r, o, parents, t), (rot, off, root))
+    assert torch.autograd.gradcheck(
+        lambda r, o, t: forward_kinematics(r, o, parents, t), (rot, off, root)
+    )
 
 
 def test_bone_lengths_preserved():

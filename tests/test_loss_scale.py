@@ -4,13 +4,22 @@ import pytest
 import torch
 
 from retarget_lib.config import load_config
-from retarget_lib.losses.tdcn import (MotionTensors, PositionScale, adversarial_loss, cycle_loss, height_loss,
-                                      per_sample, twist_loss)
+from retarget_lib.losses.tdcn import (
+    MotionTensors,
+    PositionScale,
+    adversarial_loss,
+    cycle_loss,
+    height_loss,
+    per_sample,
+    twist_loss,
+)
 
 
 def test_frame_sum_sums_each_frame_and_averages_frames_by_hand():
     # two frames of 2 joints x 3 channels: per-frame sums 6 and 12 -> mean 9; the mean is 1.5
-    p = torch.tensor([[[[1.0, 1, 1], [1, 1, 1]], [[2.0, 2, 2], [2, 2, 2]]]]).sqrt()  # squared -> 1s and 2s
+    p = torch.tensor(
+        [[[[1.0, 1, 1], [1, 1, 1]], [[2.0, 2, 2], [2, 2, 2]]]]
+    ).sqrt()  # squared -> 1s and 2s
     zero = torch.zeros_like(p)
     q, r = torch.zeros(1, 2, 2, 4), torch.zeros(1, 2, 3)
     a, b = MotionTensors(p, q, r), MotionTensors(zero, q, r)
@@ -24,7 +33,9 @@ def test_one_value_per_frame_is_the_same_under_both_reductions():
     # per-joint term is multiplied by the joint count when every joint has the same error
     p_a = torch.zeros(1, 3, 4, 3)
     p_b = torch.zeros(1, 3, 4, 3)
-    p_b[:, 1:, :, 0] = torch.tensor([0.1, 0.2])[None, :, None]  # every joint moves 0.1 then 0.1 (per H = 1)
+    p_b[:, 1:, :, 0] = torch.tensor([0.1, 0.2])[
+        None, :, None
+    ]  # every joint moves 0.1 then 0.1 (per H = 1)
     r_a, r_b = torch.zeros(1, 3, 3), torch.zeros(1, 3, 3)
     r_b[:, :, 0] = 0.3
     mean = height_loss(p_a, p_b, r_a, r_b, 1.0, 1.0, lambda_g=0.0, reduction="mean")
@@ -32,16 +43,23 @@ def test_one_value_per_frame_is_the_same_under_both_reductions():
     assert summed.item() == pytest.approx(4 * mean.item())  # 4 joints, equal errors
     root_mean = height_loss(p_a, p_a, r_a, r_b, 1.0, 1.0, lambda_g=1.0, reduction="mean")
     root_sum = height_loss(p_a, p_a, r_a, r_b, 1.0, 1.0, lambda_g=1.0, reduction="frame_sum")
-    assert root_sum.item() == pytest.approx(root_mean.item()) and root_mean.item() == pytest.approx(0.5 * 0.3**2)
+    assert root_sum.item() == pytest.approx(root_mean.item()) and root_mean.item() == pytest.approx(
+        0.5 * 0.3**2
+    )
 
 
 def test_twist_frame_sum_counts_every_joint():
     half = torch.deg2rad(torch.tensor(75.0))
     q = torch.zeros(2, 5, 22, 4)
-    q[..., 0], q[..., 1] = torch.cos(half), torch.sin(half)  # 150 degrees about x: beyond alpha = 100
+    q[..., 0], q[..., 1] = (
+        torch.cos(half),
+        torch.sin(half),
+    )  # 150 degrees about x: beyond alpha = 100
     mean = twist_loss(q, alpha_deg=100.0, reduction="mean")
     assert mean.item() > 0
-    assert twist_loss(q, alpha_deg=100.0, reduction="frame_sum").item() == pytest.approx(22 * mean.item(), rel=1e-6)
+    assert twist_loss(q, alpha_deg=100.0, reduction="frame_sum").item() == pytest.approx(
+        22 * mean.item(), rel=1e-6
+    )
 
 
 def test_adversarial_loss_uses_the_per_sample_form_of_its_reduction():
@@ -52,20 +70,29 @@ def test_adversarial_loss_uses_the_per_sample_form_of_its_reduction():
     same = torch.tensor([True, True])
     h = torch.zeros(2, 3)
     assert adversarial_loss(h, x, y, same).item() == pytest.approx(1.0)
-    assert adversarial_loss(h, x, y, same, reduction="frame_sum").item() == pytest.approx(12.0)  # 4 joints x 3
+    assert adversarial_loss(h, x, y, same, reduction="frame_sum").item() == pytest.approx(
+        12.0
+    )  # 4 joints x 3
     with pytest.raises(ValueError, match="reduction"):
         adversarial_loss(h, x, y, same, reduction="per_sample")
 
 
 def test_position_scale_z_scores_and_floors_the_std():
     g = torch.Generator().manual_seed(0)
-    p = torch.randn(8, 10, 3, 3, generator=g) * torch.tensor([0.0, 0.5, 2.0])[None, None, :, None] + 1.0
+    p = (
+        torch.randn(8, 10, 3, 3, generator=g) * torch.tensor([0.0, 0.5, 2.0])[None, None, :, None]
+        + 1.0
+    )
     r = torch.randn(8, 10, 3, generator=g) * 3.0
     scale = PositionScale.fit(p, r)
     z = scale.apply(MotionTensors(p, torch.zeros(8, 10, 3, 4), r))
     flat = z.p.reshape(-1, 3, 3)
-    assert torch.allclose(flat[:, 0], torch.zeros(80, 3))  # a still joint: std floored at 1 cm, mean removed
-    assert torch.allclose(flat[:, 1:].std(0), torch.ones(2, 3), atol=1e-5)  # float32 over 80 samples
+    assert torch.allclose(
+        flat[:, 0], torch.zeros(80, 3)
+    )  # a still joint: std floored at 1 cm, mean removed
+    assert torch.allclose(
+        flat[:, 1:].std(0), torch.ones(2, 3), atol=1e-5
+    )  # float32 over 80 samples
     assert torch.allclose(z.r.reshape(-1, 3).mean(0), torch.zeros(3), atol=1e-5)
 
 
@@ -73,7 +100,9 @@ def test_the_code_scale_config_is_a_small_delta_over_the_paper_config():
     base = load_config("configs/tdcn_paper.yaml", profile="fast")
     code = load_config("configs/tdcn_paper_code_scale.yaml", profile="fast")
     assert code["loss"]["reduction"] == "frame_sum" and code["loss"]["standardize"] is True
-    assert {k: v for k, v in code["loss"].items() if k not in ("reduction", "standardize")} == base["loss"]
+    assert {k: v for k, v in code["loss"].items() if k not in ("reduction", "standardize")} == base[
+        "loss"
+    ]
 
 
 def test_the_arm_drop_augmentation_lowers_both_upper_arms_by_the_same_drawn_angle():
@@ -82,7 +111,9 @@ def test_the_arm_drop_augmentation_lowers_both_upper_arms_by_the_same_drawn_angl
     from retarget_lib.data.synthetic.characters import make_character
     from retarget_lib.training.tdcn_data import WindowSampler
 
-    offsets = torch.as_tensor(make_character("kato").skeleton.offsets, dtype=torch.float32)[None].repeat(64, 1, 1)
+    offsets = torch.as_tensor(make_character("kato").skeleton.offsets, dtype=torch.float32)[
+        None
+    ].repeat(64, 1, 1)
     sampler = WindowSampler.__new__(WindowSampler)  # only the rest turns are exercised
     sampler.rest_jitter_deg, sampler.rest_arm_drop_deg = 0.0, 70.0
     turns = sampler._rest_turns(offsets, torch.Generator().manual_seed(0))
@@ -94,7 +125,10 @@ def test_the_arm_drop_augmentation_lowers_both_upper_arms_by_the_same_drawn_angl
         return torch.rad2deg(torch.asin(-bone[:, 1] / bone.norm(dim=-1)))
 
     rest = below_horizontal(offsets[:, J["LeftForeArm"]])
-    left, right = below_horizontal(turned[:, J["LeftForeArm"]]), below_horizontal(turned[:, J["RightForeArm"]])
+    left, right = (
+        below_horizontal(turned[:, J["LeftForeArm"]]),
+        below_horizontal(turned[:, J["RightForeArm"]]),
+    )
     drop = left - rest
     assert torch.allclose(left, right, atol=1e-3)  # symmetric (float32 rotations)
     assert (drop >= -1e-3).all() and drop.max() <= 70.0 + 1e-3 and drop.max() > 35.0

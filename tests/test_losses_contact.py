@@ -5,6 +5,7 @@ import math
 import numpy as np
 import pytest
 import torch
+from skeletons import make_skeleton
 
 from retarget_lib.core.measures import foot_rest_heights
 from retarget_lib.core.quantities import (
@@ -36,8 +37,6 @@ from retarget_lib.losses.contact import (
     weak_energy,
 )
 
-from skeletons import make_skeleton
-
 F64 = torch.float64
 
 
@@ -66,15 +65,23 @@ def test_ej2j_gradient_pulls_the_pair_together():
 
 def test_ej2j_batched_with_shared_and_per_element_masked_pairs():
     v = torch.stack([_two_points(0.03), _two_points(0.07)])  # (2, 3, 3)
-    torch.testing.assert_close(self_contact_energy(v, [[0, 1]]), torch.tensor([0.03, 0.07], dtype=F64))
-    pairs = torch.tensor([[[0, 1], [0, 2]], [[0, 1], [0, 0]]])  # second element: one real pair + padding
+    torch.testing.assert_close(
+        self_contact_energy(v, [[0, 1]]), torch.tensor([0.03, 0.07], dtype=F64)
+    )
+    pairs = torch.tensor(
+        [[[0, 1], [0, 2]], [[0, 1], [0, 0]]]
+    )  # second element: one real pair + padding
     mask = torch.tensor([[True, False], [True, False]])
-    torch.testing.assert_close(self_contact_energy(v, pairs, mask), torch.tensor([0.03, 0.07], dtype=F64))
+    torch.testing.assert_close(
+        self_contact_energy(v, pairs, mask), torch.tensor([0.03, 0.07], dtype=F64)
+    )
 
 
 def test_ej2j_without_pairs_is_zero():
     v = torch.zeros(4, 10, 3, dtype=F64)
-    torch.testing.assert_close(self_contact_energy(v, np.zeros((0, 2), int)), torch.zeros(4, dtype=F64))
+    torch.testing.assert_close(
+        self_contact_energy(v, np.zeros((0, 2), int)), torch.zeros(4, dtype=F64)
+    )
     with pytest.raises(ValueError, match="pairs"):
         self_contact_energy(v, [0, 1, 2])
 
@@ -84,14 +91,19 @@ def test_eso_self_contact_starts_at_blend_times_the_gap_and_vanishes_at_the_rela
     v0 = _two_points(0.05)
     assert eso_self_contact_energy(v0, [[0, 1]], v0, blend=0.3).item() == pytest.approx(0.3 * 0.05)
     assert eso_self_contact_energy(v0, [[0, 1]], v0, blend=1.0).item() == pytest.approx(
-        self_contact_energy(v0, [[0, 1]]).item())
+        self_contact_energy(v0, [[0, 1]]).item()
+    )
     moved = v0.clone()
-    moved[0, 0] = 0.3 * 0.05          # 0.7 of its own start + 0.3 of its partner
-    moved[1, 0] = 0.7 * 0.05          # and the partner likewise
-    assert eso_self_contact_energy(moved, [[0, 1]], v0, blend=0.3).item() == pytest.approx(0.0, abs=1e-15)
+    moved[0, 0] = 0.3 * 0.05  # 0.7 of its own start + 0.3 of its partner
+    moved[1, 0] = 0.7 * 0.05  # and the partner likewise
+    assert eso_self_contact_energy(moved, [[0, 1]], v0, blend=0.3).item() == pytest.approx(
+        0.0, abs=1e-15
+    )
     # a masked (padding) pair counts for nothing: ESO's compiled step pads to fixed minimum sizes
     mask = torch.tensor([1.0, 0.0], dtype=F64)
-    assert eso_self_contact_energy(v0, [[0, 1], [1, 0]], v0, 0.3, mask).item() == pytest.approx(0.3 * 0.05)
+    assert eso_self_contact_energy(v0, [[0, 1], [1, 0]], v0, 0.3, mask).item() == pytest.approx(
+        0.3 * 0.05
+    )
     assert eso_self_contact_energy(v0, [[0, 1], [0, 1]], v0, 0.3, mask * 0).item() == 0.0
 
 
@@ -124,7 +136,9 @@ def _still_feet(frames, ground):
 def test_still_foot_on_its_rest_height_costs_nothing():
     ground = np.array([0.08, 0.08, 0.02, 0.02])
     contacts = np.ones((4, 4), dtype=bool)
-    assert foot_contact_energy(_still_feet(4, ground), contacts, ground, 1.5).item() == pytest.approx(0.0)
+    assert foot_contact_energy(
+        _still_feet(4, ground), contacts, ground, 1.5
+    ).item() == pytest.approx(0.0)
 
 
 def test_foot_2cm_up_sliding_1cm_per_frame_by_hand():
@@ -134,7 +148,7 @@ def test_foot_2cm_up_sliding_1cm_per_frame_by_hand():
     pos[:, left_heel, 1] += 0.02
     pos[:, left_heel, 0] = torch.tensor([0.0, 0.01, 0.02], dtype=F64)
     contacts = np.zeros((3, 4), dtype=bool)
-    contacts[:, 0] = True       # LeftFoot in contact; the others would cost 0 anyway
+    contacts[:, 0] = True  # LeftFoot in contact; the others would cost 0 anyway
     h = 1.5
     # frame 0: no velocity, 0.02^2 height; frames 1, 2: 0.01^2 + 0.02^2
     per_frame = foot_contact_energy_per_frame(pos, contacts, ground, h)
@@ -168,7 +182,9 @@ def test_weak_energy_of_identical_motions_is_zero():
     g = torch.Generator().manual_seed(0)
     rot = torch.nn.functional.normalize(torch.randn(5, 22, 4, generator=g, dtype=F64), dim=-1)
     vel = torch.randn(5, 3, generator=g, dtype=F64)
-    torch.testing.assert_close(weak_energy(rot, rot, vel, vel, 1.0, 1000.0), torch.zeros(5, dtype=F64))
+    torch.testing.assert_close(
+        weak_energy(rot, rot, vel, vel, 1.0, 1000.0), torch.zeros(5, dtype=F64)
+    )
 
 
 def test_weak_energy_of_one_joint_rotated_90_degrees_is_rho_times_4():
@@ -208,9 +224,9 @@ def test_end_effector_energy_with_hand_made_velocities():
     t = torch.arange(3, dtype=F64)
     pos_a = torch.zeros(3, 22, 3, dtype=F64)
     pos_b = torch.zeros(3, 22, 3, dtype=F64)
-    pos_a[:, J["LeftHand"], 0] = 0.01 * t       # 1 cm/frame on a 1 m character -> 0.01 / frame
-    pos_b[:, J["LeftHand"], 0] = 0.03 * t       # 3 cm/frame on a 1.5 m one     -> 0.02 / frame
-    pos_b[:, J["Head"], 2] = 0.5 * t            # not an end effector: ignored
+    pos_a[:, J["LeftHand"], 0] = 0.01 * t  # 1 cm/frame on a 1 m character -> 0.01 / frame
+    pos_b[:, J["LeftHand"], 0] = 0.03 * t  # 3 cm/frame on a 1.5 m one     -> 0.02 / frame
+    pos_b[:, J["Head"], 2] = 0.5 * t  # not an end effector: ignored
     per_frame = end_effector_energy_per_frame(pos_b, pos_a, 1.5, 1.0)
     torch.testing.assert_close(per_frame, torch.tensor([0.0, 1e-4, 1e-4], dtype=F64))
     assert end_effector_energy(pos_b, pos_a, 1.5, 1.0).item() == pytest.approx(2e-4 / 3)
@@ -219,7 +235,9 @@ def test_end_effector_energy_with_hand_made_velocities():
 
 def test_frame_velocities_start_at_zero():
     pos = torch.arange(6, dtype=F64).reshape(2, 1, 3)
-    torch.testing.assert_close(frame_velocities(pos), torch.tensor([[[0.0, 0, 0]], [[3.0, 3, 3]]], dtype=F64))
+    torch.testing.assert_close(
+        frame_velocities(pos), torch.tensor([[[0.0, 0, 0]], [[3.0, 3, 3]]], dtype=F64)
+    )
 
 
 # ----------------------------------------------------------------------------- weights
@@ -231,17 +249,27 @@ def test_weights_training_eso_and_table3_rows():
     # the paper's gamma in ESO: four planted foot joints slipping 1 cm in a frame on a 1.7 m body cost ~2e-3
     slip = torch.zeros(1, 2, 22, 3)
     slip[0, 1, list(FOOT_CONTACT_IDS), 0] = 0.01
-    foot = foot_contact_energy_per_frame(slip, torch.ones(1, 2, 4, dtype=torch.bool), torch.zeros(4), 1.7)[0, 1]
+    foot = foot_contact_energy_per_frame(
+        slip, torch.ones(1, 2, 4, dtype=torch.bool), torch.zeros(4), 1.7
+    )[0, 1]
     assert e.gamma_foot == ESO_FOOT_WEIGHT == 0.1
     assert e.gamma_foot * float(e.in_units("foot", foot)) == pytest.approx(4 * 0.1 / 170)
-    assert list(TABLE3_ROWS) == ["Eskel", "Eskel+Efoot", "Eskel+Efoot+Eint w/o w", "Eskel+Efoot+Eint", "Efull"]
+    assert list(TABLE3_ROWS) == [
+        "Eskel",
+        "Eskel+Efoot",
+        "Eskel+Efoot+Eint w/o w",
+        "Eskel+Efoot+Eint",
+        "Efull",
+    ]
     skel = ContactEnergyWeights.row("Eskel")
     assert (skel.j2j_weight, skel.int_weight, skel.foot_weight) == (0, 0, 0)
     no_w = ContactEnergyWeights.row("Eskel+Efoot+Eint w/o w")
     assert no_w.use_int and not no_w.use_j2j and not no_w.geodesic_weights
     assert ContactEnergyWeights.row("Efull") == ContactEnergyWeights()
     assert ContactEnergyWeights.row("Eskel+Efoot").relaxed().use_int is False
-    assert ContactEnergyWeights(gamma_foot=7.0).relaxed().gamma_foot == 7.0  # App. B.1 leaves gamma alone
+    assert (
+        ContactEnergyWeights(gamma_foot=7.0).relaxed().gamma_foot == 7.0
+    )  # App. B.1 leaves gamma alone
     assert ContactEnergyWeights().with_foot_ramp(1, 10).gamma_foot == pytest.approx(0.01)
     with pytest.raises(ValueError, match="Table 3"):
         ContactEnergyWeights.row("Efull+IK")
@@ -253,16 +281,22 @@ def test_weights_training_eso_and_table3_rows():
 def _motion(skel, frames=3, seed=0):
     g = torch.Generator().manual_seed(seed)
     rot = torch.nn.functional.normalize(
-        quat_identity((frames, 22), F64) + 0.1 * torch.randn(frames, 22, 4, generator=g, dtype=F64), dim=-1)
-    root = torch.tensor([0.0, 0.96, 0.0], dtype=F64) + 0.02 * torch.arange(frames, dtype=F64)[:, None]
+        quat_identity((frames, 22), F64) + 0.1 * torch.randn(frames, 22, 4, generator=g, dtype=F64),
+        dim=-1,
+    )
+    root = (
+        torch.tensor([0.0, 0.96, 0.0], dtype=F64) + 0.02 * torch.arange(frames, dtype=F64)[:, None]
+    )
     return motion_quantities(rot, root, skel.offsets, skel.height())
 
 
 def test_motion_quantities_hold_fk_positions_and_forward_root_velocity():
     skel = make_skeleton()
     q = _motion(skel)
-    torch.testing.assert_close(q.positions[:, 0], torch.tensor([0.0, 0.96, 0.0], dtype=F64) + 0.02 * torch.arange(
-        3, dtype=F64)[:, None])
+    torch.testing.assert_close(
+        q.positions[:, 0],
+        torch.tensor([0.0, 0.96, 0.0], dtype=F64) + 0.02 * torch.arange(3, dtype=F64)[:, None],
+    )
     torch.testing.assert_close(q.root_velocity, torch.full((3, 3), 0.02, dtype=F64))
 
 
@@ -272,22 +306,33 @@ def test_skeleton_energy_weights_terms_and_converts_lengths():
     w = ContactEnergyWeights(length_unit=1.0)
     terms = skeleton_energy(b, a, 1.0, w)
     assert set(terms) == {"weak", "ee", "total"}
-    weak = weak_energy(b.rotations, a.rotations, b.root_velocity, a.root_velocity, 1.0, w.rho).mean()
+    weak = weak_energy(
+        b.rotations, a.rotations, b.root_velocity, a.root_velocity, 1.0, w.rho
+    ).mean()
     torch.testing.assert_close(terms["weak"], weak)
-    torch.testing.assert_close(terms["ee"], w.omega * end_effector_energy(b.positions, a.positions, b.height, a.height))
+    torch.testing.assert_close(
+        terms["ee"], w.omega * end_effector_energy(b.positions, a.positions, b.height, a.height)
+    )
     torch.testing.assert_close(terms["total"], terms["weak"] + terms["ee"])
     # the root term is a squared length: in centimetres it is 10^4 times larger; rotations, Eee unchanged
     faster = b._replace(root_velocity=b.root_velocity + 0.01)
     extra_m = skeleton_energy(faster, a, 1.0, w)["weak"] - terms["weak"]
-    extra_cm = (skeleton_energy(faster, a, 1.0, ContactEnergyWeights())["weak"]
-                - skeleton_energy(b, a, 1.0, ContactEnergyWeights())["weak"])
+    extra_cm = (
+        skeleton_energy(faster, a, 1.0, ContactEnergyWeights())["weak"]
+        - skeleton_energy(b, a, 1.0, ContactEnergyWeights())["weak"]
+    )
     assert extra_cm.item() == pytest.approx(1e4 * extra_m.item())
 
 
 def _crossing_triangles():
     """Two triangles, no shared vertex, crossing each other."""
-    verts = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0],
-                      [0.2, 0.2, -0.5], [0.3, 0.2, 0.5], [0.2, 0.3, 0.5]], dtype=float) * 0.1
+    verts = (
+        np.array(
+            [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0.2, 0.2, -0.5], [0.3, 0.2, 0.5], [0.2, 0.3, 0.5]],
+            dtype=float,
+        )
+        * 0.1
+    )
     return verts, np.array([[0, 1, 2], [3, 4, 5]])
 
 
@@ -307,15 +352,19 @@ def test_geometry_and_full_energy_terms_switches_and_units():
     assert terms["j2j"].item() == pytest.approx(1000 * gap / 0.01)
     e_int = interpenetration_energy(v, faces, eint.pairs(verts))
     assert e_int.item() > 0
-    assert terms["int"].item() == pytest.approx(100 * e_int.item() / 0.01 ** 2)
+    assert terms["int"].item() == pytest.approx(100 * e_int.item() / 0.01**2)
     foot = foot_contact_energy(b.positions, contacts, ground, b.height)
     assert terms["foot"].item() == pytest.approx(0.1 * foot.item() / 0.01)
     total = sum(terms[k] for k in ("weak", "ee", "j2j", "int", "foot"))
     torch.testing.assert_close(terms["total"], total)
 
-    only_skel = full_energy(b, a, v, pairs, contacts, ground, 1.0, ContactEnergyWeights.row("Eskel"))
+    only_skel = full_energy(
+        b, a, v, pairs, contacts, ground, 1.0, ContactEnergyWeights.row("Eskel")
+    )
     assert set(only_skel) == {"weak", "ee", "total"}
-    geo = geometry_energy(v, None, b.positions, contacts, ground, b.height, ContactEnergyWeights.row("Eskel"))
+    geo = geometry_energy(
+        v, None, b.positions, contacts, ground, b.height, ContactEnergyWeights.row("Eskel")
+    )
     assert set(geo) == {"total"} and geo["total"].item() == 0.0
     with pytest.raises(ValueError, match="interpenetration"):
         geometry_energy(v, pairs, b.positions, contacts, ground, b.height, w)
@@ -327,8 +376,16 @@ def test_full_energy_is_differentiable_in_the_output_motion():
     rot = _motion(skel, seed=1).rotations.clone().requires_grad_(True)
     root = torch.tensor([0.0, 0.97, 0.0], dtype=F64).repeat(3, 1).requires_grad_(True)
     b = motion_quantities(rot, root, skel.offsets, skel.height())
-    terms = full_energy(b, a, b.positions[0], [[J["LeftHand"], J["Head"]]], np.ones((3, 4), bool),
-                        foot_rest_heights(skel), leg_ratio(skel, skel), ContactEnergyWeights.row("Eskel+Efoot"))
+    terms = full_energy(
+        b,
+        a,
+        b.positions[0],
+        [[J["LeftHand"], J["Head"]]],
+        np.ones((3, 4), bool),
+        foot_rest_heights(skel),
+        leg_ratio(skel, skel),
+        ContactEnergyWeights.row("Eskel+Efoot"),
+    )
     terms["total"].backward()
     assert torch.isfinite(rot.grad).all() and rot.grad.abs().sum() > 0
     assert root.grad.abs().sum() > 0
@@ -341,6 +398,10 @@ def test_foot_rest_heights_measure_from_the_rest_ground():
     sk = make_character("ada").skeleton
     on_floor = foot_rest_heights(sk)
     lowered = sk.copy()
-    lowered.offsets[0] = lowered.offsets[0] - [0.0, 1.0, 0.0]  # root at the origin-ish: feet below 0
+    lowered.offsets[0] = lowered.offsets[0] - [
+        0.0,
+        1.0,
+        0.0,
+    ]  # root at the origin-ish: feet below 0
     np.testing.assert_allclose(foot_rest_heights(lowered), on_floor - on_floor.min(), atol=1e-12)
     assert on_floor.min() >= 0

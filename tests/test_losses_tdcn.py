@@ -11,11 +11,25 @@ import pytest
 import torch
 
 from retarget_lib.core.quantities import discriminator_inputs
-from retarget_lib.losses import (MotionTensors, NonFiniteLossError, TDCNLossWeights, adversarial_loss,
-                                 adversarial_loss_discriminator, adversarial_loss_generator, check_finite,
-                                 cycle_loss, height_loss, orientation_loss, reconstruction_loss,
-                                 regularization_loss, sigmoid_ce_discriminator_loss,
-                                 sigmoid_ce_generator_loss, smooth_l1, total_generator_loss, twist_loss)
+from retarget_lib.losses import (
+    MotionTensors,
+    NonFiniteLossError,
+    TDCNLossWeights,
+    adversarial_loss,
+    adversarial_loss_discriminator,
+    adversarial_loss_generator,
+    check_finite,
+    cycle_loss,
+    height_loss,
+    orientation_loss,
+    reconstruction_loss,
+    regularization_loss,
+    sigmoid_ce_discriminator_loss,
+    sigmoid_ce_generator_loss,
+    smooth_l1,
+    total_generator_loss,
+    twist_loss,
+)
 
 D = torch.float64
 DEG = math.pi / 180.0  # one degree in radians
@@ -73,12 +87,16 @@ def test_cycle_loss_by_hand():
 
 def test_cycle_loss_is_a_mean_over_frames():
     # Two frames, the second one exact: every part's mean halves -> 3.18333 / 2.
-    x = motion([[[[0.0, 0.0, 0.0]], [[1.0, 1.0, 1.0]]]],
-               [[[[1.0, 0.0, 0.0, 0.0]], [[1.0, 0.0, 0.0, 0.0]]]],
-               [[[0.0, 0.0, 0.0], [5.0, 0.0, 0.0]]])
-    x_hat = motion([[[[0.3, 0.0, 0.4]], [[1.0, 1.0, 1.0]]]],
-                   [[[[0.8, 0.6, 0.0, 0.0]], [[1.0, 0.0, 0.0, 0.0]]]],
-                   [[[1.0, 2.0, 2.0], [5.0, 0.0, 0.0]]])
+    x = motion(
+        [[[[0.0, 0.0, 0.0]], [[1.0, 1.0, 1.0]]]],
+        [[[[1.0, 0.0, 0.0, 0.0]], [[1.0, 0.0, 0.0, 0.0]]]],
+        [[[0.0, 0.0, 0.0], [5.0, 0.0, 0.0]]],
+    )
+    x_hat = motion(
+        [[[[0.3, 0.0, 0.4]], [[1.0, 1.0, 1.0]]]],
+        [[[[0.8, 0.6, 0.0, 0.0]], [[1.0, 0.0, 0.0, 0.0]]]],
+        [[[1.0, 2.0, 2.0], [5.0, 0.0, 0.0]]],
+    )
     assert approx(cycle_loss(x, x_hat), (0.25 / 3 + 0.4 / 4 + 9.0 / 3) / 2)
 
 
@@ -160,14 +178,15 @@ def test_discriminator_inputs_by_hand():
     # root steps (0,0,1) then (1.2,0,1.6) (length 2) -> δ = [1/2, 2/2]
     r = t([[[0.0, 0, 0], [0.0, 0, 1.0], [1.2, 0, 2.6]]])
     offsets = t([[0.0, 1.0, 0.0], [0.3, 0.0, 0.4]])  # bone lengths 1, 0.5
-    l, delta, bones = discriminator_inputs(p, r, offsets, 2.0)
-    assert l.shape == (1, 2, 2) and delta.shape == (1, 2) and bones.shape == (1, 2)
-    assert torch.allclose(l, t([[[0.0, 0.15], [0.0, 0.2]]]))
+    lv, delta, bones = discriminator_inputs(p, r, offsets, 2.0)
+    assert lv.shape == (1, 2, 2) and delta.shape == (1, 2) and bones.shape == (1, 2)
+    assert torch.allclose(lv, t([[[0.0, 0.15], [0.0, 0.2]]]))
     assert torch.allclose(delta, t([[0.5, 1.0]]))
     assert torch.allclose(bones, t([[1.0, 0.5]]))
     # per-sample offsets and heights
-    l2, d2, b2 = discriminator_inputs(p.repeat(2, 1, 1, 1), r.repeat(2, 1, 1),
-                                      offsets.repeat(2, 1, 1), t([2.0, 4.0]))
+    l2, d2, b2 = discriminator_inputs(
+        p.repeat(2, 1, 1, 1), r.repeat(2, 1, 1), offsets.repeat(2, 1, 1), t([2.0, 4.0])
+    )
     assert torch.allclose(l2[1], t([[0.0, 0.075], [0.0, 0.1]]))
     assert torch.allclose(d2[1], t([0.25, 0.5]))
     assert torch.allclose(b2, t([[1.0, 0.5], [1.0, 0.5]]))
@@ -198,8 +217,9 @@ def test_lsgan_discriminator_fake_mask():
     h_real, h_fake = t([[0.75], [0.75]]), t([[0.25], [0.9]])
     assert approx(adversarial_loss_discriminator(h_real, h_fake, t([1.0, 0.0]).bool()), 0.125)
     # nothing selected -> only the real term 0.0625
-    assert approx(adversarial_loss_discriminator(h_real, h_fake, torch.zeros(2, dtype=torch.bool)),
-                  0.0625)
+    assert approx(
+        adversarial_loss_discriminator(h_real, h_fake, torch.zeros(2, dtype=torch.bool)), 0.0625
+    )
 
 
 def test_adversarial_loss_picks_case_per_sample():
@@ -213,8 +233,9 @@ def test_adversarial_loss_picks_case_per_sample():
     assert approx(adversarial_loss(h_fake, x_a, x_b, same), 0.29625)
     # NKN flavour: sample 0 logit 0 -> -log σ(0) = ln 2 = 0.693147...; (0.6931471805599453 + 0.03) / 2
     h_logit = t([[0.0], [5.0]])
-    assert approx(adversarial_loss(h_logit, x_a, x_b, same, gan="sigmoid_ce"),
-                  (0.6931471805599453 + 0.03) / 2)
+    assert approx(
+        adversarial_loss(h_logit, x_a, x_b, same, gan="sigmoid_ce"), (0.6931471805599453 + 0.03) / 2
+    )
 
 
 def test_sigmoid_ce_losses_by_hand():
@@ -271,8 +292,14 @@ TERMS = {"Lc": 1.0, "Lt": 0.5, "Lh": 0.2, "La": 0.3, "Lr": 2.0, "Lo": 0.4}
 
 def test_paper_weights():
     w = TDCNLossWeights()
-    assert (w.lambda_t, w.lambda_h, w.lambda_a, w.lambda_r, w.lambda_o, w.lambda_g) == \
-        (10.0, 10.0, 1.0, 0.1, 1.0, 5.0)
+    assert (w.lambda_t, w.lambda_h, w.lambda_a, w.lambda_r, w.lambda_o, w.lambda_g) == (
+        10.0,
+        10.0,
+        1.0,
+        0.1,
+        1.0,
+        5.0,
+    )
     assert w.lambda_c == 1.0
 
 
@@ -337,10 +364,12 @@ def test_gradients_are_finite_at_awkward_points():
     q_a[0, 0, 1] = t([0.0, 1.0, 0.0, 0.0])  # 180°: w = 0
     leaves = [x.clone().requires_grad_() for x in (rnd(B, T, J, 3), rnd(B, T, 3), q_a.clone())]
     p_b, r_b, q_b = leaves
-    p_b_static = p_b * torch.cat([torch.zeros(B, T, 1, 1, dtype=D), torch.ones(B, T, J - 1, 1, dtype=D)], 2)
+    p_b_static = p_b * torch.cat(
+        [torch.zeros(B, T, 1, 1, dtype=D), torch.ones(B, T, J - 1, 1, dtype=D)], 2
+    )
     x_a = MotionTensors(p_a, q_a, r_a)
     x_b = MotionTensors(p_b_static, q_b, r_b)
-    h_fake = (p_b ** 2).sum(dim=(2, 3))[:, 1:]  # any differentiable score
+    h_fake = (p_b**2).sum(dim=(2, 3))[:, 1:]  # any differentiable score
     terms = {
         "Lc": cycle_loss(x_a, x_b),
         "Lt": twist_loss(q_b, q_b),

@@ -38,7 +38,13 @@ def _offsets() -> np.ndarray:
     0.42, shin 0.4, toe (0, -0.05, 0.08): ankle at 0.06 m, toe at 0.01 m (the lowest foot joint)."""
     off = np.zeros((22, 3))
     off[J["Hips"]] = (0.0, 1.0, 0.0)
-    for name, up in (("Spine", 0.1), ("Spine1", 0.1), ("Spine2", 0.1), ("Neck", 0.2), ("Head", 0.1)):
+    for name, up in (
+        ("Spine", 0.1),
+        ("Spine1", 0.1),
+        ("Spine2", 0.1),
+        ("Neck", 0.2),
+        ("Head", 0.1),
+    ):
         off[J[name]] = (0.0, up, 0.0)
     off[J["LeftUpLeg"]] = (0.09, -0.12, 0.0)
     off[J["LeftLeg"]] = (0.0, -0.4, 0.0)
@@ -72,7 +78,10 @@ def test_nkn_height_is_the_spine_chain_plus_the_left_leg():
     sk = canonical22_skeleton(_offsets())
     # 0.1 + 0.1 + 0.1 + 0.2 + 0.1 (root -> head) + 0.4 + 0.4 + 0.1 (left thigh, shin, toe bone)
     assert sk.height() == pytest.approx(1.5, abs=EXACT)
-    assert Character("hand", sk, MESH, np.zeros((0, 3)), np.full((4, 22), 1 / 22)).height == sk.height()
+    assert (
+        Character("hand", sk, MESH, np.zeros((0, 3)), np.full((4, 22), 1 / 22)).height
+        == sk.height()
+    )
     longer_right = _offsets()
     longer_right[J["RightLeg"], 1] = -0.6  # the right leg is not in H
     assert canonical22_skeleton(longer_right).height() == sk.height()
@@ -111,27 +120,42 @@ def test_rest_ground_and_foot_rest_heights_of_a_mesh():
     sk = canonical22_skeleton(_offsets())
     assert mesh_ground(MESH) == -0.005 and isinstance(mesh_ground(MESH), float)
     assert rest_ground(sk, MESH) == -0.005
-    np.testing.assert_allclose(foot_rest_heights(sk, MESH), [0.085, 0.065, 0.025, 0.015], atol=EXACT)
+    np.testing.assert_allclose(
+        foot_rest_heights(sk, MESH), [0.085, 0.065, 0.025, 0.015], atol=EXACT
+    )
     assert rest_ground(sk, np.zeros((0, 3))) == rest_ground(sk)  # an empty mesh is no mesh
 
 
 def test_estimated_standing_height_is_the_head_joint_plus_the_head_top():
     assert HEAD_TOP_FACTOR == 1.12
-    assert estimated_standing_height(canonical22_skeleton(_offsets())) == pytest.approx(1.12 * 1.6, abs=EXACT)
+    assert estimated_standing_height(canonical22_skeleton(_offsets())) == pytest.approx(
+        1.12 * 1.6, abs=EXACT
+    )
     bvh_like = _offsets()
     bvh_like[J["Hips"]] = 0.0  # head at 0.6, ground at -0.99
-    assert estimated_standing_height(canonical22_skeleton(bvh_like)) == pytest.approx(1.12 * 1.59, abs=EXACT)
+    assert estimated_standing_height(canonical22_skeleton(bvh_like)) == pytest.approx(
+        1.12 * 1.59, abs=EXACT
+    )
 
 
 def test_mesh_standing_height_is_the_meshs_vertical_extent():
     height = mesh_standing_height(MESH)
     assert height == pytest.approx(1.755, abs=EXACT) and isinstance(height, float)
     batch = torch.as_tensor(np.stack([MESH, 2 * MESH]), dtype=torch.float32)
-    torch.testing.assert_close(mesh_standing_height(batch), torch.tensor([1.755, 3.51]), rtol=1e-6, atol=0.0)
-    torch.testing.assert_close(mesh_ground(batch), torch.tensor([-0.005, -0.01]), rtol=1e-6, atol=0.0)
-    np.testing.assert_allclose(mesh_standing_height(np.stack([MESH, 2 * MESH])), [1.755, 3.51], atol=EXACT)
+    torch.testing.assert_close(
+        mesh_standing_height(batch), torch.tensor([1.755, 3.51]), rtol=1e-6, atol=0.0
+    )
+    torch.testing.assert_close(
+        mesh_ground(batch), torch.tensor([-0.005, -0.01]), rtol=1e-6, atol=0.0
+    )
+    np.testing.assert_allclose(
+        mesh_standing_height(np.stack([MESH, 2 * MESH])), [1.755, 3.51], atol=EXACT
+    )
 
 
 def test_foot_contact_thresholds_take_the_height_from_the_caller():
     # no default height: every caller names the height it scales Sec. 3.4's thresholds with
-    assert inspect.signature(detect_foot_contacts).parameters["character_height"].default is inspect.Parameter.empty
+    assert (
+        inspect.signature(detect_foot_contacts).parameters["character_height"].default
+        is inspect.Parameter.empty
+    )

@@ -34,14 +34,19 @@ def test_rebinding_moves_each_vertex_with_its_joints():
     target.offsets[0, 1] -= 0.9  # a BVH-like root placement: the mesh keeps its own
     bound = rebind_mesh(gus, target)
     moved = _root_relative(target) - _root_relative(gus.skeleton)
-    np.testing.assert_allclose(bound.rest_vertices - gus.rest_vertices, gus.weights @ moved, atol=1e-12)  # same sums
+    np.testing.assert_allclose(
+        bound.rest_vertices - gus.rest_vertices, gus.weights @ moved, atol=1e-12
+    )  # same sums
     np.testing.assert_allclose(bound.skeleton.offsets[1:], target.offsets[1:])  # copied
     np.testing.assert_array_equal(bound.skeleton.offsets[0], gus.skeleton.offsets[0])  # copied
     # a vertex bound to one joint only moves exactly with it
     one = gus.copy()
     one.weights[0] = np.eye(22)[gus.skeleton.index("LeftHand")]
-    np.testing.assert_allclose(rebind_mesh(one, target).rest_vertices[0] - gus.rest_vertices[0],
-                               moved[gus.skeleton.index("LeftHand")], atol=1e-12)
+    np.testing.assert_allclose(
+        rebind_mesh(one, target).rest_vertices[0] - gus.rest_vertices[0],
+        moved[gus.skeleton.index("LeftHand")],
+        atol=1e-12,
+    )
 
 
 @pytest.fixture()
@@ -62,20 +67,41 @@ def test_a_mesh_within_5_percent_is_rebound(files, name, warns):
     assert len(ours) == int(warns)
     if warns:
         assert f"{name}.npz" in str(ours[0].message) and "rebound" in str(ours[0].message)
-    np.testing.assert_allclose(_root_relative(target.character.skeleton), _root_relative(target.skeleton),
-                               atol=1e-9)  # sums of the same offsets (BVH text: 6 decimals of cm)
+    np.testing.assert_allclose(
+        _root_relative(target.character.skeleton), _root_relative(target.skeleton), atol=1e-9
+    )  # sums of the same offsets (BVH text: 6 decimals of cm)
     assert MESH_WARN < MESH_LIMIT
 
 
 def test_a_mesh_beyond_5_percent_is_refused(files):
-    with pytest.raises(RetargetInputError, match=r"other\.npz: .*more than 5%: a mesh of another character"):
+    with pytest.raises(
+        RetargetInputError, match=r"other\.npz: .*more than 5%: a mesh of another character"
+    ):
         load_target(str(files / "gus.bvh"), files / "other.npz")
 
 
 def test_the_command_prints_one_warning_line_and_runs(files, capsys):
     out = files / "o.bvh"
-    assert main(["retarget", "--source", str(files / "gus.bvh"), "--target", str(files / "gus.bvh"), "--method",
-                 "contact", "--target-mesh", str(files / "real.npz"), "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "retarget",
+                "--source",
+                str(files / "gus.bvh"),
+                "--target",
+                str(files / "gus.bvh"),
+                "--method",
+                "contact",
+                "--target-mesh",
+                str(files / "real.npz"),
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and err[0].startswith("retarget retarget: warning: ") and "real.npz" in err[0], err
+    assert (
+        len(err) == 1 and err[0].startswith("retarget retarget: warning: ") and "real.npz" in err[0]
+    ), err
     assert out.exists()

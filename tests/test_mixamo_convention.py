@@ -9,12 +9,18 @@ import pytest
 from retarget_lib.config import load_config
 from retarget_lib.core.skeleton import canonical22_skeleton
 from retarget_lib.data.sources.real_characters import REAL_DIR, skeleton_proportions
-from retarget_lib.data.synthetic.proportions import height_scale, unscaled_offsets
-from retarget_lib.data.synthetic.mixamo_convention import (N_CHARACTERS, RANGE_MARGIN, RANGE_SOURCES, REAL_RIG_RANGES,
-                                                           generate,
-                                                           mixamo_convention_names, mixamo_convention_spec,
-                                                           mixamo_convention_split)
 from retarget_lib.data.splits import MotionId
+from retarget_lib.data.synthetic.mixamo_convention import (
+    N_CHARACTERS,
+    RANGE_MARGIN,
+    RANGE_SOURCES,
+    REAL_RIG_RANGES,
+    generate,
+    mixamo_convention_names,
+    mixamo_convention_spec,
+    mixamo_convention_split,
+)
+from retarget_lib.data.synthetic.proportions import height_scale, unscaled_offsets
 from retarget_lib.methods.copy import copy_rotations
 from retarget_lib.training import contact as contact_training
 
@@ -25,14 +31,24 @@ def test_the_ranges_are_those_measured_on_the_real_rigs():
     assert len(rows) == len(RANGE_SOURCES)
     for key, (lo, hi) in REAL_RIG_RANGES.items():
         values = [float(r[key]) for r in rows]
-        assert (lo, hi) == pytest.approx((min(values), max(values)), abs=1e-4), key  # the CSV keeps 4 decimals
+        assert (lo, hi) == pytest.approx((min(values), max(values)), abs=1e-4), (
+            key
+        )  # the CSV keeps 4 decimals
 
 
 @pytest.mark.parametrize("index", range(N_CHARACTERS))
 def test_every_character_is_in_a_t_pose_with_real_proportions(index):
     spec = mixamo_convention_spec(index)
-    assert (spec.arm_angle, spec.arm_forward, spec.spine_curve, spec.knee_bend, spec.feet_out) == (0, 0, 0, 0, 0)
-    measured = skeleton_proportions(canonical22_skeleton(unscaled_offsets(spec) * height_scale(spec)))
+    assert (spec.arm_angle, spec.arm_forward, spec.spine_curve, spec.knee_bend, spec.feet_out) == (
+        0,
+        0,
+        0,
+        0,
+        0,
+    )
+    measured = skeleton_proportions(
+        canonical22_skeleton(unscaled_offsets(spec) * height_scale(spec))
+    )
     assert abs(measured["arm_angle_deg"]) < 1e-6
     for key, (lo, hi) in REAL_RIG_RANGES.items():
         pad = RANGE_MARGIN * (hi - lo)
@@ -45,7 +61,9 @@ def test_the_characters_differ_and_the_split_keeps_unseen_ones():
     assert mixamo_convention_spec(3) == specs[3]  # deterministic
     split = mixamo_convention_split()
     assert set(split.train_characters).isdisjoint(split.test_characters)
-    assert set(split.train_characters) | set(split.test_characters) == set(mixamo_convention_names())
+    assert set(split.train_characters) | set(split.test_characters) == set(
+        mixamo_convention_names()
+    )
 
 
 def test_each_character_performs_its_own_version_of_a_clip():
@@ -58,11 +76,17 @@ def test_each_character_performs_its_own_version_of_a_clip():
         assert own_b.skeleton.offsets == pytest.approx(b.skeleton.offsets)
         # copying A's rotations onto B is close to B's own version (same rest) but not the same:
         # B's feet and hands are solved on B's body
-        err = np.linalg.norm(copy_rotations(own_a, b.skeleton).global_positions() - own_b.global_positions(), axis=-1)
+        err = np.linalg.norm(
+            copy_rotations(own_a, b.skeleton).global_positions() - own_b.global_positions(), axis=-1
+        )
         assert 0.001 < err.mean() < 0.1 * b.skeleton.height(), clip
     walk = data.clips["walk_000"]["tp02"]
-    feet = walk.global_positions()[:, [b.skeleton.index("LeftToeBase"), b.skeleton.index("RightToeBase")], 1]
-    assert feet.min() > -0.01  # planted on its own floor (1 cm: the toe joint's rest height above the sole)
+    feet = walk.global_positions()[
+        :, [b.skeleton.index("LeftToeBase"), b.skeleton.index("RightToeBase")], 1
+    ]
+    assert (
+        feet.min() > -0.01
+    )  # planted on its own floor (1 cm: the toe joint's rest height above the sole)
 
 
 def test_contact_training_takes_the_profile_on_its_own_bodies(monkeypatch, tmp_path):
@@ -72,8 +96,9 @@ def test_contact_training_takes_the_profile_on_its_own_bodies(monkeypatch, tmp_p
     monkeypatch.setenv("RETARGET_CACHE", str(tmp_path / "cache"))
     tiny = generate(2, [("walk", 0), ("walk", 9)])
     names = tuple(tiny.characters)
-    split = SimpleNamespace(train_characters=names,
-                            train_motions=(MotionId("walk", 0), MotionId("walk", 9)))
+    split = SimpleNamespace(
+        train_characters=names, train_motions=(MotionId("walk", 0), MotionId("walk", 9))
+    )
     monkeypatch.setattr(contact_training, "load_mixamo_convention", lambda: tiny)
     monkeypatch.setattr(contact_training, "mixamo_convention_split", lambda: split)
     monkeypatch.setattr(contact_training, "mixamo_convention_path", lambda: tmp_path / "mc.npz")

@@ -14,12 +14,25 @@ from retarget_lib.core.kinematics import forward_kinematics
 from retarget_lib.core.measures import nkn_height
 from retarget_lib.core.rotations import quat_normalize
 from retarget_lib.core.skeleton import CANONICAL22_PARENTS, canonical22_skeleton
-from retarget_lib.models import (TABLE4_ROWS, NKNDiscriminator, NKNGenerator, PatchDiscriminator, TDCNGenerator,
-                                 build_model, count_parameters)
-from retarget_lib.models.features import (GENERATOR_LAYOUT, FeatureNormalizer, discriminator_features,
-                                          discriminator_input_channels, generator_features,
-                                          generator_input_channels, source_local_positions,
-                                          split_generator_features)
+from retarget_lib.models import (
+    TABLE4_ROWS,
+    NKNDiscriminator,
+    NKNGenerator,
+    PatchDiscriminator,
+    TDCNGenerator,
+    build_model,
+    count_parameters,
+)
+from retarget_lib.models.features import (
+    GENERATOR_LAYOUT,
+    FeatureNormalizer,
+    discriminator_features,
+    discriminator_input_channels,
+    generator_features,
+    generator_input_channels,
+    source_local_positions,
+    split_generator_features,
+)
 
 J = 22
 SMALL = 32  # channel width used for fast tests
@@ -34,8 +47,10 @@ def _offsets(batch, seed, scale=1.0):
 
 def _motion(batch, frames, seed=0, dtype=torch.float32):
     g = torch.Generator().manual_seed(seed)
-    q = quat_normalize(torch.randn(batch, frames, J, 4, generator=g, dtype=dtype) * 0.3
-                       + torch.tensor([1.0, 0, 0, 0], dtype=dtype))
+    q = quat_normalize(
+        torch.randn(batch, frames, J, 4, generator=g, dtype=dtype) * 0.3
+        + torch.tensor([1.0, 0, 0, 0], dtype=dtype)
+    )
     r = torch.cumsum(torch.randn(batch, frames, 3, generator=g, dtype=dtype) * 0.01, 1)
     return q, r, _offsets(batch, seed + 1).to(dtype), _offsets(batch, seed + 2, 0.8).to(dtype)
 
@@ -52,6 +67,7 @@ def _seed_and_one_thread():
 
 
 # ----------------------------------------------------------------------------------- features
+
 
 def test_generator_features_layout_and_roundtrip():
     q, r, oa, ob = _motion(2, 7)
@@ -73,7 +89,9 @@ def test_nkn_height_matches_skeleton_class():
     off = _offsets(3, 5).double()
     h = nkn_height(off)
     for b in range(3):
-        assert h[b].item() == pytest.approx(canonical22_skeleton(off[b].numpy()).height(), rel=1e-12)
+        assert h[b].item() == pytest.approx(
+            canonical22_skeleton(off[b].numpy()).height(), rel=1e-12
+        )
 
 
 def test_discriminator_features_are_eqs_11_18():
@@ -111,6 +129,7 @@ def test_feature_normalizer_identity_fit_and_checkpoint():
 
 # ----------------------------------------------------------------------------------- TDCN
 
+
 @pytest.mark.parametrize("kwargs", [{}, {"causal": True}, {"dense": True}])
 @pytest.mark.parametrize("frames", [1, 5, 81, 200])
 def test_tdcn_one_output_per_input_frame(kwargs, frames):
@@ -139,6 +158,7 @@ def _tdcn_out(g):
     def fn(x):
         q, r = g(x)
         return torch.cat([q.flatten(2), r], -1)  # (B, T, 91)
+
     return fn
 
 
@@ -209,10 +229,13 @@ def test_raw_quaternions_start_near_identity():
     q, r, oa, ob = _motion(1, 10)
     with torch.no_grad():
         out = g.generate(q, r, oa, ob)
-    assert torch.allclose(out.rotations, torch.tensor([1.0, 0, 0, 0]).expand_as(out.rotations), atol=0.2)
+    assert torch.allclose(
+        out.rotations, torch.tensor([1.0, 0, 0, 0]).expand_as(out.rotations), atol=0.2
+    )
 
 
 # ----------------------------------------------------------------------------- discriminator
+
 
 @pytest.mark.parametrize("rf", [31, 81])
 def test_patch_discriminator_receptive_field(rf):
@@ -233,6 +256,7 @@ def test_patch_discriminator_short_clip_gets_one_score():
 
 
 # ----------------------------------------------------------------------------------- NKN
+
 
 @pytest.mark.parametrize("backbone", ["gru", "dense", "dilated"])
 @pytest.mark.parametrize("frames", [1, 5, 81])
@@ -282,11 +306,13 @@ def test_a_compiled_nkn_decoder_computes_the_eager_outputs_and_gradients():
     # fused kernels sum in another order: float32 rounding, carried through 6 recurrent frames
     torch.testing.assert_close(outs[1].rotations, outs[0].rotations, rtol=1e-4, atol=1e-5)
     torch.testing.assert_close(outs[1].root_positions, outs[0].root_positions, rtol=1e-4, atol=1e-5)
-    for g, out in zip((eager, compiled), outs):
+    for _g, out in zip((eager, compiled), outs):
         (out.rotations.square().sum() + out.root_positions.square().sum()).backward()
     for (name, a), b in zip(eager.named_parameters(), compiled.parameters()):
         torch.testing.assert_close(b.grad, a.grad, rtol=1e-3, atol=1e-5, msg=name)
-    assert NKNGenerator(hidden=SMALL, backbone="dense").compile_decoder() is None  # no per-frame loop: a no-op
+    assert (
+        NKNGenerator(hidden=SMALL, backbone="dense").compile_decoder() is None
+    )  # no per-frame loop: a no-op
 
 
 def test_nkn_discriminator_scores_whole_clip():
@@ -300,13 +326,17 @@ def test_nkn_discriminator_scores_whole_clip():
 
 # ------------------------------------------------------------------------------- gradients
 
+
 def _assert_all_grads(module):
-    missing = [n for n, p in module.named_parameters() if p.grad is None or not p.grad.abs().sum() > 0]
+    missing = [
+        n for n, p in module.named_parameters() if p.grad is None or not p.grad.abs().sum() > 0
+    ]
     assert not missing, f"no gradient reaches {missing}"
 
 
-@pytest.mark.parametrize("row", ["ours", "A1", "A5", "Baseline", "Baseline-dense", "Baseline-dilated",
-                                 "Baseline-height"])
+@pytest.mark.parametrize(
+    "row", ["ours", "A1", "A5", "Baseline", "Baseline-dense", "Baseline-dilated", "Baseline-height"]
+)
 def test_gradient_reaches_every_generator_parameter(row):
     gen, _ = build_model({"row": row, "channels": 16})
     gen.train()
@@ -332,24 +362,33 @@ def test_gradient_reaches_every_discriminator_parameter(row):
 
 # ------------------------------------------------------------------------------- factory
 
+
 def test_build_model_builds_every_table4_row():
     expect = {
         "Baseline": (NKNGenerator, dict(backbone="gru", normalize_root=False, height_loss=False)),
         "Baseline-dense": (NKNGenerator, dict(backbone="dense")),
         "Baseline-dilated": (NKNGenerator, dict(backbone="dilated")),
-        "Baseline-height": (NKNGenerator, dict(backbone="gru", normalize_root=True, height_loss=True)),
+        "Baseline-height": (
+            NKNGenerator,
+            dict(backbone="gru", normalize_root=True, height_loss=True),
+        ),
         "ours": (TDCNGenerator, dict(causal=False)),
         "A1": (TDCNGenerator, dict(causal=False)),
         "A2": (TDCNGenerator, dict(causal=False)),
         "A3": (TDCNGenerator, dict(causal=False)),
         "A4": (TDCNGenerator, dict(causal=False)),
         "A5": (TDCNGenerator, dict(causal=True)),
-        "ours-residual": (TDCNGenerator, dict(causal=False, residual=True)),  # our variant, not a paper row
+        "ours-residual": (
+            TDCNGenerator,
+            dict(causal=False, residual=True),
+        ),  # our variant, not a paper row
     }
     assert set(expect) == set(TABLE4_ROWS)
     q, r, oa, ob = _motion(1, 6)
     for row, (cls, attrs) in expect.items():
-        gen, disc = build_model({"row": row, "profile": "fast", "channels": 16, "disc_channels": 16})
+        gen, disc = build_model(
+            {"row": row, "profile": "fast", "channels": 16, "disc_channels": 16}
+        )
         assert isinstance(gen, cls), row
         for k, v in attrs.items():
             assert getattr(gen, k) == v, (row, k)

@@ -54,8 +54,11 @@ def test_resample_120_to_30_keeps_samples_and_duration():
     np.testing.assert_allclose(r.rotations, rot[::4], atol=1e-12)
     # half-way samples are interpolated (slerp of a linear yaw is linear)
     h = m.resample(240.0)
-    np.testing.assert_allclose(h.rotations[1, 5], quat_from_axis_angle(
-        torch.tensor([0.0, 0.5 / 120.0, 0.0], dtype=torch.float64)).numpy(), atol=1e-12)
+    np.testing.assert_allclose(
+        h.rotations[1, 5],
+        quat_from_axis_angle(torch.tensor([0.0, 0.5 / 120.0, 0.0], dtype=torch.float64)).numpy(),
+        atol=1e-12,
+    )
 
 
 def test_mirror_reflects_world_positions_and_swaps_sides():

@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 import torch
+from skeletons import contact_runs, make_skeleton
 
 from retarget_lib.core.rotations import quat_rotate
-from retarget_lib.core.skeleton import FOOT_CONTACT_JOINTS
-from retarget_lib.core.skeleton import CANONICAL22_PARENTS, J
+from retarget_lib.core.skeleton import CANONICAL22_PARENTS, FOOT_CONTACT_JOINTS, J
 from retarget_lib.data.synthetic.motions import (
     DURATION_RANGES,
     FPS,
@@ -16,7 +16,6 @@ from retarget_lib.data.synthetic.motions import (
     make_motion,
     motion_library,
 )
-from skeletons import contact_runs, make_skeleton
 
 SKELETONS = {
     "short_apose": make_skeleton(height=1.3, leg_frac=0.42, arm_deg=45.0),
@@ -44,8 +43,10 @@ def test_family_is_well_formed_on_both_characters(clips, family):
         assert facing[2] > np.cos(np.radians(2.0))  # starts facing +Z
         assert m.meta["family"] == family and m.meta["seed"] == 0
         assert m.meta["joint_contacts"].shape == (m.num_frames, 4)
-        np.testing.assert_array_equal(m.meta["foot_contacts"],
-                                      m.meta["joint_contacts"][:, :2] & m.meta["joint_contacts"][:, 2:])
+        np.testing.assert_array_equal(
+            m.meta["foot_contacts"],
+            m.meta["joint_contacts"][:, :2] & m.meta["joint_contacts"][:, 2:],
+        )
 
 
 @pytest.mark.parametrize("family", MOTION_FAMILIES)
@@ -108,22 +109,31 @@ def test_clap_and_pray_palms_meet(clips):
             rest = sk.rest_positions()
             along = rest[J["LeftHand"]] - rest[J["LeftForeArm"]]
             down = np.array([0.0, -1.0, 0.0]) - along * (-along[1]) / (along @ along)
-            palm = quat_rotate(torch.from_numpy(grot[frames, J["LeftHand"]]), torch.from_numpy(down)).numpy()
+            palm = quat_rotate(
+                torch.from_numpy(grot[frames, J["LeftHand"]]), torch.from_numpy(down)
+            ).numpy()
             toward = pos[frames, J["RightHand"]] - pos[frames, J["LeftHand"]]
-            cos = (palm * toward).sum(-1) / np.linalg.norm(palm, axis=-1) / np.linalg.norm(toward, axis=-1)
+            cos = (
+                (palm * toward).sum(-1)
+                / np.linalg.norm(palm, axis=-1)
+                / np.linalg.norm(toward, axis=-1)
+            )
             assert cos.min() > 0.9
 
 
 def test_hands_rest_on_the_hips_surface(clips):
-    for key, sk in SKELETONS.items():
+    for key, _sk in SKELETONS.items():
         m = clips["hands_on_hips", key]
         r = m.meta["body_radii"]
         pos = m.global_positions()
         touches = m.meta["hand_contacts"]
-        assert {(c.hand, c.part) for c in touches} == {("LeftHand", "LeftHip"), ("RightHand", "RightHip")}
+        assert {(c.hand, c.part) for c in touches} == {
+            ("LeftHand", "LeftHip"),
+            ("RightHand", "RightHip"),
+        }
         for c in touches:
-            hand = pos[c.start:c.stop, J[c.hand]]
-            hips = pos[c.start:c.stop, J["Hips"]]
+            hand = pos[c.start : c.stop, J[c.hand]]
+            hips = pos[c.start : c.stop, J["Hips"]]
             across = np.linalg.norm((hand - hips)[:, [0, 2]], axis=-1)
             np.testing.assert_allclose(across, r["hip"] + r["hand"], atol=0.03)
             assert (np.abs(hand[:, 1] - hips[:, 1]) < 0.15).all()
@@ -138,8 +148,8 @@ def test_touch_head_hand_on_top_of_the_head(clips):
         assert m.meta["hand_contacts"]
         for c in m.meta["hand_contacts"]:
             assert c.part == "HeadTop"
-            hand = pos[c.start:c.stop, J[c.hand]]
-            head = pos[c.start:c.stop, J["Head"]]
+            hand = pos[c.start : c.stop, J[c.hand]]
+            head = pos[c.start : c.stop, J["Head"]]
             centre = head + np.array([0.0, 0.9 * r["head"], 0.0])
             d = np.linalg.norm(hand - centre, axis=-1)
             assert ((d > 0.8 * r["head"]) & (d < r["head"] + r["hand"] + 0.03)).all()
@@ -152,7 +162,9 @@ def test_body_size_hint_moves_contacts_to_the_surface():
     m = make_motion("hands_on_hips", sk, 3, body_radii=radii)
     pos = m.global_positions()
     c = m.meta["hand_contacts"][0]
-    across = np.linalg.norm((pos[c.start:c.stop, J[c.hand]] - pos[c.start:c.stop, 0])[:, [0, 2]], axis=-1)
+    across = np.linalg.norm(
+        (pos[c.start : c.stop, J[c.hand]] - pos[c.start : c.stop, 0])[:, [0, 2]], axis=-1
+    )
     np.testing.assert_allclose(across, 0.27, atol=0.03)
     assert m.meta["body_radii"]["hip"] == 0.25
 
@@ -161,11 +173,14 @@ def test_deterministic_by_seed_and_varied_across_seeds():
     sk = SKELETONS["short_apose"]
     for family in ("walk", "clap", "kick"):
         a, b = make_motion(family, sk, 5), make_motion(family, sk, 5)
-        np.testing.assert_array_equal(a.rotations, b.rotations)  # the same code twice in one process: exact
+        np.testing.assert_array_equal(
+            a.rotations, b.rotations
+        )  # the same code twice in one process: exact
         np.testing.assert_array_equal(a.root_positions, b.root_positions)
         others = [make_motion(family, sk, s) for s in (6, 7)]
         assert len({a.num_frames} | {o.num_frames for o in others}) > 1 or all(
-            not np.allclose(a.rotations, o.rotations) for o in others)
+            not np.allclose(a.rotations, o.rotations) for o in others
+        )
         assert a.meta["style"] != others[0].meta["style"]
 
 
@@ -180,8 +195,9 @@ def test_duration_override_and_range():
 
 
 def test_motion_library_covers_every_family():
-    lib = motion_library(SKELETONS["short_apose"], seeds_per_family=2, seed=3,
-                         families=("wave", "turn", "jump"))
+    lib = motion_library(
+        SKELETONS["short_apose"], seeds_per_family=2, seed=3, families=("wave", "turn", "jump")
+    )
     assert [m.meta["family"] for m in lib] == ["wave", "wave", "turn", "turn", "jump", "jump"]
     assert [m.meta["seed"] for m in lib] == [3, 4] * 3
     assert len({m.name for m in lib}) == 6
@@ -223,7 +239,9 @@ def test_a_character_standing_on_the_floor_keeps_its_soles_on_it():
     m = make_motion("walk", c.skeleton, 0)
     pos = m.global_positions()[:, list(FOOT_CONTACT_IDS), 1]
     contacts = m.meta["joint_contacts"]
-    flat = np.tile(m.meta["foot_contacts"], 2)  # heel and toe (FOOT_CONTACT_JOINTS order) of a flat foot
+    flat = np.tile(
+        m.meta["foot_contacts"], 2
+    )  # heel and toe (FOOT_CONTACT_JOINTS order) of a flat foot
     lift = (pos - foot_rest_heights(c.skeleton))[flat & contacts]
     np.testing.assert_allclose(lift, 0.0, atol=0.005)  # 5 mm: the IK solve's residual
     lowest = c.skinned(m.rotations, m.root_positions)[..., 1].min(axis=1)

@@ -19,12 +19,18 @@ def test_images_small_no_errors_setup_and_what_to_try(path):
     code = [c for c in nb.cells if c.cell_type == "code"]
     assert "setup_notebook(" in code[0].source
     assert sum("setup_notebook(" in c.source for c in code) == 1
-    headings = [c.source.lstrip().split("\n")[0].strip() for c in nb.cells if c.cell_type == "markdown"]
+    headings = [
+        c.source.lstrip().split("\n")[0].strip() for c in nb.cells if c.cell_type == "markdown"
+    ]
     if "## Summary" in headings:
         assert headings[-1] == "## References", f"{path.name} must end with ## References"
         tail = [h for h in headings if h in ("## Summary", "## Exercises", "## References")]
         assert tail == ["## Summary", "## Exercises", "## References"]
-        assert headings.index("## Summary") < headings.index("## Exercises") < headings.index("## References")
+        assert (
+            headings.index("## Summary")
+            < headings.index("## Exercises")
+            < headings.index("## References")
+        )
     else:
         assert "What to try" in nb.cells[-1].source
     for i, cell in enumerate(code):
@@ -41,13 +47,19 @@ def test_images_small_no_errors_setup_and_what_to_try(path):
 def test_outputs_name_no_path_of_the_machine_that_ran_them(path):
     # a committed page must not show where it was executed (the repository, a home or temp folder)
     repo = str(Path(__file__).resolve().parents[1])
-    for i, cell in enumerate(c for c in nbformat.read(path, as_version=4).cells if c.cell_type == "code"):
+    for i, cell in enumerate(
+        c for c in nbformat.read(path, as_version=4).cells if c.cell_type == "code"
+    ):
         for out in cell.get("outputs", []):
-            texts = [out.get("text", "")] + [v for k, v in out.get("data", {}).items() if k.startswith("text/")]
+            texts = [out.get("text", "")] + [
+                v for k, v in out.get("data", {}).items() if k.startswith("text/")
+            ]
             for text in texts:
                 text = "".join(text) if isinstance(text, list) else text
                 for bad in (repo, "/home/", "/root/", "/tmp/"):
-                    assert bad not in text, f"{path.name} code cell {i} prints a machine path ({bad!r})"
+                    assert bad not in text, (
+                        f"{path.name} code cell {i} prints a machine path ({bad!r})"
+                    )
 
 
 def test_notebooks_exist_in_order():

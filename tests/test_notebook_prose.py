@@ -22,43 +22,51 @@ def kinds(text):
 
 
 # ---------------------------------------------------------------------------------------- the rule
-@pytest.mark.parametrize("text, expected", [
-    ("Copy's error is 0.58 m on average.", [("unit", "0.58 m")]),
-    ("The gap is a steady 10% between the curves.", [("percentage", "10%")]),
-    ("Ours is 3x better, and 649× worse elsewhere.", [("ratio", "3x"), ("ratio", "649×")]),
-    ("It trains in 7 min on two cores.", [("unit", "7 min")]),
-    ("The hands end 45 cm apart.", [("unit", "45 cm")]),
-    ("Its benefit shows (1.65 -> 0.06).", [("decimal", "1.65"), ("decimal", "0.06")]),
-    ("An 81-frame window sees every frame.", [("unit", "81-frame")]),
-    ("The residual is 2.6e-4 relative.", [("decimal", "2.6e-4")]),
-    ("A weight of 0.5 and 10.2 as well.", [("decimal", "0.5"), ("decimal", "10.2")]),
-])
+@pytest.mark.parametrize(
+    "text, expected",
+    [
+        ("Copy's error is 0.58 m on average.", [("unit", "0.58 m")]),
+        ("The gap is a steady 10% between the curves.", [("percentage", "10%")]),
+        ("Ours is 3x better, and 649× worse elsewhere.", [("ratio", "3x"), ("ratio", "649×")]),
+        ("It trains in 7 min on two cores.", [("unit", "7 min")]),
+        ("The hands end 45 cm apart.", [("unit", "45 cm")]),
+        ("Its benefit shows (1.65 -> 0.06).", [("decimal", "1.65"), ("decimal", "0.06")]),
+        ("An 81-frame window sees every frame.", [("unit", "81-frame")]),
+        ("The residual is 2.6e-4 relative.", [("decimal", "2.6e-4")]),
+        ("A weight of 0.5 and 10.2 as well.", [("decimal", "0.5"), ("decimal", "10.2")]),
+    ],
+)
 def test_hand_typed_numbers_are_found(text, expected):
     assert kinds(text) == expected
 
 
-@pytest.mark.parametrize("text", [
-    "Eq. 8 and Eqs. 4-8 define it; see Sec. 3.4, Table 4, Fig. 3, Appendix F and notebook 04.",
-    "**Exercise 05.2** Compute the height of `ada`.",
-    "Convert your 08.1 number, then check 08b.2.",                  # exercise labels (leading zero)
-    "Kim et al. 2020 and Villegas et al. (ICCV 2021) use 22 joints and 16 characters.",
-    "The twist loss uses α = 100° (Sec. 4.2).",                      # parenthesised paper location
-    "The paper's Table 4 reports 0.58 for copy.",                    # 'paper' + a location
-    "Set `train.steps=3000` or `lambda_h = 10` in the config.",      # config constants in backticks
-    "Try `f(x,\n gamma_foot=10.0)` there.",                          # inline code wrapping a line
-    "<!-- constants: 100k, 0.5 -->\nThe paper-form schedule trains 100k steps at a rate of 0.5.",
-    "Its objective (Eq. 6) is\n\n$$L = L_c + 0.1 L_r$$",             # a display equation of a cited sentence
-    "Download from [arXiv](https://arxiv.org/abs/2109.07431), doi https://doi.org/10.1111/cgf.13947.",
-    "Every GLB passes the glTF 2.0 validator (Python 3.11, assimp 5.2.5).",
-    "```\nretarget train --profile fast train.steps=0.5\n```",
-    "A 3 × 3 matrix and 4x4 transforms.",
-])
+@pytest.mark.parametrize(
+    "text",
+    [
+        "Eq. 8 and Eqs. 4-8 define it; see Sec. 3.4, Table 4, Fig. 3, Appendix F and notebook 04.",
+        "**Exercise 05.2** Compute the height of `ada`.",
+        "Convert your 08.1 number, then check 08b.2.",  # exercise labels (leading zero)
+        "Kim et al. 2020 and Villegas et al. (ICCV 2021) use 22 joints and 16 characters.",
+        "The twist loss uses α = 100° (Sec. 4.2).",  # parenthesised paper location
+        "The paper's Table 4 reports 0.58 for copy.",  # 'paper' + a location
+        "Set `train.steps=3000` or `lambda_h = 10` in the config.",  # config constants in backticks
+        "Try `f(x,\n gamma_foot=10.0)` there.",  # inline code wrapping a line
+        "<!-- constants: 100k, 0.5 -->\nThe paper-form schedule trains 100k steps at a rate of 0.5.",
+        "Its objective (Eq. 6) is\n\n$$L = L_c + 0.1 L_r$$",  # a display equation of a cited sentence
+        "Download from [arXiv](https://arxiv.org/abs/2109.07431), doi https://doi.org/10.1111/cgf.13947.",
+        "Every GLB passes the glTF 2.0 validator (Python 3.11, assimp 5.2.5).",
+        "```\nretarget train --profile fast train.steps=0.5\n```",
+        "A 3 × 3 matrix and 4x4 transforms.",
+    ],
+)
 def test_allowed_numbers_are_not_flagged(text):
     assert kinds(text) == []
 
 
 def test_allowlist_is_per_cell_and_exact():
-    assert kinds("<!-- constants: 15 cm -->\nThe reach rule is 15 cm, the margin 3 cm.") == [("unit", "3 cm")]
+    assert kinds("<!-- constants: 15 cm -->\nThe reach rule is 15 cm, the margin 3 cm.") == [
+        ("unit", "3 cm")
+    ]
     assert kinds("The reach rule is 15 cm.") == [("unit", "15 cm")]
 
 
@@ -70,14 +78,19 @@ def test_table_in_parentheses_alone_is_not_a_citation():
 def test_outputs_are_not_scanned():
     nb = nbformat.v4.new_notebook()
     cell = nbformat.v4.new_code_cell("prose(f'{err:.2f} m')")
-    cell.outputs = [nbformat.v4.new_output("display_data", data={"text/markdown": "Error **0.58 m**"})]
+    cell.outputs = [
+        nbformat.v4.new_output("display_data", data={"text/markdown": "Error **0.58 m**"})
+    ]
     nb.cells = [nbformat.v4.new_markdown_cell("No numbers here."), cell]
     assert notebook_violations(nb) == []
 
 
 def _closing(n_exercises=3, tag=True, label="05"):
     md, code = nbformat.v4.new_markdown_cell, nbformat.v4.new_code_cell
-    cells = [md("## Summary\n- key idea\n\nEquations covered: Kim et al. Eqs. 4-8"), md("## Exercises")]
+    cells = [
+        md("## Summary\n- key idea\n\nEquations covered: Kim et al. Eqs. 4-8"),
+        md("## Exercises"),
+    ]
     for k in range(1, n_exercises + 1):
         sol = code(f'check_answer("{label}.{k}", a, b, atol=1e-6)')
         if tag:
@@ -103,9 +116,11 @@ def test_closing_sections_rule():
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.name)
 def test_no_hand_typed_numbers_in_markdown(path):
     found = notebook_violations(nbformat.read(path, as_version=4))
-    assert not found, (f"{path.name}: {len(found)} hand-typed numbers in Markdown (render them with "
-                       "prose(f'...'), cite the paper, or list paper constants in "
-                       "<!-- constants: ... -->):\n" + "\n".join(map(str, found)))
+    assert not found, (
+        f"{path.name}: {len(found)} hand-typed numbers in Markdown (render them with "
+        "prose(f'...'), cite the paper, or list paper constants in "
+        "<!-- constants: ... -->):\n" + "\n".join(map(str, found))
+    )
 
 
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.name)
@@ -129,9 +144,18 @@ def test_the_tdcn_authors_are_cited_as_the_paper_names_them():
     """SangBin Kim, Inbum Park, Seongsu Kwon and JungHyun Han (the paper and its official
     repository); an earlier text had "Kim, Park, Lee" everywhere."""
     root = Path(__file__).resolve().parents[1]
-    texts = [root / "README.md", *root.glob("docs/*.md"), *root.glob("configs/*.yaml"), *NOTEBOOKS,
-             *root.glob("retarget_lib/**/*.py")]
-    wrong = [p.relative_to(root).as_posix() for p in texts if "Park, Lee" in p.read_text(encoding="utf-8")]
+    texts = [
+        root / "README.md",
+        *root.glob("docs/*.md"),
+        *root.glob("configs/*.yaml"),
+        *NOTEBOOKS,
+        *root.glob("retarget_lib/**/*.py"),
+    ]
+    wrong = [
+        p.relative_to(root).as_posix()
+        for p in texts
+        if "Park, Lee" in p.read_text(encoding="utf-8")
+    ]
     assert not wrong, wrong
     assert "Kim, Park, Kwon, Han" in (root / "README.md").read_text(encoding="utf-8")
 
@@ -146,9 +170,14 @@ def test_no_wall_of_text(path):
     long = []
     for i, cell in enumerate(nbformat.read(path, as_version=4).cells):
         if cell.cell_type == "markdown":
-            prose = "\n".join(line for line in re.sub(r"<!--.*?-->", "", cell.source, flags=re.S).splitlines()
-                              if not line.lstrip().startswith("|"))
+            prose = "\n".join(
+                line
+                for line in re.sub(r"<!--.*?-->", "", cell.source, flags=re.S).splitlines()
+                if not line.lstrip().startswith("|")
+            )
             n = len(re.findall(r"[A-Za-z0-9]+", prose))
             if n > MARKDOWN_WORDS:
                 long.append((i, n))
-    assert not long, f"{path.name}: Markdown cells over {MARKDOWN_WORDS} words (cell, words): {long}"
+    assert not long, (
+        f"{path.name}: Markdown cells over {MARKDOWN_WORDS} words (cell, words): {long}"
+    )

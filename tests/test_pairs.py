@@ -3,18 +3,22 @@
 import numpy as np
 import pytest
 import torch
+from skeletons import contact_runs, make_skeleton
 
 from retarget_lib.core.rotations import quat_conjugate, quat_mul
-from retarget_lib.core.skeleton import FOOT_CONTACT_JOINTS
-from retarget_lib.core.skeleton import CANONICAL22, J, JointSetError, Skeleton
-from retarget_lib.core.transfer import (PRIMARY_CHILD, change_rest_pose, random_rest_rotations, rest_alignment,
-                                        retarget_ground_truth)
+from retarget_lib.core.skeleton import CANONICAL22, FOOT_CONTACT_JOINTS, J, JointSetError, Skeleton
+from retarget_lib.core.transfer import (
+    PRIMARY_CHILD,
+    change_rest_pose,
+    random_rest_rotations,
+    rest_alignment,
+    retarget_ground_truth,
+)
 from retarget_lib.data.splits import MotionId, tdcn_splits
 from retarget_lib.data.synthetic.motions import MOTION_FAMILIES, make_motion
 from retarget_lib.geometry.ik import apply_foot_contact_ik
 from retarget_lib.methods.copy import copy_rotations
 from retarget_lib.methods.copy_rest import copy_rotations_rest_compensated
-from skeletons import contact_runs, make_skeleton
 
 A_POSE = make_skeleton(height=1.5, leg_frac=0.45, arm_deg=45.0, spine_curve_deg=6.0)
 T_POSE = make_skeleton(height=1.9, leg_frac=0.53, arm_deg=0.0)
@@ -96,21 +100,27 @@ def test_a_changed_rest_pose_moves_no_joint_in_any_frame(source):
     offsets = torch.from_numpy(source.skeleton.offsets)[None]
     turns = random_rest_rotations(offsets, 30.0, torch.Generator().manual_seed(3)).double()
     q, moved = change_rest_pose(torch.from_numpy(source.rotations)[None], offsets, turns)
-    changed = source.copy(skeleton=Skeleton(list(CANONICAL22), source.skeleton.parents, moved[0].numpy()),
-                          rotations=q[0].numpy())
+    changed = source.copy(
+        skeleton=Skeleton(list(CANONICAL22), source.skeleton.parents, moved[0].numpy()),
+        rotations=q[0].numpy(),
+    )
     # float64 quaternion products: 1e-9 m is far below any rounding that would matter
     np.testing.assert_allclose(changed.global_positions(), source.global_positions(), atol=1e-9)
     # the rest pose really changed: bones swing, lengths do not, leaves keep their frame
     rest_old, rest_new = source.skeleton.rest_positions(), changed.skeleton.rest_positions()
     assert np.abs(rest_new - rest_old).max() > 0.05
-    np.testing.assert_allclose(np.linalg.norm(moved[0], axis=-1), np.linalg.norm(offsets[0], axis=-1), atol=1e-12)
+    np.testing.assert_allclose(
+        np.linalg.norm(moved[0], axis=-1), np.linalg.norm(offsets[0], axis=-1), atol=1e-12
+    )
     for leaf in (J["Head"], J["LeftHand"], J["LeftToeBase"]):
         assert turns[0, leaf, 0] == 1.0  # a zero rotation vector: cos(0) = 1 exactly on any CPU
     # the swing of a bone is perpendicular to it: the bone's angle is at most the 30° drawn
-    for j, c in enumerate(PRIMARY_CHILD):
+    for _j, c in enumerate(PRIMARY_CHILD):
         if c >= 0:
             a, b = offsets[0, c].numpy(), moved[0, c].numpy()
-            angle = np.degrees(np.arccos(np.clip(a @ b / np.linalg.norm(a) / np.linalg.norm(b), -1, 1)))
+            angle = np.degrees(
+                np.arccos(np.clip(a @ b / np.linalg.norm(a) / np.linalg.norm(b), -1, 1))
+            )
             assert angle <= 30.0 + 1e-6
 
 
@@ -129,19 +139,31 @@ def test_tdcn_splits_are_disjoint_and_scenarios_follow_table3():
     assert set(sp.train_characters) | set(sp.test_characters) == set(NAMES)
     assert len(sp.test_characters) == 5
     assert set(sp.train_motions).isdisjoint(sp.test_motions)
-    assert len(sp.test_families) == 2 and not {m.family for m in sp.train_motions} & set(sp.test_families)
+    assert len(sp.test_families) == 2 and not {m.family for m in sp.train_motions} & set(
+        sp.test_families
+    )
     assert {m.family for m in sp.test_motions} == set(MOTION_FAMILIES)  # held-out seeds + families
     seen, unseen = set(sp.train_characters), set(sp.test_characters)
-    rules = {1: (seen, seen, True), 2: (seen, unseen, True), 3: (unseen, seen, False), 4: (unseen, unseen, False)}
+    rules = {
+        1: (seen, seen, True),
+        2: (seen, unseen, True),
+        3: (unseen, seen, False),
+        4: (unseen, unseen, False),
+    }
     for k, (src_set, tgt_set, motion_seen) in rules.items():
         rows = sp.scenarios[k]
         assert len(rows) == 6
         for row in rows:
             assert row.source in src_set and row.target in tgt_set and row.source != row.target
             assert (row.motion in sp.train_motions) == motion_seen
-            assert isinstance(row.motion, MotionId) and str(row.motion) == f"{row.motion.family}/{row.motion.seed}"
+            assert (
+                isinstance(row.motion, MotionId)
+                and str(row.motion) == f"{row.motion.family}/{row.motion.seed}"
+            )
     for a, b in ((1, 2), (3, 4)):  # same inputs, only the target's novelty changes
-        assert [(r.source, r.motion) for r in sp.scenarios[a]] == [(r.source, r.motion) for r in sp.scenarios[b]]
+        assert [(r.source, r.motion) for r in sp.scenarios[a]] == [
+            (r.source, r.motion) for r in sp.scenarios[b]
+        ]
 
 
 def test_tdcn_splits_deterministic_and_seed_dependent():

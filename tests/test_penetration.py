@@ -10,13 +10,26 @@ import trimesh
 
 from retarget_lib.core.skeleton import J
 from retarget_lib.data.synthetic.characters import make_character
-from retarget_lib.geometry.collision import (SPLIT_DEPTH, TriangleBVH, brute_force_candidate_pairs,
-                                             colliding_triangle_pairs, triangles_intersect)
+from retarget_lib.geometry.collision import (
+    SPLIT_DEPTH,
+    TriangleBVH,
+    brute_force_candidate_pairs,
+    colliding_triangle_pairs,
+    triangles_intersect,
+)
 from retarget_lib.geometry.cone_field import circumcircle, cone_distance_field
-from retarget_lib.geometry.geodesic import GeodesicDistances, geodesic_distances, geodesic_pair_weights
+from retarget_lib.geometry.geodesic import (
+    GeodesicDistances,
+    geodesic_distances,
+    geodesic_pair_weights,
+)
 from retarget_lib.geometry.normals import vertex_normals
-from retarget_lib.geometry.penetration import (InterpenetrationEnergy, interpenetration_energy, interpenetration_score,
-                                               plan_energy)
+from retarget_lib.geometry.penetration import (
+    InterpenetrationEnergy,
+    interpenetration_energy,
+    interpenetration_score,
+    plan_energy,
+)
 from retarget_lib.geometry.penetration_rate import cap_holes, penetration_rate, ray_winding_numbers
 
 FLAT = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]  # normal +z, circumcentre (.5, .5, 0)
@@ -78,8 +91,11 @@ def test_bvh_finds_the_same_pairs_as_all_pairs():
     cand = {tuple(p) for p in bvh.candidate_pairs(v)}
     brute = {tuple(p) for p in brute_force_candidate_pairs(v, f)}
     assert brute <= cand and len(brute) > 50
-    hit = {tuple(p) for p in brute_force_candidate_pairs(v, f)
-           if triangles_intersect(v[f[[p[0]]]], v[f[[p[1]]]])[0]}
+    hit = {
+        tuple(p)
+        for p in brute_force_candidate_pairs(v, f)
+        if triangles_intersect(v[f[[p[0]]]], v[f[[p[1]]]])[0]
+    }
     assert {tuple(p) for p in colliding_triangle_pairs(v, f, bvh)} == hit and len(hit) > 5
 
 
@@ -97,15 +113,19 @@ def test_cone_field_known_values():
     sigma, height = 0.1, 0.2
 
     def psi(p, **kw):
-        return float(cone_distance_field(torch.tensor(p, dtype=torch.float64), tri, sigma, height, **kw))
+        return float(
+            cone_distance_field(torch.tensor(p, dtype=torch.float64), tri, sigma, height, **kw)
+        )
 
     # on the axis: deep (linear zone) U = d - sigma/2, shallow (quadratic zone) U = d^2 / (2 sigma)
     assert psi([0.5, 0.5, -0.3]) == pytest.approx(0.3 - 0.05)
-    assert psi([0.5, 0.5, -0.05]) == pytest.approx(0.05 ** 2 / 0.2)
+    assert psi([0.5, 0.5, -0.05]) == pytest.approx(0.05**2 / 0.2)
     # off the axis by rho = 0.5 at depth 0.05: r = sqrt(.5) (1 + .05 / .2), falloff 1 - rho^2 / r^2
-    r_sq = 0.5 * 1.25 ** 2
+    r_sq = 0.5 * 1.25**2
     assert psi([1.0, 0.5, -0.05]) == pytest.approx(0.0125 * (1 - 0.25 / r_sq))
-    assert psi([1.0, 0.5, -0.05], radius_scale=2.0) == pytest.approx(0.0125 * (1 - 0.25 / (4 * r_sq)))
+    assert psi([1.0, 0.5, -0.05], radius_scale=2.0) == pytest.approx(
+        0.0125 * (1 - 0.25 / (4 * r_sq))
+    )
     # in front of the triangle, on its plane, and outside the cone: zero
     assert psi([0.5, 0.5, 0.1]) == 0.0
     assert psi([0.5, 0.5, 0.0]) == 0.0
@@ -114,14 +134,14 @@ def test_cone_field_known_values():
 
 def test_circumcircle_of_a_right_triangle():
     centre, radius, normal = circumcircle(torch.tensor(FLAT, dtype=torch.float64))
-    np.testing.assert_allclose(centre.numpy(), [0.5, 0.5, 0.0])   # midpoint of the hypotenuse
+    np.testing.assert_allclose(centre.numpy(), [0.5, 0.5, 0.0])  # midpoint of the hypotenuse
     assert float(radius) == pytest.approx(math.sqrt(0.5))
     np.testing.assert_allclose(normal.numpy(), [0.0, 0.0, 1.0])
 
 
 def test_cone_field_broadcasts_and_rejects_bad_parameters():
-    tris = torch.tensor([FLAT, PIERCING], dtype=torch.float64)       # (2, 3, 3)
-    points = torch.zeros(4, 1, 3, dtype=torch.float64)                 # (4, 1, 3)
+    tris = torch.tensor([FLAT, PIERCING], dtype=torch.float64)  # (2, 3, 3)
+    points = torch.zeros(4, 1, 3, dtype=torch.float64)  # (4, 1, 3)
     assert cone_distance_field(points, tris).shape == (4, 2)
     with pytest.raises(ValueError, match="positive"):
         cone_distance_field(points, tris, sigma=0.0)
@@ -131,12 +151,16 @@ def test_gradcheck_cone_field_and_energy():
     torch.manual_seed(0)
     tri = torch.tensor(FLAT, dtype=torch.float64).add(0.01 * torch.randn(3, 3, dtype=torch.float64))
     pts = torch.tensor([[0.4, 0.45, -0.3], [0.55, 0.5, -0.04]], dtype=torch.float64)
-    assert torch.autograd.gradcheck(lambda p, t: cone_distance_field(p, t, 0.1, 0.2),
-                                    (pts.requires_grad_(), tri.requires_grad_()))
+    assert torch.autograd.gradcheck(
+        lambda p, t: cone_distance_field(p, t, 0.1, 0.2),
+        (pts.requires_grad_(), tri.requires_grad_()),
+    )
     v, f = two_triangles(PIERCING)
     pairs = colliding_triangle_pairs(v, f)
     verts = torch.tensor(v).add(0.01 * torch.randn(6, 3, dtype=torch.float64)).requires_grad_()
-    assert torch.autograd.gradcheck(lambda x: interpenetration_energy(x, f, pairs, [0.7], sigma=0.1), (verts,))
+    assert torch.autograd.gradcheck(
+        lambda x: interpenetration_energy(x, f, pairs, [0.7], sigma=0.1), (verts,)
+    )
 
 
 # ----------------------------------------------------------------------------- geodesic weights
@@ -145,7 +169,9 @@ def strip():
     bottom = [[i, 0.0, 0.0] for i in range(4)]
     top = [[i, 1.0, 0.0] for i in range(4)]
     lone = [[10.0, 0.0, 0.0], [11.0, 0.0, 0.0], [10.0, 1.0, 0.0]]
-    faces = [[i, i + 1, i + 5] for i in range(3)] + [[i, i + 5, i + 4] for i in range(3)] + [[8, 9, 10]]
+    faces = (
+        [[i, i + 1, i + 5] for i in range(3)] + [[i, i + 5, i + 4] for i in range(3)] + [[8, 9, 10]]
+    )
     return np.array(bottom + top + lone), np.array(faces)
 
 
@@ -153,9 +179,9 @@ def test_geodesic_distances_on_a_strip():
     v, f = strip()
     d = geodesic_distances(v, f)
     assert d.dtype == np.float32 and d.shape == (11, 11)
-    assert d[0, 3] == pytest.approx(3.0)                    # along the bottom row
-    assert d[0, 7] == pytest.approx(2.0 + math.sqrt(2.0))   # one diagonal + two unit edges
-    assert d[4, 3] == pytest.approx(4.0)                    # diagonals point the wrong way
+    assert d[0, 3] == pytest.approx(3.0)  # along the bottom row
+    assert d[0, 7] == pytest.approx(2.0 + math.sqrt(2.0))  # one diagonal + two unit edges
+    assert d[4, 3] == pytest.approx(4.0)  # diagonals point the wrong way
     assert d[0, 1] == pytest.approx(1.0) and d[0, 5] == pytest.approx(math.sqrt(2.0))
     assert np.isinf(d[0, 8]) and d[8, 10] == pytest.approx(1.0)
 
@@ -171,13 +197,14 @@ def test_geodesic_pair_weights_eq5():
     np.testing.assert_allclose(geodesic_pair_weights([[0, 2]], f, d, eta=2.0), [0.5])
 
 
-
 def test_geodesic_distances_on_demand_match_the_table():
     # the strip: eta = D(v4, v3) = 4 on the big piece (the lone triangle's diameter is 1.41)
     v, f = strip()
     lazy = GeodesicDistances(v, f)
     assert lazy.eta == pytest.approx(4.0) and lazy.cached_bytes == 0
-    np.testing.assert_allclose(geodesic_pair_weights([[0, 2], [2, 3], [0, 6]], f, lazy), [0.25, 0.5, 1.0])
+    np.testing.assert_allclose(
+        geodesic_pair_weights([[0, 2], [2, 3], [0, 6]], f, lazy), [0.25, 0.5, 1.0]
+    )
     assert lazy.cached_bytes == 2 * 4 * len(v)  # faces 0 and 2 searched once each, 4 bytes a vertex
 
 
@@ -186,13 +213,21 @@ def test_geodesic_eta_is_the_exact_diameter_on_a_body():
     # 0.3-1% on these bodies); weights agree to float32 rounding of the table (1e-7 relative)
     for name in ("ada", "bram"):
         c = make_character(name)
-        table, lazy = geodesic_distances(c.rest_vertices, c.faces), GeodesicDistances(c.rest_vertices, c.faces)
+        table, lazy = (
+            geodesic_distances(c.rest_vertices, c.faces),
+            GeodesicDistances(c.rest_vertices, c.faces),
+        )
         assert lazy.eta == pytest.approx(float(table[np.isfinite(table)].max()), rel=1e-6)
         pairs = np.random.default_rng(0).integers(0, len(c.faces), (200, 2))
-        np.testing.assert_allclose(geodesic_pair_weights(pairs, c.faces, lazy),
-                                   geodesic_pair_weights(pairs, c.faces, table), rtol=1e-6, atol=1e-7)
+        np.testing.assert_allclose(
+            geodesic_pair_weights(pairs, c.faces, lazy),
+            geodesic_pair_weights(pairs, c.faces, table),
+            rtol=1e-6,
+            atol=1e-7,
+        )
     with pytest.raises(ValueError, match="other faces"):
         geodesic_pair_weights([[0, 1]], c.faces[:-1], lazy)
+
 
 # ----------------------------------------------------------------------------- energy
 def boxes(depth):
@@ -217,10 +252,9 @@ def test_box_pushed_in_energy_grows_with_depth_and_gradient_pushes_it_out():
     e0.backward()
     step = torch.zeros_like(verts)
     step[n_big:] = -verts.grad[n_big:]
-    step *= 0.005 / step.norm(dim=1).max()                  # move the small box's vertices <= 5 mm
+    step *= 0.005 / step.norm(dim=1).max()  # move the small box's vertices <= 5 mm
     assert float(energy(verts.detach() + step)) < float(e0.detach())
-    assert step[n_big:, 0].mean() > 0                       # out of the big box, along +x
-
+    assert step[n_big:, 0].mean() > 0  # out of the big box, along +x
 
 
 def test_eint_reads_only_its_support():
@@ -238,6 +272,7 @@ def test_eint_reads_only_its_support():
     torch.testing.assert_close(energy.energy_of_pairs(masked[None], [pairs]), whole)
     assert len(energy.support(np.zeros((0, 2), np.int64))) == 0
 
+
 def test_a_plan_on_the_support_alone_padded_gives_the_same_energy_and_gradient():
     # ESO plans Eq. 4 once per frame on the vertices it skins (the support, renumbered) and pads
     # the pairs with zero-weight copies for a compiled step: neither changes the energy or its gradient
@@ -252,12 +287,15 @@ def test_a_plan_on_the_support_alone_padded_gives_the_same_energy_and_gradient()
     where[support] = np.arange(len(support))
     part = torch.tensor(v[support], requires_grad=True)
     plan = energy.plan([pairs], vertex_index=where, min_pairs=len(pairs) + 3)
-    assert plan.weights.shape == (len(pairs) + 3,) and (plan.weights[len(pairs):] == 0).all()
+    assert plan.weights.shape == (len(pairs) + 3,) and (plan.weights[len(pairs) :] == 0).all()
     planned = plan_energy(part[None], plan, energy.cone)
     planned.sum().backward()
     torch.testing.assert_close(planned, reference)
     torch.testing.assert_close(part.grad, whole.grad[support])
-    assert float(whole.grad.abs().sum()) > 0 and not whole.grad[np.setdiff1d(np.arange(len(v)), support)].any()
+    assert (
+        float(whole.grad.abs().sum()) > 0
+        and not whole.grad[np.setdiff1d(np.arange(len(v)), support)].any()
+    )
 
 
 def test_energy_class_matches_function_and_batches():
@@ -268,13 +306,16 @@ def test_energy_class_matches_function_and_batches():
     direct = interpenetration_energy(t, f, pairs, energy.pair_weights(pairs))
     assert float(energy(t)) == pytest.approx(float(direct)) and float(direct) > 0
     full_normals = vertex_normals(t, f)  # normals of every vertex, not only the colliding ones
-    assert float(interpenetration_energy(t, f, pairs, energy.pair_weights(pairs), full_normals)) == pytest.approx(
-        float(direct))
+    assert float(
+        interpenetration_energy(t, f, pairs, energy.pair_weights(pairs), full_normals)
+    ) == pytest.approx(float(direct))
     # the two boxes are separate pieces: infinite geodesic distance, every weight 1
     np.testing.assert_array_equal(energy.pair_weights(pairs), 1.0)
     assert float(interpenetration_energy(t, f, pairs)) == pytest.approx(float(direct))
     batch = torch.stack([t, torch.tensor(boxes(0.02)[0])])
-    np.testing.assert_allclose(energy(batch).numpy(), [float(energy(batch[0])), float(energy(batch[1]))])
+    np.testing.assert_allclose(
+        energy(batch).numpy(), [float(energy(batch[0])), float(energy(batch[1]))]
+    )
     assert energy(batch[None].expand(3, 2, -1, -1)).shape == (3, 2)  # any leading dims
     np.testing.assert_array_equal(energy.penetrating_faces(v), np.unique(pairs))
     with pytest.raises(ValueError, match="vertices must be"):
@@ -287,7 +328,9 @@ def test_vertex_normals_are_area_weighted():
     # vertex 0 is shared by a triangle of area 0.5 facing +z and one of area 2 facing +x
     v = torch.tensor([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 2, 0], [0, 0, 2]], dtype=torch.float64)
     n = vertex_normals(v, [[0, 1, 2], [0, 3, 4]])
-    np.testing.assert_allclose(n[0].numpy(), np.array([2.0, 0.0, 0.5]) / math.hypot(2.0, 0.5), atol=1e-12)
+    np.testing.assert_allclose(
+        n[0].numpy(), np.array([2.0, 0.0, 0.5]) / math.hypot(2.0, 0.5), atol=1e-12
+    )
     np.testing.assert_allclose(n[1].numpy(), [0.0, 0.0, 1.0])
 
 
@@ -295,7 +338,7 @@ def test_score_is_energy_over_height_squared_and_scale_invariant():
     v, f = boxes(0.05)
     energy = InterpenetrationEnergy(f, v)
     frames = np.stack([v, boxes(0.02)[0]])
-    expected = float(energy(frames).mean()) / 1.7 ** 2
+    expected = float(energy(frames).mean()) / 1.7**2
     assert interpenetration_score(energy, frames, 1.7) == pytest.approx(expected)
     # twice the size, cone lengths twice as long: the same score at twice the height
     big = InterpenetrationEnergy(f, 2 * v, sigma=0.02, height=0.2)
@@ -324,19 +367,21 @@ def test_penetration_rate_of_a_box_half_inside():
     v, f = merged((big_v, big_f), box(0.2, [0.5, 0.0, 0.0]))  # straddles the +x face
     weights = np.zeros((len(v), 22))
     weights[: len(big_v), J["Spine"]] = 1.0
-    weights[len(big_v):, J["LeftForeArm"]] = 1.0
+    weights[len(big_v) :, J["LeftForeArm"]] = 1.0
     rates = penetration_rate(v, f, weights)
-    assert rates["left_arm"] == pytest.approx(0.5)   # 4 of its 8 corners inside the big box
+    assert rates["left_arm"] == pytest.approx(0.5)  # 4 of its 8 corners inside the big box
     assert math.isnan(rates["right_arm"])
-    assert penetration_rate(v + [[0.0, 0.0, 0.0]], f, weights, {"arm": ["LeftForeArm"]}) == {"arm": 0.5}
+    assert penetration_rate(v + [[0.0, 0.0, 0.0]], f, weights, {"arm": ["LeftForeArm"]}) == {
+        "arm": 0.5
+    }
     with pytest.raises(ValueError, match="unknown joints"):
         penetration_rate(v, f, weights, {"tail": ["Tail"]})
 
 
 # ----------------------------------------------------------------------------- a synthetic character
 def test_character_rest_pose_is_clean_and_forearm_in_torso_is_not():
-    from retarget_lib.evaluation.bench_contact import forearm_in_torso_pose
     from retarget_lib.data.synthetic.characters import make_character
+    from retarget_lib.evaluation.bench_contact import forearm_in_torso_pose
 
     character = make_character("ada")
     energy = InterpenetrationEnergy(character.faces, character.rest_vertices)
@@ -345,7 +390,10 @@ def test_character_rest_pose_is_clean_and_forearm_in_torso_is_not():
     assert float(energy(posed)) > 1e-3 and len(energy.pairs(posed)) > 50
     rates = penetration_rate(posed, character.faces, character.weights)
     assert rates["left_arm"] > 0.1 and rates["right_arm"] == 0.0
-    assert penetration_rate(character.rest_vertices, character.faces, character.weights)["left_arm"] == 0.0
+    assert (
+        penetration_rate(character.rest_vertices, character.faces, character.weights)["left_arm"]
+        == 0.0
+    )
 
 
 def test_bench_eint_rows():
@@ -379,7 +427,9 @@ def test_intersections_of_the_rest_pose_can_be_left_out():
     assert len(ignored.pairs(v)) == 0 and float(ignored(v)) == 0.0
     deeper = v.copy()
     small = np.arange(len(v)) >= len(box(1.0, [0.0, 0.0, 0.0], 3)[0])
-    deeper[small, 0] -= 0.1  # the small box pushed 10 cm further in: its side faces cross the big face elsewhere
+    deeper[small, 0] -= (
+        0.1  # the small box pushed 10 cm further in: its side faces cross the big face elsewhere
+    )
     new = ignored.pairs(deeper)
     assert len(new) > 0
     both = kept.pairs(deeper)

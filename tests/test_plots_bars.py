@@ -11,9 +11,13 @@ from retarget_lib.viz.plots import plot_grouped_barh  # noqa: E402
 
 
 def test_grouped_barh_log_axis_legend_readable_labels_and_zero_marked():
-    values = pd.DataFrame({"measured": [10.0, 0.0, 0.01], "paper": [2.0, np.nan, 1.0]},
-                          index=["copy", "copy-rest", "Eskel+Efoot+Eint w/o w"])
-    ax = plot_grouped_barh(values, log=True, xlabel="error (log scale)", reference=1.0, reference_label="ratio 1")
+    values = pd.DataFrame(
+        {"measured": [10.0, 0.0, 0.01], "paper": [2.0, np.nan, 1.0]},
+        index=["copy", "copy-rest", "Eskel+Efoot+Eint w/o w"],
+    )
+    ax = plot_grouped_barh(
+        values, log=True, xlabel="error (log scale)", reference=1.0, reference_label="ratio 1"
+    )
     assert ax.get_xscale() == "log"
     labels = [t.get_text() for t in ax.get_legend().get_texts()]
     assert labels[:2] == ["measured", "paper"] and "ratio 1" in labels
@@ -48,7 +52,9 @@ def test_grouped_barh_ratio_bars_start_at_the_base():
     lo, hi = ax.get_xlim()
     assert lo < 0.5 and hi > 2.0
     ax.figure.canvas.draw()
-    assert len([t for t in ax.get_xticklabels() if t.get_text()]) >= 3  # 1-2-5 labels on a short log axis
+    assert (
+        len([t for t in ax.get_xticklabels() if t.get_text()]) >= 3
+    )  # 1-2-5 labels on a short log axis
     plt.close(ax.figure)
 
 

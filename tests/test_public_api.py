@@ -4,9 +4,9 @@ the library's own objects (not copies)."""
 from retarget_lib import kinematics, skeleton
 from retarget_lib.core import skeleton as core_skeleton
 from retarget_lib.core.kinematics import forward_kinematics as core_fk
-from retarget_lib.io import load_bvh, save_bvh
-from retarget_lib.io import joint_maps
-from retarget_lib.io.bvh import load_bvh as bvh_load, save_bvh as bvh_save
+from retarget_lib.io import joint_maps, load_bvh, save_bvh
+from retarget_lib.io.bvh import load_bvh as bvh_load
+from retarget_lib.io.bvh import save_bvh as bvh_save
 from retarget_lib.kinematics import forward_kinematics
 from retarget_lib.skeleton import to_canonical22
 

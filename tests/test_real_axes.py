@@ -31,12 +31,21 @@ def _turned(character: Character, motion, turn: np.ndarray):
     inv = turn.T
     skeleton = character.skeleton.copy()
     skeleton.offsets = skeleton.offsets @ inv.T
-    turned = Character(character.name, skeleton, character.rest_vertices @ inv.T, character.faces,
-                       character.weights, character.bulk, dict(character.style))
+    turned = Character(
+        character.name,
+        skeleton,
+        character.rest_vertices @ inv.T,
+        character.faces,
+        character.weights,
+        character.bulk,
+        dict(character.style),
+    )
     q = matrix_to_quat(torch.from_numpy(inv))
     rot = torch.from_numpy(motion.rotations)
     rot = quat_mul(quat_mul(q.expand_as(rot), rot), quat_conjugate(q).expand_as(rot))  # R q R^-1
-    return turned, motion.copy(skeleton=skeleton, rotations=rot.numpy(), root_positions=motion.root_positions @ inv.T)
+    return turned, motion.copy(
+        skeleton=skeleton, rotations=rot.numpy(), root_positions=motion.root_positions @ inv.T
+    )
 
 
 @pytest.fixture(scope="module")
@@ -53,19 +62,24 @@ def test_a_turned_file_is_read_standing_facing_z(gus, tmp_path, case):
     save_glb(Rig.from_character(turned), path, turned_motion)
     rig = load_gltf_rig(path)
     # the rest pose and mesh come back in the library's axes (float32 file)
-    np.testing.assert_allclose(rig.character().rest_joint_positions(), character.rest_joint_positions(), atol=1e-5)
+    np.testing.assert_allclose(
+        rig.character().rest_joint_positions(), character.rest_joint_positions(), atol=1e-5
+    )
     np.testing.assert_allclose(rig.rest_vertices, character.rest_vertices, atol=1e-5)
     # and so does the animation
     read, read_rig = load_gltf_motion(path)
-    np.testing.assert_allclose(read_rig.motion_to_canonical(read).global_positions(), motion.global_positions(),
-                               atol=1e-4)
+    np.testing.assert_allclose(
+        read_rig.motion_to_canonical(read).global_positions(), motion.global_positions(), atol=1e-4
+    )
 
 
 def test_a_file_in_the_librarys_axes_is_not_turned(gus, tmp_path):
     character, motion = gus
     save_glb(Rig.from_character(character), tmp_path / "gus.glb", motion)
     rig = load_gltf_rig(tmp_path / "gus.glb")
-    np.testing.assert_allclose(rig.rest_vertices, character.rest_vertices, atol=1e-6)  # float32 file
+    np.testing.assert_allclose(
+        rig.rest_vertices, character.rest_vertices, atol=1e-6
+    )  # float32 file
 
 
 def test_a_vrm_avatar_facing_minus_z_is_a_target(gus, tmp_path):
@@ -75,12 +89,40 @@ def test_a_vrm_avatar_facing_minus_z_is_a_target(gus, tmp_path):
     save_glb(Rig.from_character(turned), tmp_path / "avatar.glb")
     avatar.write_bytes((tmp_path / "avatar.glb").read_bytes())
     out = tmp_path / "walk_avatar.glb"
-    assert main(["retarget", "--source", str(tmp_path / "avatar.vrm"), "--target", str(avatar), "--method", "copy",
-                 "--out", str(out)]) == 2  # the avatar has no animation: one clear error
+    assert (
+        main(
+            [
+                "retarget",
+                "--source",
+                str(tmp_path / "avatar.vrm"),
+                "--target",
+                str(avatar),
+                "--method",
+                "copy",
+                "--out",
+                str(out),
+            ]
+        )
+        == 2
+    )  # the avatar has no animation: one clear error
     source = tmp_path / "walk.glb"
     save_glb(Rig.from_character(character), source, motion)
-    assert main(["retarget", "--source", str(source), "--target", str(avatar), "--method", "copy",
-                 "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "retarget",
+                "--source",
+                str(source),
+                "--target",
+                str(avatar),
+                "--method",
+                "copy",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     result, rig = load_gltf_motion(out)
     pos = rig.motion_to_canonical(result).global_positions()
     c = rig.character().skeleton
@@ -102,7 +144,10 @@ def test_a_z_up_fbx_character_is_read_standing(gus, tmp_path):
     turned, turned_motion = _turned(character, motion, TURNS["z-up"])
     save_fbx(Rig.from_character(turned), tmp_path / "z_up.fbx", turned_motion)
     rig = fbx.load_fbx_rig(tmp_path / "z_up.fbx")
-    np.testing.assert_allclose(rig.character().rest_joint_positions(), character.rest_joint_positions(), atol=1e-4)
+    np.testing.assert_allclose(
+        rig.character().rest_joint_positions(), character.rest_joint_positions(), atol=1e-4
+    )
     read, read_rig = fbx.load_fbx_motion(tmp_path / "z_up.fbx")
-    np.testing.assert_allclose(read_rig.motion_to_canonical(read).global_positions(), motion.global_positions(),
-                               atol=1e-3)  # float32 keys through two converters
+    np.testing.assert_allclose(
+        read_rig.motion_to_canonical(read).global_positions(), motion.global_positions(), atol=1e-3
+    )  # float32 keys through two converters

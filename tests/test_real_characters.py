@@ -15,9 +15,16 @@ from retarget_lib.cli import main
 from retarget_lib.core.skeleton import CANONICAL22
 from retarget_lib.data.manifest import source
 from retarget_lib.data.sources.cmu import cmu_clip_path
-from retarget_lib.data.sources.real_characters import (PROPORTION_COLUMNS, REAL_DIR, SOURCE_ID, joint_map_path,
-                                                       load_real_character, measure_proportions,
-                                                       real_character_names, real_character_path)
+from retarget_lib.data.sources.real_characters import (
+    PROPORTION_COLUMNS,
+    REAL_DIR,
+    SOURCE_ID,
+    joint_map_path,
+    load_real_character,
+    measure_proportions,
+    real_character_names,
+    real_character_path,
+)
 from retarget_lib.data.status import check_sources
 from retarget_lib.files import DataError, sha256_file
 from retarget_lib.io import load_bvh, save_bvh
@@ -65,7 +72,9 @@ def test_stands_upright_facing_plus_z_on_the_floor(name):
     character = load_real_character(name).character()
     rest = character.skeleton.rest_positions()
     index = character.skeleton.index
-    assert character.rest_vertices[:, 1].min() == pytest.approx(0.0, abs=1e-6)  # float64 after one shift
+    assert character.rest_vertices[:, 1].min() == pytest.approx(
+        0.0, abs=1e-6
+    )  # float64 after one shift
     assert rest[index("Head"), 1] > rest[index("Hips"), 1] > rest[index("LeftFoot"), 1]
     assert rest[index("LeftUpLeg"), 0] > rest[index("RightUpLeg"), 0]  # the character's left at +X
     toes = rest[index("LeftToeBase")] - rest[index("LeftFoot")]
@@ -85,18 +94,31 @@ def test_copy_retarget_of_a_cmu_clip_exits_0_and_reads_back(name, short_source, 
     # (MPFB2's Rigify metarig hangs the clavicles under the joint mapped to Neck; writing the
     # result once looped without end there)
     out = tmp_path / f"{name}.glb"
-    argv = ["retarget", "--source", str(short_source), "--target", str(real_character_path(name)),
-            "--method", "copy", "--out", str(out)]
+    argv = [
+        "retarget",
+        "--source",
+        str(short_source),
+        "--target",
+        str(real_character_path(name)),
+        "--method",
+        "copy",
+        "--out",
+        str(out),
+    ]
     joint_map = joint_map_path(name)
     if joint_map is not None:
         argv += ["--joint-map", str(joint_map)]
     assert main(argv) == 0
-    target = load_real_character(name)  # read back with the target's own map (a written GLB has no VRM table)
+    target = load_real_character(
+        name
+    )  # read back with the target's own map (a written GLB has no VRM table)
     names = {CANONICAL22[c]: target.skeleton.joint_names[j] for j, c in target.joint_map.items()}
     motion, rig = load_gltf_motion(out, mapping=names)
     back = rig.motion_to_canonical(motion)
     assert back.num_frames == 60  # every source frame, at the source's 120 fps
-    soles = back.global_positions()[:, [back.skeleton.index("LeftToeBase"), back.skeleton.index("RightToeBase")], 1]
+    soles = back.global_positions()[
+        :, [back.skeleton.index("LeftToeBase"), back.skeleton.index("RightToeBase")], 1
+    ]
     assert soles.min() > -0.03  # no foot sinks more than 3 cm under the floor (issue 28's bound)
 
 

@@ -6,8 +6,15 @@ import pytest
 from retarget_lib.core.motion import Motion
 from retarget_lib.data.sources.real_characters import load_real_character
 from retarget_lib.data.synthetic.characters import make_character
-from retarget_lib.evaluation.real import (MEASURES, RealClip, _methods, evaluate_real, real_measures, real_table,
-                                         welded)
+from retarget_lib.evaluation.real import (
+    MEASURES,
+    RealClip,
+    _methods,
+    evaluate_real,
+    real_measures,
+    real_table,
+    welded,
+)
 from retarget_lib.methods.retarget import on_the_ground
 
 pytestmark = pytest.mark.data
@@ -33,18 +40,30 @@ def test_a_still_source_held_still_scores_zero_and_a_slide_scores_its_speed(char
     m = real_measures(result, clip, character)
     h = character.skeleton.height()
     assert m["skate_pct_per_s"] == pytest.approx(0.0, abs=1e-9)
-    assert m["under_floor_pct"] == pytest.approx(0.0, abs=1e-6)  # the ground rule puts the soles on y = 0
-    assert m["float_pct"] == pytest.approx(0.0, abs=0.05)  # the toe joints' rest heights differ by < 1 mm
+    assert m["under_floor_pct"] == pytest.approx(
+        0.0, abs=1e-6
+    )  # the ground rule puts the soles on y = 0
+    assert m["float_pct"] == pytest.approx(
+        0.0, abs=0.05
+    )  # the toe joints' rest heights differ by < 1 mm
     slid = result.copy()
     slid.root_positions[:, 0] += 0.3 * np.arange(30) / 30.0  # 0.3 m/s sideways
-    assert real_measures(slid, clip, character)["skate_pct_per_s"] == pytest.approx(100 * 0.3 / h, rel=1e-6)
+    assert real_measures(slid, clip, character)["skate_pct_per_s"] == pytest.approx(
+        100 * 0.3 / h, rel=1e-6
+    )
     sunk = result.copy()
     sunk.root_positions[:, 1] -= 0.05
-    assert real_measures(sunk, clip, character)["under_floor_pct"] == pytest.approx(100 * 0.05 / h, rel=0.02)
+    assert real_measures(sunk, clip, character)["under_floor_pct"] == pytest.approx(
+        100 * 0.05 / h, rel=0.02
+    )
     assert np.isnan(m["hand_gap_pct"])  # no labelled hand contacts
-    assert m["foot_contact_mismatch"] == 0.0  # both stand still: every heel and toe in contact on both
+    assert (
+        m["foot_contact_mismatch"] == 0.0
+    )  # both stand still: every heel and toe in contact on both
     fast = result.copy()
-    fast.root_positions[:, 0] += 0.9 * np.arange(30) / 30.0  # 3 cm a frame, thrice Sec. 3.4's 1 cm: no contact kept
+    fast.root_positions[:, 0] += (
+        0.9 * np.arange(30) / 30.0
+    )  # 3 cm a frame, thrice Sec. 3.4's 1 cm: no contact kept
     assert real_measures(fast, clip, character)["foot_contact_mismatch"] > 0.9
 
 
@@ -66,7 +85,9 @@ def test_arms_pushed_into_the_body_raise_the_penetration(character):
 def test_the_table_has_every_measure_and_identity_is_exact_for_the_rest_compensated_copy():
     source = make_character("ada")
     clip = RealClip("still", _still(source.skeleton, 12), source, None)
-    per_case = evaluate_real(_methods(["copy", "copy-rest"], None), [clip], ["quaternius_male_casual"])
+    per_case = evaluate_real(
+        _methods(["copy", "copy-rest"], None), [clip], ["quaternius_male_casual"]
+    )
     assert list(per_case["method"]) == ["copy", "copy-rest"]
     table = real_table(per_case)
     assert list(table.columns) == list(MEASURES)
@@ -76,9 +97,13 @@ def test_the_table_has_every_measure_and_identity_is_exact_for_the_rest_compensa
 def test_welding_joins_split_vertices_without_moving_the_surface():
     raw = load_real_character("quaternius_male_casual").character()
     joined = welded(raw)
-    assert len(joined.rest_vertices) < len(raw.rest_vertices) / 2  # flat-shaded export: 3-6 copies a vertex
+    assert (
+        len(joined.rest_vertices) < len(raw.rest_vertices) / 2
+    )  # flat-shaded export: 3-6 copies a vertex
     lo, hi = raw.rest_vertices.min(0), raw.rest_vertices.max(0)
-    assert joined.rest_vertices.min(0) == pytest.approx(lo) and joined.rest_vertices.max(0) == pytest.approx(hi)
+    assert joined.rest_vertices.min(0) == pytest.approx(lo) and joined.rest_vertices.max(
+        0
+    ) == pytest.approx(hi)
     assert joined.weights.sum(1) == pytest.approx(np.ones(len(joined.weights)))
 
 
@@ -95,4 +120,6 @@ def test_jitter_is_zero_for_the_source_smoothness_and_symmetric_in_the_log(chara
     for factor, expected in ((1.0, 0.0), (2.0, np.log(2)), (0.5, np.log(2))):
         result = _still(character.skeleton)
         result.root_positions[:, 0] += factor * 0.02 * scale * sway
-        assert real_measures(result, clip, character)["jitter_log_ratio"] == pytest.approx(expected, abs=1e-9)
+        assert real_measures(result, clip, character)["jitter_log_ratio"] == pytest.approx(
+            expected, abs=1e-9
+        )

@@ -1,16 +1,15 @@
 """The residual TDCN and GeoRet variants (ours, not the papers'), their alignment algebra and the
 bone-direction term."""
 
-
 import pytest
 import torch
 
 from retarget_lib.core.kinematics import align_local_rotations, forward_kinematics
 from retarget_lib.core.measures import leg_length
-from retarget_lib.losses import bone_direction_loss
-from retarget_lib.models import build_model
 from retarget_lib.core.rotations import quat_normalize
 from retarget_lib.core.skeleton import CANONICAL22_PARENTS
+from retarget_lib.losses import bone_direction_loss
+from retarget_lib.models import build_model
 
 PARENTS = CANONICAL22_PARENTS
 
@@ -34,6 +33,7 @@ def test_align_turns_each_global_frame_by_its_own_alignment():
     g_before = forward_kinematics(q, off, PARENTS, None).rotations
     g_after = forward_kinematics(align_local_rotations(q, c, PARENTS), off, PARENTS, None).rotations
     from retarget_lib.core.rotations import quat_mul
+
     expected = quat_mul(g_before, c)
     # the same rotation up to the quaternion sign; float64 rounding through 7 levels of products
     dot = (g_after * expected).sum(-1).abs()
@@ -54,7 +54,9 @@ def test_leg_length_matches_the_skeleton():
     from retarget_lib.data.synthetic.characters import make_character
 
     sk = make_character("ada").skeleton
-    assert leg_length(torch.as_tensor(sk.offsets)).item() == pytest.approx(sk.leg_length(), rel=1e-12)
+    assert leg_length(torch.as_tensor(sk.offsets)).item() == pytest.approx(
+        sk.leg_length(), rel=1e-12
+    )
 
 
 def _zero_head(linear):
@@ -93,6 +95,7 @@ def test_residual_georet_starts_at_the_source_rotations():
     with torch.no_grad():
         out = model(feats, off, verts, weights, base=ResidualBase(q, vel))
     from retarget_lib.core.rotations import quat_to_matrix
+
     # same rotation (sign-free comparison as matrices), float32 rounding
     assert torch.allclose(quat_to_matrix(out.rotations), quat_to_matrix(q), atol=1e-5)
     assert torch.allclose(out.root_velocity, vel, atol=1e-6)
@@ -114,7 +117,10 @@ def test_residual_tdcn_on_its_own_skeleton_is_the_identity_for_any_weights():
         q_hat, r_hat = gen.retarget(q, r, off, off)
         q_other, _ = gen.retarget(q, r, off, off * torch.tensor([1.2, 0.9, 1.0]))
     from retarget_lib.core.rotations import quat_to_matrix
+
     # float32 products of a few unit quaternions: rounding only
     assert torch.allclose(quat_to_matrix(q_hat), quat_to_matrix(q), atol=1e-4)
     assert torch.allclose(r_hat, r, atol=1e-5)
-    assert not torch.allclose(quat_to_matrix(q_other), quat_to_matrix(q), atol=1e-2)  # another target: a change
+    assert not torch.allclose(
+        quat_to_matrix(q_other), quat_to_matrix(q), atol=1e-2
+    )  # another target: a change

@@ -18,9 +18,20 @@ def _entry():
 
 
 def _write(tmp_path, checkpoints=None, frame=None):
-    frame = frame if frame is not None else pd.DataFrame({"method": ["ours", "copy"], "long": [0.123456789, 2.0]})
-    return write_result(frame, tmp_path, "t", command="cmd", checkpoints=checkpoints or {"ours": _entry()},
-                        profile="fast", seconds=1.5)
+    frame = (
+        frame
+        if frame is not None
+        else pd.DataFrame({"method": ["ours", "copy"], "long": [0.123456789, 2.0]})
+    )
+    return write_result(
+        frame,
+        tmp_path,
+        "t",
+        command="cmd",
+        checkpoints=checkpoints or {"ours": _entry()},
+        profile="fast",
+        seconds=1.5,
+    )
 
 
 def test_a_written_result_reads_back_with_its_provenance_and_is_current(tmp_path):
@@ -29,8 +40,15 @@ def test_a_written_result_reads_back_with_its_provenance_and_is_current(tmp_path
     assert stored.stale == []
     assert stored.frame["long"].tolist() == [0.1234568, 2.0]  # 7 significant digits kept
     p = stored.provenance
-    assert p["command"] == "cmd" and p["profile"] == "fast" and p["checkpoints"]["ours"]["id"] == "tdcn-ours-fast"
-    assert "retarget_lib/core/kinematics.py" in p["code_files"] and "retarget_lib/cli.py" not in p["code_files"]
+    assert (
+        p["command"] == "cmd"
+        and p["profile"] == "fast"
+        and p["checkpoints"]["ours"]["id"] == "tdcn-ours-fast"
+    )
+    assert (
+        "retarget_lib/core/kinematics.py" in p["code_files"]
+        and "retarget_lib/cli.py" not in p["code_files"]
+    )
     assert "/" not in p["machine"] and "STALE" not in stored.report()
 
 
@@ -51,7 +69,9 @@ def test_a_retrained_checkpoint_an_uncovered_row_and_changed_code_make_it_stale(
     prov = json.loads(prov_path.read_text())
     prov["code"] = "f" * 64  # as if the code that computed it had changed
     prov_path.write_text(json.dumps(prov))
-    stored = load_result("t", rows={"ours": ours, "A3": table_checkpoints("tdcn")["A3"]}, results_dir=tmp_path)
+    stored = load_result(
+        "t", rows={"ours": ours, "A3": table_checkpoints("tdcn")["A3"]}, results_dir=tmp_path
+    )
     reasons = " | ".join(stored.stale)
     assert len(stored.stale) == 3, reasons
     assert "'ours': checkpoint tdcn-ours-fast was retrained" in reasons
@@ -65,7 +85,9 @@ def test_the_code_fingerprint_ignores_docstrings_and_comments_but_not_code(tmp_p
     module = tmp_path / "m.py"
     module.write_text('"""Doc."""\n\ndef f(x):\n    """Doc."""\n    return x + 1  # one\n')
     before = results.code_fingerprint(["m.py"])
-    module.write_text('"""Other words."""\n\ndef f(x):\n    """More."""\n    # a comment\n    return x + 1\n')
+    module.write_text(
+        '"""Other words."""\n\ndef f(x):\n    """More."""\n    # a comment\n    return x + 1\n'
+    )
     assert results.code_fingerprint(["m.py"]) == before
     module.write_text('"""Doc."""\n\ndef f(x):\n    return x + 2\n')
     assert results.code_fingerprint(["m.py"]) != before
@@ -75,19 +97,29 @@ def test_the_code_fingerprint_ignores_docstrings_and_comments_but_not_code(tmp_p
 
 def test_compare_with_stored_applies_the_tolerance_case_by_case():
     keys = ["method", "clip"]
-    stored = pd.DataFrame({"method": ["a", "a", "b"], "clip": ["x", "y", "x"], "long": [1.0, 2.0, np.nan]})
-    now = pd.DataFrame({"method": ["a", "a", "b"], "clip": ["x", "y", "x"], "long": [1.0005, 2.01, np.nan]})
-    out = compare_with_stored(now, stored, keys, ["long"], lambda m, metric, v: 1e-3 * max(abs(v), 1.0))
+    stored = pd.DataFrame(
+        {"method": ["a", "a", "b"], "clip": ["x", "y", "x"], "long": [1.0, 2.0, np.nan]}
+    )
+    now = pd.DataFrame(
+        {"method": ["a", "a", "b"], "clip": ["x", "y", "x"], "long": [1.0005, 2.01, np.nan]}
+    )
+    out = compare_with_stored(
+        now, stored, keys, ["long"], lambda m, metric, v: 1e-3 * max(abs(v), 1.0)
+    )
     # 1.0005 within 1e-3 of 1.0; 2.01 is 0.01 from 2.0, over its 2e-3; NaN beside NaN reproduces
     assert out["reproduces"].tolist() == [True, False, True]
-    assert out.loc[1, "tolerance"] == pytest.approx(2e-3) and out.loc[1, "abs diff"] == pytest.approx(0.01)
+    assert out.loc[1, "tolerance"] == pytest.approx(2e-3) and out.loc[
+        1, "abs diff"
+    ] == pytest.approx(0.01)
     with pytest.raises(ValueError, match="without stored numbers"):
         compare_with_stored(now.assign(clip="z"), stored, keys, ["long"], lambda *a: 1.0)
 
 
 def test_table4_rerun_tolerance_is_relative_with_a_floor():
     assert rerun_tolerance("ours", "long", 70.0) == pytest.approx(0.07)  # 1e-3 relative
-    assert rerun_tolerance("copy-rest", "short", 0.0) == pytest.approx(1e-6)  # 1e-3 x the 1e-3 floor
+    assert rerun_tolerance("copy-rest", "short", 0.0) == pytest.approx(
+        1e-6
+    )  # 1e-3 x the 1e-3 floor
 
 
 @pytest.mark.data
@@ -95,12 +127,20 @@ def test_the_stored_results_cover_the_shipped_checkpoints():
     # a retrained checkpoint or a new row without stored numbers must be followed by `make tables`;
     # a code change is only flagged (the notebooks' live re-runs check that the numbers still hold)
     from retarget_lib.evaluation.contact import stored_contact_results
-    from retarget_lib.evaluation.contact_mixamo_convention import stored_mixamo_convention_contact_results
+    from retarget_lib.evaluation.contact_mixamo_convention import (
+        stored_mixamo_convention_contact_results,
+    )
     from retarget_lib.evaluation.real import stored_real_results
     from retarget_lib.evaluation.tdcn import stored_table4
 
-    for stored in (stored_table4("table4_cases"), stored_table4("table4_cmu_cases"),
-                   stored_table4("table4_windowed_cases"), stored_table4("table4_mixamo_convention_cases"),
-                   stored_contact_results(), stored_mixamo_convention_contact_results(), stored_real_results()):
+    for stored in (
+        stored_table4("table4_cases"),
+        stored_table4("table4_cmu_cases"),
+        stored_table4("table4_windowed_cases"),
+        stored_table4("table4_mixamo_convention_cases"),
+        stored_contact_results(),
+        stored_mixamo_convention_contact_results(),
+        stored_real_results(),
+    ):
         about_checkpoints = [why for why in stored.stale if "library code" not in why]
         assert about_checkpoints == [], (stored.name, about_checkpoints)

@@ -2,15 +2,15 @@
 
 import numpy as np
 import pytest
+from skeletons import assert_same_up_to_floor_shift
 
 from retarget_lib.cli import main
-from retarget_lib.io.joint_maps import to_canonical22
 from retarget_lib.core.transfer import retarget_ground_truth
 from retarget_lib.data.sources.cmu import cmu_clip_path
 from retarget_lib.io import load_bvh, save_bvh
+from retarget_lib.io.joint_maps import to_canonical22
 from retarget_lib.methods.copy import copy_rotations
 from retarget_lib.methods.retarget import resolve_target
-from skeletons import assert_same_up_to_floor_shift
 
 pytestmark = pytest.mark.data  # CMU clips as sources and targets (`retarget data build`)
 
@@ -27,13 +27,30 @@ def short_source(tmp_path_factory):
 # 6-decimal text precision). Biovision target: its missing Spine2 is merged into the chest, which
 # moves neck, head and arms (measured up to 1.3 cm on 01_01 with copy) when the source bends at Spine2.
 @pytest.mark.parametrize("target_name,tol", [("01_03.bvh", 2e-4), ("Boxing_Toes.bvh", 2e-2)])
-@pytest.mark.parametrize("method,reference", [("copy-rest", retarget_ground_truth), ("copy", copy_rotations)])
-def test_bvh_target_keeps_its_names_units_and_matches_in_memory_result(short_source, tmp_path, method, reference,
-                                                                        target_name, tol):
+@pytest.mark.parametrize(
+    "method,reference", [("copy-rest", retarget_ground_truth), ("copy", copy_rotations)]
+)
+def test_bvh_target_keeps_its_names_units_and_matches_in_memory_result(
+    short_source, tmp_path, method, reference, target_name, tol
+):
     target = cmu_clip_path(target_name)
     out = tmp_path / "out.bvh"
-    assert main(["retarget", "--source", str(short_source), "--target", str(target),
-                 "--method", method, "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "retarget",
+                "--source",
+                str(short_source),
+                "--target",
+                str(target),
+                "--method",
+                method,
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     written, target_raw = load_bvh(out), load_bvh(target)
     assert written.skeleton.joint_names == target_raw.skeleton.joint_names
     assert written.meta["unit"] == target_raw.meta["unit"]
@@ -43,34 +60,125 @@ def test_bvh_target_keeps_its_names_units_and_matches_in_memory_result(short_sou
     assert written.fps == 120 and written.num_frames == 240
     src = to_canonical22(load_bvh(short_source)).resample(30.0)
     expected = reference(src, resolve_target(str(target))[0]).global_positions()
-    assert_same_up_to_floor_shift(to_canonical22(written).resample(30.0).global_positions(), expected, atol=tol)
+    assert_same_up_to_floor_shift(
+        to_canonical22(written).resample(30.0).global_positions(), expected, atol=tol
+    )
 
 
 def test_character_target_and_errors(short_source, tmp_path, capsys):
     out = tmp_path / "kato.bvh"
-    assert main(["retarget", "--source", str(short_source), "--target", "kato", "--method", "copy",
-                 "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "retarget",
+                "--source",
+                str(short_source),
+                "--target",
+                "kato",
+                "--method",
+                "copy",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     assert load_bvh(out).skeleton.num_joints == 22
-    assert main(["retarget", "--source", str(short_source), "--target", "nobody", "--method", "copy",
-                 "--out", str(out)]) == 2
-    assert "is neither a file (.bvh, .glb, .gltf, .vrm, .fbx, .npz) nor a character" in capsys.readouterr().err
+    assert (
+        main(
+            [
+                "retarget",
+                "--source",
+                str(short_source),
+                "--target",
+                "nobody",
+                "--method",
+                "copy",
+                "--out",
+                str(out),
+            ]
+        )
+        == 2
+    )
+    assert (
+        "is neither a file (.bvh, .glb, .gltf, .vrm, .fbx, .npz) nor a character"
+        in capsys.readouterr().err
+    )
     bad = tmp_path / "bad.bvh"
     bad.write_text("HIERARCHY\nROOT Hips\n{\n")
-    assert main(["retarget", "--source", str(bad), "--target", "kato", "--method", "copy",
-                 "--out", str(out)]) == 2
+    assert (
+        main(
+            [
+                "retarget",
+                "--source",
+                str(bad),
+                "--target",
+                "kato",
+                "--method",
+                "copy",
+                "--out",
+                str(out),
+            ]
+        )
+        == 2
+    )
     assert "line" in capsys.readouterr().err
 
 
 def test_tdcn_method_uses_the_shipped_checkpoint(short_source, tmp_path, capsys):
     out = tmp_path / "tdcn.bvh"
-    assert main(["retarget", "--source", str(short_source), "--target", str(cmu_clip_path("Boxing_Toes.bvh")),
-                 "--method", "tdcn", "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "retarget",
+                "--source",
+                str(short_source),
+                "--target",
+                str(cmu_clip_path("Boxing_Toes.bvh")),
+                "--method",
+                "tdcn",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     written = load_bvh(out)
     assert written.num_frames == 240 and np.isfinite(written.rotations).all()
-    assert main(["retarget", "--source", str(short_source), "--target", "kato", "--method", "nkn",
-                 "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "retarget",
+                "--source",
+                str(short_source),
+                "--target",
+                "kato",
+                "--method",
+                "nkn",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     assert load_bvh(out).num_frames == 240
     # a TDCN checkpoint given to --method nkn is refused by name
-    assert main(["retarget", "--source", str(short_source), "--target", "kato", "--method", "nkn",
-                 "--checkpoint", "tdcn-ours-fast", "--out", str(out)]) == 2
+    assert (
+        main(
+            [
+                "retarget",
+                "--source",
+                str(short_source),
+                "--target",
+                "kato",
+                "--method",
+                "nkn",
+                "--checkpoint",
+                "tdcn-ours-fast",
+                "--out",
+                str(out),
+            ]
+        )
+        == 2
+    )
     assert "not a nkn one" in capsys.readouterr().err

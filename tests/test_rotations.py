@@ -19,9 +19,11 @@ def quats():
 
 def axis_matrix(axis, a):
     c, s = math.cos(a), math.sin(a)
-    return {"X": np.array([[1, 0, 0], [0, c, -s], [0, s, c]]),
-            "Y": np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]]),
-            "Z": np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])}[axis]
+    return {
+        "X": np.array([[1, 0, 0], [0, c, -s], [0, s, c]]),
+        "Y": np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]]),
+        "Z": np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]]),
+    }[axis]
 
 
 def same_rotation(a, b, tol=1e-10):
@@ -32,7 +34,11 @@ def same_rotation(a, b, tol=1e-10):
 def test_euler_matches_hand_built_matrix_product(order):
     angles = np.array([0.3, -1.1, 2.4])
     q = R.quat_from_euler(torch.tensor(angles, dtype=torch.float64), order)
-    expected = axis_matrix(order[0], angles[0]) @ axis_matrix(order[1], angles[1]) @ axis_matrix(order[2], angles[2])
+    expected = (
+        axis_matrix(order[0], angles[0])
+        @ axis_matrix(order[1], angles[1])
+        @ axis_matrix(order[2], angles[2])
+    )
     np.testing.assert_allclose(R.quat_to_matrix(q).numpy(), expected, atol=1e-12)
 
 
@@ -60,7 +66,9 @@ def test_matrix_round_trip_and_orthonormal(quats):
 def test_mul_matches_matrix_product_and_inverse(quats):
     a, b = quats[:250], quats[250:]
     ab = R.quat_mul(a, b)
-    assert torch.allclose(R.quat_to_matrix(ab), R.quat_to_matrix(a) @ R.quat_to_matrix(b), atol=1e-12)
+    assert torch.allclose(
+        R.quat_to_matrix(ab), R.quat_to_matrix(a) @ R.quat_to_matrix(b), atol=1e-12
+    )
     ident = R.quat_mul(a, R.quat_inverse(a))
     assert same_rotation(ident, R.quat_identity((250,), torch.float64), 1e-12)
 
@@ -74,8 +82,11 @@ def test_rotate_matches_matrix(quats):
 def test_axis_angle_round_trip_and_known_value(quats):
     assert same_rotation(R.quat_from_axis_angle(R.quat_to_axis_angle(quats)), quats, 1e-12)
     q = R.quat_from_axis_angle(torch.tensor([0.0, 0.0, math.pi / 2], dtype=torch.float64))
-    assert torch.allclose(R.quat_rotate(q, torch.tensor([1.0, 0, 0], dtype=torch.float64)),
-                          torch.tensor([0.0, 1.0, 0.0], dtype=torch.float64), atol=1e-12)
+    assert torch.allclose(
+        R.quat_rotate(q, torch.tensor([1.0, 0, 0], dtype=torch.float64)),
+        torch.tensor([0.0, 1.0, 0.0], dtype=torch.float64),
+        atol=1e-12,
+    )
     # smooth at zero: the gradient exists and is finite
     aa = torch.zeros(3, dtype=torch.float64, requires_grad=True)
     R.quat_from_axis_angle(aa).sum().backward()
@@ -87,8 +98,9 @@ def test_6d_round_trip(quats):
 
 
 def test_angle_known_values():
-    q = R.quat_from_axis_angle(torch.tensor([[0.0, 0.0, 0.0], [0.0, 1.0, 0.0], [3.0, 0.0, 0.0]],
-                                            dtype=torch.float64))
+    q = R.quat_from_axis_angle(
+        torch.tensor([[0.0, 0.0, 0.0], [0.0, 1.0, 0.0], [3.0, 0.0, 0.0]], dtype=torch.float64)
+    )
     assert torch.allclose(R.quat_angle(q), torch.tensor([0.0, 1.0, 3.0], dtype=torch.float64))
     assert torch.allclose(R.quat_angle(-q), R.quat_angle(q))
 
@@ -115,7 +127,9 @@ def test_between_and_swing_twist():
     qs = R.quat_normalize(torch.randn(100, 4, dtype=torch.float64))
     swing, twist = R.quat_swing_twist(qs, axis)
     assert same_rotation(R.quat_mul(swing, twist), qs, 1e-12)
-    assert torch.allclose(R.quat_rotate(twist, axis.expand(100, 3)), axis.expand(100, 3), atol=1e-12)
+    assert torch.allclose(
+        R.quat_rotate(twist, axis.expand(100, 3)), axis.expand(100, 3), atol=1e-12
+    )
 
 
 def test_float32_supported():

@@ -75,7 +75,9 @@ def test_missing_keys_are_named(tmp_path, character):
 
 
 def test_wrong_shape(tmp_path, character):
-    path = _write(tmp_path, character, skinning_weights=np.full((character.num_vertices, 24), 1 / 24))
+    path = _write(
+        tmp_path, character, skinning_weights=np.full((character.num_vertices, 24), 1 / 24)
+    )
     with pytest.raises(ValueError, match=r"skinning_weights must have shape \(\d+, 22\)"):
         load_shape_npz(path)
 
@@ -98,10 +100,13 @@ def test_float32_rounded_weights_are_renormalised_once_on_stderr(tmp_path, chara
     assert err.count("\n") == 1 and "renormalised 2 skinning-weight rows" in err
 
 
-@pytest.mark.parametrize("bad, message", [
-    ("negative", r"must be >= 0; rows \[4\] \(1 in all\)"),
-    ("zero", r"rows \[4\] \(1 in all\) are all zero"),
-])
+@pytest.mark.parametrize(
+    "bad, message",
+    [
+        ("negative", r"must be >= 0; rows \[4\] \(1 in all\)"),
+        ("zero", r"rows \[4\] \(1 in all\) are all zero"),
+    ],
+)
 def test_negative_or_empty_weight_rows_stay_errors(tmp_path, character, bad, message):
     w = character.weights.copy()
     w[4] = 0.0

@@ -8,7 +8,12 @@ import torch
 import trimesh
 
 from retarget_lib.core.kinematics import forward_kinematics
-from retarget_lib.core.rotations import quat_from_axis_angle, quat_identity, quat_normalize, quat_rotate
+from retarget_lib.core.rotations import (
+    quat_from_axis_angle,
+    quat_identity,
+    quat_normalize,
+    quat_rotate,
+)
 from retarget_lib.core.skinning import linear_blend_skinning, subsample_mesh
 from retarget_lib.data.synthetic.characters import make_character
 
@@ -25,7 +30,9 @@ def _random_mesh(nv=50, nj=5, seed=0, dtype=torch.float64):
 @pytest.mark.parametrize("dtype", [torch.float32, torch.float64])
 def test_identity_pose_returns_rest_vertices(dtype):
     verts, weights, rest_joints = _random_mesh(dtype=dtype)
-    out = linear_blend_skinning(verts, weights, rest_joints, quat_identity((5,), dtype), rest_joints)
+    out = linear_blend_skinning(
+        verts, weights, rest_joints, quat_identity((5,), dtype), rest_joints
+    )
     assert out.dtype == dtype
     torch.testing.assert_close(out, verts)
 
@@ -48,8 +55,12 @@ def test_two_joint_half_blend_by_hand():
     rest_joints = torch.tensor([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]], dtype=torch.float64)
     verts = torch.tensor([[2.0, 0.0, 0.0]], dtype=torch.float64)
     weights = torch.tensor([[0.5, 0.5]], dtype=torch.float64)
-    rot = torch.stack((quat_identity((), torch.float64),
-                       quat_from_axis_angle(torch.tensor([0.0, 0.0, math.pi / 2], dtype=torch.float64))))
+    rot = torch.stack(
+        (
+            quat_identity((), torch.float64),
+            quat_from_axis_angle(torch.tensor([0.0, 0.0, math.pi / 2], dtype=torch.float64)),
+        )
+    )
     pos = torch.tensor([[0.0, 0.0, 0.0], [1.0, 1.0, 0.0]], dtype=torch.float64)
     out = linear_blend_skinning(verts, weights, rest_joints, rot, pos)
     # joint 0 keeps (2, 0, 0); joint 1 maps it to (1, 1, 0) + Rz90 (1, 0, 0) = (1, 2, 0)
@@ -72,7 +83,9 @@ def test_matches_forward_kinematics_on_joint_positions():
     offsets = torch.tensor([[0.0, 1.0, 0.0], [0.0, 0.5, 0.0], [0.3, 0.0, 0.0]], dtype=torch.float64)
     parents = (-1, 0, 1)
     rest = torch.tensor([[0.0, 1.0, 0.0], [0.0, 1.5, 0.0], [0.3, 1.5, 0.0]], dtype=torch.float64)
-    rot = quat_normalize(torch.randn(4, 3, 4, generator=torch.Generator().manual_seed(2), dtype=torch.float64))
+    rot = quat_normalize(
+        torch.randn(4, 3, 4, generator=torch.Generator().manual_seed(2), dtype=torch.float64)
+    )
     pos, grot = forward_kinematics(rot, offsets, parents, torch.zeros(4, 3, dtype=torch.float64))
     verts = rest[[2, 2]]  # two vertices on joint 2 ...
     weights = torch.eye(3, dtype=torch.float64)[[1, 2]]  # ... bound to joint 1 and to joint 2
@@ -89,13 +102,17 @@ def test_gradcheck_float64():
     verts.requires_grad_()
     weights.requires_grad_()
     assert torch.autograd.gradcheck(
-        lambda v, w, r, p: linear_blend_skinning(v, w, rest_joints, r, p), (verts, weights, rot, pos))
+        lambda v, w, r, p: linear_blend_skinning(v, w, rest_joints, r, p),
+        (verts, weights, rot, pos),
+    )
 
 
 def test_shape_mismatch_raises():
     verts, weights, rest_joints = _random_mesh()
     with pytest.raises(ValueError, match="rest_vertices"):
-        linear_blend_skinning(verts[:10], weights, rest_joints, quat_identity((5,), torch.float64), rest_joints)
+        linear_blend_skinning(
+            verts[:10], weights, rest_joints, quat_identity((5,), torch.float64), rest_joints
+        )
 
 
 def test_subsample_mesh_keeps_a_closed_skinned_surface():
@@ -127,7 +144,10 @@ def test_a_decimated_character_keeps_its_skeleton_and_leaves_the_original_alone(
     np.testing.assert_array_equal(small.skeleton.offsets, character.skeleton.offsets)
     np.testing.assert_allclose(small.weights.sum(1), 1.0)
     assert small.faces.max() < small.num_vertices
-    lo, hi = character.rest_vertices.min(0), character.rest_vertices.max(0)  # the same body, smaller
+    lo, hi = (
+        character.rest_vertices.min(0),
+        character.rest_vertices.max(0),
+    )  # the same body, smaller
     np.testing.assert_allclose(small.rest_vertices.min(0), lo, atol=0.03)
     np.testing.assert_allclose(small.rest_vertices.max(0), hi, atol=0.03)
     assert character.num_vertices == len(character.weights) > 2000  # untouched

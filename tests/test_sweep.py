@@ -12,14 +12,38 @@ from retarget_lib.training import sweep
 pytestmark = [pytest.mark.data, pytest.mark.slow]
 
 ROWS = ["ours", "A3"]
-TINY = ["train.steps=2", "train.checkpoint_every=1", "model.channels=16", "model.disc_channels=16", "train.batch=4"]
+TINY = [
+    "train.steps=2",
+    "train.checkpoint_every=1",
+    "model.channels=16",
+    "model.disc_channels=16",
+    "train.batch=4",
+]
 
 
 @pytest.fixture(scope="module")
 def swept(tmp_path_factory):
     out = tmp_path_factory.mktemp("sweep")
-    assert main(["sweep", "--table", "tdcn", "--out", str(out), "--rows", *ROWS, "--cluster", "local",
-                 "--device", "cpu", "--wait", *TINY]) == 0
+    assert (
+        main(
+            [
+                "sweep",
+                "--table",
+                "tdcn",
+                "--out",
+                str(out),
+                "--rows",
+                *ROWS,
+                "--cluster",
+                "local",
+                "--device",
+                "cpu",
+                "--wait",
+                *TINY,
+            ]
+        )
+        == 0
+    )
     return out
 
 
@@ -42,7 +66,9 @@ def test_evaluate_takes_the_finished_rows(swept):
     assert finished == {r: swept / r / "final.pt" for r in ROWS}
     methods, _ = tdcn_methods(runs=finished)
     assert {"ours", "A3", "copy"} <= set(methods)
-    assert methods["ours"].args[0].config["channels"] == 16  # the swept, tiny generator, not the shipped one
+    assert (
+        methods["ours"].args[0].config["channels"] == 16
+    )  # the swept, tiny generator, not the shipped one
 
 
 def test_bad_sweep_requests_exit_2_with_one_line(tmp_path, capsys):

@@ -27,16 +27,31 @@ from retarget_lib.training.tdcn_data import WindowSampler, training_clips
 pytestmark = pytest.mark.data  # trains on the synthetic dataset (`retarget data build`)
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
-ROWS = {"tdcn_baseline": "Baseline", "tdcn_baseline_dense": "Baseline-dense",
-        "tdcn_baseline_dilated": "Baseline-dilated", "tdcn_baseline_height": "Baseline-height",
-        "tdcn_paper": "ours", "tdcn_a1_dense": "A1", "tdcn_a2_unbalanced": "A2", "tdcn_a3_no_height": "A3",
-        "tdcn_a4_disc81": "A4", "tdcn_a5_causal": "A5", "tdcn_ours_residual": "ours-residual"}
+ROWS = {
+    "tdcn_baseline": "Baseline",
+    "tdcn_baseline_dense": "Baseline-dense",
+    "tdcn_baseline_dilated": "Baseline-dilated",
+    "tdcn_baseline_height": "Baseline-height",
+    "tdcn_paper": "ours",
+    "tdcn_a1_dense": "A1",
+    "tdcn_a2_unbalanced": "A2",
+    "tdcn_a3_no_height": "A3",
+    "tdcn_a4_disc81": "A4",
+    "tdcn_a5_causal": "A5",
+    "tdcn_ours_residual": "ours-residual",
+}
 #: configs that train a row's model another way (loss scale, data profile): stem -> the row's model
-VARIANTS = {"tdcn_paper_code_scale": "ours", "tdcn_ours_mixamo_convention": "ours",
-            "tdcn_ours_mixamo_convention_long": "ours",
-            "tdcn_ours_residual_mixed": "ours-residual",
-            **{f"{stem}_mixamo_convention": row for stem, row in ROWS.items()
-               if stem not in ("tdcn_paper", "tdcn_ours_residual")}}
+VARIANTS = {
+    "tdcn_paper_code_scale": "ours",
+    "tdcn_ours_mixamo_convention": "ours",
+    "tdcn_ours_mixamo_convention_long": "ours",
+    "tdcn_ours_residual_mixed": "ours-residual",
+    **{
+        f"{stem}_mixamo_convention": row
+        for stem, row in ROWS.items()
+        if stem not in ("tdcn_paper", "tdcn_ours_residual")
+    },
+}
 # train.compile=false: these tiny runs test the training mechanics; the compiled GRU decoder is tested
 # against the eager one in test_models.py (compiling it costs ~1 min of CPU per config)
 TINY = ["model.channels=16", "model.disc_channels=16", "train.batch=4", "train.compile=false"]
@@ -59,37 +74,73 @@ def _one_thread():
 def test_paper_settings_and_every_table4_row_config():
     paper = load_config(CONFIGS / "tdcn_paper.yaml", profile="paper")
     assert paper["model"]["channels"] == 1024 and paper["model"]["dropout"] == 0.1
-    assert paper["train"]["batch"] == 128 and paper["train"]["lr"] == 1e-4 and paper["train"]["betas"] == [0.5, 0.999]
-    assert paper["data"] == {"window": 81, "same_fraction": 0.5, "scale_range": [0.5, 1.5], "scale_targets": True,
-                             "mirror": False, "random_yaw": False, "rest_jitter_deg": 0.0,
-                             "source": "synthetic"}
-    assert {k: paper["loss"][k] for k in ("lambda_t", "lambda_h", "lambda_a", "lambda_r", "lambda_o", "lambda_g")} \
-        == {"lambda_t": 10, "lambda_h": 10, "lambda_a": 1, "lambda_r": 0.1, "lambda_o": 1, "lambda_g": 5}
+    assert (
+        paper["train"]["batch"] == 128
+        and paper["train"]["lr"] == 1e-4
+        and paper["train"]["betas"] == [0.5, 0.999]
+    )
+    assert paper["data"] == {
+        "window": 81,
+        "same_fraction": 0.5,
+        "scale_range": [0.5, 1.5],
+        "scale_targets": True,
+        "mirror": False,
+        "random_yaw": False,
+        "rest_jitter_deg": 0.0,
+        "source": "synthetic",
+    }
+    assert {
+        k: paper["loss"][k]
+        for k in ("lambda_t", "lambda_h", "lambda_a", "lambda_r", "lambda_o", "lambda_g")
+    } == {
+        "lambda_t": 10,
+        "lambda_h": 10,
+        "lambda_a": 1,
+        "lambda_r": 0.1,
+        "lambda_o": 1,
+        "lambda_g": 5,
+    }
     assert sorted(p.stem for p in CONFIGS.glob("tdcn_*.yaml")) == sorted({**ROWS, **VARIANTS})
     for stem, row in {**ROWS, **VARIANTS}.items():
         fast = load_config(CONFIGS / f"{stem}.yaml", profile="fast")
         assert fast["model"]["row"] == row and (stem in VARIANTS or fast["name"] == row)
         kind = "nkn" if row.startswith("Baseline") else "tdcn"
         assert fast["model"]["channels"] == PROFILE_WIDTHS["fast"][kind]
-        assert load_config(CONFIGS / f"{stem}.yaml", profile="paper")["model"]["channels"] \
+        assert (
+            load_config(CONFIGS / f"{stem}.yaml", profile="paper")["model"]["channels"]
             == PROFILE_WIDTHS["paper"][kind]
+        )
         run = RetargetTraining(config(stem))
         assert isinstance(run.generator, NKNGenerator if kind == "nkn" else TDCNGenerator)
         assert run.generator.config["row"] == row
         assert run.gan == ("sigmoid_ce" if kind == "nkn" else "lsgan")
     assert config("tdcn_a3_no_height")["loss"]["lambda_h"] == 0
-    for stem in (s for s in VARIANTS if s.endswith("_mixamo_convention")):  # each row as the papers train it
-        mc, own = config(stem), config(stem.removesuffix("_mixamo_convention").replace("tdcn_ours", "tdcn_paper"))
-        assert mc["data"].pop("source") == "mixamo-convention" and own["data"].pop("source") == "synthetic"
+    for stem in (
+        s for s in VARIANTS if s.endswith("_mixamo_convention")
+    ):  # each row as the papers train it
+        mc, own = (
+            config(stem),
+            config(stem.removesuffix("_mixamo_convention").replace("tdcn_ours", "tdcn_paper")),
+        )
+        assert (
+            mc["data"].pop("source") == "mixamo-convention"
+            and own["data"].pop("source") == "synthetic"
+        )
         assert (mc["loss"].pop("reduction"), mc["loss"].pop("standardize")) == ("frame_sum", True)
-        assert (mc["data"], mc["loss"], mc["model"]) == (own["data"], {k: v for k, v in own["loss"].items()
-                                                         if k not in ("reduction", "standardize")}, own["model"])
+        assert (mc["data"], mc["loss"], mc["model"]) == (
+            own["data"],
+            {k: v for k, v in own["loss"].items() if k not in ("reduction", "standardize")},
+            own["model"],
+        )
     # the 10k-step row: the Mixamo-convention "ours" trained five times longer, nothing else changed
-    long, short = (load_config(CONFIGS / f"{s}.yaml", profile="fast")
-                   for s in ("tdcn_ours_mixamo_convention_long", "tdcn_ours_mixamo_convention"))
+    long, short = (
+        load_config(CONFIGS / f"{s}.yaml", profile="fast")
+        for s in ("tdcn_ours_mixamo_convention_long", "tdcn_ours_mixamo_convention")
+    )
     assert (long["train"].pop("steps"), short["train"].pop("steps")) == (10000, 2000)
-    assert {k: v for k, v in long.items() if k not in ("name", "config_path")} \
-        == {k: v for k, v in short.items() if k not in ("name", "config_path")}
+    assert {k: v for k, v in long.items() if k not in ("name", "config_path")} == {
+        k: v for k, v in short.items() if k not in ("name", "config_path")
+    }
     assert config("tdcn_a2_unbalanced")["data"]["scale_range"] is None
     assert RetargetTraining(config("tdcn_a4_disc81")).discriminator.receptive_field == 81
 
@@ -106,14 +157,18 @@ def test_config_contradicting_its_row_is_refused():
 @pytest.mark.parametrize("stem", ["tdcn_paper", "tdcn_baseline_height"])
 def test_training_steps_are_finite_and_update_both_networks(stem):
     run = RetargetTraining(config(stem))
-    before = {name: [p.detach().clone() for p in m.parameters()]
-              for name, m in (("G", run.generator), ("D", run.discriminator))}
+    before = {
+        name: [p.detach().clone() for p in m.parameters()]
+        for name, m in (("G", run.generator), ("D", run.discriminator))
+    }
     for i in range(2):
         log = run.step(i)
         assert list(log) == TERMS
         assert all(np.isfinite(v) for v in log.values()), log
     for name, m in (("G", run.generator), ("D", run.discriminator)):
-        unchanged = [i for i, (a, b) in enumerate(zip(before[name], m.parameters())) if torch.equal(a, b)]
+        unchanged = [
+            i for i, (a, b) in enumerate(zip(before[name], m.parameters())) if torch.equal(a, b)
+        ]
         assert not unchanged, f"{name} parameters {unchanged} did not change"
         assert all(p.requires_grad for p in m.parameters())
 
@@ -121,7 +176,9 @@ def test_training_steps_are_finite_and_update_both_networks(stem):
 def test_sampler_pairs_scales_and_centring():
     clips = training_clips()
     split = tdcn_split()
-    assert clips.characters == split.train_characters and len(clips.clip_names) == len(split.train_motions)
+    assert clips.characters == split.train_characters and len(clips.clip_names) == len(
+        split.train_motions
+    )
     sampler = WindowSampler(clips, window=81)
     b = sampler.sample(2000, torch.Generator().manual_seed(0))
     assert b.rotations.shape == b.real_rotations.shape == (2000, 81, 22, 4)
@@ -129,35 +186,55 @@ def test_sampler_pairs_scales_and_centring():
     assert torch.equal(b.same_character, b.source == b.target)
     for s in (b.scale_source, b.scale_target):
         assert s.min() >= 0.5 and s.max() <= 1.5 and s.std() > 0.25  # ~U[0.5, 1.5] (std 0.289)
-    assert torch.equal(b.scale_target[b.same_character], b.scale_source[b.same_character])  # copied: exact
-    assert torch.allclose(nkn_height(b.offsets_source),
-                          nkn_height(clips.offsets[b.source]) * b.scale_source)  # H scales with s
+    assert torch.equal(
+        b.scale_target[b.same_character], b.scale_source[b.same_character]
+    )  # copied: exact
+    assert torch.allclose(
+        nkn_height(b.offsets_source), nkn_height(clips.offsets[b.source]) * b.scale_source
+    )  # H scales with s
     # one elementwise product of the same two values (correctly rounded on any CPU): exact
     assert torch.equal(b.offsets_target[b.same_character], b.offsets_source[b.same_character])
-    for r in (b.root_positions, b.real_root_positions):  # centre frame above the origin, height kept
+    for r in (
+        b.root_positions,
+        b.real_root_positions,
+    ):  # centre frame above the origin, height kept
         # centred: x - x is exactly 0
         assert torch.equal(r[:, 40, [0, 2]], torch.zeros(2000, 2)) and (r[:, 40, 1] > 0.2).all()
     unbalanced = WindowSampler(clips, window=81, scale_range=None).sample(500)
     assert torch.equal(unbalanced.scale_source, torch.ones(500))
     assert torch.equal(unbalanced.scale_target, torch.ones(500))
-    assert torch.equal(unbalanced.offsets_source, clips.offsets[unbalanced.source])  # x * 1.0: exact
+    assert torch.equal(
+        unbalanced.offsets_source, clips.offsets[unbalanced.source]
+    )  # x * 1.0: exact
 
 
 def test_rest_jitter_changes_rest_poses_not_the_motion():
     clips = training_clips()
     plain = WindowSampler(clips, window=81).sample(64, torch.Generator().manual_seed(5))
-    jittered = WindowSampler(clips, window=81, rest_jitter_deg=30.0).sample(64, torch.Generator().manual_seed(5))
+    jittered = WindowSampler(clips, window=81, rest_jitter_deg=30.0).sample(
+        64, torch.Generator().manual_seed(5)
+    )
     assert torch.equal(plain.source, jittered.source) and torch.equal(plain.target, jittered.target)
     # the same windows: root-relative joints agree (float32 FK of 22 joints: 1e-5 m)
-    for q0, o0, q1, o1 in ((plain.rotations, plain.offsets_source, jittered.rotations, jittered.offsets_source),
-                           (plain.real_rotations, plain.offsets_target, jittered.real_rotations,
-                            jittered.offsets_target)):
-        assert torch.allclose(source_local_positions(q0, o0), source_local_positions(q1, o1), atol=1e-5)
+    for q0, o0, q1, o1 in (
+        (plain.rotations, plain.offsets_source, jittered.rotations, jittered.offsets_source),
+        (
+            plain.real_rotations,
+            plain.offsets_target,
+            jittered.real_rotations,
+            jittered.offsets_target,
+        ),
+    ):
+        assert torch.allclose(
+            source_local_positions(q0, o0), source_local_positions(q1, o1), atol=1e-5
+        )
     moved = (jittered.offsets_source - plain.offsets_source).norm(dim=-1).amax(-1) > 1e-4
-    assert 0.25 < moved.float().mean() < 0.75                          # about half the sources
+    assert 0.25 < moved.float().mean() < 0.75  # about half the sources
     # A = B: one rest pose (the same code on the same values at the same batch rows, one process: exact)
-    assert torch.equal(jittered.offsets_target[jittered.same_character],
-                       jittered.offsets_source[jittered.same_character])
+    assert torch.equal(
+        jittered.offsets_target[jittered.same_character],
+        jittered.offsets_source[jittered.same_character],
+    )
     assert torch.allclose(nkn_height(jittered.offsets_source), nkn_height(plain.offsets_source))
 
 
@@ -167,7 +244,13 @@ def read_log(path):
 
 
 def test_cli_train_resume_matches_a_straight_run(tmp_path, capsys):
-    args = ["train", "--config", str(CONFIGS / "tdcn_paper.yaml"), *TINY, "train.checkpoint_every=2"]
+    args = [
+        "train",
+        "--config",
+        str(CONFIGS / "tdcn_paper.yaml"),
+        *TINY,
+        "train.checkpoint_every=2",
+    ]
     assert main([*args, "train.steps=3", "--out", str(tmp_path / "a")]) == 0
     assert load_checkpoint(tmp_path / "a" / "last.pt")["step"] == 3
     assert main([*args, "train.steps=6", "--out", str(tmp_path / "a"), "--resume"]) == 0
@@ -177,7 +260,10 @@ def test_cli_train_resume_matches_a_straight_run(tmp_path, capsys):
     assert resumed["step"] == straight["step"] == 6
     for net in ("generator", "discriminator"):
         for k, v in straight["modules"][net].items():
-            assert torch.equal(resumed["modules"][net][k], v), (net, k)  # same code, one process, state reloaded: exact
+            assert torch.equal(resumed["modules"][net][k], v), (
+                net,
+                k,
+            )  # same code, one process, state reloaded: exact
     log_a, log_b = read_log(tmp_path / "a" / "losses.csv"), read_log(tmp_path / "b" / "losses.csv")
     assert log_a[0] == log_b[0] == ["step", "seconds", *TERMS]
     assert [r[2:] for r in log_a[1:]] == [r[2:] for r in log_b[1:]] and len(log_a) == 7
@@ -185,7 +271,9 @@ def test_cli_train_resume_matches_a_straight_run(tmp_path, capsys):
 
 def test_nan_in_the_data_stops_training_naming_the_term(tmp_path):
     clips = training_clips()
-    poisoned = dataclasses.replace(clips, root_positions=torch.full_like(clips.root_positions, float("nan")))
+    poisoned = dataclasses.replace(
+        clips, root_positions=torch.full_like(clips.root_positions, float("nan"))
+    )
     cfg = config("tdcn_paper")
     run = RetargetTraining(cfg, clips=poisoned)
     with pytest.raises(NonFiniteLossError, match="'Lc' is not finite"):
@@ -204,7 +292,9 @@ def test_load_generator_round_trip_and_retarget_200_frames(tmp_path, stem):
     trained = run.generator.state_dict()
     assert all(torch.equal(v, trained[k]) for k, v in generator.state_dict().items())
     ds, split = load_synthetic(), tdcn_split()
-    source = next(c.motion for c in ds.clips if c.family in split.test_families and c.motion.num_frames >= 200)
+    source = next(
+        c.motion for c in ds.clips if c.family in split.test_families and c.motion.num_frames >= 200
+    )
     target = ds.characters[split.test_characters[0]].skeleton
     clip = source.slice(0, 200)
     out = retarget_motion_with(generator, clip, target)
@@ -217,7 +307,9 @@ def test_load_generator_round_trip_and_retarget_200_frames(tmp_path, stem):
         return
     # per-frame windows: same as one pass when the root does not travel, and any clip works
     still = clip.copy(root_positions=clip.root_positions * [0.0, 1.0, 0.0] + [0.3, 0.0, -0.2])
-    a, b = (retarget_motion_with(generator, still, target, windowed=w, chunk=64) for w in (False, True))
+    a, b = (
+        retarget_motion_with(generator, still, target, windowed=w, chunk=64) for w in (False, True)
+    )
     np.testing.assert_allclose(b.rotations, a.rotations, atol=1e-5)
     np.testing.assert_allclose(b.root_positions, a.root_positions, atol=1e-5)
     windowed = retarget_motion_with(generator, clip, target, windowed=True)
@@ -226,8 +318,18 @@ def test_load_generator_round_trip_and_retarget_200_frames(tmp_path, stem):
 
 def test_cli_export_writes_a_slim_generator_that_loads(tmp_path, capsys):
     slim = tmp_path / "slim.pt"
-    args = ["train", "--config", str(CONFIGS / "tdcn_paper.yaml"), *TINY, "train.steps=2",
-            "train.checkpoint_every=2", "--out", str(tmp_path / "run"), "--export", str(slim)]
+    args = [
+        "train",
+        "--config",
+        str(CONFIGS / "tdcn_paper.yaml"),
+        *TINY,
+        "train.steps=2",
+        "train.checkpoint_every=2",
+        "--out",
+        str(tmp_path / "run"),
+        "--export",
+        str(slim),
+    ]
     assert main(args) == 0
     assert "exported model" in capsys.readouterr().out
     full = tmp_path / "run" / "final.pt"
@@ -239,4 +341,6 @@ def test_cli_export_writes_a_slim_generator_that_loads(tmp_path, capsys):
     assert {v.dtype for v in stored.values() if v.is_floating_point()} == {torch.float16}
     for a, b in zip(g_full.state_dict().values(), g_slim.state_dict().values()):
         # the export stores float16; the loader gives float32 back
-        assert b.dtype == a.dtype and torch.equal(b, a.half().to(a.dtype) if a.is_floating_point() else a)
+        assert b.dtype == a.dtype and torch.equal(
+            b, a.half().to(a.dtype) if a.is_floating_point() else a
+        )

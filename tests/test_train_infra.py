@@ -17,8 +17,11 @@ def write(path, text):
 
 
 def test_config_delta_profile_and_overrides(tmp_path):
-    write(tmp_path / "base.yaml", "seed: 1\nmodel: {channels: 1024, dropout: 0.1}\n"
-                                  "train: {steps: 1000, batch: 128}\nprofiles: {fast: {model: {channels: 64}}}\n")
+    write(
+        tmp_path / "base.yaml",
+        "seed: 1\nmodel: {channels: 1024, dropout: 0.1}\n"
+        "train: {steps: 1000, batch: 128}\nprofiles: {fast: {model: {channels: 64}}}\n",
+    )
     write(tmp_path / "a3.yaml", "base: base.yaml\nname: A3\nloss: {lambda_h: 0.0}\n")
     cfg = load_config(tmp_path / "a3.yaml", ["train.steps=20"], profile="fast")
     assert cfg["model"] == {"channels": 64, "dropout": 0.1}
@@ -71,7 +74,9 @@ def test_interrupted_run_resumes_to_the_same_result(tmp_path):
         fit(task, {"seed": 7}, tmp_path / "b", steps=10, checkpoint_every=3, progress=False)
     assert load_checkpoint(tmp_path / "b" / "last.pt")["step"] == 6
     task, resumed = regression_task()
-    fit(task, {"seed": 7}, tmp_path / "b", steps=10, checkpoint_every=3, resume=True, progress=False)
+    fit(
+        task, {"seed": 7}, tmp_path / "b", steps=10, checkpoint_every=3, resume=True, progress=False
+    )
     for a, b in zip(straight.parameters(), resumed.parameters()):
         assert torch.equal(a, b)  # the same code in one process, state reloaded from binary: exact
     log_a, log_b = read_log(tmp_path / "a" / "losses.csv"), read_log(tmp_path / "b" / "losses.csv")

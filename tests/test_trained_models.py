@@ -8,7 +8,10 @@ from retarget_lib.evaluation.identity import identity_clips, identity_errors
 from retarget_lib.evaluation.tdcn import cmu_cases, evaluate_method, tdcn_cases
 from retarget_lib.methods.registry import get_method
 
-pytestmark = [pytest.mark.data, pytest.mark.slow]  # shipped checkpoints, the synthetic set, the CMU clips
+pytestmark = [
+    pytest.mark.data,
+    pytest.mark.slow,
+]  # shipped checkpoints, the synthetic set, the CMU clips
 
 
 @pytest.fixture(scope="module")
@@ -31,7 +34,11 @@ def test_default_tdcn_beats_copy_on_table4_pairs(tdcn):
     ours = evaluate_method(tdcn, cases)
     copy = evaluate_method(get_method("copy").retargeter(), cases)
     for length in ("short", "long"):
-        assert ours[length].mean() < copy[length].mean(), (length, ours[length].mean(), copy[length].mean())
+        assert ours[length].mean() < copy[length].mean(), (
+            length,
+            ours[length].mean(),
+            copy[length].mean(),
+        )
     # and on most pairs, not only on average
     assert np.mean(ours["short"].values <= copy["short"].values) >= 0.75
 
@@ -74,7 +81,9 @@ def test_default_contact_method_with_eso_returns_a_clip_on_its_own_character():
     # `--method contact` (network + ESO, the source's own mesh for its hand contacts): the 2 cm
     # contract of TDCN. ESO's weak term also removes the network's root drift.
     contact = get_method("contact").retargeter()
-    clips = [c for c in identity_clips() if c.character is not None][::4]  # walk, clap, wave; two bodies
+    clips = [c for c in identity_clips() if c.character is not None][
+        ::4
+    ]  # walk, clap, wave; two bodies
     # the first IDENTITY_FRAMES frames of each: ESO costs ~0.4 s per frame on 2 cores, and the
     # identity contract holds frame by frame (the whole clips took 6 min of the suite)
     clips = [c._replace(motion=c.motion.slice(0, IDENTITY_FRAMES)) for c in clips]
@@ -84,12 +93,24 @@ def test_default_contact_method_with_eso_returns_a_clip_on_its_own_character():
 
 
 def test_default_contact_network_beats_copy_on_the_contact_cases(contact_network):
-    from retarget_lib.evaluation.contact import _skeleton_method, contact_cases, evaluate_contact_methods
+    from retarget_lib.evaluation.contact import (
+        _skeleton_method,
+        contact_cases,
+        evaluate_contact_methods,
+    )
 
-    cases = contact_cases("fast")[::5]  # 8 of the 36 cases, skinny and bulky targets, several families
-    methods = {"network": lambda case, eint: contact_network(case.source, case.target),
-               "copy": _skeleton_method(get_method("copy").retargeter())}
-    means = evaluate_contact_methods(methods, cases, eval_every=6).groupby("method").mean(numeric_only=True)
+    cases = contact_cases("fast")[
+        ::5
+    ]  # 8 of the 36 cases, skinny and bulky targets, several families
+    methods = {
+        "network": lambda case, eint: contact_network(case.source, case.target),
+        "copy": _skeleton_method(get_method("copy").retargeter()),
+    }
+    means = (
+        evaluate_contact_methods(methods, cases, eval_every=6)
+        .groupby("method")
+        .mean(numeric_only=True)
+    )
     net, copy = means.loc["network"], means.loc["copy"]
     assert net["global position MSE"] <= copy["global position MSE"], means
     assert net["vertex contact MSE"] < copy["vertex contact MSE"], means

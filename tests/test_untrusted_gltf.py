@@ -15,11 +15,11 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from test_untrusted_harness import kato_parts, memory_cap, pack_glb, retarget_argv, run_contained  # noqa: F401
 
 from retarget_lib.errors import GLTFError, LimitError
 from retarget_lib.io.bvh import load_bvh
 from retarget_lib.io.gltf import load_gltf_motion, load_gltf_rig
-from test_untrusted_harness import kato_parts, memory_cap, pack_glb, retarget_argv, run_contained  # noqa: F401
 
 IBM, TIMES = 4, 5  # accessor indices in kato's GLB: inverse bind matrices, key times
 
@@ -43,7 +43,7 @@ def put_accessor(doc: dict, blob: bytearray, index: int, values: np.ndarray) -> 
     acc = doc["accessors"][index]
     start = doc["bufferViews"][acc["bufferView"]].get("byteOffset", 0) + acc.get("byteOffset", 0)
     raw = np.ascontiguousarray(values, dtype="<f4").tobytes()
-    blob[start:start + len(raw)] = raw
+    blob[start : start + len(raw)] = raw
 
 
 def source_run(tmp_path, path: Path, out_name: str = "o.bvh", target="kato"):
@@ -54,20 +54,32 @@ def source_run(tmp_path, path: Path, out_name: str = "o.bvh", target="kato"):
 # --------------------------------------------------------------------------------- tracebacks
 def test_a_rotation_sampler_typed_vec3(tmp_path, kato_parts):  # noqa: F811
     def edit(doc, blob):
-        rotation = next(c for c in doc["animations"][0]["channels"] if c["target"]["path"] == "rotation")
-        doc["accessors"][doc["animations"][0]["samplers"][rotation["sampler"]]["output"]]["type"] = "VEC3"
+        rotation = next(
+            c for c in doc["animations"][0]["channels"] if c["target"]["path"] == "rotation"
+        )
+        doc["accessors"][doc["animations"][0]["samplers"][rotation["sampler"]]["output"]][
+            "type"
+        ] = "VEC3"
+
     path = write(tmp_path / "in", "vec3.glb", *edited(kato_parts, edit))
     run = source_run(tmp_path, path)
     run.assert_error(path, "(rotation): accessor", "is VEC3 of component type 5126, expected VEC4")
     run.assert_contained(path, tmp_path / "in")
 
 
-@pytest.mark.parametrize("extras,problem", [({"fps": [30]}, "extras.fps must be a number of frames per second"),
-                                            ({"fps": "30"}, "extras.fps must be a number"),
-                                            ([1, 2], None), ("a string", None)])
+@pytest.mark.parametrize(
+    "extras,problem",
+    [
+        ({"fps": [30]}, "extras.fps must be a number of frames per second"),
+        ({"fps": "30"}, "extras.fps must be a number"),
+        ([1, 2], None),
+        ("a string", None),
+    ],
+)
 def test_animation_extras_of_any_type(tmp_path, kato_parts, extras, problem):  # noqa: F811
     def edit(doc, blob):
         doc["animations"][0]["extras"] = extras
+
     path = write(tmp_path / "in", "extras.glb", *edited(kato_parts, edit))
     run = source_run(tmp_path, path)
     if problem:
@@ -78,16 +90,28 @@ def test_animation_extras_of_any_type(tmp_path, kato_parts, extras, problem):  #
     run.assert_contained(path, tmp_path / "in")
 
 
-@pytest.mark.parametrize("field,value,problem", [
-    ("sampler", None, "animations[0].channels[0].sampler is required, got null"),
-    ("sampler", -1, "animations[0].channels[0].sampler must be an index (an integer >= 0), got -1"),
-    ("sampler", 10**6, "animation 0 channel 0 names sampler 1000000 or node 0, which does not exist"),
-    ("target", None, "animations[0].channels[0].target is required, got null"),
-    ("target", {"node": "0", "path": "rotation"}, "target.node must be an index"),
-])
+@pytest.mark.parametrize(
+    "field,value,problem",
+    [
+        ("sampler", None, "animations[0].channels[0].sampler is required, got null"),
+        (
+            "sampler",
+            -1,
+            "animations[0].channels[0].sampler must be an index (an integer >= 0), got -1",
+        ),
+        (
+            "sampler",
+            10**6,
+            "animation 0 channel 0 names sampler 1000000 or node 0, which does not exist",
+        ),
+        ("target", None, "animations[0].channels[0].target is required, got null"),
+        ("target", {"node": "0", "path": "rotation"}, "target.node must be an index"),
+    ],
+)
 def test_a_malformed_channel(tmp_path, kato_parts, field, value, problem):  # noqa: F811
     def edit(doc, blob):
         doc["animations"][0]["channels"][0][field] = value
+
     path = write(tmp_path / "in", "channel.glb", *edited(kato_parts, edit))
     source_run(tmp_path, path).assert_error(path, problem)
 
@@ -96,13 +120,17 @@ def with_groups(doc: dict, count: int) -> None:
     """``count`` nested group nodes (identity transforms) above the hips."""
     first = len(doc["nodes"])
     for k in range(count):
-        doc["nodes"].append({"name": f"group{k}", "children": [first + k + 1 if k + 1 < count else 0]})
+        doc["nodes"].append(
+            {"name": f"group{k}", "children": [first + k + 1 if k + 1 < count else 0]}
+        )
     doc["scenes"][0]["nodes"][0] = first
 
 
 def test_a_valid_file_with_1200_nested_groups_above_the_hips(tmp_path, kato_parts):  # noqa: F811
     plain = write(tmp_path / "in", "plain.glb", *edited(kato_parts, lambda doc, blob: None))
-    deep = write(tmp_path / "in", "deep.glb", *edited(kato_parts, lambda doc, blob: with_groups(doc, 1200)))
+    deep = write(
+        tmp_path / "in", "deep.glb", *edited(kato_parts, lambda doc, blob: with_groups(doc, 1200))
+    )
     assert deep.stat().st_size < 300_000
     run = source_run(tmp_path, deep)
     assert run.code == 0, run.err
@@ -116,13 +144,18 @@ def test_a_node_cycle_and_a_shared_child(tmp_path, kato_parts):  # noqa: F811
     def cycle(doc, blob):
         with_groups(doc, 3)
         doc["nodes"][-1]["children"] = [len(doc["nodes"]) - 3]
+
     path = write(tmp_path / "in", "cycle.glb", *edited(kato_parts, cycle))
-    with memory_cap(), pytest.raises(GLTFError, match="does not exist or has another parent|has a cycle"):
+    with (
+        memory_cap(),
+        pytest.raises(GLTFError, match="does not exist or has another parent|has a cycle"),
+    ):
         load_gltf_rig(path)
 
     def loop(doc, blob):  # a ring of nodes that no scene root reaches
         n = len(doc["nodes"])
         doc["nodes"] += [{"name": "a", "children": [n + 1]}, {"name": "b", "children": [n]}]
+
     path = write(tmp_path / "in", "ring.glb", *edited(kato_parts, loop))
     with memory_cap(), pytest.raises(GLTFError, match="the node hierarchy has a cycle"):
         load_gltf_rig(path)
@@ -130,15 +163,34 @@ def test_a_node_cycle_and_a_shared_child(tmp_path, kato_parts):  # noqa: F811
 
 VRM_CASES = [
     ({"VRMC_vrm": {"humanoid": 7}}, "extensions.VRMC_vrm.humanoid must be a JSON object, got 7"),
-    ({"VRMC_vrm": {"humanoid": {"humanBones": []}}}, "humanoid.humanBones must be a JSON object, got []"),
-    ({"VRMC_vrm": {"humanoid": {"humanBones": "hips"}}}, "humanBones must be a JSON object, got 'hips'"),
-    ({"VRMC_vrm": {"humanoid": {"humanBones": {"hips": {"node": "0"}}}}}, "humanBones.hips.node must be an index"),
-    ({"VRM": {"humanoid": {"humanBones": {"hips": 0}}}}, "extensions.VRM.humanoid.humanBones must be an array"),
+    (
+        {"VRMC_vrm": {"humanoid": {"humanBones": []}}},
+        "humanoid.humanBones must be a JSON object, got []",
+    ),
+    (
+        {"VRMC_vrm": {"humanoid": {"humanBones": "hips"}}},
+        "humanBones must be a JSON object, got 'hips'",
+    ),
+    (
+        {"VRMC_vrm": {"humanoid": {"humanBones": {"hips": {"node": "0"}}}}},
+        "humanBones.hips.node must be an index",
+    ),
+    (
+        {"VRM": {"humanoid": {"humanBones": {"hips": 0}}}},
+        "extensions.VRM.humanoid.humanBones must be an array",
+    ),
     ({"VRM": {"humanoid": {"humanBones": [5]}}}, "humanBones[0] must be a JSON object, got 5"),
     ({"VRM": 3}, "extensions.VRM must be a JSON object, got 3"),
     ({"VRMC_vrm": None}, None),
     ({"VRMC_vrm": {"humanoid": {"humanBones": {"hips": None, "head": {"node": 5}}}}}, None),
-    ({"VRM": {"humanoid": {"humanBones": [{"bone": "hips", "node": 0}, {"bone": None, "node": 3}]}}}, None),
+    (
+        {
+            "VRM": {
+                "humanoid": {"humanBones": [{"bone": "hips", "node": 0}, {"bone": None, "node": 3}]}
+            }
+        },
+        None,
+    ),
 ]
 
 
@@ -146,6 +198,7 @@ VRM_CASES = [
 def test_vrm_humanoid_tables_of_wrong_types(tmp_path, kato_parts, extensions, problem):  # noqa: F811
     def edit(doc, blob):
         doc["extensions"] = extensions
+
     path = write(tmp_path / "in", "avatar.vrm.glb", *edited(kato_parts, edit))
     out = tmp_path / "out" / "o.glb"
     run = run_contained(retarget_argv(path, out, path), tmp_path, out)
@@ -161,17 +214,24 @@ def test_an_inverse_bind_accessor_of_400_million_without_a_buffer_view(tmp_path,
     def edit(doc, blob):
         doc["accessors"][IBM].update(count=400_000_000)
         del doc["accessors"][IBM]["bufferView"]
+
     path = write(tmp_path / "in", "ibm.glb", *edited(kato_parts, edit))
-    source_run(tmp_path, path).assert_error(path, "skin 0: 400000000 inverse bind matrices for 22 joints")
+    source_run(tmp_path, path).assert_error(
+        path, "skin 0: 400000000 inverse bind matrices for 22 joints"
+    )
 
 
 def test_a_billion_positions_without_a_buffer_view(tmp_path, kato_parts):  # noqa: F811
     def edit(doc, blob):
         doc["accessors"][0].update(count=10**9)
         del doc["accessors"][0]["bufferView"]
+
     path = write(tmp_path / "in", "positions.glb", *edited(kato_parts, edit))
     assert path.stat().st_size < 200_000
-    with memory_cap(), pytest.raises(LimitError, match="1,000,000,000 elements in accessor 0 exceed the limit"):
+    with (
+        memory_cap(),
+        pytest.raises(LimitError, match="1,000,000,000 elements in accessor 0 exceed the limit"),
+    ):
         load_gltf_rig(path)
     source_run(tmp_path, path).assert_error(path, "POSITION", "exceed the limit of 2,000,000")
 
@@ -179,11 +239,16 @@ def test_a_billion_positions_without_a_buffer_view(tmp_path, kato_parts):  # noq
 def test_two_keys_33333_seconds_apart(tmp_path, kato_parts):  # noqa: F811
     def edit(doc, blob):
         times = np.arange(12) / 30.0
-        times[-1] = 33333.0  # 999,991 frames at 30 fps: within the frame limit, not the sample budget
+        times[-1] = (
+            33333.0  # 999,991 frames at 30 fps: within the frame limit, not the sample budget
+        )
         put_accessor(doc, blob, TIMES, times)
+
     path = write(tmp_path / "in", "span.glb", *edited(kato_parts, edit))
     assert path.stat().st_size < 200_000
-    source_run(tmp_path, path).assert_error(path, "999,991 frames x 22 joints", "exceed the limit of 3,000,000")
+    source_run(tmp_path, path).assert_error(
+        path, "999,991 frames x 22 joints", "exceed the limit of 3,000,000"
+    )
 
 
 def test_a_long_animation_within_the_budget_is_sampled(tmp_path, kato_parts):  # noqa: F811
@@ -191,8 +256,11 @@ def test_a_long_animation_within_the_budget_is_sampled(tmp_path, kato_parts):  #
         times = np.arange(12) / 30.0
         times[-1] = 600.0  # ten minutes: 18,001 frames, sampled in blocks
         put_accessor(doc, blob, TIMES, times)
+
     path = write(tmp_path / "in", "long.glb", *edited(kato_parts, edit))
-    run = run_contained(retarget_argv(path, tmp_path / "out" / "o.glb", path), tmp_path, tmp_path / "out" / "o.glb")
+    run = run_contained(
+        retarget_argv(path, tmp_path / "out" / "o.glb", path), tmp_path, tmp_path / "out" / "o.glb"
+    )
     assert run.code == 0, run.err
     assert load_gltf_motion(tmp_path / "out" / "o.glb")[0].num_frames == 18_001
 
@@ -200,8 +268,11 @@ def test_a_long_animation_within_the_budget_is_sampled(tmp_path, kato_parts):  #
 def test_a_result_beyond_the_budget_is_refused_before_any_work(tmp_path, kato_parts):  # noqa: F811
     def edit(doc, blob):
         times = np.arange(12) / 30.0
-        times[-1] = 1000.0  # 30,001 frames x 22 joints: within the budget; at 1000 fps out, 1,000,001 frames are not
+        times[-1] = (
+            1000.0  # 30,001 frames x 22 joints: within the budget; at 1000 fps out, 1,000,001 frames are not
+        )
         put_accessor(doc, blob, TIMES, times)
+
     path = write(tmp_path / "in", "long.glb", *edited(kato_parts, edit))
     out = tmp_path / "out" / "o.bvh"
     run = run_contained(retarget_argv(path, out, "kato", "--fps", "1000"), tmp_path, out)
@@ -211,9 +282,14 @@ def test_a_result_beyond_the_budget_is_refused_before_any_work(tmp_path, kato_pa
 def test_channels_sharing_one_sampler_decode_it_once(tmp_path, kato_parts):  # noqa: F811
     def edit(doc, blob):
         with_groups(doc, 1200)
-        rotation = next(c for c in doc["animations"][0]["channels"] if c["target"]["path"] == "rotation")
-        doc["animations"][0]["channels"] += [{"sampler": rotation["sampler"], "target": {"node": n, "path": "rotation"}}
-                                             for n in range(22, len(doc["nodes"]))]
+        rotation = next(
+            c for c in doc["animations"][0]["channels"] if c["target"]["path"] == "rotation"
+        )
+        doc["animations"][0]["channels"] += [
+            {"sampler": rotation["sampler"], "target": {"node": n, "path": "rotation"}}
+            for n in range(22, len(doc["nodes"]))
+        ]
+
     path = write(tmp_path / "in", "shared.glb", *edited(kato_parts, edit))
     motion = load_gltf_motion(path)[0]
     assert motion.num_frames == 12 and np.isfinite(motion.rotations).all()
@@ -222,6 +298,7 @@ def test_channels_sharing_one_sampler_decode_it_once(tmp_path, kato_parts):  # n
 def test_two_channels_on_one_property(tmp_path, kato_parts):  # noqa: F811
     def edit(doc, blob):
         doc["animations"][0]["channels"].append(dict(doc["animations"][0]["channels"][1]))
+
     path = write(tmp_path / "in", "twice.glb", *edited(kato_parts, edit))
     source_run(tmp_path, path).assert_error(path, "channels 1 and 23 both move node 0 rotation")
 
@@ -229,15 +306,24 @@ def test_two_channels_on_one_property(tmp_path, kato_parts):  # noqa: F811
 def test_accessors_read_again_and_again_are_within_one_budget(tmp_path, kato_parts):  # noqa: F811
     def edit(doc, blob):
         attributes = doc["meshes"][0]["primitives"][0]["attributes"]
-        for k in range(1, 6000):  # 6000 weight sets, each the same two accessors: 1.15 GB if decoded
-            attributes[f"JOINTS_{k}"], attributes[f"WEIGHTS_{k}"] = attributes["JOINTS_0"], attributes["WEIGHTS_0"]
+        for k in range(
+            1, 6000
+        ):  # 6000 weight sets, each the same two accessors: 1.15 GB if decoded
+            attributes[f"JOINTS_{k}"], attributes[f"WEIGHTS_{k}"] = (
+                attributes["JOINTS_0"],
+                attributes["WEIGHTS_0"],
+            )
+
     path = write(tmp_path / "in", "sets.glb", *edited(kato_parts, edit))
-    source_run(tmp_path, path).assert_error(path, "the accessors read from the file would take more than 1 GiB in all")
+    source_run(tmp_path, path).assert_error(
+        path, "the accessors read from the file would take more than 1 GiB in all"
+    )
 
 
 def test_primitives_sharing_accessors_count_every_vertex(tmp_path, kato_parts):  # noqa: F811
     def edit(doc, blob):
         doc["meshes"][0]["primitives"] *= 700  # 700 x 3002 vertices
+
     path = write(tmp_path / "in", "copies.glb", *edited(kato_parts, edit))
     source_run(tmp_path, path).assert_error(path, "vertices exceed the limit of 2,000,000")
 
@@ -250,15 +336,21 @@ def test_inverse_bind_matrices_that_are_not_invertible_affine(tmp_path, kato_par
         projective[3, 0] = 1.0  # a bottom row other than (0, 0, 0, 1)
         ibm = np.zeros((22, 16)) if matrix == "zeros" else np.tile(projective.T.ravel(), (22, 1))
         put_accessor(doc, blob, IBM, ibm)
+
     path = write(tmp_path / "in", "ibm.glb", *edited(kato_parts, edit))
-    source_run(tmp_path, path).assert_error(path, "skin 0 inverse bind matrices: 22 of 22 are not invertible affine",
-                                            "first: joint 'Hips'")
+    source_run(tmp_path, path).assert_error(
+        path,
+        "skin 0 inverse bind matrices: 22 of 22 are not invertible affine",
+        "first: joint 'Hips'",
+    )
 
 
 def renamed_hand(tmp_path: Path, kato_parts, name: str) -> tuple[Path, Path]:  # noqa: F811
     """kato with its right hand named ``name``, and the joint map that maps it."""
+
     def edit(doc, blob):
         doc["nodes"][21]["name"] = name
+
     path = write(tmp_path / "in", "names.glb", *edited(kato_parts, edit))
     joint_map = tmp_path / "in" / "map.json"
     joint_map.write_text(json.dumps({"RightHand": name}))
@@ -270,9 +362,15 @@ def renamed_hand(tmp_path: Path, kato_parts, name: str) -> tuple[Path, Path]:  #
 def test_a_joint_name_the_output_format_cannot_hold(tmp_path, kato_parts, name, suffix):  # noqa: F811
     path, joint_map = renamed_hand(tmp_path, kato_parts, name)
     out = tmp_path / "out" / f"o{suffix}"
-    run = run_contained(retarget_argv(path, out, path, "--joint-map", joint_map, "--source-joint-map", joint_map),
-                        tmp_path, out)
-    if suffix == ".fbx" and name in ("a{b}", " padded"):  # FBX holds any name without control characters
+    run = run_contained(
+        retarget_argv(path, out, path, "--joint-map", joint_map, "--source-joint-map", joint_map),
+        tmp_path,
+        out,
+    )
+    if suffix == ".fbx" and name in (
+        "a{b}",
+        " padded",
+    ):  # FBX holds any name without control characters
         assert run.code == 0, run.err
         return
     run.assert_error(out, f"cannot write the joint name {name!r} of {path} in a {suffix} file")
@@ -282,8 +380,11 @@ def test_a_joint_name_the_output_format_cannot_hold(tmp_path, kato_parts, name, 
 def test_a_joint_name_with_a_line_break_survives_in_a_glb(tmp_path, kato_parts):  # noqa: F811
     path, joint_map = renamed_hand(tmp_path, kato_parts, "tip\nJOINT injected")
     out = tmp_path / "out" / "o.glb"
-    run = run_contained(retarget_argv(path, out, path, "--joint-map", joint_map, "--source-joint-map", joint_map),
-                        tmp_path, out)
+    run = run_contained(
+        retarget_argv(path, out, path, "--joint-map", joint_map, "--source-joint-map", joint_map),
+        tmp_path,
+        out,
+    )
     assert run.code == 0, run.err
     assert "tip\nJOINT injected" in load_gltf_rig(out, joint_map).skeleton.joint_names
 
@@ -292,6 +393,7 @@ def test_a_joint_name_with_a_line_break_survives_in_a_glb(tmp_path, kato_parts):
 def test_nan_in_a_file_is_blamed_on_that_file(tmp_path, kato_parts, role):  # noqa: F811
     def edit(doc, blob):
         doc["nodes"][3]["translation"] = [float("nan"), 0.0, 0.0]
+
     bad = write(tmp_path / "in", "nan.glb", *edited(kato_parts, edit), allow_nan=True)
     good = write(tmp_path / "in", "good.glb", *edited(kato_parts, lambda doc, blob: None))
     source, target = (bad, good) if role == "source" else (good, bad)
@@ -304,20 +406,29 @@ def test_nan_in_a_file_is_blamed_on_that_file(tmp_path, kato_parts, role):  # no
 def test_a_draco_compressed_mesh_is_named(tmp_path, kato_parts):  # noqa: F811
     def edit(doc, blob):
         prim = doc["meshes"][0]["primitives"][0]
-        prim["extensions"] = {"KHR_draco_mesh_compression": {"bufferView": 0, "attributes": {"POSITION": 0}}}
+        prim["extensions"] = {
+            "KHR_draco_mesh_compression": {"bufferView": 0, "attributes": {"POSITION": 0}}
+        }
         for k in ("POSITION", "JOINTS_0", "WEIGHTS_0"):
             doc["accessors"][prim["attributes"][k]].pop("bufferView")
         doc["extensionsUsed"] = doc["extensionsRequired"] = ["KHR_draco_mesh_compression"]
+
     path = write(tmp_path / "in", "draco.glb", *edited(kato_parts, edit))
-    line = source_run(tmp_path, path).assert_error(path, "compressed with KHR_draco_mesh_compression")
+    line = source_run(tmp_path, path).assert_error(
+        path, "compressed with KHR_draco_mesh_compression"
+    )
     assert "weights zero" not in line
 
 
 def test_no_parser_warnings_on_stderr(tmp_path, kato_parts):  # noqa: F811
-    data = pack_glb(*edited(kato_parts, lambda doc, blob: doc.update(extensionsUsed=["EXT_unknown"])))
+    data = pack_glb(
+        *edited(kato_parts, lambda doc, blob: doc.update(extensionsUsed=["EXT_unknown"]))
+    )
     path = tmp_path / "in" / "extra.glb"
     path.parent.mkdir()
-    data += b"\x08\0\0\0XTRA" + b"\0" * 8  # an unknown chunk after the binary one, within the file's length
+    data += (
+        b"\x08\0\0\0XTRA" + b"\0" * 8
+    )  # an unknown chunk after the binary one, within the file's length
     path.write_bytes(data[:8] + len(data).to_bytes(4, "little") + data[12:])
     run = source_run(tmp_path, path)
     assert run.code == 0 and run.err == "", run.err
@@ -332,25 +443,85 @@ def test_a_gltf_with_its_buffer_beside_it_loads(tmp_path, kato_parts):  # noqa: 
 
 
 # --------------------------------------------------------------------------------------- fuzz
-_JSON_LEAF = (st.none() | st.booleans() | st.integers(-2**70, 2**70) | st.sampled_from([0, 1, -1, 22, 2**31, 10**9])
-              | st.floats(allow_nan=False, allow_infinity=False) | st.sampled_from([1e308, -1e308, 1e-320])
-              | st.text(max_size=8) | st.sampled_from(["VEC3", "VEC4", "MAT4", "SCALAR", "rotation", "CUBICSPLINE",
-                                                          "STEP", "../secret/data.bin", "data:,", "%2e%2e/x"]))
-_JSON = st.recursive(_JSON_LEAF, lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=6),
-                                                                                               inner, max_size=4),
-                     max_leaves=12)
-_FIELDS = ["asset", "asset.version", "scene", "nodes", "nodes.0", "nodes.0.children", "nodes.0.children.0",
-           "nodes.0.translation", "nodes.3.rotation", "nodes.22.skin", "nodes.22.mesh", "nodes.5.matrix",
-           "nodes.4.scale", "skins.0.joints", "skins.0.joints.3", "skins.0.inverseBindMatrices", "meshes.0.primitives",
-           "meshes.0.primitives.0.attributes", "meshes.0.primitives.0.attributes.POSITION",
-           "meshes.0.primitives.0.attributes.JOINTS_1", "meshes.0.primitives.0.indices", "meshes.0.primitives.0.mode",
-           "accessors.0.count", "accessors.0.bufferView", "accessors.1.componentType", "accessors.4.type",
-           "accessors.5.count", "accessors.6.byteOffset", "accessors.2.normalized", "accessors.3.sparse",
-           "bufferViews.0.byteLength", "bufferViews.1.byteStride", "bufferViews.2.buffer", "buffers.0.byteLength",
-           "buffers.0.uri", "animations.0.channels", "animations.0.channels.1.sampler",
-           "animations.0.channels.1.target", "animations.0.channels.2.target.path", "animations.0.samplers.1",
-           "animations.0.samplers.1.input", "animations.0.samplers.2.output", "animations.0.samplers.0.interpolation",
-           "animations.0.extras", "animations.0.extras.fps", "extensions", "extensionsRequired"]
+_JSON_LEAF = (
+    st.none()
+    | st.booleans()
+    | st.integers(-(2**70), 2**70)
+    | st.sampled_from([0, 1, -1, 22, 2**31, 10**9])
+    | st.floats(allow_nan=False, allow_infinity=False)
+    | st.sampled_from([1e308, -1e308, 1e-320])
+    | st.text(max_size=8)
+    | st.sampled_from(
+        [
+            "VEC3",
+            "VEC4",
+            "MAT4",
+            "SCALAR",
+            "rotation",
+            "CUBICSPLINE",
+            "STEP",
+            "../secret/data.bin",
+            "data:,",
+            "%2e%2e/x",
+        ]
+    )
+)
+_JSON = st.recursive(
+    _JSON_LEAF,
+    lambda inner: (
+        st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=6), inner, max_size=4)
+    ),
+    max_leaves=12,
+)
+_FIELDS = [
+    "asset",
+    "asset.version",
+    "scene",
+    "nodes",
+    "nodes.0",
+    "nodes.0.children",
+    "nodes.0.children.0",
+    "nodes.0.translation",
+    "nodes.3.rotation",
+    "nodes.22.skin",
+    "nodes.22.mesh",
+    "nodes.5.matrix",
+    "nodes.4.scale",
+    "skins.0.joints",
+    "skins.0.joints.3",
+    "skins.0.inverseBindMatrices",
+    "meshes.0.primitives",
+    "meshes.0.primitives.0.attributes",
+    "meshes.0.primitives.0.attributes.POSITION",
+    "meshes.0.primitives.0.attributes.JOINTS_1",
+    "meshes.0.primitives.0.indices",
+    "meshes.0.primitives.0.mode",
+    "accessors.0.count",
+    "accessors.0.bufferView",
+    "accessors.1.componentType",
+    "accessors.4.type",
+    "accessors.5.count",
+    "accessors.6.byteOffset",
+    "accessors.2.normalized",
+    "accessors.3.sparse",
+    "bufferViews.0.byteLength",
+    "bufferViews.1.byteStride",
+    "bufferViews.2.buffer",
+    "buffers.0.byteLength",
+    "buffers.0.uri",
+    "animations.0.channels",
+    "animations.0.channels.1.sampler",
+    "animations.0.channels.1.target",
+    "animations.0.channels.2.target.path",
+    "animations.0.samplers.1",
+    "animations.0.samplers.1.input",
+    "animations.0.samplers.2.output",
+    "animations.0.samplers.0.interpolation",
+    "animations.0.extras",
+    "animations.0.extras.fps",
+    "extensions",
+    "extensionsRequired",
+]
 
 
 def _set(doc, dotted: str, value, delete: bool) -> None:
@@ -358,7 +529,13 @@ def _set(doc, dotted: str, value, delete: bool) -> None:
     *parents, last = dotted.split(".")
     node = doc
     for key in parents:
-        node = node[int(key)] if isinstance(node, list) else node.get(key) if isinstance(node, dict) else None
+        node = (
+            node[int(key)]
+            if isinstance(node, list)
+            else node.get(key)
+            if isinstance(node, dict)
+            else None
+        )
         if node is None or (isinstance(node, list) and False):
             return
     if isinstance(node, dict):
@@ -378,7 +555,10 @@ def hostile_gltf(draw):
     """kato's GLB with one to four fields replaced by any JSON value or deleted, as a ``.glb`` or
     as a ``.gltf`` whose buffer is a file beside it, a symbolic link out of the folder, or a ``..``
     path."""
-    edits = [(draw(st.sampled_from(_FIELDS)), draw(_JSON), draw(st.booleans())) for _ in range(draw(st.integers(1, 4)))]
+    edits = [
+        (draw(st.sampled_from(_FIELDS)), draw(_JSON), draw(st.booleans()))
+        for _ in range(draw(st.integers(1, 4)))
+    ]
     layout = draw(st.sampled_from(["glb", "gltf", "gltf-symlink-out", "gltf-dotdot"]))
     return edits, layout
 
@@ -386,8 +566,16 @@ def hostile_gltf(draw):
 def _build(folder: Path, kato_parts, edits, layout) -> Path:  # noqa: F811
     doc, blob = copy.deepcopy(kato_parts[0]), kato_parts[1]
     if layout != "glb":
-        doc["buffers"] = [{"uri": {"gltf": "data.bin", "gltf-symlink-out": "link.bin",
-                                   "gltf-dotdot": "../secret/data.bin"}[layout], "byteLength": len(blob)}]
+        doc["buffers"] = [
+            {
+                "uri": {
+                    "gltf": "data.bin",
+                    "gltf-symlink-out": "link.bin",
+                    "gltf-dotdot": "../secret/data.bin",
+                }[layout],
+                "byteLength": len(blob),
+            }
+        ]
         (folder / "data.bin").write_bytes(blob)
         if not (folder / "link.bin").is_symlink():
             (folder / "link.bin").symlink_to(folder.parent / "secret" / "data.bin")
@@ -409,36 +597,61 @@ def _fresh(tmp_path_factory, kato_parts) -> Path:  # noqa: F811
     return root
 
 
-@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(
+    max_examples=100, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
 @given(case=hostile_gltf(), role=st.sampled_from(["source", "target"]))
 def test_fuzz_gltf_and_glb(tmp_path_factory, kato_parts, case, role):  # noqa: F811
     root = _fresh(tmp_path_factory, kato_parts)
     valid = write(root / "in", "valid.glb", *edited(kato_parts, lambda doc, blob: None))
     path = _build(root / "in", kato_parts, *case)
     out = root / "out" / ("o.bvh" if role == "source" else "o.glb")
-    run = run_contained(retarget_argv(path, out) if role == "source" else retarget_argv(valid, out, path), root, out)
+    run = run_contained(
+        retarget_argv(path, out) if role == "source" else retarget_argv(valid, out, path), root, out
+    )
     run.assert_contained(path, root / "in")
     if run.code == 0:
         assert os.path.getsize(out) > 0
 
 
 _NODE = _JSON | st.integers(0, 30)
-_BONE_0X = st.fixed_dictionaries({}, optional={"bone": _JSON | st.sampled_from(["hips", "head", "leftUpperArm"]),
-                                               "node": _NODE})
-_BONES_1 = st.dictionaries(st.sampled_from(["hips", "head", "spine", "x"]),
-                           _JSON | st.fixed_dictionaries({"node": _NODE}), max_size=4)
-_VRM = st.fixed_dictionaries({}, optional={
-    "VRM": _JSON | st.fixed_dictionaries({"humanoid": _JSON | st.fixed_dictionaries(
-        {"humanBones": _JSON | st.lists(_BONE_0X, max_size=4)})}),
-    "VRMC_vrm": _JSON | st.fixed_dictionaries({"humanoid": _JSON | st.fixed_dictionaries(
-        {"humanBones": _JSON | _BONES_1})})})
+_BONE_0X = st.fixed_dictionaries(
+    {}, optional={"bone": _JSON | st.sampled_from(["hips", "head", "leftUpperArm"]), "node": _NODE}
+)
+_BONES_1 = st.dictionaries(
+    st.sampled_from(["hips", "head", "spine", "x"]),
+    _JSON | st.fixed_dictionaries({"node": _NODE}),
+    max_size=4,
+)
+_VRM = st.fixed_dictionaries(
+    {},
+    optional={
+        "VRM": _JSON
+        | st.fixed_dictionaries(
+            {
+                "humanoid": _JSON
+                | st.fixed_dictionaries({"humanBones": _JSON | st.lists(_BONE_0X, max_size=4)})
+            }
+        ),
+        "VRMC_vrm": _JSON
+        | st.fixed_dictionaries(
+            {"humanoid": _JSON | st.fixed_dictionaries({"humanBones": _JSON | _BONES_1})}
+        ),
+    },
+)
 
 
-@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(
+    max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
 @given(extensions=_VRM)
 def test_fuzz_vrm_humanoid(tmp_path_factory, kato_parts, extensions):  # noqa: F811
     root = _fresh(tmp_path_factory, kato_parts)
-    path = write(root / "in", "avatar.glb", *edited(kato_parts, lambda doc, blob: doc.update(extensions=extensions)))
+    path = write(
+        root / "in",
+        "avatar.glb",
+        *edited(kato_parts, lambda doc, blob: doc.update(extensions=extensions)),
+    )
     out = root / "out" / "o.glb"
     run_contained(retarget_argv(path, out, path), root, out).assert_contained(path, root / "in")
 
@@ -446,18 +659,27 @@ def test_fuzz_vrm_humanoid(tmp_path_factory, kato_parts, extensions):  # noqa: F
 def test_the_memory_cases_stay_within_2_gib_in_a_fresh_process(tmp_path, kato_parts):  # noqa: F811
     """The catalogue's memory cases, run by ``retarget`` in one fresh process whose whole address
     space is capped at 2 GiB (as measured in the issue, where they ran past 4 GiB)."""
+
     def no_buffer(index, count):
         def edit(doc, blob):
             doc["accessors"][index].update(count=count)
             del doc["accessors"][index]["bufferView"]
+
         return edit
 
     def span(doc, blob):
         times = np.arange(12) / 30.0
         times[-1] = 33333.0
         put_accessor(doc, blob, TIMES, times)
-    cases = [write(tmp_path, name, *edited(kato_parts, edit)) for name, edit in
-             (("positions.glb", no_buffer(0, 10**9)), ("ibm.glb", no_buffer(IBM, 400_000_000)), ("span.glb", span))]
+
+    cases = [
+        write(tmp_path, name, *edited(kato_parts, edit))
+        for name, edit in (
+            ("positions.glb", no_buffer(0, 10**9)),
+            ("ibm.glb", no_buffer(IBM, 400_000_000)),
+            ("span.glb", span),
+        )
+    ]
     script = textwrap.dedent(f"""
         import resource, sys
         resource.setrlimit(resource.RLIMIT_AS, (2 * 2**30, 2 * 2**30))
@@ -466,8 +688,13 @@ def test_the_memory_cases_stay_within_2_gib_in_a_fresh_process(tmp_path, kato_pa
                  for p in {[str(p) for p in cases]!r}]
         print(codes)
     """)
-    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300,
-                          env=dict(os.environ, OMP_NUM_THREADS="1"))
+    done = subprocess.run(
+        [sys.executable, "-c", script],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env=dict(os.environ, OMP_NUM_THREADS="1"),
+    )
     assert done.returncode == 0 and done.stdout.strip() == "[2, 2, 2]", (done.stdout, done.stderr)
     lines = done.stderr.strip().splitlines()
     assert len(lines) == 3 and all(str(p) in line for p, line in zip(cases, lines)), lines

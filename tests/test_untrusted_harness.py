@@ -25,12 +25,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from test_gltf import random_motion
 
 from retarget_lib.cli import main
 from retarget_lib.core.rig import Rig
 from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.io.gltf_write import save_glb
-from test_gltf import random_motion
 
 #: the memory a case may take beyond what the process already uses
 CAP_BYTES = 2 * 2**30
@@ -68,7 +68,9 @@ def memory_cap(extra: int = CAP_BYTES):
     """Limit this process's address space to what it uses now + ``extra`` inside the block."""
     soft, hard = resource.getrlimit(resource.RLIMIT_AS)
     limit = _address_space() + extra
-    resource.setrlimit(resource.RLIMIT_AS, (limit if hard == resource.RLIM_INFINITY else min(limit, hard), hard))
+    resource.setrlimit(
+        resource.RLIMIT_AS, (limit if hard == resource.RLIM_INFINITY else min(limit, hard), hard)
+    )
     try:
         yield
     finally:
@@ -83,7 +85,12 @@ def snapshot(folder: Path) -> dict[str, tuple]:
             out[str(p)] = ("link", os.readlink(p))
         elif p.is_file():
             st = p.stat()
-            out[str(p)] = (st.st_ino, st.st_size, st.st_mtime_ns, hashlib.sha256(p.read_bytes()).hexdigest())
+            out[str(p)] = (
+                st.st_ino,
+                st.st_size,
+                st.st_mtime_ns,
+                hashlib.sha256(p.read_bytes()).hexdigest(),
+            )
     return out
 
 
@@ -118,13 +125,22 @@ class Run:
         assert self.code in (0, 2), (self.code, self.err)
         if self.code == 2:
             self.assert_error(named)
-        outside = [p for p in self.opened if p.startswith(str(self.folder)) and not p.startswith(str(inputs))
-                   and not (self.out is not None and p.startswith(str(self.out.parent)))]
+        outside = [
+            p
+            for p in self.opened
+            if p.startswith(str(self.folder))
+            and not p.startswith(str(inputs))
+            and not (self.out is not None and p.startswith(str(self.out.parent)))
+        ]
         assert not outside, f"read outside {inputs}: {outside}"
         assert not any(p.startswith("/etc/") for p in self.opened), self.opened
         changed = {k for k in self.before if self.after.get(k) != self.before[k]}
         assert not changed, f"changed or removed: {changed}"
-        created = set(self.after) - set(self.before) - {str(p) for p in (self.out, *self.extra_outputs) if p}
+        created = (
+            set(self.after)
+            - set(self.before)
+            - {str(p) for p in (self.out, *self.extra_outputs) if p}
+        )
         assert not created, f"created: {created}"
 
 
@@ -133,8 +149,13 @@ def run_contained(argv: list[str], folder: Path, out: Path | None = None) -> Run
     test's folder and ``out`` the one file the command may create."""
     before = snapshot(folder)
     err, stdout = io.StringIO(), io.StringIO()
-    with watch_opens() as opened, memory_cap(), redirect_stderr(err), redirect_stdout(stdout), \
-            warnings.catch_warnings(record=True) as caught:
+    with (
+        watch_opens() as opened,
+        memory_cap(),
+        redirect_stderr(err),
+        redirect_stdout(stdout),
+        warnings.catch_warnings(record=True) as caught,
+    ):
         warnings.simplefilter("always")  # a warning is a line on a user's stderr
         code = main(argv)
     shown = "".join(f"{w.category.__name__}: {w.message}\n" for w in caught)
@@ -142,8 +163,18 @@ def run_contained(argv: list[str], folder: Path, out: Path | None = None) -> Run
 
 
 def retarget_argv(source, out, target="kato", *extra) -> list[str]:
-    return ["retarget", "--source", str(source), "--target", str(target), "--method", "copy", "--out", str(out),
-            *map(str, extra)]
+    return [
+        "retarget",
+        "--source",
+        str(source),
+        "--target",
+        str(target),
+        "--method",
+        "copy",
+        "--out",
+        str(out),
+        *map(str, extra),
+    ]
 
 
 # ------------------------------------------------------------------------- GLB building blocks
@@ -157,10 +188,10 @@ def kato_glb(path: Path, frames: int = 12) -> Path:
 def split_glb(data: bytes) -> tuple[dict, bytes]:
     """``(JSON, binary chunk)`` of a GLB file."""
     json_size = struct.unpack_from("<I", data, 12)[0]
-    doc = json.loads(data[20:20 + json_size])
+    doc = json.loads(data[20 : 20 + json_size])
     bin_start = 20 + json_size
     bin_size = struct.unpack_from("<I", data, bin_start)[0]
-    return doc, data[bin_start + 8:bin_start + 8 + bin_size]
+    return doc, data[bin_start + 8 : bin_start + 8 + bin_size]
 
 
 def pack_glb(doc: dict, blob: bytes, allow_nan: bool = False) -> bytes:
@@ -168,7 +199,12 @@ def pack_glb(doc: dict, blob: bytes, allow_nan: bool = False) -> bytes:
     text = json.dumps(doc, allow_nan=allow_nan).encode()
     text += b" " * (-len(text) % 4)
     blob += b"\0" * (-len(blob) % 4)
-    body = struct.pack("<II", len(text), 0x4E4F534A) + text + struct.pack("<II", len(blob), 0x004E4942) + blob
+    body = (
+        struct.pack("<II", len(text), 0x4E4F534A)
+        + text
+        + struct.pack("<II", len(blob), 0x004E4942)
+        + blob
+    )
     return b"glTF" + struct.pack("<II", 2, 12 + len(body)) + body
 
 
@@ -211,6 +247,7 @@ def test_a_warning_counts_as_a_line_on_stderr(tmp_path, monkeypatch):
     def warn_then_fail(args):
         warnings.warn("casting discards the imaginary part", RuntimeWarning, stacklevel=2)
         raise ValueError("a.glb: problem")
+
     monkeypatch.setattr(retarget_lib.cli, "_cmd_data", warn_then_fail)
     run = run_contained(["data", "list"], tmp_path)
     with pytest.raises(AssertionError):
@@ -218,11 +255,16 @@ def test_a_warning_counts_as_a_line_on_stderr(tmp_path, monkeypatch):
 
 
 def test_the_error_check_fails_on_a_traceback_or_two_lines(tmp_path):
-    for code, err in ((2, "a.glb: one\na.glb: two\n"), (1, "Traceback (most recent call last):\n"),
-                      (2, "other.glb: problem\n")):
+    for code, err in (
+        (2, "a.glb: one\na.glb: two\n"),
+        (1, "Traceback (most recent call last):\n"),
+        (2, "other.glb: problem\n"),
+    ):
         with pytest.raises(AssertionError):
             Run(code, err, [], {}, {}, tmp_path).assert_contained("a.glb", tmp_path)
-    Run(2, "retarget retarget: error: a.glb: problem\n", [], {}, {}, tmp_path).assert_contained("a.glb", tmp_path)
+    Run(2, "retarget retarget: error: a.glb: problem\n", [], {}, {}, tmp_path).assert_contained(
+        "a.glb", tmp_path
+    )
 
 
 def test_the_memory_cap_turns_a_large_allocation_into_memory_error():

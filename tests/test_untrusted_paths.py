@@ -11,12 +11,19 @@ import time
 from pathlib import Path
 
 import pytest
+from test_untrusted_harness import kato_glb, kato_parts, retarget_argv, run_contained, split_glb  # noqa: F401
 
 from retarget_lib.errors import GLTFError, OutputPathError
-from retarget_lib.files import (REPO_ROOT, TEMP_PREFIX, atomic_write, cache_dir, input_ledger, read_beside,
-                                sweep_stale_temps)
+from retarget_lib.files import (
+    REPO_ROOT,
+    TEMP_PREFIX,
+    atomic_write,
+    cache_dir,
+    input_ledger,
+    read_beside,
+    sweep_stale_temps,
+)
 from retarget_lib.io.gltf import load_gltf_rig
-from test_untrusted_harness import kato_glb, kato_parts, retarget_argv, run_contained, split_glb  # noqa: F401
 
 
 def gltf_with_buffer(folder: Path, uri: str, blob: bytes, kato_parts) -> Path:  # noqa: F811
@@ -29,10 +36,16 @@ def gltf_with_buffer(folder: Path, uri: str, blob: bytes, kato_parts) -> Path:  
 
 
 @pytest.mark.parametrize("pointing_at", ["secret", "/etc/passwd"])
-def test_a_buffer_symlinked_out_of_the_folder_is_refused_and_never_read(tmp_path, kato_parts, pointing_at):  # noqa: F811
+def test_a_buffer_symlinked_out_of_the_folder_is_refused_and_never_read(
+    tmp_path,
+    kato_parts,  # noqa: F811
+    pointing_at,
+):
     secret = tmp_path / "secret" / "passwd"
     secret.parent.mkdir()
-    secret.write_bytes(kato_parts[1].replace(b"\0\0\0\0", b"ROOT", 1))  # a valid buffer, with a marker
+    secret.write_bytes(
+        kato_parts[1].replace(b"\0\0\0\0", b"ROOT", 1)
+    )  # a valid buffer, with a marker
     gltf = gltf_with_buffer(tmp_path / "in", "data.bin", kato_parts[1], kato_parts)
     (tmp_path / "in" / "data.bin").symlink_to(secret if pointing_at == "secret" else pointing_at)
     out = tmp_path / "out" / "o.glb"
@@ -49,8 +62,16 @@ def test_a_buffer_symlinked_inside_the_folder_is_read(tmp_path, kato_parts):  # 
     assert load_gltf_rig(gltf).skeleton.num_joints == 22
 
 
-@pytest.mark.parametrize("uri", ["%2e%2e/secret/data.bin", "..%2Fsecret%2Fdata.bin", "/etc/passwd",
-                                 "file:///etc/passwd", "sub\\..\\..\\secret\\data.bin"])
+@pytest.mark.parametrize(
+    "uri",
+    [
+        "%2e%2e/secret/data.bin",
+        "..%2Fsecret%2Fdata.bin",
+        "/etc/passwd",
+        "file:///etc/passwd",
+        "sub\\..\\..\\secret\\data.bin",
+    ],
+)
 def test_a_buffer_uri_that_leaves_the_folder_is_refused(tmp_path, kato_parts, uri):  # noqa: F811
     (tmp_path / "secret").mkdir()
     (tmp_path / "secret" / "data.bin").write_bytes(kato_parts[1])
@@ -123,14 +144,20 @@ def test_the_sweep_keeps_a_users_tmp_file_and_a_look_alike_input(tmp_path):
     notes.write_text("my notes")
     two_hours_ago = time.time() - 7200
     os.utime(notes, (two_hours_ago, two_hours_ago))
-    joint_map = tmp_path / ".map.yaml.999999999.abcd1234.tmp"  # a dead process's temp name, by the old pattern
+    joint_map = (
+        tmp_path / ".map.yaml.999999999.abcd1234.tmp"
+    )  # a dead process's temp name, by the old pattern
     joint_map.write_text("Head: Head\n")
-    old = tmp_path / f"{TEMP_PREFIX}999999999-abcd-o.bvh.tmp"  # even our own prefix, without a record
+    old = (
+        tmp_path / f"{TEMP_PREFIX}999999999-abcd-o.bvh.tmp"
+    )  # even our own prefix, without a record
     old.write_text("x")
     out = tmp_path / "o.bvh"
     run = run_contained(retarget_argv(target, out, target, "--joint-map", joint_map), tmp_path, out)
     assert run.code == 0, run.err
-    assert notes.read_text() == "my notes" and joint_map.read_text() == "Head: Head\n" and old.exists()
+    assert (
+        notes.read_text() == "my notes" and joint_map.read_text() == "Head: Head\n" and old.exists()
+    )
     run.assert_contained(target, tmp_path)
     assert sweep_stale_temps(tmp_path) == []
 
@@ -140,7 +167,7 @@ def _killed_write(folder: Path) -> None:
     script = textwrap.dedent(f"""
         import os, signal
         from retarget_lib.files import atomic_write
-        with atomic_write({str(folder / 'big.bin')!r}) as f:
+        with atomic_write({str(folder / "big.bin")!r}) as f:
             f.write(b"x" * 1000)
             f.flush()
             os.kill(os.getpid(), signal.SIGKILL)
@@ -157,7 +184,9 @@ def test_a_killed_writes_temp_file_is_swept_from_its_record(tmp_path):
     with atomic_write(tmp_path / "other.bin") as f:
         f.write(b"data")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["other.bin"]
-    assert not [r for r in cache_dir("temp-records").glob("*.json") if str(tmp_path) in r.read_text()]
+    assert not [
+        r for r in cache_dir("temp-records").glob("*.json") if str(tmp_path) in r.read_text()
+    ]
 
 
 def test_a_recorded_temp_replaced_by_a_users_file_is_kept(tmp_path):

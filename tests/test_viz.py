@@ -1,6 +1,5 @@
 """Pictures: renders are non-blank, change with the pose, stay small; animations and the player."""
 
-
 import numpy as np
 import pytest
 
@@ -12,9 +11,21 @@ from retarget_lib.core.skeleton import CANONICAL22_PARENTS, canonical22_skeleton
 def tpose():
     o = np.zeros((22, 3))
     o[0] = [0, 0.95, 0]
-    chain = {1: [0, .1, 0], 2: [0, .12, 0], 3: [0, .13, 0], 4: [0, .15, 0], 5: [0, .1, 0],
-             6: [.09, -.05, 0], 7: [0, -.43, 0], 8: [0, -.42, 0], 9: [0, -.05, .13],
-             14: [.06, .1, 0], 15: [.12, 0, 0], 16: [.27, 0, 0], 17: [.25, 0, 0]}
+    chain = {
+        1: [0, 0.1, 0],
+        2: [0, 0.12, 0],
+        3: [0, 0.13, 0],
+        4: [0, 0.15, 0],
+        5: [0, 0.1, 0],
+        6: [0.09, -0.05, 0],
+        7: [0, -0.43, 0],
+        8: [0, -0.42, 0],
+        9: [0, -0.05, 0.13],
+        14: [0.06, 0.1, 0],
+        15: [0.12, 0, 0],
+        16: [0.27, 0, 0],
+        17: [0.25, 0, 0],
+    }
     for j, v in chain.items():
         o[j] = v
     for left, right in ((6, 10), (7, 11), (8, 12), (9, 13), (14, 18), (15, 19), (16, 20), (17, 21)):
@@ -41,7 +52,7 @@ def test_skeleton_render_non_blank_centred_and_pose_dependent(tpose):
 def test_side_by_side_has_three_characters(tpose):
     img = viz.render_side_by_side([(tpose, CANONICAL22_PARENTS)] * 3, titles=["a", "b", "c"])
     w = img.shape[1]
-    thirds = [content_fraction(img[:, k * w // 3:(k + 1) * w // 3]) for k in range(3)]
+    thirds = [content_fraction(img[:, k * w // 3 : (k + 1) * w // 3]) for k in range(3)]
     assert min(thirds) > 0.01
 
 
@@ -60,7 +71,9 @@ def test_gif_has_all_frames(tmp_path, tpose):
     T = 10
     pos = np.repeat(tpose[None], T, 0)
     pos[:, 17, 1] += np.linspace(0, 0.3, T)
-    path = viz.animate_motion(pos, CANONICAL22_PARENTS, tmp_path / "a.gif", every=1, window_size=(240, 160))
+    path = viz.animate_motion(
+        pos, CANONICAL22_PARENTS, tmp_path / "a.gif", every=1, window_size=(240, 160)
+    )
     frames = iio.imread(path, index=None)
     assert frames.shape[0] == T
     assert not np.array_equal(frames[0], frames[-1])
@@ -71,14 +84,18 @@ def test_mesh_render_with_scalars_and_pairs():
 
     box = pv.Box(bounds=(-0.2, 0.2, 0.0, 1.0, -0.1, 0.1)).triangulate()
     v, f = np.asarray(box.points), np.asarray(box.faces).reshape(-1, 4)[:, 1:]
-    img = viz.render_mesh(v, f, scalars=v[:, 1], point_pairs=np.array([[0, 1]]), highlight_faces=np.array([0]))
+    img = viz.render_mesh(
+        v, f, scalars=v[:, 1], point_pairs=np.array([[0, 1]]), highlight_faces=np.array([0])
+    )
     assert content_fraction(img) > 0.02
 
 
 def test_plots():
     ax = viz.plot_root_trajectories({"a": np.zeros((5, 3)), "b": np.ones((5, 3))})
     assert len([ln for ln in ax.get_lines() if ln.get_label() in ("a", "b")]) == 2
-    ax = viz.plot_timeline({"left": np.array([0, 1, 1, 0]), "right": np.array([1, 0, 0, 1])}, fps=30)
+    ax = viz.plot_timeline(
+        {"left": np.array([0, 1, 1, 0]), "right": np.array([1, 0, 0, 1])}, fps=30
+    )
     assert [t.get_text() for t in ax.get_yticklabels()] == ["left", "right"]
 
 
@@ -88,7 +105,10 @@ def test_player_static_and_widget_modes(tpose):
     sk = canonical22_skeleton(np.zeros((22, 3)) + 0.1)
     rot = np.zeros((12, 22, 4))
     rot[..., 0] = 1
-    motions = {"a": Motion(sk, rot, np.zeros((12, 3)), 30.0), "b": Motion(sk, rot[:5], np.zeros((5, 3)), 30.0)}
+    motions = {
+        "a": Motion(sk, rot, np.zeros((12, 3)), 30.0),
+        "b": Motion(sk, rot[:5], np.zeros((5, 3)), 30.0),
+    }
     still = viz.player(motions, mode="static")
     bundle = still._repr_mimebundle_()
     assert still.widget is None and "image/png" in bundle
@@ -116,7 +136,9 @@ def test_player_character_picker_shows_the_motion_on_that_character():
     p.character_picker.value = other
     theirs = p.scene(clip.name, 10)
     assert len(theirs.vertices) == ds.characters[other].num_vertices
-    assert mine.vertices.shape != theirs.vertices.shape or not np.allclose(mine.vertices, theirs.vertices)
+    assert mine.vertices.shape != theirs.vertices.shape or not np.allclose(
+        mine.vertices, theirs.vertices
+    )
     p.close()
 
 
@@ -124,12 +146,16 @@ def test_titles_stay_inside_the_image_and_apart(tpose):
     from retarget_lib.viz.plotter import SceneRenderer
     from retarget_lib.viz.scene import Scene
 
-    scenes = [Scene(positions=tpose + [dx, 0, 0], parents=CANONICAL22_PARENTS) for dx in (-0.5, 0.0, 0.5)]
+    scenes = [
+        Scene(positions=tpose + [dx, 0, 0], parents=CANONICAL22_PARENTS) for dx in (-0.5, 0.0, 0.5)
+    ]
     r = SceneRenderer((240, 160), "front")
     try:
         r.update(scenes, 1.8)
         r.frame(np.array([-1.4, 0, -0.2]), np.array([1.4, 1.9, 0.2]), 1.8)
-        r.set_titles(["source", "retargeted", "ground truth"], [[dx, 1.9, 0] for dx in (-0.5, 0.0, 0.5)])
+        r.set_titles(
+            ["source", "retargeted", "ground truth"], [[dx, 1.9, 0] for dx in (-0.5, 0.0, 0.5)]
+        )
         boxes = []
         for actor in r._texts:
             bb = [0.0] * 4
@@ -148,7 +174,9 @@ def test_mp4_keeps_its_size(tmp_path, tpose):
     import imageio.v3 as iio
 
     pos = np.repeat(tpose[None], 4, 0)
-    path = viz.animate_motion(pos, CANONICAL22_PARENTS, tmp_path / "a.mp4", every=1, window_size=(240, 150))
+    path = viz.animate_motion(
+        pos, CANONICAL22_PARENTS, tmp_path / "a.mp4", every=1, window_size=(240, 150)
+    )
     assert iio.imread(path, index=None).shape[1:3] == (150, 240)  # 150 is not a multiple of 8 or 16
 
 
@@ -161,7 +189,9 @@ def test_animate_meshes_with_different_vertex_counts(tmp_path):
     verts = [np.asarray(m.points)[None] + [0, 1, 0] + lift for m in meshes]
     faces = [np.asarray(m.faces).reshape(-1, 4)[:, 1:] for m in meshes]
     assert verts[0].shape[1] != verts[1].shape[1]
-    path = viz.animate_mesh(verts, faces, tmp_path / "two.gif", every=1, window_size=(160, 100), titles=["a", "b"])
+    path = viz.animate_mesh(
+        verts, faces, tmp_path / "two.gif", every=1, window_size=(160, 100), titles=["a", "b"]
+    )
     assert iio.imread(path, index=None).shape[0] == 4
 
 
@@ -203,7 +233,9 @@ def test_floor_is_at_the_lowest_drawn_point(tpose):
         lowest = r.drawn_points()[:, 1].min()  # the toe spheres' bottoms
         assert abs(r.floor_y - lowest) < 1e-9  # no float arithmetic: the same number is copied
         floor = r.pl.actors["floor"].GetMapper().GetInput().GetPoints()
-        assert abs(floor.GetBounds()[2] - lowest) < 1e-9 and abs(floor.GetBounds()[3] - lowest) < 1e-9
+        assert (
+            abs(floor.GetBounds()[2] - lowest) < 1e-9 and abs(floor.GetBounds()[3] - lowest) < 1e-9
+        )
     finally:
         r.close()
 
@@ -221,16 +253,27 @@ def test_side_by_side_stands_every_character_on_the_floor(tpose):
     # both characters' feet reach the same image row (within 3 px of anti-aliasing and perspective)
     h, w = img.shape[:2]
     dark = np.abs(img.astype(int) - 255).sum(-1) > 300  # joints and bones, not the pale floor
-    feet = [np.flatnonzero(dark[:, half].any(1))[-1] for half in (slice(0, w // 2), slice(w // 2, w))]
+    feet = [
+        np.flatnonzero(dark[:, half].any(1))[-1] for half in (slice(0, w // 2), slice(w // 2, w))
+    ]
     assert abs(feet[0] - feet[1]) <= 3
 
 
 def test_animation_fills_the_canvas(tmp_path, tpose):
     import imageio.v3 as iio
 
-    pos = np.repeat(tpose[None], 6, 0) + np.linspace(0, 0.6, 6)[:, None, None] * [0, 0, 1]  # walks 60 cm forward
-    path = viz.animate_motion([pos, pos], CANONICAL22_PARENTS, tmp_path / "a.gif", every=1,
-                              titles=["mannequin-x", "a long title"])
+    pos = np.repeat(tpose[None], 6, 0) + np.linspace(0, 0.6, 6)[:, None, None] * [
+        0,
+        0,
+        1,
+    ]  # walks 60 cm forward
+    path = viz.animate_motion(
+        [pos, pos],
+        CANONICAL22_PARENTS,
+        tmp_path / "a.gif",
+        every=1,
+        titles=["mannequin-x", "a long title"],
+    )
     frames = iio.imread(path, index=None)[..., :3]
     content = np.abs(frames.astype(int) - 255).sum(-1) > 300
     wide, tall = _subject_box(content.any(0))
@@ -285,10 +328,13 @@ def test_gif_keeps_its_size_budget(tmp_path, tpose):
     T = 16
     pos = np.repeat(tpose[None], T, 0) + np.linspace(0, 0.6, T)[:, None, None] * [0, 0, 1]
     pos[:, 17, 1] += np.linspace(0, 0.4, T)
-    free = viz.animate_motion(pos, CANONICAL22_PARENTS, tmp_path / "free.gif", every=1, window_size=(320, 200))
+    free = viz.animate_motion(
+        pos, CANONICAL22_PARENTS, tmp_path / "free.gif", every=1, window_size=(320, 200)
+    )
     budget = 0.6 * free.stat().st_size / 1024  # a budget the full-quality file does not meet
-    path = viz.animate_motion(pos, CANONICAL22_PARENTS, tmp_path / "b.gif", every=1, window_size=(320, 200),
-                              max_kb=budget)
+    path = viz.animate_motion(
+        pos, CANONICAL22_PARENTS, tmp_path / "b.gif", every=1, window_size=(320, 200), max_kb=budget
+    )
     assert path.stat().st_size <= budget * 1024
     assert iio.imread(path, index=None).shape[0] >= 4  # still an animation
 

@@ -41,7 +41,14 @@ from scipy.spatial.transform import Rotation
 OUT_DIR = Path(__file__).resolve().parents[1] / "data" / "real_characters"
 MAX_VERTICES = 25_000
 
-_COMPONENT = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}
+_COMPONENT = {
+    5120: np.int8,
+    5121: np.uint8,
+    5122: np.int16,
+    5123: np.uint16,
+    5125: np.uint32,
+    5126: np.float32,
+}
 _WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT4": 16}
 
 
@@ -107,14 +114,20 @@ class Doc:
         return next(s for s, skin in enumerate(self.skins) if node in skin.joints)
 
     # -- edits that move nothing ---------------------------------------------------------------
-    def insert_joint(self, name: str, parent: str, children: list[str], at: np.ndarray | None = None) -> None:
+    def insert_joint(
+        self, name: str, parent: str, children: list[str], at: np.ndarray | None = None
+    ) -> None:
         """A new joint below ``parent`` and above ``children`` (world transforms kept), at world
         position ``at`` (default: the mean of the children), with the parent's orientation; added to
         the parent's skins with no weight."""
         world = self.world()
         p = self.index(parent)
         kids = [self.index(c) for c in children]
-        pos = np.mean([world[k][:3, 3] for k in kids], axis=0) if at is None else np.asarray(at, float)
+        pos = (
+            np.mean([world[k][:3, 3] for k in kids], axis=0)
+            if at is None
+            else np.asarray(at, float)
+        )
         if at is None and not kids:
             raise ValueError(f"{name}: a leaf joint needs a position")
         new_world = world[p].copy()
@@ -173,7 +186,7 @@ def _read_gltf(path: Path) -> tuple[dict, list[bytes]]:
         off, gltf, blob = 12, None, None
         while off < length:
             size, kind = struct.unpack_from("<II", data, off)
-            chunk = data[off + 8:off + 8 + size]
+            chunk = data[off + 8 : off + 8 + size]
             if kind == 0x4E4F534A:
                 gltf = json.loads(chunk)
             elif kind == 0x004E4942:
@@ -202,7 +215,9 @@ def _accessor(gltf: dict, buffers: list[bytes], i: int) -> np.ndarray:
     buf = buffers[view["buffer"]]
     start = view.get("byteOffset", 0) + acc.get("byteOffset", 0)
     stride = view.get("byteStride") or dtype.itemsize * width
-    raw = np.frombuffer(buf, np.uint8, count=stride * (count - 1) + dtype.itemsize * width, offset=start)
+    raw = np.frombuffer(
+        buf, np.uint8, count=stride * (count - 1) + dtype.itemsize * width, offset=start
+    )
     rows = np.lib.stride_tricks.as_strided(raw, (count, dtype.itemsize * width), (stride, 1))
     out = np.ascontiguousarray(rows).view(dtype).reshape(count, width)
     if acc.get("normalized") and np.issubdtype(dtype, np.integer):
@@ -224,8 +239,16 @@ def _local(node: dict) -> np.ndarray:
 
 def read_gltf_doc(path: Path) -> Doc:
     gltf, buffers = _read_gltf(path)
-    nodes = [Node(n.get("name", f"node{i}"), _local(n), list(n.get("children", [])), n.get("mesh"), n.get("skin"))
-             for i, n in enumerate(gltf["nodes"])]
+    nodes = [
+        Node(
+            n.get("name", f"node{i}"),
+            _local(n),
+            list(n.get("children", [])),
+            n.get("mesh"),
+            n.get("skin"),
+        )
+        for i, n in enumerate(gltf["nodes"])
+    ]
     meshes = []
     for mesh in gltf.get("meshes", []):
         prims = []
@@ -234,8 +257,11 @@ def read_gltf_doc(path: Path) -> Doc:
             if p.get("mode", 4) != 4 or "JOINTS_0" not in a:
                 continue
             pos = _accessor(gltf, buffers, a["POSITION"]).astype(np.float64)
-            idx = (_accessor(gltf, buffers, p["indices"]).ravel().astype(np.int64) if "indices" in p
-                   else np.arange(len(pos)))
+            idx = (
+                _accessor(gltf, buffers, p["indices"]).ravel().astype(np.int64)
+                if "indices" in p
+                else np.arange(len(pos))
+            )
             js, ws = [], []
             k = 0
             while f"JOINTS_{k}" in a:
@@ -243,26 +269,43 @@ def read_gltf_doc(path: Path) -> Doc:
                 ws.append(_accessor(gltf, buffers, a[f"WEIGHTS_{k}"]).astype(np.float64))
                 k += 1
             j, w = _top4(np.concatenate(js, 1), np.concatenate(ws, 1))
-            nrm = _accessor(gltf, buffers, a["NORMAL"]).astype(np.float64) if "NORMAL" in a else None
+            nrm = (
+                _accessor(gltf, buffers, a["NORMAL"]).astype(np.float64) if "NORMAL" in a else None
+            )
             prims.append(Primitive(pos, idx.reshape(-1, 3), j, w, nrm))
         meshes.append(prims)
     skins = []
     for s in gltf.get("skins", []):
-        ibm = (_accessor(gltf, buffers, s["inverseBindMatrices"]).astype(np.float64) if "inverseBindMatrices" in s
-               else np.broadcast_to(np.eye(4), (len(s["joints"]), 4, 4)).copy())
+        ibm = (
+            _accessor(gltf, buffers, s["inverseBindMatrices"]).astype(np.float64)
+            if "inverseBindMatrices" in s
+            else np.broadcast_to(np.eye(4), (len(s["joints"]), 4, 4)).copy()
+        )
         skins.append(Skin(list(s["joints"]), ibm))
     scene = gltf.get("scenes", [{}])[gltf.get("scene", 0)] if gltf.get("scenes") else {}
-    roots = list(scene.get("nodes", [i for i in range(len(nodes)) if i not in {c for n in nodes for c in n.children}]))
+    roots = list(
+        scene.get(
+            "nodes",
+            [i for i in range(len(nodes)) if i not in {c for n in nodes for c in n.children}],
+        )
+    )
     ext = {}
     e = gltf.get("extensions", {})
     if "VRM" in e:
         meta = {k: v for k, v in e["VRM"].get("meta", {}).items() if k != "texture"}
-        ext["VRM"] = {"exporterVersion": e["VRM"].get("exporterVersion", ""), "specVersion": e["VRM"].get("specVersion", "0.0"),
-                      "meta": meta, "humanoid": {"humanBones": e["VRM"]["humanoid"]["humanBones"]}}
+        ext["VRM"] = {
+            "exporterVersion": e["VRM"].get("exporterVersion", ""),
+            "specVersion": e["VRM"].get("specVersion", "0.0"),
+            "meta": meta,
+            "humanoid": {"humanBones": e["VRM"]["humanoid"]["humanBones"]},
+        }
     if "VRMC_vrm" in e:
         meta = {k: v for k, v in e["VRMC_vrm"].get("meta", {}).items() if k != "thumbnailImage"}
-        ext["VRMC_vrm"] = {"specVersion": e["VRMC_vrm"].get("specVersion", "1.0"), "meta": meta,
-                           "humanoid": e["VRMC_vrm"]["humanoid"]}
+        ext["VRMC_vrm"] = {
+            "specVersion": e["VRMC_vrm"].get("specVersion", "1.0"),
+            "meta": meta,
+            "humanoid": e["VRMC_vrm"]["humanoid"],
+        }
     return Doc(nodes, meshes, skins, roots, ext, gltf.get("asset", {}).get("generator", ""))
 
 
@@ -300,11 +343,21 @@ def decimate(doc: Doc, limit: int = MAX_VERTICES) -> None:
     for m in used:
         new = []
         for p in doc.meshes[m]:
-            pos, faces = fast_simplification.simplify(p.positions.astype(np.float32), p.faces.astype(np.int32),
-                                                      target_reduction=1.0 - keep)
+            pos, faces = fast_simplification.simplify(
+                p.positions.astype(np.float32),
+                p.faces.astype(np.int32),
+                target_reduction=1.0 - keep,
+            )
             nearest = cKDTree(p.positions).query(pos)[1]
-            new.append(Primitive(pos.astype(np.float64), faces.astype(np.int64), p.joints[nearest], p.weights[nearest],
-                                 None if p.normals is None else p.normals[nearest]))
+            new.append(
+                Primitive(
+                    pos.astype(np.float64),
+                    faces.astype(np.int64),
+                    p.joints[nearest],
+                    p.weights[nearest],
+                    None if p.normals is None else p.normals[nearest],
+                )
+            )
         doc.meshes[m] = new
 
 
@@ -320,8 +373,14 @@ class _Packer:
         self.views: list[dict] = []
         self.accessors: list[dict] = []
 
-    def add(self, array: np.ndarray, kind: str, component: int, target: int | None = None,
-            minmax: bool = False) -> int:
+    def add(
+        self,
+        array: np.ndarray,
+        kind: str,
+        component: int,
+        target: int | None = None,
+        minmax: bool = False,
+    ) -> int:
         dtype = np.dtype(_COMPONENT[component]).newbyteorder("<")
         data = np.ascontiguousarray(array, dtype=dtype)
         while len(self.blob) % 4:
@@ -331,8 +390,12 @@ class _Packer:
             view["target"] = target
         self.blob += data.tobytes()
         self.views.append(view)
-        acc = {"bufferView": len(self.views) - 1, "componentType": component,
-               "count": int(len(array)), "type": kind}
+        acc = {
+            "bufferView": len(self.views) - 1,
+            "componentType": component,
+            "count": int(len(array)),
+            "type": kind,
+        }
         if minmax:
             acc["min"] = [float(x) for x in array.min(0)]
             acc["max"] = [float(x) for x in array.max(0)]
@@ -372,17 +435,25 @@ def write_glb(doc: Doc, path: Path, source_note: str) -> None:
     used = {n.mesh for n in doc.nodes if n.mesh is not None and n.skin is not None}
     for m, prims in enumerate(doc.meshes):
         out = []
-        for p in (prims if m in used else []):
+        for p in prims if m in used else []:
             attrs = {"POSITION": pk.add(p.positions, "VEC3", 5126, 34962, minmax=True)}
             if p.normals is not None:
-                nrm = p.normals / np.maximum(np.linalg.norm(p.normals, axis=1, keepdims=True), 1e-12)
+                nrm = p.normals / np.maximum(
+                    np.linalg.norm(p.normals, axis=1, keepdims=True), 1e-12
+                )
                 attrs["NORMAL"] = pk.add(nrm, "VEC3", 5126, 34962)
             comp = 5121 if p.joints.max(initial=0) < 256 else 5123
             attrs["JOINTS_0"] = pk.add(p.joints, "VEC4", comp, 34962)
             attrs["WEIGHTS_0"] = pk.add(p.weights, "VEC4", 5126, 34962)
             idx_comp = 5123 if len(p.positions) < 65536 else 5125
-            out.append({"attributes": attrs, "indices": pk.add(p.faces.reshape(-1, 1), "SCALAR", idx_comp, 34963),
-                        "mode": 4, "material": 0})
+            out.append(
+                {
+                    "attributes": attrs,
+                    "indices": pk.add(p.faces.reshape(-1, 1), "SCALAR", idx_comp, 34963),
+                    "mode": 4,
+                    "material": 0,
+                }
+            )
         meshes.append({"primitives": out} if out else None)
     # meshes no node uses anymore: leave a valid empty slot out by remapping
     remap, kept = {}, []
@@ -393,14 +464,38 @@ def write_glb(doc: Doc, path: Path, source_note: str) -> None:
     for d in nodes:
         if "mesh" in d:
             d["mesh"] = remap[d["mesh"]]
-    skins = [{"joints": list(s.joints), "inverseBindMatrices": pk.add(s.ibm.transpose(0, 2, 1).reshape(-1, 16), "MAT4", 5126)}
-             for s in doc.skins]
-    gltf = {"asset": {"version": "2.0", "generator": "retarget-notebooks tools/real_characters.py",
-                      "extras": {"source": source_note}},
-            "scene": 0, "scenes": [{"nodes": list(doc.roots)}], "nodes": nodes, "meshes": kept, "skins": skins,
-            "materials": [{"name": "plain", "pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1.0],
-                                                                     "metallicFactor": 0.0, "roughnessFactor": 0.8}}],
-            "accessors": pk.accessors, "bufferViews": pk.views, "buffers": [{"byteLength": len(pk.blob)}]}
+    skins = [
+        {
+            "joints": list(s.joints),
+            "inverseBindMatrices": pk.add(s.ibm.transpose(0, 2, 1).reshape(-1, 16), "MAT4", 5126),
+        }
+        for s in doc.skins
+    ]
+    gltf = {
+        "asset": {
+            "version": "2.0",
+            "generator": "retarget-notebooks tools/real_characters.py",
+            "extras": {"source": source_note},
+        },
+        "scene": 0,
+        "scenes": [{"nodes": list(doc.roots)}],
+        "nodes": nodes,
+        "meshes": kept,
+        "skins": skins,
+        "materials": [
+            {
+                "name": "plain",
+                "pbrMetallicRoughness": {
+                    "baseColorFactor": [0.8, 0.8, 0.8, 1.0],
+                    "metallicFactor": 0.0,
+                    "roughnessFactor": 0.8,
+                },
+            }
+        ],
+        "accessors": pk.accessors,
+        "bufferViews": pk.views,
+        "buffers": [{"byteLength": len(pk.blob)}],
+    }
     if doc.extensions:
         gltf["extensions"] = doc.extensions
         gltf["extensionsUsed"] = sorted(doc.extensions)
@@ -408,7 +503,12 @@ def write_glb(doc: Doc, path: Path, source_note: str) -> None:
     js += b" " * (-len(js) % 4)
     blob = bytes(pk.blob) + b"\0" * (-len(pk.blob) % 4)
     out = struct.pack("<4sII", b"glTF", 2, 12 + 8 + len(js) + 8 + len(blob))
-    out += struct.pack("<II", len(js), 0x4E4F534A) + js + struct.pack("<II", len(blob), 0x004E4942) + blob
+    out += (
+        struct.pack("<II", len(js), 0x4E4F534A)
+        + js
+        + struct.pack("<II", len(blob), 0x004E4942)
+        + blob
+    )
     path.write_bytes(out)
 
 
@@ -417,7 +517,9 @@ def via_assimp(src: Path) -> Doc:
     """Any format assimp reads, converted to GLB by ``assimp export`` and read back."""
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "x.glb"
-        subprocess.run(["assimp", "export", str(src), str(out), "-fglb2"], check=True, capture_output=True)
+        subprocess.run(
+            ["assimp", "export", str(src), str(out), "-fglb2"], check=True, capture_output=True
+        )
         return read_gltf_doc(out)
 
 
@@ -428,12 +530,27 @@ def read_iqm(path: Path, scale: float = 1.0) -> Doc:
     if d[:16] != b"INTERQUAKEMODEL\0":
         raise ValueError(f"{path}: not an IQM file")
     h = struct.unpack_from("<27I", d, 16)
-    (_ver, _size, _flags, _ntext, ofs_text, _nmesh, _ofs_mesh, n_va, n_vert, ofs_va, n_tri, ofs_tri, _adj,
-     n_joint, ofs_joint) = h[:15]
+    (
+        _ver,
+        _size,
+        _flags,
+        _ntext,
+        ofs_text,
+        _nmesh,
+        _ofs_mesh,
+        n_va,
+        n_vert,
+        ofs_va,
+        n_tri,
+        ofs_tri,
+        _adj,
+        n_joint,
+        ofs_joint,
+    ) = h[:15]
     text = d[ofs_text:]
 
     def name(off: int) -> str:
-        return text[off:text.index(b"\0", off)].decode()
+        return text[off : text.index(b"\0", off)].decode()
 
     nodes, parents = [], []
     for j in range(n_joint):
@@ -450,7 +567,9 @@ def read_iqm(path: Path, scale: float = 1.0) -> Doc:
     for k in range(n_va):
         kind, _fl, fmt, size, off = struct.unpack_from("<5I", d, ofs_va + 20 * k)
         dtype = {1: np.uint8, 7: np.float32}[fmt]
-        arrays[kind] = np.frombuffer(d, dtype, n_vert * size, off).reshape(n_vert, size).astype(np.float64)
+        arrays[kind] = (
+            np.frombuffer(d, dtype, n_vert * size, off).reshape(n_vert, size).astype(np.float64)
+        )
     tris = np.frombuffer(d, "<u4", 3 * n_tri, ofs_tri).reshape(-1, 3).astype(np.int64)
     # IQM triangles wind clockwise (Quake); glTF's are counter-clockwise
     tris = tris[:, ::-1]
@@ -460,7 +579,9 @@ def read_iqm(path: Path, scale: float = 1.0) -> Doc:
     nodes.append(mesh_node)
     doc = Doc(nodes, [[Primitive(arrays[0], tris, j, w, arrays.get(2))]], [], [], generator="iqm")
     world = doc.world()
-    doc.skins = [Skin(list(range(n_joint)), np.stack([np.linalg.inv(world[i]) for i in range(n_joint)]))]
+    doc.skins = [
+        Skin(list(range(n_joint)), np.stack([np.linalg.inv(world[i]) for i in range(n_joint)]))
+    ]
     root = [i for i, p in enumerate(parents) if p < 0]
     doc.roots = root + [len(nodes) - 1]
     return doc
@@ -505,6 +626,7 @@ def read_makehuman(mpfb_dir: Path, rig: str, scale: float = 0.1) -> Doc:
             if n not in seen and (p is None or p in seen or p not in bones):
                 order.append(n)
                 seen.add(n)
+
     # Rigify's helper bones (elbow/knee/pelvis/shoulder helpers, MCH-breast-parent) follow the body
     # through constraints, not a parent: they are hung under the main root (the root with the most
     # bones below it), which is then put first
@@ -533,8 +655,11 @@ def read_makehuman(mpfb_dir: Path, rig: str, scale: float = 0.1) -> Doc:
             nodes[index[p]].children.append(index[n])
     # body faces only (quads split), vertices renumbered
     quads = groups["body"]
-    tri = np.array([t for f in quads for t in ([f[0], f[1], f[2]], [f[0], f[2], f[3]])] if len(quads[0]) == 4
-                   else quads)
+    tri = np.array(
+        [t for f in quads for t in ([f[0], f[1], f[2]], [f[0], f[2], f[3]])]
+        if len(quads[0]) == 4
+        else quads
+    )
     used = np.unique(tri)
     new = -np.ones(len(verts), int)
     new[used] = np.arange(len(used))
@@ -543,7 +668,9 @@ def read_makehuman(mpfb_dir: Path, rig: str, scale: float = 0.1) -> Doc:
         target = b
         while target not in index:  # a deform bone the rig file does not list: its metarig bone
             stripped = target.removeprefix("DEF-").removeprefix("ORG-").replace("_master", "")
-            stripped = stripped[:-4] if stripped[-4:-3] == "." and stripped[-3:].isdigit() else stripped
+            stripped = (
+                stripped[:-4] if stripped[-4:-3] == "." and stripped[-3:].isdigit() else stripped
+            )
             if stripped == target:
                 break
             target = stripped
@@ -553,17 +680,30 @@ def read_makehuman(mpfb_dir: Path, rig: str, scale: float = 0.1) -> Doc:
         np.add.at(dense, (arr[:, 0].astype(int), index[target]), arr[:, 1])
     dense = dense[used]
     bare = dense.sum(1) <= 0
-    if bare.any():  # (none in the rigs used) a vertex no group weights takes its nearest weighted neighbour's
-        print(f"{rig}: {int(bare.sum())} body vertices without weights take their nearest weighted vertex's")
+    if (
+        bare.any()
+    ):  # (none in the rigs used) a vertex no group weights takes its nearest weighted neighbour's
+        print(
+            f"{rig}: {int(bare.sum())} body vertices without weights take their nearest weighted vertex's"
+        )
         dense[bare] = dense[~bare][cKDTree(verts[used][~bare]).query(verts[used][bare])[1]]
     order4 = np.argsort(-dense, axis=1)[:, :4]
     j, w = _top4(order4, np.take_along_axis(dense, order4, 1))
     mesh_node = Node(f"makehuman_{rig}", np.eye(4), mesh=0, skin=0)
     nodes.append(mesh_node)
-    doc = Doc(nodes, [[Primitive(verts[used], new[tri], j, w)]], [], [index[order[0]], len(nodes) - 1],
-              generator="mpfb2")
+    doc = Doc(
+        nodes,
+        [[Primitive(verts[used], new[tri], j, w)]],
+        [],
+        [index[order[0]], len(nodes) - 1],
+        generator="mpfb2",
+    )
     world = doc.world()
-    doc.skins = [Skin(list(range(len(order))), np.stack([np.linalg.inv(world[i]) for i in range(len(order))]))]
+    doc.skins = [
+        Skin(
+            list(range(len(order))), np.stack([np.linalg.inv(world[i]) for i in range(len(order))])
+        )
+    ]
     return doc
 
 
@@ -601,8 +741,12 @@ def mrfixit(src: Path) -> Doc:
     doc.reparent("HandGoal.R", "LowerArm.R")
     doc.insert_joint("Spine1_inserted", "Spine1", ["Spine2"], at=_midpoint(doc, "Spine1", "Spine2"))
     for side in "LR":
-        doc.insert_joint(f"Clavicle.{side}_inserted", "Spine2", [f"UpperArm.{side}"],
-                         at=_midpoint(doc, "Spine2", f"UpperArm.{side}"))
+        doc.insert_joint(
+            f"Clavicle.{side}_inserted",
+            "Spine2",
+            [f"UpperArm.{side}"],
+            at=_midpoint(doc, "Spine2", f"UpperArm.{side}"),
+        )
     return doc
 
 
@@ -610,8 +754,12 @@ def cryptovoxels(src: Path) -> Doc:
     """VRM 0.x avatar with hips, spine and chest but no upperChest: ``UpperChest_inserted`` is put
     midway between ``Chest`` and ``Neck``, above the neck and both shoulders."""
     doc = read_gltf_doc(src)
-    doc.insert_joint("UpperChest_inserted", "Chest", ["Neck", "Left shoulder", "Right shoulder"],
-                     at=_midpoint(doc, "Chest", "Neck"))
+    doc.insert_joint(
+        "UpperChest_inserted",
+        "Chest",
+        ["Neck", "Left shoulder", "Right shoulder"],
+        at=_midpoint(doc, "Chest", "Neck"),
+    )
     return doc
 
 
@@ -626,7 +774,9 @@ def quaternius(src: Path, scale: float = 0.004) -> Doc:
     w = doc.world()
     for side in "LR":
         doc.reparent(f"Foot.{side}", f"LowerLeg.{side}")
-        doc.insert_joint(f"Toe.{side}_inserted", f"Foot.{side}", [], at=w[doc.index(f"Foot.{side}_end")][:3, 3])
+        doc.insert_joint(
+            f"Toe.{side}_inserted", f"Foot.{side}", [], at=w[doc.index(f"Foot.{side}_end")][:3, 3]
+        )
     doc.scale(scale)
     return doc
 
@@ -642,7 +792,12 @@ def quaternius_cowboy(src: Path) -> Doc:
     w = doc.world()
     for side in "LR":
         doc.reparent(f"FootIK.{side}", f"LowerLeg.{side}")
-        doc.insert_joint(f"Toe.{side}_inserted", f"FootIK.{side}", [], at=w[doc.index(f"FootIK.{side}_end")][:3, 3])
+        doc.insert_joint(
+            f"Toe.{side}_inserted",
+            f"FootIK.{side}",
+            [],
+            at=w[doc.index(f"FootIK.{side}_end")][:3, 3],
+        )
     doc.scale(0.001)
     return doc
 
@@ -656,12 +811,24 @@ RECIPES = {
     "bcn_epileptic": (bcn_epileptic, ASSIMP_MODELS / "X" / "BCN_Epileptic.X"),
     "mrfixit": (mrfixit, ASSIMP_MODELS / "IQM" / "mrfixit.iqm"),
     "cryptovoxels": (cryptovoxels, "cryptovoxels.vrm (madjin/vrm-samples)"),
-    "quaternius_female_dress": (quaternius, "Female_Dress.fbx (beep2bleep/FreeAssetsByKenneyNLandQuaternius)"),
-    "quaternius_male_casual": (quaternius, "Male_Casual.fbx (beep2bleep/FreeAssetsByKenneyNLandQuaternius)"),
+    "quaternius_female_dress": (
+        quaternius,
+        "Female_Dress.fbx (beep2bleep/FreeAssetsByKenneyNLandQuaternius)",
+    ),
+    "quaternius_male_casual": (
+        quaternius,
+        "Male_Casual.fbx (beep2bleep/FreeAssetsByKenneyNLandQuaternius)",
+    ),
     # the goblin as written is as tall as the men (2.3 m at their scale): scaled to about 1.2 m, a
     # short character (its proportions, long arms and a long trunk, are the file's)
-    "quaternius_goblin": (lambda p: quaternius(p, scale=0.0021), "Goblin.fbx (beep2bleep/FreeAssetsByKenneyNLandQuaternius)"),
-    "quaternius_cowboy": (quaternius_cowboy, "Cowboy.fbx (beep2bleep/FreeAssetsByKenneyNLandQuaternius)"),
+    "quaternius_goblin": (
+        lambda p: quaternius(p, scale=0.0021),
+        "Goblin.fbx (beep2bleep/FreeAssetsByKenneyNLandQuaternius)",
+    ),
+    "quaternius_cowboy": (
+        quaternius_cowboy,
+        "Cowboy.fbx (beep2bleep/FreeAssetsByKenneyNLandQuaternius)",
+    ),
 }
 
 
@@ -677,5 +844,7 @@ def build(name: str, src: Path, out_dir: Path = OUT_DIR) -> Path:
 
 if __name__ == "__main__":
     if len(sys.argv) != 3 or sys.argv[1] not in RECIPES:
-        sys.exit(f"usage: python tools/real_characters.py NAME SOURCE  (NAME: {', '.join(RECIPES)})")
+        sys.exit(
+            f"usage: python tools/real_characters.py NAME SOURCE  (NAME: {', '.join(RECIPES)})"
+        )
     print(build(sys.argv[1], Path(sys.argv[2])))

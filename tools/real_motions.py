@@ -29,10 +29,14 @@ def convert_ase(src: Path, out: Path) -> Path:
     """``src`` (ASE) -> ``out`` (BVH, inches) through assimp's glTF export."""
     with tempfile.TemporaryDirectory() as tmp:
         glb = Path(tmp) / "clip.glb"
-        subprocess.run(["assimp", "export", str(src), str(glb), "-fglb2"], check=True, capture_output=True)
+        subprocess.run(
+            ["assimp", "export", str(src), str(glb), "-fglb2"], check=True, capture_output=True
+        )
         motion, _ = load_gltf_animation(glb, mapping=out.with_suffix(".joints.yaml"))
     motion.name = out.stem
-    save_bvh(motion, out, unit="m")  # the numbers as the file has them (read as metres from glTF); the loader says inches
+    save_bvh(
+        motion, out, unit="m"
+    )  # the numbers as the file has them (read as metres from glTF); the loader says inches
     return out
 
 

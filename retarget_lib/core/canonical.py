@@ -9,14 +9,28 @@ only takes index maps ``{joint index: canonical index}``.
 
 from __future__ import annotations
 
-from typing import Mapping, Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 import torch
 
 from .motion import Motion
-from .rotations import matrix_to_quat, quat_between, quat_canonical, quat_conjugate, quat_mul, quat_rotate
-from .skeleton import CANONICAL22, CANONICAL22_PARENTS, J, JointSetError, Skeleton, canonical22_skeleton
+from .rotations import (
+    matrix_to_quat,
+    quat_between,
+    quat_canonical,
+    quat_conjugate,
+    quat_mul,
+    quat_rotate,
+)
+from .skeleton import (
+    CANONICAL22,
+    CANONICAL22_PARENTS,
+    J,
+    JointSetError,
+    Skeleton,
+    canonical22_skeleton,
+)
 from .virtual_joints import MAY_BE_ABSENT, with_virtual_joints
 
 
@@ -25,7 +39,11 @@ def _reordering(skeleton: Skeleton, joint_map: Mapping[int, int]) -> list[int] |
     one-to-one onto the canonical 22 with the canonical tree (each joint's parent maps to its
     canonical parent: SMPL-X body joints, a 22-joint rig in another order), else None."""
     every = list(range(22))
-    if skeleton.num_joints != 22 or sorted(joint_map) != every or sorted(joint_map.values()) != every:
+    if (
+        skeleton.num_joints != 22
+        or sorted(joint_map) != every
+        or sorted(joint_map.values()) != every
+    ):
         return None
     mapped_parent = [-1 if p < 0 else joint_map[p] for p in skeleton.parents]
     if any(mapped_parent[j] != CANONICAL22_PARENTS[c] for j, c in joint_map.items()):
@@ -34,7 +52,9 @@ def _reordering(skeleton: Skeleton, joint_map: Mapping[int, int]) -> list[int] |
     return [file_of[c] for c in range(22)]
 
 
-def fold_to_canonical22(motion: Motion, joint_map: Mapping[int, int], label: str = "joint_map") -> Motion:
+def fold_to_canonical22(
+    motion: Motion, joint_map: Mapping[int, int], label: str = "joint_map"
+) -> Motion:
     """Fold a motion onto the canonical 22 joints.
 
     A joint set that is the canonical 22 in another order or under other names (same tree) is only
@@ -69,14 +89,26 @@ def fold_to_canonical22(motion: Motion, joint_map: Mapping[int, int], label: str
     Raises:
         JointSetError: ``joint_map`` lacks a canonical joint that cannot be inserted.
     """
-    missing = [CANONICAL22[c] for c in range(22) if c not in joint_map.values() and CANONICAL22[c] not in MAY_BE_ABSENT]
+    missing = [
+        CANONICAL22[c]
+        for c in range(22)
+        if c not in joint_map.values() and CANONICAL22[c] not in MAY_BE_ABSENT
+    ]
     if missing:
-        raise JointSetError(f"fold_to_canonical22: the joint map lacks {missing}, which cannot be inserted")
+        raise JointSetError(
+            f"fold_to_canonical22: the joint map lacks {missing}, which cannot be inserted"
+        )
     meta = dict(motion.meta, folded_from=label)
     order = _reordering(motion.skeleton, joint_map)
     if order is not None:
-        return Motion(canonical22_skeleton(motion.skeleton.offsets[order]), motion.rotations[:, order].copy(),
-                      motion.root_positions.copy(), motion.fps, name=motion.name, meta=meta)
+        return Motion(
+            canonical22_skeleton(motion.skeleton.offsets[order]),
+            motion.rotations[:, order].copy(),
+            motion.root_positions.copy(),
+            motion.fps,
+            name=motion.name,
+            meta=meta,
+        )
     augmented, full = with_virtual_joints(motion, joint_map)
     sk = augmented.skeleton
     src_of = {c: s for s, c in full.items()}
@@ -100,12 +132,19 @@ def fold_to_canonical22(motion: Motion, joint_map: Mapping[int, int], label: str
     local = g.clone()
     par = torch.tensor(CANONICAL22_PARENTS[1:])
     local[:, 1:] = quat_mul(quat_conjugate(g[:, par]), g[:, 1:])
-    return Motion(canonical22_skeleton(offsets), quat_canonical(local).numpy(),
-                  target_pos[:, 0].copy(), motion.fps, name=motion.name, meta=meta)
+    return Motion(
+        canonical22_skeleton(offsets),
+        quat_canonical(local).numpy(),
+        target_pos[:, 0].copy(),
+        motion.fps,
+        name=motion.name,
+        meta=meta,
+    )
 
 
-def fit_global_rotations(rotations: np.ndarray, positions: np.ndarray, offsets: np.ndarray,
-                         parents: Sequence[int]) -> np.ndarray:
+def fit_global_rotations(
+    rotations: np.ndarray, positions: np.ndarray, offsets: np.ndarray, parents: Sequence[int]
+) -> np.ndarray:
     """Re-fit each joint's global rotation so that it maps its children's rest offsets onto their
     actual world positions (used when joints are folded away).
 
@@ -139,7 +178,7 @@ def fit_global_rotations(rotations: np.ndarray, positions: np.ndarray, offsets: 
         kids = [c for c, p in enumerate(parents) if p == j and off[c].norm() > 1e-9]
         if not kids:
             continue
-        d = pos[:, kids] - pos[:, j:j + 1]  # (T, k, 3)
+        d = pos[:, kids] - pos[:, j : j + 1]  # (T, k, 3)
         o = off[kids]  # (k, 3)
         sv = torch.linalg.svdvals(o)
         if len(kids) == 1 or sv[1] <= 1e-3 * sv[0]:  # all children on one line
@@ -158,7 +197,9 @@ def fit_global_rotations(rotations: np.ndarray, positions: np.ndarray, offsets: 
     return quat_canonical(out).numpy()
 
 
-def unfold_from_canonical22(motion: Motion, skeleton: Skeleton, joint_map: Mapping[int, int]) -> Motion:
+def unfold_from_canonical22(
+    motion: Motion, skeleton: Skeleton, joint_map: Mapping[int, int]
+) -> Motion:
     """Put a canonical-22 motion back on a full joint set (the inverse of :func:`fold_to_canonical22`).
 
     Used to write a retargeted motion with the target file's own joints, names and rest offsets.
@@ -206,8 +247,14 @@ def unfold_from_canonical22(motion: Motion, skeleton: Skeleton, joint_map: Mappi
     hips = next(j for j, c in cmap.items() if c == J["Hips"])
     rest = skeleton.rest_positions()
     root = motion.root_positions - (rest[hips] - rest[0])
-    return Motion(skeleton.copy(), out, root, motion.fps, name=motion.name,
-                  meta={"converted_from": "canonical22"})
+    return Motion(
+        skeleton.copy(),
+        out,
+        root,
+        motion.fps,
+        name=motion.name,
+        meta={"converted_from": "canonical22"},
+    )
 
 
 def _snap(v: np.ndarray) -> np.ndarray:
@@ -218,7 +265,9 @@ def _snap(v: np.ndarray) -> np.ndarray:
     return axis
 
 
-def upright_rotation(hips: np.ndarray, head: np.ndarray, left_hip: np.ndarray, right_hip: np.ndarray) -> np.ndarray:
+def upright_rotation(
+    hips: np.ndarray, head: np.ndarray, left_hip: np.ndarray, right_hip: np.ndarray
+) -> np.ndarray:
     """``(3, 3)`` the quarter turns that stand a rest pose up in the library's axes: its hips-to-head
     direction onto +Y and its right-to-left hip direction onto +X (so that it faces +Z), each
     snapped to the nearest coordinate axis first; the identity for a rest pose that already does,
@@ -250,7 +299,9 @@ def stand_upright(motion: Motion) -> Motion:
     if not motion.skeleton.is_canonical22():
         raise JointSetError("stand_upright needs a canonical-22 motion")
     rest = motion.skeleton.rest_positions()
-    turn = upright_rotation(rest[J["Hips"]], rest[J["Head"]], rest[J["LeftUpLeg"]], rest[J["RightUpLeg"]])
+    turn = upright_rotation(
+        rest[J["Hips"]], rest[J["Head"]], rest[J["LeftUpLeg"]], rest[J["RightUpLeg"]]
+    )
     if np.array_equal(turn, np.eye(3)):
         return motion
     q_turn = matrix_to_quat(torch.from_numpy(turn))
@@ -259,7 +310,11 @@ def stand_upright(motion: Motion) -> Motion:
     turned[:, 0] = quat_mul(rot[:, 0], quat_conjugate(q_turn).expand_as(rot[:, 0]))
     offsets = motion.skeleton.offsets @ turn.T
     offsets[0] = 0.0
-    offsets[0, 1] = -canonical22_skeleton(offsets).rest_positions()[:, 1].min()  # the turned rest stands on y = 0
-    return motion.copy(skeleton=canonical22_skeleton(offsets), rotations=turned.numpy(),
-                       meta=dict(motion.meta, rest_turned=turn.tolist()))
-
+    offsets[0, 1] = (
+        -canonical22_skeleton(offsets).rest_positions()[:, 1].min()
+    )  # the turned rest stands on y = 0
+    return motion.copy(
+        skeleton=canonical22_skeleton(offsets),
+        rotations=turned.numpy(),
+        meta=dict(motion.meta, rest_turned=turn.tolist()),
+    )

@@ -11,7 +11,6 @@ from .kinematics import forward_kinematics
 from .skeleton import Skeleton
 from .skinning import linear_blend_skinning, subsample_mesh
 
-
 #: bulk below which a character counts as "skinny", and at or above which as "bulky"
 SKINNY_BELOW, BULKY_FROM = 0.85, 1.25
 
@@ -45,13 +44,19 @@ class Character:
         self.faces = np.asarray(self.faces, dtype=np.int64)
         self.weights = np.asarray(self.weights, dtype=np.float64)
         if not self.skeleton.is_canonical22():
-            raise ValueError(f"character {self.name!r}: skeleton must be on the canonical 22 joints")
+            raise ValueError(
+                f"character {self.name!r}: skeleton must be on the canonical 22 joints"
+            )
         nv = len(self.rest_vertices)
         if self.rest_vertices.shape != (nv, 3) or self.weights.shape != (nv, 22):
-            raise ValueError(f"character {self.name!r}: rest_vertices {self.rest_vertices.shape} and "
-                             f"weights {self.weights.shape} must be (V, 3) and (V, 22)")
+            raise ValueError(
+                f"character {self.name!r}: rest_vertices {self.rest_vertices.shape} and "
+                f"weights {self.weights.shape} must be (V, 3) and (V, 22)"
+            )
         if self.faces.ndim != 2 or self.faces.shape[1] != 3:
-            raise ValueError(f"character {self.name!r}: faces must be (F, 3), got {self.faces.shape}")
+            raise ValueError(
+                f"character {self.name!r}: faces must be (F, 3), got {self.faces.shape}"
+            )
 
     @property
     def height(self) -> float:
@@ -73,11 +78,18 @@ class Character:
         """``(22, 3)`` world joint positions in the rest pose (metres)."""
         return self.skeleton.rest_positions()
 
-    def copy(self) -> "Character":
-        return Character(self.name, self.skeleton.copy(), self.rest_vertices.copy(),
-                         self.faces.copy(), self.weights.copy(), self.bulk, dict(self.style))
+    def copy(self) -> Character:
+        return Character(
+            self.name,
+            self.skeleton.copy(),
+            self.rest_vertices.copy(),
+            self.faces.copy(),
+            self.weights.copy(),
+            self.bulk,
+            dict(self.style),
+        )
 
-    def decimated(self, vertices: int) -> "Character":
+    def decimated(self, vertices: int) -> Character:
         """A copy whose mesh is reduced to about ``vertices`` vertices, skinning weights carried
         (:func:`~retarget_lib.core.skinning.subsample_mesh`); the skeleton is the same.
 
@@ -85,8 +97,9 @@ class Character:
             vertices: the vertex count wanted (the result is within a few percent of it).
         """
         small = self.copy()
-        small.rest_vertices, small.faces, small.weights = subsample_mesh(self.rest_vertices, self.faces,
-                                                                         self.weights, vertices)
+        small.rest_vertices, small.faces, small.weights = subsample_mesh(
+            self.rest_vertices, self.faces, self.weights, vertices
+        )
         return small
 
     def skinned(self, rotations, root_positions):
@@ -102,9 +115,15 @@ class Character:
         """
         as_numpy = isinstance(rotations, np.ndarray)
         rot = torch.from_numpy(np.asarray(rotations, dtype=np.float64)) if as_numpy else rotations
-        root = torch.as_tensor(np.asarray(root_positions) if isinstance(root_positions, np.ndarray)
-                               else root_positions, dtype=rot.dtype, device=rot.device)
+        root = torch.as_tensor(
+            np.asarray(root_positions)
+            if isinstance(root_positions, np.ndarray)
+            else root_positions,
+            dtype=rot.dtype,
+            device=rot.device,
+        )
         pos, grot = forward_kinematics(rot, self.skeleton.offsets, self.skeleton.parents, root)
-        out = linear_blend_skinning(self.rest_vertices, self.weights, self.rest_joint_positions(),
-                                    grot, pos)
+        out = linear_blend_skinning(
+            self.rest_vertices, self.weights, self.rest_joint_positions(), grot, pos
+        )
         return out.numpy() if as_numpy else out

@@ -25,8 +25,18 @@ import numpy as np
 from .measures import foot_rest_heights
 from .skeleton import FOOT_CONTACT_JOINTS, Skeleton
 
-__all__ = ["FOOT_JOINTS", "STAND_BAND_M", "STILL_STEP_M", "REFERENCE_HEIGHT_M", "REFERENCE_FPS", "foot_positions",
-           "sole_heights", "clip_floor", "standing_feet", "floor_offset"]
+__all__ = [
+    "FOOT_JOINTS",
+    "STAND_BAND_M",
+    "STILL_STEP_M",
+    "REFERENCE_HEIGHT_M",
+    "REFERENCE_FPS",
+    "foot_positions",
+    "sole_heights",
+    "clip_floor",
+    "standing_feet",
+    "floor_offset",
+]
 
 #: the foot joints the ground rule reads: heels then toes (left, right)
 FOOT_JOINTS: tuple[str, ...] = FOOT_CONTACT_JOINTS
@@ -48,7 +58,9 @@ def foot_positions(positions: np.ndarray, skeleton: Skeleton) -> np.ndarray:
     return np.asarray(positions)[:, [skeleton.index(n) for n in FOOT_JOINTS]]
 
 
-def sole_heights(positions: np.ndarray, skeleton: Skeleton, rest_vertices: np.ndarray | None = None) -> np.ndarray:
+def sole_heights(
+    positions: np.ndarray, skeleton: Skeleton, rest_vertices: np.ndarray | None = None
+) -> np.ndarray:
     """``(T, 4)`` height of each foot joint's sole above ``y = 0`` (metres, :data:`FOOT_JOINTS` order).
 
     Args:
@@ -70,7 +82,9 @@ def clip_floor(soles: np.ndarray) -> float:
     return float(np.percentile(np.asarray(soles).min(axis=1), FLOOR_PERCENTILE))
 
 
-def standing_feet(feet: np.ndarray, soles: np.ndarray, floor: float, height: float, fps: float) -> np.ndarray:
+def standing_feet(
+    feet: np.ndarray, soles: np.ndarray, floor: float, height: float, fps: float
+) -> np.ndarray:
     """``(T, 4)`` bool: where each foot joint stands on the floor.
 
     Sec. 3.4's toe rule for every foot joint: at most :data:`STAND_BAND_M` above the floor and at
@@ -97,8 +111,13 @@ def standing_feet(feet: np.ndarray, soles: np.ndarray, floor: float, height: flo
     return low & (step <= STILL_STEP_M * scale * REFERENCE_FPS / fps)
 
 
-def floor_offset(target_soles: np.ndarray, source_soles: np.ndarray, source_floor: float, standing: np.ndarray,
-                 ratio: float) -> np.ndarray:
+def floor_offset(
+    target_soles: np.ndarray,
+    source_soles: np.ndarray,
+    source_floor: float,
+    standing: np.ndarray,
+    ratio: float,
+) -> np.ndarray:
     """``(T,)`` vertical shift of the target's root that keeps its feet on ``y = 0`` where the
     source's stand (the module's ground rule).
 

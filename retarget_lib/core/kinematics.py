@@ -22,9 +22,10 @@ sequential joint steps.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import NamedTuple, Sequence, cast
+from typing import NamedTuple, cast
 
 import numpy as np
 import torch
@@ -60,7 +61,9 @@ def _plan(parents: tuple[int, ...]) -> _Plan:
     depth = [0] * len(parents)
     for j, p in enumerate(parents):
         if j == 0 and p != -1 or j > 0 and not 0 <= p < j:
-            raise ValueError(f"parents must start with -1 and precede children; joint {j} has parent {p}")
+            raise ValueError(
+                f"parents must start with -1 and precede children; joint {j} has parent {p}"
+            )
         if p >= 0:
             depth[j] = depth[p] + 1
     order = tuple(sorted(range(len(parents)), key=lambda j: (depth[j], j)))
@@ -99,7 +102,11 @@ def forward_kinematics(
         :class:`FKResult` ``(positions (..., J, 3), rotations (..., J, 4))``.
     """
     as_numpy = isinstance(rotations, np.ndarray)
-    q = torch.from_numpy(np.asarray(rotations, dtype=np.float64)) if as_numpy else torch.as_tensor(rotations)
+    q = (
+        torch.from_numpy(np.asarray(rotations, dtype=np.float64))
+        if as_numpy
+        else torch.as_tensor(rotations)
+    )
     dtype, device = q.dtype, q.device
     off_t = torch.as_tensor(offsets, dtype=dtype, device=device)
     parents = tuple(int(p) for p in parents)
@@ -109,7 +116,11 @@ def forward_kinematics(
     if off_t.shape[-2:] != (nj, 3):
         raise ValueError(f"offsets must be (..., {nj}, 3), got {tuple(off_t.shape)}")
     lead = torch.broadcast_shapes(q.shape[:-2], off_t.shape[:-2])
-    root = None if root_positions is None else torch.as_tensor(root_positions, dtype=dtype, device=device)
+    root = (
+        None
+        if root_positions is None
+        else torch.as_tensor(root_positions, dtype=dtype, device=device)
+    )
     if root is not None:
         lead = torch.broadcast_shapes(lead, root.shape[:-1])
     n = math.prod(lead)
@@ -172,7 +183,9 @@ def local_positions(rotations: Tensor, offsets: Tensor, parents: Sequence[int]) 
     Returns:
         ``(..., J, 3)`` root-relative positions (the root's global rotation is applied).
     """
-    return cast(Tensor, forward_kinematics(rotations, offsets, parents, None).positions)  # tensors in, tensors out
+    return cast(
+        Tensor, forward_kinematics(rotations, offsets, parents, None).positions
+    )  # tensors in, tensors out
 
 
 def align_local_rotations(rotations: Tensor, align: Tensor, parents: Sequence[int]) -> Tensor:

@@ -105,7 +105,7 @@ def leg_length(offsets: Tensor) -> Tensor:
         ``(...)`` leg lengths in metres.
     """
     y = offsets[..., 1]
-    left = y[..., _LEFT_LEG].cumsum(-1)    # rest heights below the hips, down the chain
+    left = y[..., _LEFT_LEG].cumsum(-1)  # rest heights below the hips, down the chain
     right = y[..., _RIGHT_LEG].cumsum(-1)
     return -torch.cat([left, right], -1).min(-1).values
 

@@ -52,8 +52,9 @@ class Motion:
         self.root_positions = np.asarray(self.root_positions, dtype=np.float64)
         T, nj = self.rotations.shape[:2]
         if self.rotations.shape != (T, self.skeleton.num_joints, 4):
-            raise ValueError(f"rotations must be (T, {self.skeleton.num_joints}, 4), "
-                             f"got {self.rotations.shape}")
+            raise ValueError(
+                f"rotations must be (T, {self.skeleton.num_joints}, 4), got {self.rotations.shape}"
+            )
         if self.root_positions.shape != (T, 3):
             raise ValueError(f"root_positions must be ({T}, 3), got {self.root_positions.shape}")
         if T == 0:
@@ -72,35 +73,47 @@ class Motion:
         """Length in seconds."""
         return self.num_frames / self.fps
 
-    def copy(self, **changes) -> "Motion":
-        kw: dict[str, Any] = dict(skeleton=self.skeleton.copy(), rotations=self.rotations.copy(),
-                  root_positions=self.root_positions.copy(), fps=self.fps, name=self.name,
-                  meta=dict(self.meta))
+    def copy(self, **changes) -> Motion:
+        kw: dict[str, Any] = dict(
+            skeleton=self.skeleton.copy(),
+            rotations=self.rotations.copy(),
+            root_positions=self.root_positions.copy(),
+            fps=self.fps,
+            name=self.name,
+            meta=dict(self.meta),
+        )
         kw.update(changes)
         return Motion(**kw)
 
     def torch(self, dtype=torch.float32) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         """``(rotations (T,J,4), root_positions (T,3), offsets (J,3))`` as tensors."""
-        return (torch.as_tensor(self.rotations, dtype=dtype),
-                torch.as_tensor(self.root_positions, dtype=dtype),
-                torch.as_tensor(self.skeleton.offsets, dtype=dtype))
+        return (
+            torch.as_tensor(self.rotations, dtype=dtype),
+            torch.as_tensor(self.root_positions, dtype=dtype),
+            torch.as_tensor(self.skeleton.offsets, dtype=dtype),
+        )
 
     def fk(self) -> FKResult:
         """Global joint positions ``(T, J, 3)`` and rotations ``(T, J, 4)`` (NumPy float64)."""
-        return forward_kinematics(self.rotations, self.skeleton.offsets, self.skeleton.parents,
-                                  self.root_positions)
+        return forward_kinematics(
+            self.rotations, self.skeleton.offsets, self.skeleton.parents, self.root_positions
+        )
 
     def global_positions(self) -> np.ndarray:
         """``(T, J, 3)`` world joint positions."""
         return cast(np.ndarray, self.fk().positions)  # NumPy in, NumPy out
 
     # ---------------------------------------------------------------- editing
-    def slice(self, start: int, stop: int | None = None) -> "Motion":
+    def slice(self, start: int, stop: int | None = None) -> Motion:
         """Frames ``start:stop`` as a new motion."""
-        return self.copy(rotations=self.rotations[start:stop].copy(),
-                         root_positions=self.root_positions[start:stop].copy())
+        return self.copy(
+            rotations=self.rotations[start:stop].copy(),
+            root_positions=self.root_positions[start:stop].copy(),
+        )
 
-    def windows(self, length: int, stride: int | None = None, pad_last: bool = False) -> list["Motion"]:
+    def windows(
+        self, length: int, stride: int | None = None, pad_last: bool = False
+    ) -> list[Motion]:
         """Cut into fixed-length windows.
 
         Args:
@@ -119,13 +132,15 @@ class Motion:
             if not pad_last:
                 return []
             idx = np.clip(np.arange(length), 0, T - 1)
-            return [self.copy(rotations=self.rotations[idx], root_positions=self.root_positions[idx])]
+            return [
+                self.copy(rotations=self.rotations[idx], root_positions=self.root_positions[idx])
+            ]
         starts = list(range(0, T - length + 1, stride))
         if pad_last and starts[-1] + length < T:
             starts.append(T - length)
         return [self.slice(s, s + length) for s in starts]
 
-    def resample(self, fps: float) -> "Motion":
+    def resample(self, fps: float) -> Motion:
         """Resample in time: slerp for rotations, linear for root positions.
 
         Args:
@@ -142,11 +157,13 @@ class Motion:
         T = self.num_frames
         n_new = max(1, int(np.floor((T - 1) * fps / self.fps + 1e-9)) + 1)
         if n_new > MAX_FRAMES:
-            raise LimitError(f"resampling {self.name or 'the motion'} ({T} frames at {self.fps:g} fps) to {fps:g} fps "
-                             f"gives {n_new} frames, beyond the limit of {MAX_FRAMES}")
+            raise LimitError(
+                f"resampling {self.name or 'the motion'} ({T} frames at {self.fps:g} fps) to {fps:g} fps "
+                f"gives {n_new} frames, beyond the limit of {MAX_FRAMES}"
+            )
         return self._at_frames(np.arange(n_new) * (self.fps / fps), fps)
 
-    def at_times(self, seconds: np.ndarray, fps: float | None = None) -> "Motion":
+    def at_times(self, seconds: np.ndarray, fps: float | None = None) -> Motion:
         """The motion at arbitrary times: slerp for rotations, linear for root positions.
 
         Args:
@@ -156,21 +173,26 @@ class Motion:
         Returns:
             an ``N``-frame motion.
         """
-        return self._at_frames(np.asarray(seconds, dtype=np.float64) * self.fps, self.fps if fps is None else fps)
+        return self._at_frames(
+            np.asarray(seconds, dtype=np.float64) * self.fps, self.fps if fps is None else fps
+        )
 
-    def _at_frames(self, t: np.ndarray, fps: float) -> "Motion":
+    def _at_frames(self, t: np.ndarray, fps: float) -> Motion:
         """Frames at fractional frame positions ``t (N,)`` (clamped), with frame rate ``fps``."""
         T, n_new = self.num_frames, len(t)
         t = np.clip(t, 0.0, T - 1)
         i0 = np.clip(np.floor(t).astype(int), 0, T - 1)
         i1 = np.clip(i0 + 1, 0, T - 1)
         a = t - i0
-        rot = quat_slerp(_t(self.rotations[i0]), _t(self.rotations[i1]),
-                         _t(np.broadcast_to(a[:, None], (n_new, self.skeleton.num_joints))))
+        rot = quat_slerp(
+            _t(self.rotations[i0]),
+            _t(self.rotations[i1]),
+            _t(np.broadcast_to(a[:, None], (n_new, self.skeleton.num_joints))),
+        )
         root = self.root_positions[i0] * (1 - a[:, None]) + self.root_positions[i1] * a[:, None]
         return self.copy(rotations=rot.numpy(), root_positions=root, fps=fps)
 
-    def mirror(self) -> "Motion":
+    def mirror(self) -> Motion:
         """Left/right mirror image across the YZ plane (x -> -x); needs a symmetric joint set.
 
         Left and right joints swap (names starting with Left/Right); rotations are reflected
@@ -190,8 +212,12 @@ class Motion:
         off = self.skeleton.offsets[swap] * np.array([-1.0, 1.0, 1.0])
         root = self.root_positions * np.array([-1.0, 1.0, 1.0])
         skel = Skeleton(names, self.skeleton.parents, off)
-        return self.copy(skeleton=skel, rotations=rot, root_positions=root,
-                         name=(self.name + "_mirror") if self.name else "mirror")
+        return self.copy(
+            skeleton=skel,
+            rotations=rot,
+            root_positions=root,
+            name=(self.name + "_mirror") if self.name else "mirror",
+        )
 
     def facing(self) -> np.ndarray:
         """``(T, 3)`` horizontal facing direction (unit, y = 0) of the root frame at each frame.
@@ -205,11 +231,13 @@ class Motion:
             across = pos[:, names.index("LeftUpLeg")] - pos[:, names.index("RightUpLeg")]
             fwd = np.cross(across, np.array([0.0, 1.0, 0.0]))  # left (+X) x up (+Y) = +Z
         else:
-            fwd = quat_rotate(_t(cast(np.ndarray, grot)[:, 0]), _t(np.array([0.0, 0.0, 1.0]))).numpy()
+            fwd = quat_rotate(
+                _t(cast(np.ndarray, grot)[:, 0]), _t(np.array([0.0, 0.0, 1.0]))
+            ).numpy()
         fwd[:, 1] = 0.0
         return fwd / np.maximum(np.linalg.norm(fwd, axis=-1, keepdims=True), 1e-9)
 
-    def normalize_root(self, face_z: bool = True, on_ground: bool = True) -> "Motion":
+    def normalize_root(self, face_z: bool = True, on_ground: bool = True) -> Motion:
         """Put frame 0's root above the origin, facing +Z; optionally feet on the ground (y = 0).
 
         Rotates the whole clip about world +Y so the character faces +Z at frame 0, translates so the
@@ -232,7 +260,7 @@ class Motion:
             out.root_positions[:, 1] -= low
         return out
 
-    def with_skeleton(self, skeleton: Skeleton) -> "Motion":
+    def with_skeleton(self, skeleton: Skeleton) -> Motion:
         """The same local rotations on another skeleton with the same joint names (a 'copy')."""
         if skeleton.joint_names != self.skeleton.joint_names:
             raise ValueError("with_skeleton needs the same joint names")

@@ -14,7 +14,8 @@ feet's rest heights they use are those of :mod:`retarget_lib.core.measures`.
 
 from __future__ import annotations
 
-from typing import NamedTuple, Sequence, cast
+from collections.abc import Sequence
+from typing import NamedTuple, cast
 
 import numpy as np
 import torch
@@ -50,7 +51,7 @@ class DiscriminatorInputs(NamedTuple):
         bones: ``(B, J)`` bone lengths in metres (``B^A``/``B^B`` of Eqs. 19/20), not normalised.
     """
 
-    l: Tensor
+    l: Tensor  # noqa: E741 (the paper's symbol; a public field name)
     delta: Tensor
     bones: Tensor
 
@@ -132,8 +133,9 @@ def discriminator_inputs(p: Tensor, r: Tensor, offsets: Tensor, h) -> Discrimina
     if offsets.dim() == 2:
         offsets = offsets.expand(batch, *offsets.shape)
     if offsets.shape != (batch, p.shape[2], 3):
-        raise ValueError(f"offsets must be (J,3) or (B,J,3) with J={p.shape[2]}, got "
-                         f"{tuple(offsets.shape)}")
+        raise ValueError(
+            f"offsets must be (J,3) or (B,J,3) with J={p.shape[2]}, got {tuple(offsets.shape)}"
+        )
     return DiscriminatorInputs(
         normalized_joint_displacements(p, h),
         normalized_root_displacements(r, h),
@@ -202,8 +204,13 @@ class MotionQuantities(NamedTuple):
     height: Scalar
 
 
-def motion_quantities(rotations: Tensor, root_positions: Tensor, offsets: Tensor | np.ndarray,
-                      height: Scalar, parents: Sequence[int] = CANONICAL22_PARENTS) -> MotionQuantities:
+def motion_quantities(
+    rotations: Tensor,
+    root_positions: Tensor,
+    offsets: Tensor | np.ndarray,
+    height: Scalar,
+    parents: Sequence[int] = CANONICAL22_PARENTS,
+) -> MotionQuantities:
     """:class:`MotionQuantities` of a motion: FK for ``g`` and :func:`forward_root_velocity`.
 
     Args:
@@ -213,5 +220,7 @@ def motion_quantities(rotations: Tensor, root_positions: Tensor, offsets: Tensor
         height: the character's height ``h`` (metres), float or ``(...)``.
         parents: joint parents.
     """
-    positions = cast(Tensor, forward_kinematics(rotations, offsets, parents, root_positions).positions)
+    positions = cast(
+        Tensor, forward_kinematics(rotations, offsets, parents, root_positions).positions
+    )
     return MotionQuantities(rotations, forward_root_velocity(root_positions), positions, height)

@@ -59,20 +59,30 @@ class Rig:
         self.weights = np.asarray(self.weights, dtype=np.float64)
         nv, nj = len(self.rest_vertices), self.skeleton.num_joints
         if self.rest_vertices.shape != (nv, 3) or self.weights.shape != (nv, nj):
-            raise ValueError(f"rig {self.name!r}: rest_vertices {self.rest_vertices.shape} and weights "
-                             f"{self.weights.shape} must be (V, 3) and (V, {nj})")
+            raise ValueError(
+                f"rig {self.name!r}: rest_vertices {self.rest_vertices.shape} and weights "
+                f"{self.weights.shape} must be (V, 3) and (V, {nj})"
+            )
         mapped = sorted(self.joint_map.values())
         absent = {CANONICAL22[c] for c in set(range(22)) - set(mapped)}
         if len(set(mapped)) != len(mapped) or not absent <= set(MAY_BE_ABSENT):
-            raise ValueError(f"rig {self.name!r}: joint_map must give each canonical joint once; only "
-                             f"{', '.join(MAY_BE_ABSENT)} may be absent (missing: {sorted(absent)})")
+            raise ValueError(
+                f"rig {self.name!r}: joint_map must give each canonical joint once; only "
+                f"{', '.join(MAY_BE_ABSENT)} may be absent (missing: {sorted(absent)})"
+            )
 
     @classmethod
-    def from_character(cls, character: Character) -> "Rig":
+    def from_character(cls, character: Character) -> Rig:
         """A canonical-22 character as a rig (identity joint map)."""
-        return cls(character.name, character.skeleton.copy(), character.rest_vertices.copy(),
-                   character.faces.copy(), character.weights.copy(), {c: c for c in range(22)},
-                   dict(character.style))
+        return cls(
+            character.name,
+            character.skeleton.copy(),
+            character.rest_vertices.copy(),
+            character.faces.copy(),
+            character.weights.copy(),
+            {c: c for c in range(22)},
+            dict(character.style),
+        )
 
     def canonical_of(self) -> np.ndarray:
         """``(J,)`` the canonical joint each rig joint's weights fold into: its own when mapped,
@@ -93,8 +103,12 @@ class Rig:
         """The canonical-22 :class:`~retarget_lib.core.character.Character` the methods use:
         mapped joints' rest positions (absent ones placed as virtual joints), weights of unmapped
         joints folded (:meth:`canonical_of`)."""
-        rest_motion = Motion(self.skeleton, np.tile([1.0, 0.0, 0.0, 0.0], (1, self.skeleton.num_joints, 1)),
-                             self.skeleton.offsets[:1].copy(), 30.0)
+        rest_motion = Motion(
+            self.skeleton,
+            np.tile([1.0, 0.0, 0.0, 0.0], (1, self.skeleton.num_joints, 1)),
+            self.skeleton.offsets[:1].copy(),
+            30.0,
+        )
         augmented, full = self._with_virtual_joints(rest_motion)
         rest = augmented.skeleton.rest_positions()
         file_of = {c: j for j, c in full.items()}
@@ -103,8 +117,14 @@ class Rig:
         offsets[1:] -= rest22[list(CANONICAL22_PARENTS[1:])]
         weights = np.zeros((len(self.weights), 22))
         np.add.at(weights.T, self.canonical_of(), self.weights.T)
-        return Character(self.name, canonical22_skeleton(offsets), self.rest_vertices.copy(), self.faces.copy(),
-                         weights, style=dict(self.meta))
+        return Character(
+            self.name,
+            canonical22_skeleton(offsets),
+            self.rest_vertices.copy(),
+            self.faces.copy(),
+            weights,
+            style=dict(self.meta),
+        )
 
     def motion_to_canonical(self, motion: Motion) -> Motion:
         """Fold a motion on the rig's joints onto the canonical 22 (see ``fold_to_canonical22``; absent
@@ -119,5 +139,10 @@ class Rig:
     def posed_vertices(self, motion: Motion) -> np.ndarray:
         """``(T, V, 3)`` the mesh skinned by a motion on the rig's joints (linear blend skinning)."""
         fk = motion.fk()
-        return linear_blend_skinning(self.rest_vertices, self.weights, self.skeleton.rest_positions(),
-                                     torch.from_numpy(fk.rotations), torch.from_numpy(fk.positions)).numpy()
+        return linear_blend_skinning(
+            self.rest_vertices,
+            self.weights,
+            self.skeleton.rest_positions(),
+            torch.from_numpy(fk.rotations),
+            torch.from_numpy(fk.positions),
+        ).numpy()

@@ -163,9 +163,15 @@ def quat_to_matrix(q: Tensor) -> Tensor:
     wx, wy, wz = w * x, w * y, w * z
     m = torch.stack(
         (
-            1 - 2 * (yy + zz), 2 * (xy - wz), 2 * (xz + wy),
-            2 * (xy + wz), 1 - 2 * (xx + zz), 2 * (yz - wx),
-            2 * (xz - wy), 2 * (yz + wx), 1 - 2 * (xx + yy),
+            1 - 2 * (yy + zz),
+            2 * (xy - wz),
+            2 * (xz + wy),
+            2 * (xy + wz),
+            1 - 2 * (xx + zz),
+            2 * (yz - wx),
+            2 * (xz - wy),
+            2 * (yz + wx),
+            1 - 2 * (xx + yy),
         ),
         dim=-1,
     )
@@ -433,7 +439,9 @@ def quat_swing_twist(q: Tensor, axis: Tensor) -> tuple[Tensor, Tensor]:
     proj = (q[..., 1:] * axis).sum(-1, keepdim=True) * axis
     twist = torch.cat((q[..., :1], proj), dim=-1)
     n = twist.norm(dim=-1, keepdim=True)
-    twist = torch.where(n < 1e-9, quat_identity(q.shape[:-1], q.dtype, q.device), twist / n.clamp_min(1e-12))
+    twist = torch.where(
+        n < 1e-9, quat_identity(q.shape[:-1], q.dtype, q.device), twist / n.clamp_min(1e-12)
+    )
     swing = quat_mul(q, quat_conjugate(twist))
     return swing, twist
 
@@ -459,7 +467,9 @@ def frame_rotation(u0: Array, v0: Array, u1: Array, v1: Array) -> Array:
         e2 = unit(v - (v * e1).sum(-1, keepdim=True) * e1)
         return torch.stack((e1, e2, torch.linalg.cross(e1, e2, dim=-1)), dim=-1)
 
-    u0, v0, u1, v1 = (torch.from_numpy(np.asarray(x, dtype=np.float64)) if isinstance(x, np.ndarray) else x
-                      for x in (u0, v0, u1, v1))
+    u0, v0, u1, v1 = (
+        torch.from_numpy(np.asarray(x, dtype=np.float64)) if isinstance(x, np.ndarray) else x
+        for x in (u0, v0, u1, v1)
+    )
     q = matrix_to_quat(frame(u1, v1) @ frame(u0, v0).transpose(-1, -2))
     return q.numpy() if as_numpy else q

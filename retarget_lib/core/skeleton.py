@@ -11,23 +11,58 @@ al. 2018) and TDCN (Kim et al. 2020, Sec. 5 "Data preprocessing").
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+
 import numpy as np
 
 from ..errors import RetargetInputError
 
 CANONICAL22: tuple[str, ...] = (
-    "Hips", "Spine", "Spine1", "Spine2", "Neck", "Head",
-    "LeftUpLeg", "LeftLeg", "LeftFoot", "LeftToeBase",
-    "RightUpLeg", "RightLeg", "RightFoot", "RightToeBase",
-    "LeftShoulder", "LeftArm", "LeftForeArm", "LeftHand",
-    "RightShoulder", "RightArm", "RightForeArm", "RightHand",
+    "Hips",
+    "Spine",
+    "Spine1",
+    "Spine2",
+    "Neck",
+    "Head",
+    "LeftUpLeg",
+    "LeftLeg",
+    "LeftFoot",
+    "LeftToeBase",
+    "RightUpLeg",
+    "RightLeg",
+    "RightFoot",
+    "RightToeBase",
+    "LeftShoulder",
+    "LeftArm",
+    "LeftForeArm",
+    "LeftHand",
+    "RightShoulder",
+    "RightArm",
+    "RightForeArm",
+    "RightHand",
 )
 CANONICAL22_PARENTS: tuple[int, ...] = (
-    -1, 0, 1, 2, 3, 4,
-    0, 6, 7, 8,
-    0, 10, 11, 12,
-    3, 14, 15, 16,
-    3, 18, 19, 20,
+    -1,
+    0,
+    1,
+    2,
+    3,
+    4,
+    0,
+    6,
+    7,
+    8,
+    0,
+    10,
+    11,
+    12,
+    3,
+    14,
+    15,
+    16,
+    3,
+    18,
+    19,
+    20,
 )
 #: joint index of each canonical name
 J = {name: i for i, name in enumerate(CANONICAL22)}
@@ -37,9 +72,14 @@ MIRROR22: tuple[int, ...] = tuple(
 )
 #: the bones summed by :meth:`Skeleton.height` (NKN/TDCN ``H``): root->head chain + left leg chain
 HEIGHT_BONES: tuple[tuple[int, int], ...] = (
-    (J["Spine"], J["Hips"]), (J["Spine1"], J["Spine"]), (J["Spine2"], J["Spine1"]),
-    (J["Neck"], J["Spine2"]), (J["Head"], J["Neck"]),
-    (J["LeftLeg"], J["LeftUpLeg"]), (J["LeftFoot"], J["LeftLeg"]), (J["LeftToeBase"], J["LeftFoot"]),
+    (J["Spine"], J["Hips"]),
+    (J["Spine1"], J["Spine"]),
+    (J["Spine2"], J["Spine1"]),
+    (J["Neck"], J["Spine2"]),
+    (J["Head"], J["Neck"]),
+    (J["LeftLeg"], J["LeftUpLeg"]),
+    (J["LeftFoot"], J["LeftLeg"]),
+    (J["LeftToeBase"], J["LeftFoot"]),
 )
 
 #: column order of a ``(T, 4)`` per-joint contact array (foot contacts: detection, Efoot, foot IK)
@@ -81,8 +121,10 @@ class Skeleton:
             raise ValueError(f"Skeleton: duplicate joint names {dup}")
         for j, p in enumerate(self.parents):
             if (j == 0) != (p == -1) or p >= j:
-                raise ValueError(f"Skeleton: joint {j} ({self.joint_names[j]}) has parent {p}; "
-                                 "the root must be joint 0 and parents must precede children")
+                raise ValueError(
+                    f"Skeleton: joint {j} ({self.joint_names[j]}) has parent {p}; "
+                    "the root must be joint 0 and parents must precede children"
+                )
 
     # ------------------------------------------------------------------ basics
     @property
@@ -99,14 +141,22 @@ class Skeleton:
     def children(self, j: int) -> list[int]:
         return [c for c, p in enumerate(self.parents) if p == j]
 
-    def copy(self) -> "Skeleton":
-        return Skeleton(self.joint_names, self.parents, self.offsets.copy(),
-                        {k: v.copy() for k, v in self.end_sites.items()})
+    def copy(self) -> Skeleton:
+        return Skeleton(
+            self.joint_names,
+            self.parents,
+            self.offsets.copy(),
+            {k: v.copy() for k, v in self.end_sites.items()},
+        )
 
-    def scaled(self, factor: float) -> "Skeleton":
+    def scaled(self, factor: float) -> Skeleton:
         """The same skeleton with every length multiplied by ``factor``."""
-        return Skeleton(self.joint_names, self.parents, self.offsets * factor,
-                        {k: v * factor for k, v in self.end_sites.items()})
+        return Skeleton(
+            self.joint_names,
+            self.parents,
+            self.offsets * factor,
+            {k: v * factor for k, v in self.end_sites.items()},
+        )
 
     def bone_lengths(self) -> np.ndarray:
         """``(J,)`` length of each joint's offset (the root's entry is its rest-position norm)."""
@@ -142,16 +192,23 @@ class Skeleton:
         if missing:
             raise JointSetError(f"height() needs canonical joints; missing {missing}")
         pos = self.rest_positions()
-        return float(sum(np.linalg.norm(pos[idx[CANONICAL22[a]]] - pos[idx[CANONICAL22[b]]])
-                         for a, b in HEIGHT_BONES))
+        return float(
+            sum(
+                np.linalg.norm(pos[idx[CANONICAL22[a]]] - pos[idx[CANONICAL22[b]]])
+                for a, b in HEIGHT_BONES
+            )
+        )
 
     def leg_length(self) -> float:
         """``h_legs``: rest height of the hips above the lowest foot joint (metres), the scale of
         root motion (the ground truth's root, Villegas et al. 2021, Eq. 8's leg ratio);
         :func:`~retarget_lib.core.measures.leg_length` is its form for offset tensors."""
         pos = self.rest_positions()
-        feet = [i for i, n in enumerate(self.joint_names) if n in ("LeftToeBase", "RightToeBase",
-                                                                   "LeftFoot", "RightFoot")]
+        feet = [
+            i
+            for i, n in enumerate(self.joint_names)
+            if n in ("LeftToeBase", "RightToeBase", "LeftFoot", "RightFoot")
+        ]
         if not feet:
             raise JointSetError("leg_length() needs foot joints")
         return float(pos[0, 1] - pos[feet, 1].min())

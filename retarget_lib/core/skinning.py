@@ -35,8 +35,9 @@ Tensor = torch.Tensor
 __all__ = ["joint_transforms", "linear_blend_skinning", "subsample_mesh"]
 
 
-def joint_transforms(rest_joint_positions: Tensor, joint_rotations: Tensor,
-                     joint_positions: Tensor) -> Tensor:
+def joint_transforms(
+    rest_joint_positions: Tensor, joint_rotations: Tensor, joint_positions: Tensor
+) -> Tensor:
     """Per-joint affine maps from the rest pose to the posed pose.
 
     Args:
@@ -53,9 +54,13 @@ def joint_transforms(rest_joint_positions: Tensor, joint_rotations: Tensor,
     return torch.cat((rot, trans.unsqueeze(-1)), dim=-1)
 
 
-def linear_blend_skinning(rest_vertices: Tensor | np.ndarray, weights: Tensor | np.ndarray,
-                          rest_joint_positions: Tensor | np.ndarray, joint_rotations: Tensor,
-                          joint_positions: Tensor | np.ndarray) -> Tensor:
+def linear_blend_skinning(
+    rest_vertices: Tensor | np.ndarray,
+    weights: Tensor | np.ndarray,
+    rest_joint_positions: Tensor | np.ndarray,
+    joint_rotations: Tensor,
+    joint_positions: Tensor | np.ndarray,
+) -> Tensor:
     """Deform a rest mesh by linear blend skinning (Villegas et al. 2021, App. B, ``SK``).
 
     ``v' = sum_j w_vj (R_j (v - x̄_j) + x_j)``. Batched over any leading dims of the pose,
@@ -79,8 +84,10 @@ def linear_blend_skinning(rest_vertices: Tensor | np.ndarray, weights: Tensor | 
     joints = torch.as_tensor(joint_positions, dtype=dtype, device=device)
     nv, nj = w.shape
     if rest.shape != (nv, 3) or rest_joints.shape != (nj, 3):
-        raise ValueError(f"rest_vertices must be ({nv}, 3) and rest_joint_positions ({nj}, 3) for "
-                         f"weights {tuple(w.shape)}; got {tuple(rest.shape)} and {tuple(rest_joints.shape)}")
+        raise ValueError(
+            f"rest_vertices must be ({nv}, 3) and rest_joint_positions ({nj}, 3) for "
+            f"weights {tuple(w.shape)}; got {tuple(rest.shape)} and {tuple(rest_joints.shape)}"
+        )
     affine = joint_transforms(rest_joints, joint_rotations, joints)
     lead = affine.shape[:-3]
     # vertex-last layout: (..., 12, J) @ (J, V) -> (..., 3, 4, V), then apply to [v; 1]
@@ -89,8 +96,9 @@ def linear_blend_skinning(rest_vertices: Tensor | np.ndarray, weights: Tensor | 
     return (blended * homogeneous).sum(-2).transpose(-1, -2)
 
 
-def subsample_mesh(vertices: np.ndarray, faces: np.ndarray, weights: np.ndarray, n: int = 3000,
-                   agg: float = 3.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def subsample_mesh(
+    vertices: np.ndarray, faces: np.ndarray, weights: np.ndarray, n: int = 3000, agg: float = 3.0
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Reduce a skinned mesh to about ``n`` vertices (Villegas et al. 2021, App. B.1: 3000).
 
     Quadric edge-collapse decimation (package ``fast-simplification``) keeps the surface shape
@@ -117,10 +125,13 @@ def subsample_mesh(vertices: np.ndarray, faces: np.ndarray, weights: np.ndarray,
         return vertices.copy(), faces.copy(), weights.copy()
     target_faces = int(round(len(faces) * n / len(vertices)))
     new_vertices, new_faces, collapses = fast_simplification.simplify(
-        vertices, faces, target_count=target_faces, agg=agg, return_collapses=True)
+        vertices, faces, target_count=target_faces, agg=agg, return_collapses=True
+    )
     # replaying the collapses gives the same faces and each original vertex's cluster (its
     # replayed positions are not the optimised ones, so those are taken from ``simplify``)
-    _, replayed_faces, cluster = fast_simplification.replay_simplification(vertices, faces, collapses)
+    _, replayed_faces, cluster = fast_simplification.replay_simplification(
+        vertices, faces, collapses
+    )
     if not np.array_equal(replayed_faces, new_faces):
         raise RuntimeError("fast_simplification: replayed decimation differs from the original")
     new_weights = np.zeros((len(new_vertices), weights.shape[1]))

@@ -23,9 +23,23 @@ import torch
 from .kinematics import align_local_rotations
 from .motion import Motion
 from .quantities import leg_ratio
-from .rotations import (frame_rotation, quat_between, quat_canonical, quat_conjugate, quat_from_axis_angle,
-                        quat_identity, quat_rotate)
-from .skeleton import CANONICAL22, CANONICAL22_PARENTS, J, JointSetError, Skeleton, canonical22_skeleton
+from .rotations import (
+    frame_rotation,
+    quat_between,
+    quat_canonical,
+    quat_conjugate,
+    quat_from_axis_angle,
+    quat_identity,
+    quat_rotate,
+)
+from .skeleton import (
+    CANONICAL22,
+    CANONICAL22_PARENTS,
+    J,
+    JointSetError,
+    Skeleton,
+    canonical22_skeleton,
+)
 
 __all__ = [
     "PRIMARY_CHILD",
@@ -40,12 +54,27 @@ __all__ = [
 
 #: the child whose bone defines each canonical joint's rest direction (-1: leaf, uses its parent's)
 PRIMARY_CHILD: tuple[int, ...] = tuple(
-    {"Hips": J["Spine"], "Spine": J["Spine1"], "Spine1": J["Spine2"], "Spine2": J["Neck"],
-     "Neck": J["Head"], "LeftUpLeg": J["LeftLeg"], "LeftLeg": J["LeftFoot"],
-     "LeftFoot": J["LeftToeBase"], "RightUpLeg": J["RightLeg"], "RightLeg": J["RightFoot"],
-     "RightFoot": J["RightToeBase"], "LeftShoulder": J["LeftArm"], "LeftArm": J["LeftForeArm"],
-     "LeftForeArm": J["LeftHand"], "RightShoulder": J["RightArm"], "RightArm": J["RightForeArm"],
-     "RightForeArm": J["RightHand"]}.get(name, -1) for name in CANONICAL22)
+    {
+        "Hips": J["Spine"],
+        "Spine": J["Spine1"],
+        "Spine1": J["Spine2"],
+        "Spine2": J["Neck"],
+        "Neck": J["Head"],
+        "LeftUpLeg": J["LeftLeg"],
+        "LeftLeg": J["LeftFoot"],
+        "LeftFoot": J["LeftToeBase"],
+        "RightUpLeg": J["RightLeg"],
+        "RightLeg": J["RightFoot"],
+        "RightFoot": J["RightToeBase"],
+        "LeftShoulder": J["LeftArm"],
+        "LeftArm": J["LeftForeArm"],
+        "LeftForeArm": J["LeftHand"],
+        "RightShoulder": J["RightArm"],
+        "RightArm": J["RightForeArm"],
+        "RightForeArm": J["RightHand"],
+    }.get(name, -1)
+    for name in CANONICAL22
+)
 
 #: joints with several children: their rest frame also uses the left-minus-right child offset
 ACROSS_PAIR: dict[int, tuple[int, int]] = {
@@ -56,8 +85,10 @@ ACROSS_PAIR: dict[int, tuple[int, int]] = {
 
 def _check(skeleton: Skeleton) -> None:
     if not skeleton.is_canonical22():
-        raise JointSetError("rest alignment needs the canonical 22 joints; fold the motion first "
-                            "with retarget_lib.io.joint_maps.to_canonical22")
+        raise JointSetError(
+            "rest alignment needs the canonical 22 joints; fold the motion first "
+            "with retarget_lib.io.joint_maps.to_canonical22"
+        )
 
 
 def rest_alignment(source: Skeleton, target: Skeleton) -> np.ndarray:
@@ -85,8 +116,14 @@ def rest_alignment(source: Skeleton, target: Skeleton) -> np.ndarray:
             out[j] = out[CANONICAL22_PARENTS[j]]
         elif j in ACROSS_PAIR:
             left, right = ACROSS_PAIR[j]
-            out[j] = torch.as_tensor(frame_rotation(off_b[child], off_b[left] - off_b[right],
-                                                    off_a[child], off_a[left] - off_a[right]))
+            out[j] = torch.as_tensor(
+                frame_rotation(
+                    off_b[child],
+                    off_b[left] - off_b[right],
+                    off_a[child],
+                    off_a[left] - off_a[right],
+                )
+            )
         else:
             out[j] = quat_between(off_b[child], off_a[child])
     return quat_canonical(out).numpy()
@@ -109,8 +146,12 @@ def transfer_rotations(rotations: np.ndarray, source: Skeleton, target: Skeleton
     return quat_canonical(align_local_rotations(q, c, CANONICAL22_PARENTS)).numpy()
 
 
-def change_rest_pose(rotations: torch.Tensor, offsets: torch.Tensor, turns: torch.Tensor,
-                     parents: tuple[int, ...] = CANONICAL22_PARENTS) -> tuple[torch.Tensor, torch.Tensor]:
+def change_rest_pose(
+    rotations: torch.Tensor,
+    offsets: torch.Tensor,
+    turns: torch.Tensor,
+    parents: tuple[int, ...] = CANONICAL22_PARENTS,
+) -> tuple[torch.Tensor, torch.Tensor]:
     """The same motion on the same character with a different rest pose.
 
     Every child offset of joint ``j`` is turned by ``R_j`` (``s̄'_c = R_p(c) s̄_c``; the root's
@@ -129,12 +170,16 @@ def change_rest_pose(rotations: torch.Tensor, offsets: torch.Tensor, turns: torc
     Returns:
         ``(rotations' (..., T, J, 4), offsets' (..., J, 3))``.
     """
-    moved = torch.cat((offsets[..., :1, :], quat_rotate(turns[..., list(parents[1:]), :], offsets[..., 1:, :])), -2)
+    moved = torch.cat(
+        (offsets[..., :1, :], quat_rotate(turns[..., list(parents[1:]), :], offsets[..., 1:, :])),
+        -2,
+    )
     return align_local_rotations(rotations, quat_conjugate(turns).unsqueeze(-3), parents), moved
 
 
-def random_rest_rotations(offsets: torch.Tensor, max_degrees: float,
-                          generator: torch.Generator | None = None) -> torch.Tensor:
+def random_rest_rotations(
+    offsets: torch.Tensor, max_degrees: float, generator: torch.Generator | None = None
+) -> torch.Tensor:
     """Random rest-pose changes ``R`` for :func:`change_rest_pose` (training augmentation).
 
     Each joint with a bone (:data:`PRIMARY_CHILD`) swings it by an angle uniform in
@@ -152,9 +197,11 @@ def random_rest_rotations(offsets: torch.Tensor, max_degrees: float,
     """
     b = offsets.shape[0]
     has_bone = torch.tensor([c >= 0 for c in PRIMARY_CHILD])
-    bone = offsets[:, [max(c, 0) for c in PRIMARY_CHILD]]                   # (B, J, 3)
+    bone = offsets[:, [max(c, 0) for c in PRIMARY_CHILD]]  # (B, J, 3)
     axis = torch.randn(b, len(PRIMARY_CHILD), 3, generator=generator)
-    swing = axis - bone * (axis * bone).sum(-1, keepdim=True) / (bone * bone).sum(-1, keepdim=True).clamp_min(1e-12)
+    swing = axis - bone * (axis * bone).sum(-1, keepdim=True) / (bone * bone).sum(
+        -1, keepdim=True
+    ).clamp_min(1e-12)
     frame_joint = torch.zeros(len(PRIMARY_CHILD), dtype=torch.bool)
     frame_joint[list(ACROSS_PAIR)] = True
     axis = torch.where(frame_joint[:, None], axis, swing)
@@ -182,8 +229,12 @@ def retarget_ground_truth(motion: Motion, target_skeleton: Skeleton) -> Motion:
     """
     rot = transfer_rotations(motion.rotations, motion.skeleton, target_skeleton)
     root = motion.root_positions * leg_ratio(motion.skeleton, target_skeleton)
-    return motion.copy(skeleton=target_skeleton.copy(), rotations=rot, root_positions=root,
-                       meta=dict(motion.meta, retargeted="ground_truth"))
+    return motion.copy(
+        skeleton=target_skeleton.copy(),
+        rotations=rot,
+        root_positions=root,
+        meta=dict(motion.meta, retargeted="ground_truth"),
+    )
 
 
 def _canonical_direction(j: int) -> np.ndarray | None:

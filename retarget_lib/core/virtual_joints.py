@@ -21,7 +21,7 @@ BVH, glTF/GLB/VRM, FBX and SMPL-X files (:mod:`retarget_lib.io.joint_maps`) and 
 
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -31,13 +31,28 @@ from .skeleton import CANONICAL22, CANONICAL22_PARENTS, J, Skeleton
 __all__ = ["MAY_BE_ABSENT", "CHAIN_CHILD", "with_virtual_joints"]
 
 #: canonical joints a joint map may mark ``null`` (absent from the rig)
-MAY_BE_ABSENT: tuple[str, ...] = ("Spine", "Spine1", "Spine2", "Neck", "LeftShoulder", "RightShoulder",
-                                  "LeftToeBase", "RightToeBase")
+MAY_BE_ABSENT: tuple[str, ...] = (
+    "Spine",
+    "Spine1",
+    "Spine2",
+    "Neck",
+    "LeftShoulder",
+    "RightShoulder",
+    "LeftToeBase",
+    "RightToeBase",
+)
 #: the canonical child that continues each joint's chain (where an absent joint is placed towards)
-CHAIN_CHILD: dict[int, int] = {J["Hips"]: J["Spine"], J["Spine"]: J["Spine1"], J["Spine1"]: J["Spine2"],
-                               J["Spine2"]: J["Neck"], J["Neck"]: J["Head"],
-                               J["LeftShoulder"]: J["LeftArm"], J["RightShoulder"]: J["RightArm"],
-                               J["LeftFoot"]: J["LeftToeBase"], J["RightFoot"]: J["RightToeBase"]}
+CHAIN_CHILD: dict[int, int] = {
+    J["Hips"]: J["Spine"],
+    J["Spine"]: J["Spine1"],
+    J["Spine1"]: J["Spine2"],
+    J["Spine2"]: J["Neck"],
+    J["Neck"]: J["Head"],
+    J["LeftShoulder"]: J["LeftArm"],
+    J["RightShoulder"]: J["RightArm"],
+    J["LeftFoot"]: J["LeftToeBase"],
+    J["RightFoot"]: J["RightToeBase"],
+}
 
 
 def _present_end(c: int, present: set[int]) -> int | None:
@@ -57,7 +72,9 @@ def _run_of_absent(c: int, present: set[int]) -> list[int]:
     return run
 
 
-def with_virtual_joints(motion: Motion, index_map: Mapping[int, int]) -> tuple[Motion, dict[int, int]]:
+def with_virtual_joints(
+    motion: Motion, index_map: Mapping[int, int]
+) -> tuple[Motion, dict[int, int]]:
     """Insert the canonical joints ``index_map`` lacks into ``motion``'s skeleton (module docstring).
 
     Args:
@@ -91,8 +108,13 @@ def with_virtual_joints(motion: Motion, index_map: Mapping[int, int]) -> tuple[M
         end = _present_end(run[-1], present) if run[-1] in CHAIN_CHILD else None
         start = rest[file_of[parent]]
         stop = rest[file_of[end]] if end is not None else start
-        runs.append((file_of[parent], [(cc, start + (stop - start) * k / (len(run) + 1)) for k, cc in enumerate(run, 1)],
-                     file_of[end] if end is not None else None))
+        runs.append(
+            (
+                file_of[parent],
+                [(cc, start + (stop - start) * k / (len(run) + 1)) for k, cc in enumerate(run, 1)],
+                file_of[end] if end is not None else None,
+            )
+        )
         done.update(run)
     # the new joint order: each run's joints right after its anchor, chained; the file joint on the
     # path from the anchor to the run's present end re-parented under the run's last joint
@@ -122,7 +144,9 @@ def with_virtual_joints(motion: Motion, index_map: Mapping[int, int]) -> tuple[M
     for k, (kind, i) in enumerate(new_order):
         if kind == "file":
             new_names[k] = names[i]
-            new_parents[k] = reparent.get(i, index_of[("file", parents[i])] if parents[i] >= 0 else -1)
+            new_parents[k] = reparent.get(
+                i, index_of[("file", parents[i])] if parents[i] >= 0 else -1
+            )
             new_rest[k] = rest[i]
         else:
             new_names[k] = f"{CANONICAL22[i]} (virtual)"

@@ -58,8 +58,10 @@ def resolve_checkpoint(ref: str | os.PathLike) -> Path:
         return checkpoint(ref).path
     path = Path(ref)
     if not path.exists():
-        raise CheckpointError(f"checkpoint {str(ref)!r} is neither a shipped checkpoint id ({', '.join(entries)}) "
-                              "nor an existing file")
+        raise CheckpointError(
+            f"checkpoint {str(ref)!r} is neither a shipped checkpoint id ({', '.join(entries)}) "
+            "nor an existing file"
+        )
     readable_file(path, "checkpoint file")
     for entry in entries.values():
         if entry.path.exists() and entry.path.samefile(path):
@@ -105,8 +107,9 @@ def load_state(ref: str | os.PathLike) -> dict:
         state = torch.load(path, map_location="cpu", weights_only=True)
     except Exception as e:  # weights_only: any failure means the bytes are not a checkpoint
         problem = str(e).strip().splitlines()[0][:200] if str(e).strip() else type(e).__name__
-        raise CheckpointError(f"{path}: not a readable checkpoint (truncated, corrupt or not a torch file): "
-                              f"{problem}") from None
+        raise CheckpointError(
+            f"{path}: not a readable checkpoint (truncated, corrupt or not a torch file): {problem}"
+        ) from None
     _validate(state, path)
     return _map_tensors(state, _upcast)
 
@@ -114,10 +117,15 @@ def load_state(ref: str | os.PathLike) -> dict:
 def _validate(state: Any, path: Path) -> None:
     """Raise :class:`CheckpointError` unless ``state`` holds ``config`` and ``modules`` mappings
     whose floating-point weights are finite and within :data:`MAX_WEIGHT`."""
-    if not isinstance(state, dict) or not isinstance(state.get("config"), dict) \
-            or not isinstance(state.get("modules"), dict):
-        raise CheckpointError(f"{path}: not a checkpoint of `retarget train` (expected a mapping with 'config' and "
-                              "'modules')")
+    if (
+        not isinstance(state, dict)
+        or not isinstance(state.get("config"), dict)
+        or not isinstance(state.get("modules"), dict)
+    ):
+        raise CheckpointError(
+            f"{path}: not a checkpoint of `retarget train` (expected a mapping with 'config' and "
+            "'modules')"
+        )
     for module, weights in state["modules"].items():
         if not isinstance(weights, dict):
             raise CheckpointError(f"{path}: modules[{module!r}] is not a state dict")
@@ -126,10 +134,14 @@ def _validate(state: Any, path: Path) -> None:
                 raise CheckpointError(f"{path}: {module}.{name} is not a tensor")
             if t.is_floating_point() and t.numel():
                 if not torch.isfinite(t).all():
-                    raise CheckpointError(f"{path}: {module}.{name} has NaN or inf weights (corrupt file)")
+                    raise CheckpointError(
+                        f"{path}: {module}.{name} has NaN or inf weights (corrupt file)"
+                    )
                 if t.abs().max() > MAX_WEIGHT:
-                    raise CheckpointError(f"{path}: {module}.{name} has weights beyond the limit |w| <= "
-                                          f"{MAX_WEIGHT:g} (corrupt file?)")
+                    raise CheckpointError(
+                        f"{path}: {module}.{name} has weights beyond the limit |w| <= "
+                        f"{MAX_WEIGHT:g} (corrupt file?)"
+                    )
 
 
 def save_state(state: dict, path: str | os.PathLike, half: bool = False) -> Path:

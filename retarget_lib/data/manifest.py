@@ -79,9 +79,18 @@ class CheckpointEntry:
 
 
 def _entry(checkpoint_id: str, e: dict) -> CheckpointEntry:
-    return CheckpointEntry(checkpoint_id, REPO_ROOT / e["path"], e["sha256"], e["config"], e["command"],
-                           REPO_ROOT / e["losses"] if e.get("losses") else None, e.get("method"),
-                           bool(e.get("default", False)), e.get("table"), e.get("row"))
+    return CheckpointEntry(
+        checkpoint_id,
+        REPO_ROOT / e["path"],
+        e["sha256"],
+        e["config"],
+        e["command"],
+        REPO_ROOT / e["losses"] if e.get("losses") else None,
+        e.get("method"),
+        bool(e.get("default", False)),
+        e.get("table"),
+        e.get("row"),
+    )
 
 
 def checkpoint_entries() -> dict[str, CheckpointEntry]:
@@ -101,10 +110,14 @@ def checkpoint(checkpoint_id: str, verify_checksum: bool = True) -> CheckpointEn
         raise DataError(f"unknown checkpoint {checkpoint_id!r}; known: {sorted(entries)}")
     entry = entries[checkpoint_id]
     if not entry.path.exists():
-        raise DataError(f"checkpoint {checkpoint_id} missing at {entry.path}; re-create it with: {entry.command}")
+        raise DataError(
+            f"checkpoint {checkpoint_id} missing at {entry.path}; re-create it with: {entry.command}"
+        )
     if verify_checksum and sha256_file(entry.path) != entry.sha256:
-        raise DataError(f"checkpoint {checkpoint_id} at {entry.path} does not match its sha256 in the "
-                        f"manifest; re-create it with: {entry.command}")
+        raise DataError(
+            f"checkpoint {checkpoint_id} at {entry.path} does not match its sha256 in the "
+            f"manifest; re-create it with: {entry.command}"
+        )
     return entry
 
 
@@ -117,11 +130,15 @@ def default_checkpoint(method: str) -> str | None:
     """
     ids = [e.id for e in checkpoint_entries().values() if e.method == method and e.default]
     if len(ids) > 1:
-        raise DataError(f"data_manifest.yaml marks several default checkpoints for method {method!r}: {ids}")
+        raise DataError(
+            f"data_manifest.yaml marks several default checkpoints for method {method!r}: {ids}"
+        )
     return ids[0] if ids else None
 
 
 def table_checkpoints(table: str) -> dict[str, CheckpointEntry]:
     """The shipped checkpoints of one paper table, by row name (``table:`` and ``row:`` in the
     manifest), in manifest order."""
-    return {e.row: e for e in checkpoint_entries().values() if e.table == table and e.row is not None}
+    return {
+        e.row: e for e in checkpoint_entries().values() if e.table == table and e.row is not None
+    }

@@ -22,9 +22,9 @@ motion except the appendix's 30 test motions.
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Mapping, Sequence
 
 from ..core.character import Character
 from ..core.motion import Motion
@@ -32,8 +32,18 @@ from ..core.skeleton import Skeleton
 from .manifest import mixamo_local_dir, source
 from .sources.mixamo_local import MixamoFolder, load_mixamo_folder
 
-__all__ = ["TRAIN_FPS", "tdcn_lists", "contact_lists", "paper_pairs", "unseen_motions", "scenario_of",
-           "FolderSplit", "folder_split", "mixamo_training_set", "mixamo_contact_training_set"]
+__all__ = [
+    "TRAIN_FPS",
+    "tdcn_lists",
+    "contact_lists",
+    "paper_pairs",
+    "unseen_motions",
+    "scenario_of",
+    "FolderSplit",
+    "folder_split",
+    "mixamo_training_set",
+    "mixamo_contact_training_set",
+]
 
 #: frame rate of the training clips (the methods' rate)
 TRAIN_FPS = 30.0
@@ -51,8 +61,11 @@ def contact_lists() -> dict:
 
 def paper_pairs() -> dict[tuple[str, str], int]:
     """The paper's eight ``(source, target) -> scenario`` pairs (Table 3)."""
-    return {(p["source"], p["target"]): int(key.split("_")[0])
-            for key, pairs in tdcn_lists()["scenarios"].items() for p in pairs}
+    return {
+        (p["source"], p["target"]): int(key.split("_")[0])
+        for key, pairs in tdcn_lists()["scenarios"].items()
+        for p in pairs
+    }
 
 
 def unseen_motions(performers: Mapping[str, set[str]]) -> set[str]:
@@ -70,7 +83,9 @@ def unseen_motions(performers: Mapping[str, set[str]]) -> set[str]:
     return {m for m, who in performers.items() if who & unseen_sources and not who & seen_sources}
 
 
-def scenario_of(target: str, motion: str, unseen: set[str], train_characters: Sequence[str] | None = None) -> int:
+def scenario_of(
+    target: str, motion: str, unseen: set[str], train_characters: Sequence[str] | None = None
+) -> int:
     """Scenario 1-4 of a case: seen/unseen motion × training/test target character.
 
     Args:
@@ -78,8 +93,12 @@ def scenario_of(target: str, motion: str, unseen: set[str], train_characters: Se
         unseen: the unseen motions.
         train_characters: the seen characters (default: the manifest's TDCN training characters).
     """
-    seen_target = target in (tdcn_lists()["train_characters"] if train_characters is None else train_characters)
-    return {(True, True): 1, (True, False): 2, (False, True): 3, (False, False): 4}[(motion not in unseen, seen_target)]
+    seen_target = target in (
+        tdcn_lists()["train_characters"] if train_characters is None else train_characters
+    )
+    return {(True, True): 1, (True, False): 2, (False, True): 3, (False, False): 4}[
+        (motion not in unseen, seen_target)
+    ]
 
 
 @dataclass(frozen=True)
@@ -104,8 +123,10 @@ class FolderSplit:
 
     def describe(self) -> str:
         """One sentence naming the rules and the unseen motions (for reports)."""
-        return (f"unseen motions ({self.motion_rule}): {', '.join(sorted(self.unseen_motions)) or 'none'}; "
-                f"seen characters ({self.character_rule}): {', '.join(self.train_characters) or 'none'}")
+        return (
+            f"unseen motions ({self.motion_rule}): {', '.join(sorted(self.unseen_motions)) or 'none'}; "
+            f"seen characters ({self.character_rule}): {', '.join(self.train_characters) or 'none'}"
+        )
 
 
 #: the default rules, as :class:`FolderSplit` and the reports name them
@@ -128,8 +149,9 @@ def folder_split(folder: MixamoFolder) -> FolderSplit:
     return FolderSplit(frozenset(unseen), tuple(train), motion_rule, character_rule)
 
 
-def mixamo_training_set(root: str | Path | None = None,
-                        ) -> tuple[dict[str, Skeleton], list[tuple[Motion, Mapping[str, Motion]]]]:
+def mixamo_training_set(
+    root: str | Path | None = None,
+) -> tuple[dict[str, Skeleton], list[tuple[Motion, Mapping[str, Motion]]]]:
     """The TDCN training set of a folder, for :func:`~retarget_lib.training.tdcn_data.stack_clips`.
 
     The split is :func:`folder_split`'s (the folder's ``splits.yaml``, else the default rules).
@@ -155,25 +177,38 @@ def mixamo_training_set(root: str | Path | None = None,
     unseen = split.unseen_motions
     train = [n for n in split.train_characters if any(n in who for who in performers.values())]
     if len(train) < 2:
-        raise ValueError(f"mixamo-local folder {folder.root}: needs clips of at least two of the training characters "
-                         f"{list(split.train_characters)} ({split.character_rule}); found {train}")
-    skeletons = {n: folder.clips[n, min(m for m, who in performers.items() if n in who)].skeleton for n in train}
+        raise ValueError(
+            f"mixamo-local folder {folder.root}: needs clips of at least two of the training characters "
+            f"{list(split.train_characters)} ({split.character_rule}); found {train}"
+        )
+    skeletons = {
+        n: folder.clips[n, min(m for m, who in performers.items() if n in who)].skeleton
+        for n in train
+    }
     clips = []
     for motion, who in performers.items():
         own_names = [n for n in train if n in who]
         if motion in unseen or not own_names:
             continue
-        own = {n: folder.clips[n, motion].resample(TRAIN_FPS).with_skeleton(skeletons[n]) for n in own_names}
+        own = {
+            n: folder.clips[n, motion].resample(TRAIN_FPS).with_skeleton(skeletons[n])
+            for n in own_names
+        }
         reference = own[own_names[0]]
         reference.name = motion
-        clips.append((reference, {n: m for n, m in own.items() if m.num_frames == reference.num_frames}))
+        clips.append(
+            (reference, {n: m for n, m in own.items() if m.num_frames == reference.num_frames})
+        )
     if not clips:
-        raise ValueError(f"mixamo-local folder {folder.root}: no seen motion of the training characters")
+        raise ValueError(
+            f"mixamo-local folder {folder.root}: no seen motion of the training characters"
+        )
     return skeletons, clips
 
 
-def mixamo_contact_training_set(root: str | Path | None = None,
-                                ) -> tuple[dict[str, Character], list[tuple[str, str, Motion]]]:
+def mixamo_contact_training_set(
+    root: str | Path | None = None,
+) -> tuple[dict[str, Character], list[tuple[str, str, Motion]]]:
     """The contact-aware training characters and clips of a folder (module docstring).
 
     Each clip is resampled to :data:`TRAIN_FPS` and put on its character's mesh skeleton (the rest
@@ -190,10 +225,14 @@ def mixamo_contact_training_set(root: str | Path | None = None,
     lists = contact_lists()
     excluded = {lists["source_character"]}
     train = folder_split(folder).train_characters
-    characters = {n: c for n in train if n not in excluded and (c := folder.character(n)) is not None}
+    characters = {
+        n: c for n in train if n not in excluded and (c := folder.character(n)) is not None
+    }
     if not characters:
-        raise ValueError(f"mixamo-local folder {folder.root}: no mesh (shape.npz or a skinned FBX/GLB) of a training "
-                         f"character {list(train)}")
+        raise ValueError(
+            f"mixamo-local folder {folder.root}: no mesh (shape.npz or a skinned FBX/GLB) of a training "
+            f"character {list(train)}"
+        )
     test_motions = {m["name"] for m in lists["motions"]}
     clips = []
     for (name, motion), clip in sorted(folder.clips.items()):
@@ -202,6 +241,8 @@ def mixamo_contact_training_set(root: str | Path | None = None,
             m.name = f"{name}/{motion}"
             clips.append((name, f"mixamo_{folder.fingerprint(name, motion)}_{m.num_frames}", m))
     if not clips:
-        raise ValueError(f"mixamo-local folder {folder.root}: no clip of {sorted(characters)} outside the "
-                         "contact test motions")
+        raise ValueError(
+            f"mixamo-local folder {folder.root}: no clip of {sorted(characters)} outside the "
+            "contact test motions"
+        )
     return characters, clips

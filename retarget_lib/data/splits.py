@@ -3,8 +3,9 @@ seen / unseen characters and motions, and the source -> target pairs of each sce
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import NamedTuple, Sequence
+from typing import NamedTuple
 
 import numpy as np
 
@@ -56,10 +57,16 @@ class TDCNSplits:
     scenarios: dict[int, tuple[ScenarioPair, ...]]
 
 
-def tdcn_splits(character_names: Sequence[str], families: Sequence[str], seed: int = 0,
-                n_test_characters: int | None = None, n_test_families: int = 2,
-                seeds_per_family: int = 4, n_test_seeds: int = 1,
-                pairs_per_scenario: int = 4) -> TDCNSplits:
+def tdcn_splits(
+    character_names: Sequence[str],
+    families: Sequence[str],
+    seed: int = 0,
+    n_test_characters: int | None = None,
+    n_test_families: int = 2,
+    seeds_per_family: int = 4,
+    n_test_seeds: int = 1,
+    pairs_per_scenario: int = 4,
+) -> TDCNSplits:
     """Split characters and clips like TDCN's test protocol (Sec. 5, Tables 2-3).
 
     Decisions, and why:
@@ -95,8 +102,10 @@ def tdcn_splits(character_names: Sequence[str], families: Sequence[str], seed: i
     names = sorted(character_names)
     n_test = max(2, round(len(names) / 3)) if n_test_characters is None else n_test_characters
     if not 2 <= n_test <= len(names) - 2:
-        raise ValueError(f"need >= 2 seen and >= 2 unseen characters; got {len(names)} characters, "
-                         f"{n_test} unseen")
+        raise ValueError(
+            f"need >= 2 seen and >= 2 unseen characters; got {len(names)} characters, "
+            f"{n_test} unseen"
+        )
     if not 0 < n_test_families < len(families) or not 0 < n_test_seeds < seeds_per_family:
         raise ValueError("need at least one held-out and one training family and seed")
     rng = np.random.default_rng(seed)
@@ -109,12 +118,15 @@ def tdcn_splits(character_names: Sequence[str], families: Sequence[str], seed: i
     n_train_seeds = seeds_per_family - n_test_seeds
     train_motions = tuple(MotionId(f, s) for f in train_fams for s in range(n_train_seeds))
     held_seeds = range(n_train_seeds, seeds_per_family)
-    test_motions = tuple([MotionId(f, s) for f in train_fams for s in held_seeds]
-                         + [MotionId(f, s) for f in test_fams for s in range(seeds_per_family)])
+    test_motions = tuple(
+        [MotionId(f, s) for f in train_fams for s in held_seeds]
+        + [MotionId(f, s) for f in test_fams for s in range(seeds_per_family)]
+    )
 
     def draw(motions, sources, targets_a, targets_b):
-        picks = rng.choice(len(motions), size=pairs_per_scenario,
-                           replace=len(motions) < pairs_per_scenario)
+        picks = rng.choice(
+            len(motions), size=pairs_per_scenario, replace=len(motions) < pairs_per_scenario
+        )
         rows_a, rows_b = [], []
         for k in picks:
             src = sources[rng.integers(len(sources))]
@@ -124,8 +136,15 @@ def tdcn_splits(character_names: Sequence[str], families: Sequence[str], seed: i
 
     s1, s2 = draw(train_motions, train_chars, train_chars, test_chars)
     s3, s4 = draw(test_motions, test_chars, train_chars, test_chars)
-    return TDCNSplits(train_chars, test_chars, train_fams, test_fams, train_motions, test_motions,
-                      {1: s1, 2: s2, 3: s3, 4: s4})
+    return TDCNSplits(
+        train_chars,
+        test_chars,
+        train_fams,
+        test_fams,
+        train_motions,
+        test_motions,
+        {1: s1, 2: s2, 3: s3, 4: s4},
+    )
 
 
 def _other(rng: np.random.Generator, pool: Sequence[str], exclude: str) -> str:

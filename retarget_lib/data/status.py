@@ -19,11 +19,11 @@ import numpy as np
 from ..errors import RetargetInputError
 from ..files import DataError, cache_dir, sha256_file, sweep_stale_temps
 from .manifest import checkpoint, load_manifest, mixamo_local_dir, source
+from .sources import real_characters, real_motions
 from .sources.cmu import cmu_clip_path
+from .sources.mixamo_local import read_splits_file, scan_mixamo_folder
 from .sources.model_viewer import SOURCE_ID as MODEL_VIEWER
 from .sources.model_viewer import model_viewer_path
-from .sources.mixamo_local import read_splits_file, scan_mixamo_folder
-from .sources import real_characters, real_motions
 from .synthetic.dataset import dataset_path, fingerprint_of
 
 
@@ -55,7 +55,9 @@ def _check_cmu() -> SourceStatus:
     bad = [n for n, p in paths.items() if sha256_file(p) != src["files"][n]["sha256"]]
     where = next(iter(paths.values())).parent
     if bad:
-        return SourceStatus("cmu-assimp", src["kind"], True, False, f"checksum mismatch: {bad} in {where}")
+        return SourceStatus(
+            "cmu-assimp", src["kind"], True, False, f"checksum mismatch: {bad} in {where}"
+        )
     return SourceStatus("cmu-assimp", src["kind"], True, True, f"{len(paths)} clips in {where}")
 
 
@@ -63,14 +65,18 @@ def _check_mannequin() -> SourceStatus:
     src = source("mannequin-x")
     spec = importlib.util.find_spec("mannequin")
     if spec is None or not spec.submodule_search_locations:
-        return SourceStatus("mannequin-x", src["kind"], False, None,
-                            f"package not installed: {src['how_to_get']}")
+        return SourceStatus(
+            "mannequin-x", src["kind"], False, None, f"package not installed: {src['how_to_get']}"
+        )
     path = Path(list(spec.submodule_search_locations)[0]) / "assets" / "wooden.npz"
     if not path.exists():
-        return SourceStatus("mannequin-x", src["kind"], False, None, f"{path} missing: {src['how_to_get']}")
+        return SourceStatus(
+            "mannequin-x", src["kind"], False, None, f"{path} missing: {src['how_to_get']}"
+        )
     ok = sha256_file(path) == src["sha256"]
-    return SourceStatus("mannequin-x", src["kind"], True, ok,
-                        str(path) if ok else f"checksum mismatch for {path}")
+    return SourceStatus(
+        "mannequin-x", src["kind"], True, ok, str(path) if ok else f"checksum mismatch for {path}"
+    )
 
 
 def _check_repository_files(module) -> SourceStatus:
@@ -83,7 +89,9 @@ def _check_repository_files(module) -> SourceStatus:
 def _check_model_viewer() -> SourceStatus:
     src = source(MODEL_VIEWER)
     try:
-        return SourceStatus(MODEL_VIEWER, src["kind"], True, True, str(model_viewer_path(fetch=False)))
+        return SourceStatus(
+            MODEL_VIEWER, src["kind"], True, True, str(model_viewer_path(fetch=False))
+        )
     except DataError as e:
         present = "checksum" in str(e)
         return SourceStatus(MODEL_VIEWER, src["kind"], present, False if present else None, str(e))
@@ -93,35 +101,62 @@ def _check_synthetic() -> SourceStatus:
     src = source("synthetic")
     path = dataset_path()
     if not path.exists():
-        return SourceStatus("synthetic", src["kind"], False, None, "not built: run `retarget data build`")
+        return SourceStatus(
+            "synthetic", src["kind"], False, None, "not built: run `retarget data build`"
+        )
     expected = src.get("fingerprint")
     problem = _npz_problem(path)
     if problem:
-        return SourceStatus("synthetic", src["kind"], True, False, f"{problem}; rebuild with `retarget data build --force`")
+        return SourceStatus(
+            "synthetic",
+            src["kind"],
+            True,
+            False,
+            f"{problem}; rebuild with `retarget data build --force`",
+        )
     got = fingerprint_of(path)
     if expected is None:
-        return SourceStatus("synthetic", src["kind"], True, None, f"built; fingerprint {got} (none recorded)")
+        return SourceStatus(
+            "synthetic", src["kind"], True, None, f"built; fingerprint {got} (none recorded)"
+        )
     ok = got == expected
-    return SourceStatus("synthetic", src["kind"], True, ok,
-                        f"{path}" if ok else f"fingerprint {got} != manifest {expected}; "
-                        "rebuild with `retarget data build --force`")
+    return SourceStatus(
+        "synthetic",
+        src["kind"],
+        True,
+        ok,
+        f"{path}"
+        if ok
+        else f"fingerprint {got} != manifest {expected}; "
+        "rebuild with `retarget data build --force`",
+    )
 
 
 def _check_mixamo_local() -> SourceStatus:
     src = source("mixamo-local")
     root = mixamo_local_dir()
     if not root.exists():
-        return SourceStatus("mixamo-local", src["kind"], False, None,
-                            f"optional; not present at {root} (set RETARGET_MIXAMO)")
+        return SourceStatus(
+            "mixamo-local",
+            src["kind"],
+            False,
+            None,
+            f"optional; not present at {root} (set RETARGET_MIXAMO)",
+        )
     try:
         found = scan_mixamo_folder(root)
         splits = read_splits_file(root, found)
     except (DataError, RetargetInputError) as e:
         return SourceStatus("mixamo-local", src["kind"], True, False, str(e))
     n_motions = sum(len(c.motions) for c in found)
-    return SourceStatus("mixamo-local", src["kind"], True, True,
-                        f"{len(found)} characters, {n_motions} motions in {root}"
-                        + (f" (split: {splits.path.name})" if splits is not None else ""))
+    return SourceStatus(
+        "mixamo-local",
+        src["kind"],
+        True,
+        True,
+        f"{len(found)} characters, {n_motions} motions in {root}"
+        + (f" (split: {splits.path.name})" if splits is not None else ""),
+    )
 
 
 def _npz_problem(path: Path) -> str | None:
@@ -146,9 +181,16 @@ def check_cache() -> SourceStatus:
         sweep_stale_temps(folder)
     bad = [problem for f in files if (problem := _npz_problem(f))]
     if bad:
-        return SourceStatus("cache", "derived", True, False, f"{len(bad)} bad file(s), delete them and rerun: "
-                            + "; ".join(bad))
-    return SourceStatus("cache", "derived", True, True, f"{len(files)} cached .npz files read in full under {root}")
+        return SourceStatus(
+            "cache",
+            "derived",
+            True,
+            False,
+            f"{len(bad)} bad file(s), delete them and rerun: " + "; ".join(bad),
+        )
+    return SourceStatus(
+        "cache", "derived", True, True, f"{len(files)} cached .npz files read in full under {root}"
+    )
 
 
 _CHECKS = {
@@ -165,7 +207,7 @@ _CHECKS = {
 def check_checkpoints() -> list[SourceStatus]:
     """One status per shipped checkpoint."""
     out = []
-    for cid in (load_manifest().get("checkpoints") or {}):
+    for cid in load_manifest().get("checkpoints") or {}:
         try:
             e = checkpoint(cid)
             out.append(SourceStatus(f"checkpoint:{cid}", "checkpoint", True, True, str(e.path)))
@@ -179,7 +221,9 @@ def check_sources() -> list[SourceStatus]:
     out = []
     for sid, src in load_manifest()["sources"].items():
         check = _CHECKS.get(sid)
-        status = SourceStatus(sid, src["kind"], False, None, "no checker") if check is None else check()
+        status = (
+            SourceStatus(sid, src["kind"], False, None, "no checker") if check is None else check()
+        )
         status.optional = bool(src.get("optional"))
         out.append(status)
     return out
@@ -203,7 +247,9 @@ def source_table() -> str:
     for s in check_sources():
         rows.append((s.id, s.kind, str(manifest[s.id]["license"])[:38], f"{s.state}: {s.detail}"))
     widths = [max(len(r[i]) for r in rows) for i in range(3)]
-    return "\n".join(f"{r[0]:<{widths[0]}}  {r[1]:<{widths[1]}}  {r[2]:<{widths[2]}}  {r[3]}" for r in rows)
+    return "\n".join(
+        f"{r[0]:<{widths[0]}}  {r[1]:<{widths[1]}}  {r[2]:<{widths[2]}}  {r[3]}" for r in rows
+    )
 
 
 def cache_summary() -> str:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import os
 import platform
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 import torch
@@ -27,7 +27,9 @@ from .bench_contact import bench_eint, bench_eso
 from .timing import BenchRow, format_table, time_it
 
 
-def numpy_fk_loop(rotations: np.ndarray, offsets: np.ndarray, parents, root: np.ndarray) -> np.ndarray:
+def numpy_fk_loop(
+    rotations: np.ndarray, offsets: np.ndarray, parents, root: np.ndarray
+) -> np.ndarray:
     """Reference FK: a Python loop over frames and joints with NumPy 3-vectors.
 
     Args:
@@ -49,15 +51,21 @@ def numpy_fk_loop(rotations: np.ndarray, offsets: np.ndarray, parents, root: np.
                 out[f, j] = root[f]
                 continue
             pw, px, py, pz = gq[p]
-            gq[j] = (pw * w - px * x - py * y - pz * z, pw * x + px * w + py * z - pz * y,
-                     pw * y - px * z + py * w + pz * x, pw * z + px * y - py * x + pz * w)
+            gq[j] = (
+                pw * w - px * x - py * y - pz * z,
+                pw * x + px * w + py * z - pz * y,
+                pw * y - px * z + py * w + pz * x,
+                pw * z + px * y - py * x + pz * w,
+            )
             u = np.array((px, py, pz))
             t = 2.0 * np.cross(u, offsets[j])
             out[f, j] = out[f, p] + offsets[j] + pw * t + np.cross(u, t)
     return out
 
 
-def torch_fk_per_joint(rotations: torch.Tensor, offsets: torch.Tensor, parents, root: torch.Tensor) -> torch.Tensor:
+def torch_fk_per_joint(
+    rotations: torch.Tensor, offsets: torch.Tensor, parents, root: torch.Tensor
+) -> torch.Tensor:
     """Reference FK as public retargeting code usually writes it: batched over frames, one joint
     at a time with quaternion products. ``rotations (..., J, 4)``, ``offsets (J, 3)``,
     ``root (..., 3)`` → ``(..., J, 3)``."""
@@ -82,10 +90,14 @@ def bench_fk(clips: int = 64, frames: int = 240, quick: bool = False) -> list[Be
 
     def fwd_bwd():
         rot_g.grad = None
-        forward_kinematics(rot_g, off, CANONICAL22_PARENTS, root).positions.square().sum().backward()
+        forward_kinematics(
+            rot_g, off, CANONICAL22_PARENTS, root
+        ).positions.square().sum().backward()
 
     fb = time_it(fwd_bwd, repeat=repeat)
-    per_joint = time_it(lambda: torch_fk_per_joint(rot, off, CANONICAL22_PARENTS, root), repeat=repeat)
+    per_joint = time_it(
+        lambda: torch_fk_per_joint(rot, off, CANONICAL22_PARENTS, root), repeat=repeat
+    )
 
     def per_joint_fwd_bwd():
         rot_g.grad = None
@@ -94,8 +106,11 @@ def bench_fk(clips: int = 64, frames: int = 240, quick: bool = False) -> list[Be
     per_joint_fb = time_it(per_joint_fwd_bwd, repeat=repeat)
     # the NumPy loop is slow: time a slice of clips and scale to the full batch (linear in frames)
     n_ref = 2 if quick else 8
-    r_np, o_np, t_np = (rot[:n_ref].reshape(-1, 22, 4).double().numpy(), off.double().numpy(),
-                        root[:n_ref].reshape(-1, 3).double().numpy())
+    r_np, o_np, t_np = (
+        rot[:n_ref].reshape(-1, 22, 4).double().numpy(),
+        off.double().numpy(),
+        root[:n_ref].reshape(-1, 3).double().numpy(),
+    )
     ref = time_it(lambda: numpy_fk_loop(r_np, o_np, CANONICAL22_PARENTS, t_np), repeat=1, warmup=0)
     ref *= clips / n_ref
     label = f"{clips}x{frames}x22"
@@ -114,15 +129,21 @@ def plain_dilated_body(in_channels: int, channels: int, dilations=(3, 9, 27)) ->
     nn = torch.nn
 
     def unit(cin, cout, k, d=1):
-        return nn.Sequential(nn.Conv1d(cin, cout, k, dilation=d), nn.BatchNorm1d(cout), nn.LeakyReLU(0.2),
-                             nn.Dropout(0.1))
+        return nn.Sequential(
+            nn.Conv1d(cin, cout, k, dilation=d),
+            nn.BatchNorm1d(cout),
+            nn.LeakyReLU(0.2),
+            nn.Dropout(0.1),
+        )
 
     class Body(nn.Module):
         def __init__(self):
             super().__init__()
             self.first = unit(in_channels, channels, 3)
-            self.blocks = nn.ModuleList(nn.Sequential(unit(channels, channels, 3, d), unit(channels, channels, 1))
-                                        for d in dilations)
+            self.blocks = nn.ModuleList(
+                nn.Sequential(unit(channels, channels, 3, d), unit(channels, channels, 1))
+                for d in dilations
+            )
             self.pads = dilations
 
         def forward(self, x):
@@ -157,8 +178,15 @@ def bench_tdcn(quick: bool = False, frames: int = 1000) -> list[BenchRow]:
         with torch.inference_mode():
             t = time_it(full, repeat=3 if quick else 9)
             ref = time_it(lambda: body(x), repeat=3 if quick else 9)
-        rows.append(BenchRow(f"TDCN inference {frames} frames, {profile} width {width} (incl. features, heads, FK)",
-                             t, f"plain dilated-conv body, width {width}", ref, targets[profile]))
+        rows.append(
+            BenchRow(
+                f"TDCN inference {frames} frames, {profile} width {width} (incl. features, heads, FK)",
+                t,
+                f"plain dilated-conv body, width {width}",
+                ref,
+                targets[profile],
+            )
+        )
     return rows
 
 
@@ -169,30 +197,59 @@ def bench_training(quick: bool = False, batch: int = 16) -> list[BenchRow]:
     with its per-frame GRU decoder compiled (the fast profile's ``train.compile``, compilation in
     the warm-up) beside the same step eager. Row names carry the throughput in windows/s."""
     rows = []
-    for config, profile in (("tdcn_paper", "fast"), ("tdcn_paper", "paper"), ("tdcn_ours_residual", "fast")):
-        cfg = load_config(REPO_ROOT / "configs" / f"{config}.yaml", [f"train.batch={batch}"], profile=profile)
+    for config, profile in (
+        ("tdcn_paper", "fast"),
+        ("tdcn_paper", "paper"),
+        ("tdcn_ours_residual", "fast"),
+    ):
+        cfg = load_config(
+            REPO_ROOT / "configs" / f"{config}.yaml", [f"train.batch={batch}"], profile=profile
+        )
         run = RetargetTraining(cfg)
         step = time_it(lambda: run.step(0), repeat=2 if quick else 5, warmup=1)
         sample = run.sampler.sample(batch)
         gen = run.generator.train()
 
         def bare():
-            out = gen.generate(sample.rotations, sample.root_positions, sample.offsets_source, sample.offsets_target)
+            out = gen.generate(
+                sample.rotations,
+                sample.root_positions,
+                sample.offsets_source,
+                sample.offsets_target,
+            )
             out.rotations.square().mean().backward()
 
         ref = time_it(bare, repeat=2 if quick else 5, warmup=1)
-        rows.append(BenchRow(f"TDCN training step ({config}), {profile} width {cfg['model']['channels']}, "
-                             f"batch {batch}: {batch / step:.1f} windows/s", step,
-                             "generator forward+backward only", ref))
+        rows.append(
+            BenchRow(
+                f"TDCN training step ({config}), {profile} width {cfg['model']['channels']}, "
+                f"batch {batch}: {batch / step:.1f} windows/s",
+                step,
+                "generator forward+backward only",
+                ref,
+            )
+        )
     steps = {}
-    for compile in (True, False):  # NKN's GRU decoder runs per frame: compiled (the fast profile's) vs eager
-        cfg = load_config(REPO_ROOT / "configs" / "tdcn_baseline.yaml",
-                          [f"train.batch={batch}", f"train.compile={str(compile).lower()}"], profile="fast")
+    for compile in (
+        True,
+        False,
+    ):  # NKN's GRU decoder runs per frame: compiled (the fast profile's) vs eager
+        cfg = load_config(
+            REPO_ROOT / "configs" / "tdcn_baseline.yaml",
+            [f"train.batch={batch}", f"train.compile={str(compile).lower()}"],
+            profile="fast",
+        )
         run = RetargetTraining(cfg)
         steps[compile] = time_it(lambda: run.step(0), repeat=2 if quick else 5, warmup=1)
-    rows.append(BenchRow(f"NKN Baseline training step (tdcn_baseline), fast, compiled GRU decoder, batch {batch}: "
-                         f"{batch / steps[True]:.1f} windows/s", steps[True],
-                         f"the same step eager: {batch / steps[False]:.1f} windows/s", steps[False]))
+    rows.append(
+        BenchRow(
+            f"NKN Baseline training step (tdcn_baseline), fast, compiled GRU decoder, batch {batch}: "
+            f"{batch / steps[True]:.1f} windows/s",
+            steps[True],
+            f"the same step eager: {batch / steps[False]:.1f} windows/s",
+            steps[False],
+        )
+    )
     return rows
 
 
@@ -201,27 +258,48 @@ def bench_contact_training(quick: bool = False) -> list[BenchRow]:
     of the residual default: compiled (the fast profile's ``train.compile``, one-off compilation in
     the warm-up) beside the same step eager, and eager beside the Eskel row's energy (no mesh
     terms: what Ej2j, Eint and the skinned frame cost). Row names carry the throughput in windows/s."""
+
     def step_time(config: str, compile: bool) -> tuple[float, int]:
-        cfg = load_config(REPO_ROOT / "configs" / f"{config}.yaml", [f"train.compile={str(compile).lower()}"],
-                          profile="fast")
+        cfg = load_config(
+            REPO_ROOT / "configs" / f"{config}.yaml",
+            [f"train.compile={str(compile).lower()}"],
+            profile="fast",
+        )
         run = ContactTraining(cfg)
-        return time_it(lambda: run.step(run.steps // 2), repeat=2 if quick else 5, warmup=1), run.batch
+        return time_it(
+            lambda: run.step(run.steps // 2), repeat=2 if quick else 5, warmup=1
+        ), run.batch
 
     compiled, batch = step_time("contact_residual", True)
     eager, _ = step_time("contact_residual", False)
     skeleton_only, _ = step_time("contact_eskel", False)
-    return [BenchRow(f"contact training step (contact_residual, Efull), fast, compiled decoder, batch {batch}: "
-                     f"{batch / compiled:.1f} windows/s", compiled,
-                     f"the same step eager: {batch / eager:.1f} windows/s", eager),
-            BenchRow(f"contact training step (contact_residual, Efull), fast, eager, batch {batch}: "
-                     f"{batch / eager:.1f} windows/s", eager, "the same step with Eskel only (contact_eskel)",
-                     skeleton_only)]
+    return [
+        BenchRow(
+            f"contact training step (contact_residual, Efull), fast, compiled decoder, batch {batch}: "
+            f"{batch / compiled:.1f} windows/s",
+            compiled,
+            f"the same step eager: {batch / eager:.1f} windows/s",
+            eager,
+        ),
+        BenchRow(
+            f"contact training step (contact_residual, Efull), fast, eager, batch {batch}: "
+            f"{batch / eager:.1f} windows/s",
+            eager,
+            "the same step with Eskel only (contact_eskel)",
+            skeleton_only,
+        ),
+    ]
 
 
 #: every benchmark of ``retarget bench``, by name (``--only``)
-BENCHES: dict[str, Callable[..., list[BenchRow]]] = {"fk": bench_fk, "tdcn": bench_tdcn, "training": bench_training,
-                                                      "contact-training": bench_contact_training,
-                                                      "eint": bench_eint, "eso": bench_eso}
+BENCHES: dict[str, Callable[..., list[BenchRow]]] = {
+    "fk": bench_fk,
+    "tdcn": bench_tdcn,
+    "training": bench_training,
+    "contact-training": bench_contact_training,
+    "eint": bench_eint,
+    "eso": bench_eso,
+}
 
 
 def run(quick: bool = False, only: list[str] | None = None) -> str:
@@ -231,6 +309,8 @@ def run(quick: bool = False, only: list[str] | None = None) -> str:
         if only and name not in only:
             continue
         rows += fn(quick=quick)
-    header = (f"machine: {platform.machine()}, {os.cpu_count()} CPUs, torch {torch.__version__}, "
-              f"{torch.get_num_threads()} threads{' (quick)' if quick else ''}")
+    header = (
+        f"machine: {platform.machine()}, {os.cpu_count()} CPUs, torch {torch.__version__}, "
+        f"{torch.get_num_threads()} threads{' (quick)' if quick else ''}"
+    )
     return header + "\n\n" + format_table(rows)

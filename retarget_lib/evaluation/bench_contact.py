@@ -35,8 +35,9 @@ from .real import welded
 from .timing import BenchRow, time_it
 
 
-def forearm_in_torso_pose(character, arm_down_deg: float = 80.0, forearm_deg: float = 100.0,
-                          dtype=torch.float32) -> torch.Tensor:
+def forearm_in_torso_pose(
+    character, arm_down_deg: float = 80.0, forearm_deg: float = 100.0, dtype=torch.float32
+) -> torch.Tensor:
     """The character's mesh with the left arm lowered and the forearm bent across the belly.
 
     Args:
@@ -88,13 +89,20 @@ def bench_eint(quick: bool = False) -> list[BenchRow]:
     t_detect = time_it(lambda: energy.pairs(posed_np), repeat=repeat)
     t_energy = time_it(energy_only, repeat=repeat)
     t_energy_backward = time_it(energy_backward, repeat=repeat)
-    t_brute = time_it(lambda: _brute_force_pairs(posed_np, energy.faces), repeat=1 if quick else 3, warmup=0)
+    t_brute = time_it(
+        lambda: _brute_force_pairs(posed_np, energy.faces), repeat=1 if quick else 3, warmup=0
+    )
     label = f"{character.num_vertices} vertices, {len(energy.faces)} faces, {len(pairs)} colliding pairs"
     reference = "all-pairs box test + same narrow phase"
     threads = torch.get_num_threads()
     rows = [
-        BenchRow(f"E_int + backward per frame ({label}), {threads} torch thread(s)", t_full,
-                 f"{reference}, + same energy", t_brute + t_full - t_detect, "<= 50 ms"),
+        BenchRow(
+            f"E_int + backward per frame ({label}), {threads} torch thread(s)",
+            t_full,
+            f"{reference}, + same energy",
+            t_brute + t_full - t_detect,
+            "<= 50 ms",
+        ),
         BenchRow("E_int detection (BVH + exact triangle test)", t_detect, reference, t_brute),
         BenchRow("E_int energy forward (Eq. 4 + Eq. 5 weights)", t_energy),
         BenchRow("E_int energy forward + backward (detection excluded)", t_energy_backward),
@@ -105,8 +113,15 @@ def bench_eint(quick: bool = False) -> list[BenchRow]:
             t_single = time_it(full, repeat=repeat)
         finally:
             torch.set_num_threads(threads)
-        rows.append(BenchRow("E_int + backward per frame, 1 torch thread", t_single,
-                             f"{threads} torch threads", t_full, "<= 50 ms"))
+        rows.append(
+            BenchRow(
+                "E_int + backward per frame, 1 torch thread",
+                t_single,
+                f"{threads} torch threads",
+                t_full,
+                "<= 50 ms",
+            )
+        )
     return rows
 
 
@@ -120,8 +135,12 @@ def bench_eso(quick: bool = False) -> list[BenchRow]:
     """
     frames = 8 if quick else 30
     source, target = load_mannequin(), make_character("otto")
-    motion = make_motion("pray", source.skeleton, 8,
-                         body_radii=body_radii_from_mesh(source.skeleton, source.rest_vertices, source.weights))
+    motion = make_motion(
+        "pray",
+        source.skeleton,
+        8,
+        body_radii=body_radii_from_mesh(source.skeleton, source.rest_vertices, source.weights),
+    )
     motion = motion.slice(30, 30 + frames)
     source_contacts = contact_clip(motion, source).self_contacts
     contacts = transfer_contacts(source_contacts, source, target)
@@ -132,12 +151,24 @@ def bench_eso(quick: bool = False) -> list[BenchRow]:
     else:
         model, which = GeometryConditionedRNN().eval(), "untrained"
     eint = InterpenetrationEnergy(target.faces, target.rest_vertices)
-    stats = eso_throughput(model, motion, target, frames=frames, interpenetration=eint, contacts=contacts)
+    stats = eso_throughput(
+        model, motion, target, frames=frames, interpenetration=eint, contacts=contacts
+    )
     per_frame = stats["seconds"] / frames
-    network = time_it(lambda: retarget_with_network(model, motion, target), repeat=3 if quick else 5) / frames
-    rows = [BenchRow(f"ESO per frame, 30 iterations ({which} network, {target.num_vertices} vertices, "
-                     f"{frames} frames, {stats['colliding_pairs']:.0f} colliding pairs/frame)", per_frame,
-                     "network alone, per frame", network, "<= 0.5 s (>= 2 frames/s)")]
+    network = (
+        time_it(lambda: retarget_with_network(model, motion, target), repeat=3 if quick else 5)
+        / frames
+    )
+    rows = [
+        BenchRow(
+            f"ESO per frame, 30 iterations ({which} network, {target.num_vertices} vertices, "
+            f"{frames} frames, {stats['colliding_pairs']:.0f} colliding pairs/frame)",
+            per_frame,
+            "network alone, per frame",
+            network,
+            "<= 0.5 s (>= 2 frames/s)",
+        )
+    ]
     return rows + _bench_eso_real_body(model, which, motion, source, source_contacts, frames, quick)
 
 
@@ -145,8 +176,9 @@ def bench_eso(quick: bool = False) -> list[BenchRow]:
 REAL_BODY = "makehuman_default"
 
 
-def _bench_eso_real_body(model, which: str, motion, source, source_contacts, frames: int,
-                         quick: bool) -> list[BenchRow]:
+def _bench_eso_real_body(
+    model, which: str, motion, source, source_contacts, frames: int, quick: bool
+) -> list[BenchRow]:
     """ESO on a real body: MakeHuman's 13,380 vertices decimated to 10,000 (issue 24's size),
     compiled (``compile=True``: the whole step fused by ``torch.compile``, compilation in the
     untimed warm-up) beside the same uncompiled (what ran before); then the full 13,380 vertices
@@ -156,23 +188,57 @@ def _bench_eso_real_body(model, which: str, motion, source, source_contacts, fra
     table it replaced (34 s and 716 MB on an idle core; not run with ``quick``)."""
     body = welded(load_real_character(REAL_BODY).character())
     per_frame = {}
-    for name, target in (("10k", body.decimated(10_000)), ("full", body), ("small", body.decimated(3000))):
+    for name, target in (
+        ("10k", body.decimated(10_000)),
+        ("full", body),
+        ("small", body.decimated(3000)),
+    ):
         contacts = transfer_contacts(source_contacts, source, target)
         eint = InterpenetrationEnergy(target.faces, target.rest_vertices)
         for compile in (True, False) if name == "10k" else (True,):
-            stats = eso_throughput(model, motion, target, frames=frames, interpenetration=eint, contacts=contacts,
-                                   compile=compile)
-            per_frame[name, compile] = (stats["seconds"] / frames, stats["colliding_pairs"], target.num_vertices)
-    setup = time_it(lambda: InterpenetrationEnergy(body.faces, body.rest_vertices), repeat=1 if quick else 3)
-    table = None if quick else time_it(lambda: geodesic_distances(body.rest_vertices, body.faces), repeat=1, warmup=0)
+            stats = eso_throughput(
+                model,
+                motion,
+                target,
+                frames=frames,
+                interpenetration=eint,
+                contacts=contacts,
+                compile=compile,
+            )
+            per_frame[name, compile] = (
+                stats["seconds"] / frames,
+                stats["colliding_pairs"],
+                target.num_vertices,
+            )
+    setup = time_it(
+        lambda: InterpenetrationEnergy(body.faces, body.rest_vertices), repeat=1 if quick else 3
+    )
+    table = (
+        None
+        if quick
+        else time_it(lambda: geodesic_distances(body.rest_vertices, body.faces), repeat=1, warmup=0)
+    )
     ten_k, full, small = per_frame["10k", True], per_frame["full", True], per_frame["small", True]
     return [
-        BenchRow(f"ESO per frame, 30 iterations, compiled ({which} network, real body {REAL_BODY} decimated to "
-                 f"{ten_k[2]} vertices, {ten_k[1]:.0f} colliding pairs/frame): {1 / ten_k[0]:.1f} frames/s",
-                 ten_k[0], "the same uncompiled", per_frame["10k", False][0],
-                 ">= 10 frames/s on 10k vertices (issue 24)"),
-        BenchRow(f"ESO per frame, compiled, full real body ({full[2]} vertices, {full[1]:.0f} colliding "
-                 f"pairs/frame)", full[0], f"the same on its decimated copy ({small[2]} vertices)", small[0]),
-        BenchRow(f"Eint setup on {body.num_vertices} vertices (BVH, Eq. 5 geodesics on demand)", setup,
-                 "all-pairs geodesic table", table),
+        BenchRow(
+            f"ESO per frame, 30 iterations, compiled ({which} network, real body {REAL_BODY} decimated to "
+            f"{ten_k[2]} vertices, {ten_k[1]:.0f} colliding pairs/frame): {1 / ten_k[0]:.1f} frames/s",
+            ten_k[0],
+            "the same uncompiled",
+            per_frame["10k", False][0],
+            ">= 10 frames/s on 10k vertices (issue 24)",
+        ),
+        BenchRow(
+            f"ESO per frame, compiled, full real body ({full[2]} vertices, {full[1]:.0f} colliding "
+            f"pairs/frame)",
+            full[0],
+            f"the same on its decimated copy ({small[2]} vertices)",
+            small[0],
+        ),
+        BenchRow(
+            f"Eint setup on {body.num_vertices} vertices (BVH, Eq. 5 geodesics on demand)",
+            setup,
+            "all-pairs geodesic table",
+            table,
+        ),
     ]

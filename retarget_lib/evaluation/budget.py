@@ -31,5 +31,10 @@ def training_budget(table: str) -> pd.DataFrame:
         state = load_state(entry.id)
         batch = int(state["config"]["train"]["batch"])
         steps = int(state["step"])
-        rows[row] = {"checkpoint": entry.id, "steps": steps, "batch": batch, "windows": steps * batch}
+        rows[row] = {
+            "checkpoint": entry.id,
+            "steps": steps,
+            "batch": batch,
+            "windows": steps * batch,
+        }
     return pd.DataFrame.from_dict(rows, orient="index")

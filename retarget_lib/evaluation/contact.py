@@ -41,10 +41,10 @@ from __future__ import annotations
 
 import json
 import time
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
-from typing import Callable, Mapping
 
 import numpy as np
 import pandas as pd
@@ -53,7 +53,12 @@ from ..core.character import Character
 from ..core.measures import estimated_standing_height, foot_rest_heights
 from ..core.motion import Motion
 from ..core.quantities import FOOT_CONTACT_IDS
-from ..data.manifest import CheckpointEntry, checkpoint_entries, default_checkpoint, table_checkpoints
+from ..data.manifest import (
+    CheckpointEntry,
+    checkpoint_entries,
+    default_checkpoint,
+    table_checkpoints,
+)
 from ..data.sources.mannequin import load_mannequin
 from ..data.synthetic.characters import make_character
 from ..data.synthetic.motions import body_radii_from_mesh, make_motion
@@ -62,26 +67,59 @@ from ..geometry.ik import apply_foot_contact_ik
 from ..geometry.penetration import InterpenetrationEnergy, interpenetration_score
 from ..geometry.penetration_rate import penetration_rate
 from ..losses.contact import TABLE3_ROWS as ENERGY_ROWS
-from ..methods.contact import contact_clip, load_contact_model, retarget_with_eso, retarget_with_network
+from ..methods.contact import (
+    contact_clip,
+    load_contact_model,
+    retarget_with_eso,
+    retarget_with_network,
+)
 from ..methods.registry import get_method
 from .paper import CONTACT_PAPER_METRICS, PAPER_TABLE1, PAPER_TABLE3, PAPER_TABLE5, PAPER_TABLE6
 from .results import StoredResult, compare_with_stored, load_result, write_result
 from .tdcn import METRES_TO_CM, normalized_mse, write_table
 
-__all__ = ["CONTACT_TARGETS", "CONTACT_PROFILES", "METRICS", "ContactCase", "stored_contact_results", "contact_row_checkpoints", "rerun_cases",
-           "rerun_tolerance", "contact_cases", "contact_methods", "evaluate_contact_case", "evaluate_contact_methods",
-           "write_contact_tables", "vertex_contact_mse", "foot_contact_accuracy", "foot_height_error",
-           "foot_heights_in_contact",
-           "contact_tables", "summary_table", "TABLE3_STEPS", "ablation_steps", "run_contact_evaluation"]
+__all__ = [
+    "CONTACT_TARGETS",
+    "CONTACT_PROFILES",
+    "METRICS",
+    "ContactCase",
+    "stored_contact_results",
+    "contact_row_checkpoints",
+    "rerun_cases",
+    "rerun_tolerance",
+    "contact_cases",
+    "contact_methods",
+    "evaluate_contact_case",
+    "evaluate_contact_methods",
+    "write_contact_tables",
+    "vertex_contact_mse",
+    "foot_contact_accuracy",
+    "foot_height_error",
+    "foot_heights_in_contact",
+    "contact_tables",
+    "summary_table",
+    "TABLE3_STEPS",
+    "ablation_steps",
+    "run_contact_evaluation",
+]
 
 CONTACT_SOURCE = "mannequin-x"
-CONTACT_TARGETS: dict[str, tuple[str, ...]] = {"skinny": ("cleo", "juno", "milo"), "bulky": ("bram", "gus", "otto")}
+CONTACT_TARGETS: dict[str, tuple[str, ...]] = {
+    "skinny": ("cleo", "juno", "milo"),
+    "bulky": ("bram", "gus", "otto"),
+}
 CONTACT_RICH = ("clap", "hands_on_hips", "pray", "touch_head")
 #: clips and frames of each evaluation profile
 CONTACT_PROFILES: dict[str, dict] = {
-    "fast": dict(families=CONTACT_RICH + ("walk", "punch"), seeds=(8,), max_frames=60, eval_every=3),
-    "paper": dict(families=CONTACT_RICH + ("walk", "run", "jump", "turn", "wave", "punch", "kick", "squat"),
-                  seeds=(8, 9), max_frames=None, eval_every=1),
+    "fast": dict(
+        families=CONTACT_RICH + ("walk", "punch"), seeds=(8,), max_frames=60, eval_every=3
+    ),
+    "paper": dict(
+        families=CONTACT_RICH + ("walk", "run", "jump", "turn", "wave", "punch", "kick", "squat"),
+        seeds=(8, 9),
+        max_frames=None,
+        eval_every=1,
+    ),
 }
 #: the papers' four metrics, then two of ours: the penetration rate and the foot height error
 METRICS = CONTACT_PAPER_METRICS + ("penetration rate", "foot height error")
@@ -93,12 +131,25 @@ REGISTRY_ROWS = {"TDCN": "tdcn", "NKN": "nkn", "copy": "copy", "copy-rest": "cop
 #: network rows that are not an energy of Table 3 (manifest ``row:``): our residual variant
 VARIANT_ROWS = ("Efull-residual",)
 #: Table 1/3 rows that are a network followed by a test-time step
-EFULL_ROWS = {"Ours": "Efull", "Efull + IK": "Efull", "Efull + ESO": "Efull",
-              "Ours (residual)": "Efull-residual", "Efull-residual + ESO": "Efull-residual"}
+EFULL_ROWS = {
+    "Ours": "Efull",
+    "Efull + IK": "Efull",
+    "Efull + ESO": "Efull",
+    "Ours (residual)": "Efull-residual",
+    "Efull-residual + ESO": "Efull-residual",
+}
 #: the rows that run ESO after their network
 ESO_ROWS = ("Ours", "Efull + ESO", "Ours (residual)", "Efull-residual + ESO")
-TABLE3_ROWS = ("Eskel", "Eskel+Efoot", "Eskel+Efoot+Eint w/o w", "Eskel+Efoot+Eint", "Efull", "Efull + ESO",
-               "Efull-residual", "Efull-residual + ESO")
+TABLE3_ROWS = (
+    "Eskel",
+    "Eskel+Efoot",
+    "Eskel+Efoot+Eint w/o w",
+    "Eskel+Efoot+Eint",
+    "Efull",
+    "Efull + ESO",
+    "Efull-residual",
+    "Efull-residual + ESO",
+)
 
 
 @dataclass
@@ -129,13 +180,13 @@ class ContactCase:
     contact_rich: bool
 
 
-@lru_cache(maxsize=None)
+@cache
 def _radii(name: str):
     c = _character(name)
     return body_radii_from_mesh(c.skeleton, c.rest_vertices, c.weights)
 
 
-@lru_cache(maxsize=None)
+@cache
 def _character(name: str) -> Character:
     return load_mannequin() if name == CONTACT_SOURCE else make_character(name)
 
@@ -149,19 +200,35 @@ def contact_cases(profile: str = "fast") -> list[ContactCase]:
     cases = []
     for family in p["families"]:
         for seed in p["seeds"]:
-            motion = make_motion(family, source_char.skeleton, seed, body_radii=_radii(CONTACT_SOURCE))
+            motion = make_motion(
+                family, source_char.skeleton, seed, body_radii=_radii(CONTACT_SOURCE)
+            )
             motion = motion.slice(0, p["max_frames"]) if p["max_frames"] else motion
             motion.name = f"{family}_{seed:03d}"
-            clip = contact_clip(motion, source_char, cache_key=f"eval_{CONTACT_SOURCE}_{motion.name}_{motion.num_frames}")
+            clip = contact_clip(
+                motion,
+                source_char,
+                cache_key=f"eval_{CONTACT_SOURCE}_{motion.name}_{motion.num_frames}",
+            )
             for names in CONTACT_TARGETS.values():
                 for name in names:
                     target = _character(name)
                     truth = make_motion(family, target.skeleton, seed, body_radii=_radii(name))
                     truth = truth.slice(0, motion.num_frames)
-                    cases.append(ContactCase(motion.name, family, source_char, target, motion, truth,
-                                             clip.foot_contacts, transfer_contacts(clip.self_contacts, source_char, target),
-                                             body_type=next(k for k, v in CONTACT_TARGETS.items() if name in v),
-                                             contact_rich=family in CONTACT_RICH))
+                    cases.append(
+                        ContactCase(
+                            motion.name,
+                            family,
+                            source_char,
+                            target,
+                            motion,
+                            truth,
+                            clip.foot_contacts,
+                            transfer_contacts(clip.self_contacts, source_char, target),
+                            body_type=next(k for k, v in CONTACT_TARGETS.items() if name in v),
+                            contact_rich=family in CONTACT_RICH,
+                        )
+                    )
     return cases
 
 
@@ -177,7 +244,10 @@ def vertex_contact_mse(vertices: np.ndarray, contacts: SelfContacts, height: flo
     """
     if not len(contacts):
         return float("nan")
-    d = vertices[contacts.frames, contacts.pairs[:, 0]] - vertices[contacts.frames, contacts.pairs[:, 1]]
+    d = (
+        vertices[contacts.frames, contacts.pairs[:, 0]]
+        - vertices[contacts.frames, contacts.pairs[:, 1]]
+    )
     return float((d * METRES_TO_CM).__pow__(2).sum(-1).mean() / (height * METRES_TO_CM))
 
 
@@ -185,8 +255,9 @@ def foot_contact_accuracy(output: Motion, source_contacts: np.ndarray) -> float:
     """Share of (frame, foot joint) labels on which the output's detected contacts (Sec. 3.4 at
     the output's scale, :func:`~retarget_lib.core.measures.estimated_standing_height`) agree with
     the source's."""
-    detected = detect_foot_contacts(output.global_positions(), output.skeleton,
-                                    estimated_standing_height(output.skeleton))
+    detected = detect_foot_contacts(
+        output.global_positions(), output.skeleton, estimated_standing_height(output.skeleton)
+    )
     return float((detected == np.asarray(source_contacts, dtype=bool)).mean())
 
 
@@ -214,7 +285,9 @@ def foot_height_error(output: Motion, source_contacts: np.ndarray) -> float:
     return float(np.abs(heights).mean()) if heights.size else float("nan")
 
 
-def evaluate_contact_case(output: Motion, case: ContactCase, eint, eval_every: int = 1) -> dict[str, float]:
+def evaluate_contact_case(
+    output: Motion, case: ContactCase, eint, eval_every: int = 1
+) -> dict[str, float]:
     """The :data:`METRICS` of one retargeted motion.
 
     Args:
@@ -232,7 +305,9 @@ def evaluate_contact_case(output: Motion, case: ContactCase, eint, eval_every: i
         "interpenetration": 1000.0 * interpenetration_score(eint, sampled, h),
         "vertex contact MSE": vertex_contact_mse(vertices, case.contacts, h),
         "foot contact accuracy": foot_contact_accuracy(output, case.foot_contacts),
-        "global position MSE": normalized_mse(output.global_positions(), case.truth.global_positions(), h),
+        "global position MSE": normalized_mse(
+            output.global_positions(), case.truth.global_positions(), h
+        ),
         "penetration rate": float(np.nanmean(list(rate.values()))),
         "foot height error": foot_height_error(output, case.foot_contacts),
     }
@@ -248,23 +323,35 @@ def _network_method(model) -> ContactMethod:
 
 
 def _ik_method(model) -> ContactMethod:
-    return lambda case, eint: apply_foot_contact_ik(retarget_with_network(model, case.source, case.target),
-                                                    case.foot_contacts)
+    return lambda case, eint: apply_foot_contact_ik(
+        retarget_with_network(model, case.source, case.target), case.foot_contacts
+    )
 
 
 def _eso_method(model, eso_config: Mapping) -> ContactMethod:
     """A row that runs ESO: compiled (hundreds of frames per table repay the compilation)."""
-    return lambda case, eint: retarget_with_eso(model, eso_config, case.source, case.target, case.contacts, eint,
-                                                case.foot_contacts, name=f"{case.clip}->{case.target.name}",
-                                                compile=True)
+    return lambda case, eint: retarget_with_eso(
+        model,
+        eso_config,
+        case.source,
+        case.target,
+        case.contacts,
+        eint,
+        case.foot_contacts,
+        name=f"{case.clip}->{case.target.name}",
+        compile=True,
+    )
 
 
 def _skeleton_method(fn) -> ContactMethod:
     return lambda case, eint: fn(case.source, case.target.skeleton)
 
 
-def contact_methods(rows: tuple[str, ...] = TABLE1_ROWS + TABLE3_ROWS, device: str | None = None,
-                    runs: Mapping[str, Path] | None = None) -> tuple[dict[str, ContactMethod], list[str]]:
+def contact_methods(
+    rows: tuple[str, ...] = TABLE1_ROWS + TABLE3_ROWS,
+    device: str | None = None,
+    runs: Mapping[str, Path] | None = None,
+) -> tuple[dict[str, ContactMethod], list[str]]:
     """The methods of the requested table rows whose checkpoints are shipped, and the rows missing
     one (reported, never faked).
 
@@ -293,8 +380,13 @@ def contact_methods(rows: tuple[str, ...] = TABLE1_ROWS + TABLE3_ROWS, device: s
                 missing.append(row)
                 continue
             net, cfg = model(base)
-            methods[row] = (_eso_method(net, cfg["eso"]) if row in ESO_ROWS
-                            else _ik_method(net) if row == "Efull + IK" else _network_method(net))
+            methods[row] = (
+                _eso_method(net, cfg["eso"])
+                if row in ESO_ROWS
+                else _ik_method(net)
+                if row == "Efull + IK"
+                else _network_method(net)
+            )
         elif row in REGISTRY_ROWS:
             methods[row] = _skeleton_method(get_method(REGISTRY_ROWS[row]).retargeter(None, device))
         else:
@@ -303,8 +395,12 @@ def contact_methods(rows: tuple[str, ...] = TABLE1_ROWS + TABLE3_ROWS, device: s
 
 
 # ----------------------------------------------------------------------------- tables
-def evaluate_contact_methods(methods: Mapping[str, ContactMethod], cases: list[ContactCase],
-                             eval_every: int = 1, same: Mapping[str, str] | None = None) -> pd.DataFrame:
+def evaluate_contact_methods(
+    methods: Mapping[str, ContactMethod],
+    cases: list[ContactCase],
+    eval_every: int = 1,
+    same: Mapping[str, str] | None = None,
+) -> pd.DataFrame:
     """Per (method, case) metrics plus the seconds each method took. ``same`` maps a row to one
     whose outputs it shares (e.g. ``"Efull + ESO" -> "Ours"``), which is then not re-run."""
     same = dict(same or {})
@@ -313,7 +409,9 @@ def evaluate_contact_methods(methods: Mapping[str, ContactMethod], cases: list[C
     for case in cases:
         name = case.target.name
         if name not in eints:
-            eints[name] = InterpenetrationEnergy(case.target.faces, case.target.rest_vertices, geodesic_weights=True)
+            eints[name] = InterpenetrationEnergy(
+                case.target.faces, case.target.rest_vertices, geodesic_weights=True
+            )
         for row, method in methods.items():
             if row in same and same[row] in methods:
                 continue
@@ -322,15 +420,26 @@ def evaluate_contact_methods(methods: Mapping[str, ContactMethod], cases: list[C
             seconds = time.perf_counter() - began
             metrics = evaluate_contact_case(output, case, eints[name], eval_every)
             for r in [row] + [k for k, v in same.items() if v == row and k in methods]:
-                rows.append({"method": r, "clip": case.clip, "family": case.family,
-                             "source": case.source_character.name, "target": name,
-                             "body": case.body_type, "contact_rich": case.contact_rich, "frames": case.source.num_frames,
-                             "seconds": seconds, **metrics})
+                rows.append(
+                    {
+                        "method": r,
+                        "clip": case.clip,
+                        "family": case.family,
+                        "source": case.source_character.name,
+                        "target": name,
+                        "body": case.body_type,
+                        "contact_rich": case.contact_rich,
+                        "frames": case.source.num_frames,
+                        "seconds": seconds,
+                        **metrics,
+                    }
+                )
     return pd.DataFrame(rows)
 
 
-def summary_table(per_case: pd.DataFrame, rows: tuple[str, ...], paper: Mapping[str, tuple],
-                  mask=None) -> pd.DataFrame:
+def summary_table(
+    per_case: pd.DataFrame, rows: tuple[str, ...], paper: Mapping[str, tuple], mask=None
+) -> pd.DataFrame:
     """One row per table row: the mean of each of :data:`METRICS` over the cases (``mask``
     selects some), ``"ours <metric>"``, beside the paper's values ``paper`` (row -> the four
     :data:`~retarget_lib.evaluation.paper.CONTACT_PAPER_METRICS`), ``"paper <metric>"``."""
@@ -339,28 +448,42 @@ def summary_table(per_case: pd.DataFrame, rows: tuple[str, ...], paper: Mapping[
     out = []
     for row in dict.fromkeys(list(rows) + list(paper)):
         r = {f"ours {m}": (ours.loc[row, m] if row in ours.index else np.nan) for m in METRICS}
-        r.update({f"paper {m}": v for m, v in zip(CONTACT_PAPER_METRICS, paper.get(row, (np.nan,) * 4))})
+        r.update(
+            {f"paper {m}": v for m, v in zip(CONTACT_PAPER_METRICS, paper.get(row, (np.nan,) * 4))}
+        )
         out.append(pd.Series(r, name=row))
-    cols = [c for m in METRICS for c in (f"ours {m}", f"paper {m}")
-            if not (c.startswith("paper") and m not in CONTACT_PAPER_METRICS)]
+    cols = [
+        c
+        for m in METRICS
+        for c in (f"ours {m}", f"paper {m}")
+        if not (c.startswith("paper") and m not in CONTACT_PAPER_METRICS)
+    ]
     return pd.DataFrame(out)[cols]
 
 
 def contact_tables(per_case: pd.DataFrame) -> dict[str, pd.DataFrame]:
     """Tables 1, 3, 5 (skinny targets), 6 (bulky targets) from per-case metrics."""
-    return {"table1": summary_table(per_case, TABLE1_ROWS, PAPER_TABLE1),
-            "table3": summary_table(per_case, TABLE3_ROWS, PAPER_TABLE3),
-            "table5": summary_table(per_case, TABLE1_ROWS, PAPER_TABLE5, per_case["body"] == "skinny"),
-            "table6": summary_table(per_case, TABLE1_ROWS, PAPER_TABLE6, per_case["body"] == "bulky")}
+    return {
+        "table1": summary_table(per_case, TABLE1_ROWS, PAPER_TABLE1),
+        "table3": summary_table(per_case, TABLE3_ROWS, PAPER_TABLE3),
+        "table5": summary_table(per_case, TABLE1_ROWS, PAPER_TABLE5, per_case["body"] == "skinny"),
+        "table6": summary_table(per_case, TABLE1_ROWS, PAPER_TABLE6, per_case["body"] == "bulky"),
+    }
 
 
 #: Table 3's ablation steps: each adds one ingredient to the row before it
-TABLE3_STEPS = (("Eskel", "Eskel+Efoot"), ("Eskel+Efoot", "Eskel+Efoot+Eint"),
-                ("Eskel+Efoot+Eint w/o w", "Eskel+Efoot+Eint"), ("Eskel+Efoot+Eint", "Efull"),
-                ("Efull", "Efull + ESO"))
+TABLE3_STEPS = (
+    ("Eskel", "Eskel+Efoot"),
+    ("Eskel+Efoot", "Eskel+Efoot+Eint"),
+    ("Eskel+Efoot+Eint w/o w", "Eskel+Efoot+Eint"),
+    ("Eskel+Efoot+Eint", "Efull"),
+    ("Efull", "Efull + ESO"),
+)
 
 
-def ablation_steps(table3: pd.DataFrame, steps: tuple[tuple[str, str], ...] = TABLE3_STEPS) -> pd.DataFrame:
+def ablation_steps(
+    table3: pd.DataFrame, steps: tuple[tuple[str, str], ...] = TABLE3_STEPS
+) -> pd.DataFrame:
     """What each Table 3 step does to each metric, here and in the paper.
 
     Args:
@@ -377,13 +500,21 @@ def ablation_steps(table3: pd.DataFrame, steps: tuple[tuple[str, str], ...] = TA
         for metric in CONTACT_PAPER_METRICS:
             ours = table3.loc[after, f"ours {metric}"] - table3.loc[before, f"ours {metric}"]
             paper = table3.loc[after, f"paper {metric}"] - table3.loc[before, f"paper {metric}"]
-            out.append({"step": f"{before} → {after}", "metric": metric, "ours change": ours,
-                        "paper change": paper, "same direction": bool(np.sign(ours) * np.sign(paper) > 0)})
+            out.append(
+                {
+                    "step": f"{before} → {after}",
+                    "metric": metric,
+                    "ours change": ours,
+                    "paper change": paper,
+                    "same direction": bool(np.sign(ours) * np.sign(paper) > 0),
+                }
+            )
     return pd.DataFrame(out).set_index(["step", "metric"])
 
 
-def contact_row_checkpoints(rows: tuple[str, ...] = TABLE1_ROWS + TABLE3_ROWS,
-                            runs: Mapping[str, Path] | None = None) -> dict[str, CheckpointEntry | Path]:
+def contact_row_checkpoints(
+    rows: tuple[str, ...] = TABLE1_ROWS + TABLE3_ROWS, runs: Mapping[str, Path] | None = None
+) -> dict[str, CheckpointEntry | Path]:
     """Row -> the checkpoint that row runs (:func:`contact_methods`): a network row's own (or its
     ``runs`` replacement), the registry rows' defaults (TDCN, NKN); copy rows need none."""
     shipped, entries, runs = table_checkpoints("contact"), checkpoint_entries(), runs or {}
@@ -430,8 +561,13 @@ def rerun_tolerance(method: str, metric: str, stored: float) -> float:
     return rtol * max(abs(stored), RERUN_FLOOR.get(metric, 1.0))
 
 
-def rerun_cases(per_case: pd.DataFrame, clips: tuple[str, ...], targets: tuple[str, ...],
-                rows: tuple[str, ...] = TABLE1_ROWS, profile: str = "fast") -> pd.DataFrame:
+def rerun_cases(
+    per_case: pd.DataFrame,
+    clips: tuple[str, ...],
+    targets: tuple[str, ...],
+    rows: tuple[str, ...] = TABLE1_ROWS,
+    profile: str = "fast",
+) -> pd.DataFrame:
     """Re-evaluate some (clip, target) cases live and put the new metrics beside the stored ones.
 
     Returns:
@@ -441,13 +577,19 @@ def rerun_cases(per_case: pd.DataFrame, clips: tuple[str, ...], targets: tuple[s
     methods, _ = contact_methods(rows)
     cases = [c for c in contact_cases(profile) if c.clip in clips and c.target.name in targets]
     now = evaluate_contact_methods(methods, cases, CONTACT_PROFILES[profile]["eval_every"])
-    return compare_with_stored(now, per_case, ("method", "clip", "target"), METRICS, rerun_tolerance)
+    return compare_with_stored(
+        now, per_case, ("method", "clip", "target"), METRICS, rerun_tolerance
+    )
 
 
-def run_contact_evaluation(out_dir: str | Path, profile: str = "fast", rows: tuple[str, ...] | None = None,
-                           device: str | None = None, runs: Mapping[str, Path] | None = None,
-                           command: str = "retarget evaluate --table contact --profile fast --out DIR",
-                           ) -> tuple[dict[str, pd.DataFrame], list[str]]:
+def run_contact_evaluation(
+    out_dir: str | Path,
+    profile: str = "fast",
+    rows: tuple[str, ...] | None = None,
+    device: str | None = None,
+    runs: Mapping[str, Path] | None = None,
+    command: str = "retarget evaluate --table contact --profile fast --out DIR",
+) -> tuple[dict[str, pd.DataFrame], list[str]]:
     """Evaluate every Table 1/3 row with a shipped checkpoint on :func:`contact_cases`; write
     ``contact_table{1,3,5,6}.csv/.md`` and ``contact_cases.csv`` into ``out_dir``.
 
@@ -466,28 +608,46 @@ def run_contact_evaluation(out_dir: str | Path, profile: str = "fast", rows: tup
     t0 = time.perf_counter()
     methods, missing = contact_methods(rows or TABLE1_ROWS + TABLE3_ROWS, device, runs)
     cases = contact_cases(profile)
-    per_case = evaluate_contact_methods(methods, cases, CONTACT_PROFILES[profile]["eval_every"],
-                                        same={"Efull + ESO": "Ours", "Efull-residual + ESO": "Ours (residual)"})
+    per_case = evaluate_contact_methods(
+        methods,
+        cases,
+        CONTACT_PROFILES[profile]["eval_every"],
+        same={"Efull + ESO": "Ours", "Efull-residual + ESO": "Ours (residual)"},
+    )
     if rows and (out / "contact_cases.csv").exists():
         old = pd.read_csv(out / "contact_cases.csv")
-        per_case = pd.concat([old[~old["method"].isin(per_case["method"].unique())], per_case], ignore_index=True)
+        per_case = pd.concat(
+            [old[~old["method"].isin(per_case["method"].unique())], per_case], ignore_index=True
+        )
         previous = out / "contact_cases.provenance.json"
         if previous.exists():  # say which rows are new and where the others come from
             before = json.loads(previous.read_text())
-            command += (f" [rows {', '.join(sorted(set(methods)))} recomputed; the others kept from commit "
-                        f"{before['commit'][:12]}, {before['date']}]")
-    note = (f"Contact-aware retargeting, profile {profile}: source {CONTACT_SOURCE} (unseen), {len(cases)} cases "
-            f"(targets {CONTACT_TARGETS}); interpenetration x1000, vertex contact MSE and global position MSE "
-            "in cm^2/cm; 'paper' columns: Villegas et al. 2021 (Mixamo). "
-            + (f"Rows without a shipped checkpoint: {', '.join(missing)}." if missing else ""))
+            command += (
+                f" [rows {', '.join(sorted(set(methods)))} recomputed; the others kept from commit "
+                f"{before['commit'][:12]}, {before['date']}]"
+            )
+    note = (
+        f"Contact-aware retargeting, profile {profile}: source {CONTACT_SOURCE} (unseen), {len(cases)} cases "
+        f"(targets {CONTACT_TARGETS}); interpenetration x1000, vertex contact MSE and global position MSE "
+        "in cm^2/cm; 'paper' columns: Villegas et al. 2021 (Mixamo). "
+        + (f"Rows without a shipped checkpoint: {', '.join(missing)}." if missing else "")
+    )
     tables = write_contact_tables(per_case, out, note)
-    write_result(per_case, out, "contact_cases", command=command, profile=profile,
-                 checkpoints=contact_row_checkpoints(tuple(per_case["method"].unique()), runs),
-                 seconds=time.perf_counter() - t0)
+    write_result(
+        per_case,
+        out,
+        "contact_cases",
+        command=command,
+        profile=profile,
+        checkpoints=contact_row_checkpoints(tuple(per_case["method"].unique()), runs),
+        seconds=time.perf_counter() - t0,
+    )
     return tables, missing
 
 
-def write_contact_tables(per_case: pd.DataFrame, out_dir: str | Path, note: str) -> dict[str, pd.DataFrame]:
+def write_contact_tables(
+    per_case: pd.DataFrame, out_dir: str | Path, note: str
+) -> dict[str, pd.DataFrame]:
     """:func:`contact_tables` of ``per_case`` written as ``contact_table{1,3,5,6}.csv/.md`` (each
     with ``note``) into ``out_dir`` (atomically); the per-case file with its provenance is written
     by :func:`run_contact_evaluation`.
@@ -497,8 +657,12 @@ def write_contact_tables(per_case: pd.DataFrame, out_dir: str | Path, note: str)
     """
     out = Path(out_dir)
     tables = contact_tables(per_case)
-    titles = {"table1": "Table 1", "table3": "Table 3 (ablation)", "table5": "Table 5 (skinny targets)",
-              "table6": "Table 6 (bulky targets)"}
+    titles = {
+        "table1": "Table 1",
+        "table3": "Table 3 (ablation)",
+        "table5": "Table 5 (skinny targets)",
+        "table6": "Table 6 (bulky targets)",
+    }
     for name, table in tables.items():
         write_table(table, out, f"contact_{name}", f"{titles[name]}. {note}")
     return tables

@@ -28,13 +28,25 @@ import pandas as pd
 from ..data.synthetic.mixamo_convention import load_mixamo_convention, mixamo_convention_split
 from ..geometry.contacts import transfer_contacts
 from ..methods.contact import contact_clip
-from .contact import (CONTACT_PROFILES, CONTACT_RICH, ContactCase, contact_methods, contact_row_checkpoints,
-                      evaluate_contact_methods, summary_table)
+from .contact import (
+    CONTACT_PROFILES,
+    CONTACT_RICH,
+    ContactCase,
+    contact_methods,
+    contact_row_checkpoints,
+    evaluate_contact_methods,
+    summary_table,
+)
 from .results import StoredResult, load_result, write_result
 from .tdcn import write_table
 
-__all__ = ["PAIRS_PER_FAMILY", "ROWS", "mixamo_convention_contact_cases", "run_mixamo_convention_contact_evaluation",
-           "stored_mixamo_convention_contact_results"]
+__all__ = [
+    "PAIRS_PER_FAMILY",
+    "ROWS",
+    "mixamo_convention_contact_cases",
+    "run_mixamo_convention_contact_evaluation",
+    "stored_mixamo_convention_contact_results",
+]
 
 #: the most pairs of one motion family (the ESO rows take ~6 s a 60-frame case)
 PAIRS_PER_FAMILY = 4
@@ -54,8 +66,12 @@ def mixamo_convention_contact_cases(profile: str = "fast") -> list[ContactCase]:
         for pair in pairs:
             family, clip = pair.motion.family, f"{pair.motion.family}_{pair.motion.seed:03d}"
             key = (clip, pair.source, pair.target)
-            if (family not in p["families"] or pair.source == pair.target or key in seen
-                    or per_family.get(family, 0) >= PAIRS_PER_FAMILY):
+            if (
+                family not in p["families"]
+                or pair.source == pair.target
+                or key in seen
+                or per_family.get(family, 0) >= PAIRS_PER_FAMILY
+            ):
                 continue
             seen.add(key)
             per_family[family] = per_family.get(family, 0) + 1
@@ -64,17 +80,32 @@ def mixamo_convention_contact_cases(profile: str = "fast") -> list[ContactCase]:
             frames = min(motion.num_frames, truth.num_frames, p["max_frames"] or motion.num_frames)
             motion = motion.slice(0, frames)
             motion.name = clip
-            prepared = contact_clip(motion, source_char, cache_key=f"eval_mc_{pair.source}_{clip}_{frames}")
-            cases.append(ContactCase(clip, family, source_char, target, prepared.motion, truth.slice(0, frames),
-                                     prepared.foot_contacts,
-                                     transfer_contacts(prepared.self_contacts, source_char, target),
-                                     body_type="mixamo-convention", contact_rich=family in CONTACT_RICH))
+            prepared = contact_clip(
+                motion, source_char, cache_key=f"eval_mc_{pair.source}_{clip}_{frames}"
+            )
+            cases.append(
+                ContactCase(
+                    clip,
+                    family,
+                    source_char,
+                    target,
+                    prepared.motion,
+                    truth.slice(0, frames),
+                    prepared.foot_contacts,
+                    transfer_contacts(prepared.self_contacts, source_char, target),
+                    body_type="mixamo-convention",
+                    contact_rich=family in CONTACT_RICH,
+                )
+            )
     return cases
 
 
-def run_mixamo_convention_contact_evaluation(out_dir: str | Path, profile: str = "fast", device: str | None = None,
-                                             command: str = "retarget evaluate --table contact --out DIR",
-                                             ) -> pd.DataFrame:
+def run_mixamo_convention_contact_evaluation(
+    out_dir: str | Path,
+    profile: str = "fast",
+    device: str | None = None,
+    command: str = "retarget evaluate --table contact --out DIR",
+) -> pd.DataFrame:
     """Evaluate :data:`ROWS` on :func:`mixamo_convention_contact_cases`; write
     ``contact_mixamo_convention.csv/.md`` (the means, with each row's global position error as a
     multiple of copy's) and the per-case ``contact_mixamo_convention_cases.csv`` with provenance.
@@ -89,14 +120,23 @@ def run_mixamo_convention_contact_evaluation(out_dir: str | Path, profile: str =
     table = summary_table(per_case, tuple(methods), {}).filter(like="ours")  # no paper values here
     copy_error = table.loc["copy", "ours global position MSE"]
     table["ours global position MSE / copy's"] = table["ours global position MSE"] / copy_error
-    note = (f"Table 1's metrics on the Mixamo-convention profile (one T-pose rest, every clip authored on every "
-            f"character; ground truth = the target's own version), profile {profile}: {len(cases)} cases "
-            f"({', '.join(sorted({c.family for c in cases}))}); interpenetration x1000, vertex contact MSE and "
-            "global position MSE in cm^2/cm. "
-            + (f"Rows without a shipped checkpoint: {', '.join(missing)}." if missing else ""))
+    note = (
+        f"Table 1's metrics on the Mixamo-convention profile (one T-pose rest, every clip authored on every "
+        f"character; ground truth = the target's own version), profile {profile}: {len(cases)} cases "
+        f"({', '.join(sorted({c.family for c in cases}))}); interpenetration x1000, vertex contact MSE and "
+        "global position MSE in cm^2/cm. "
+        + (f"Rows without a shipped checkpoint: {', '.join(missing)}." if missing else "")
+    )
     write_table(table, Path(out_dir), "contact_mixamo_convention", note)
-    write_result(per_case, out_dir, CASES_FILE, command=command, profile=profile,
-                 checkpoints=contact_row_checkpoints(tuple(methods)), seconds=time.perf_counter() - t0)
+    write_result(
+        per_case,
+        out_dir,
+        CASES_FILE,
+        command=command,
+        profile=profile,
+        checkpoints=contact_row_checkpoints(tuple(methods)),
+        seconds=time.perf_counter() - t0,
+    )
     return table
 
 

@@ -12,7 +12,8 @@ character, two synthetic clips on the unseen mannequin-x body, and the three rea
 
 from __future__ import annotations
 
-from typing import Any, Callable, NamedTuple
+from collections.abc import Callable
+from typing import Any, NamedTuple
 
 import numpy as np
 import pandas as pd
@@ -25,7 +26,13 @@ from ..data.sources.cmu import CMU_CLIPS, load_cmu_clip
 from ..data.sources.mannequin import load_mannequin
 from ..data.synthetic.dataset import load_synthetic
 
-__all__ = ["REFERENCE_HEIGHT", "IdentityClip", "identity_clips", "identity_error", "identity_errors"]
+__all__ = [
+    "REFERENCE_HEIGHT",
+    "IdentityClip",
+    "identity_clips",
+    "identity_error",
+    "identity_errors",
+]
 
 #: errors are reported in cm for a body of this height (metres)
 REFERENCE_HEIGHT = 1.7
@@ -44,9 +51,17 @@ class IdentityClip(NamedTuple):
     character: Character | None = None
 
 
-def identity_clips(synthetic_clips: tuple[str, ...] = ("walk_008", "punch_009", "squat_009", "wave_000", "clap_008"),
-                   characters: tuple[str, ...] = ("bram", "ada"),
-                   mannequin_clips: tuple[str, ...] = ("walk_008", "clap_009")) -> list[IdentityClip]:
+def identity_clips(
+    synthetic_clips: tuple[str, ...] = (
+        "walk_008",
+        "punch_009",
+        "squat_009",
+        "wave_000",
+        "clap_008",
+    ),
+    characters: tuple[str, ...] = ("bram", "ada"),
+    mannequin_clips: tuple[str, ...] = ("walk_008", "clap_009"),
+) -> list[IdentityClip]:
     """The standard identity set (see the module docstring).
 
     Args:
@@ -60,18 +75,32 @@ def identity_clips(synthetic_clips: tuple[str, ...] = ("walk_008", "punch_009", 
     for ch in characters:
         for name in synthetic_clips:
             character = ds.characters[ch]
-            out.append(IdentityClip("synthetic", f"{name}@{ch}",
-                                    retarget_ground_truth(ds.clip(name).motion, character.skeleton), character))
+            out.append(
+                IdentityClip(
+                    "synthetic",
+                    f"{name}@{ch}",
+                    retarget_ground_truth(ds.clip(name).motion, character.skeleton),
+                    character,
+                )
+            )
     body = load_mannequin()
     for name in mannequin_clips:
-        out.append(IdentityClip("mannequin-x", f"{name}@mannequin-x",
-                                retarget_ground_truth(ds.clip(name).motion, body.skeleton), body))
+        out.append(
+            IdentityClip(
+                "mannequin-x",
+                f"{name}@mannequin-x",
+                retarget_ground_truth(ds.clip(name).motion, body.skeleton),
+                body,
+            )
+        )
     for name in CMU_CLIPS:
         out.append(IdentityClip("cmu", name, load_cmu_clip(name)))
     return out
 
 
-def identity_error(method: Callable[[Motion, Any], Motion], motion: Motion, target: Any = None) -> dict[str, float]:
+def identity_error(
+    method: Callable[[Motion, Any], Motion], motion: Motion, target: Any = None
+) -> dict[str, float]:
     """Retarget ``motion`` onto its own skeleton with ``method`` and measure the change.
 
     Args:
@@ -89,12 +118,19 @@ def identity_error(method: Callable[[Motion, Any], Motion], motion: Motion, targ
     scale = 100.0 * REFERENCE_HEIGHT / motion.skeleton.height()
     p, q = out.global_positions(), motion.global_positions()
     d = np.linalg.norm((p - p[:, :1]) - (q - q[:, :1]), axis=-1) * scale  # (T, J)
-    return {"mean": float(d.mean()), "hands": float(d[:, _HANDS].mean()), "feet": float(d[:, _FEET].mean()),
-            "root": float(np.linalg.norm(p[:, 0] - q[:, 0], axis=-1).mean() * scale)}
+    return {
+        "mean": float(d.mean()),
+        "hands": float(d[:, _HANDS].mean()),
+        "feet": float(d[:, _FEET].mean()),
+        "root": float(np.linalg.norm(p[:, 0] - q[:, 0], axis=-1).mean() * scale),
+    }
 
 
-def identity_errors(method: Callable[[Motion, Any], Motion], clips: list[IdentityClip] | None = None,
-                    characters: bool = False) -> pd.DataFrame:
+def identity_errors(
+    method: Callable[[Motion, Any], Motion],
+    clips: list[IdentityClip] | None = None,
+    characters: bool = False,
+) -> pd.DataFrame:
     """:func:`identity_error` on every clip (default :func:`identity_clips`).
 
     Args:
@@ -109,5 +145,13 @@ def identity_errors(method: Callable[[Motion, Any], Motion], clips: list[Identit
     clips = identity_clips() if clips is None else clips
     if characters:
         clips = [c for c in clips if c.character is not None]
-    return pd.DataFrame([{"group": c.group, "clip": c.name,
-                          **identity_error(method, c.motion, c.character if characters else None)} for c in clips])
+    return pd.DataFrame(
+        [
+            {
+                "group": c.group,
+                "clip": c.name,
+                **identity_error(method, c.motion, c.character if characters else None),
+            }
+            for c in clips
+        ]
+    )

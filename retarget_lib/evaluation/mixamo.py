@@ -30,9 +30,9 @@ also on root-relative positions (root subtracted from both, i.e. pose only).
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from functools import partial
 from pathlib import Path
-from typing import Mapping, Sequence
 
 import numpy as np
 import pandas as pd
@@ -43,18 +43,49 @@ from ..data.mixamo_splits import folder_split, paper_pairs
 from ..data.sources.mixamo_local import MixamoFolder, load_mixamo_folder
 from ..files import atomic_write
 from ..methods.tdcn import load_generator, retarget_motion_with
-from .tdcn import (EvalCase, Method, evaluate_methods, markdown_table, normalized_mse, short_chunks,
-                   table_from_cases, tdcn_methods, truth_frames)
+from .tdcn import (
+    EvalCase,
+    Method,
+    evaluate_methods,
+    markdown_table,
+    normalized_mse,
+    short_chunks,
+    table_from_cases,
+    tdcn_methods,
+    truth_frames,
+)
 
-__all__ = ["METHOD_FPS", "CASE_COLUMNS", "same_length",
-           "mixamo_scores", "mixamo_tdcn_cases", "is_paper_case", "checkpoint_method", "mixamo_tdcn_per_case",
-           "run_mixamo_tdcn_evaluation"]
+__all__ = [
+    "METHOD_FPS",
+    "CASE_COLUMNS",
+    "same_length",
+    "mixamo_scores",
+    "mixamo_tdcn_cases",
+    "is_paper_case",
+    "checkpoint_method",
+    "mixamo_tdcn_per_case",
+    "run_mixamo_tdcn_evaluation",
+]
 
 #: frame rate the methods run at (the source is resampled to it)
 METHOD_FPS = 30.0
 #: the per-case CSV's columns: the required ones first, then the context
-CASE_COLUMNS = ("source", "target", "motion", "method", "frames", "nmse", "nmse_root_relative", "scenario",
-                "paper_pair", "nmse_short", "nmse_short_root_relative", "short_chunks", "source_fps", "truth_fps")
+CASE_COLUMNS = (
+    "source",
+    "target",
+    "motion",
+    "method",
+    "frames",
+    "nmse",
+    "nmse_root_relative",
+    "scenario",
+    "paper_pair",
+    "nmse_short",
+    "nmse_short_root_relative",
+    "short_chunks",
+    "source_fps",
+    "truth_fps",
+)
 
 
 def same_length(source: Motion, truth: Motion) -> bool:
@@ -66,8 +97,10 @@ def same_length(source: Motion, truth: Motion) -> bool:
 def mixamo_scores(pred: np.ndarray, truth: np.ndarray, height: float) -> dict[str, float]:
     """The folder protocol's scores of one comparison (cm²/cm): ``""`` on global positions and
     ``"_root_relative"`` with each frame's root subtracted from prediction and ground truth."""
-    return {"": normalized_mse(pred, truth, height),
-            "_root_relative": normalized_mse(pred - pred[:, :1], truth - truth[:, :1], height)}
+    return {
+        "": normalized_mse(pred, truth, height),
+        "_root_relative": normalized_mse(pred - pred[:, :1], truth - truth[:, :1], height),
+    }
 
 
 def mixamo_tdcn_cases(folder: MixamoFolder) -> tuple[list[EvalCase], pd.DataFrame, pd.DataFrame]:
@@ -87,20 +120,56 @@ def mixamo_tdcn_cases(folder: MixamoFolder) -> tuple[list[EvalCase], pd.DataFram
             for tgt in sorted(who - {src}):
                 a, b = folder.clips[src, motion], folder.clips[tgt, motion]
                 if not same_length(a, b):
-                    skipped.append({"source": src, "target": tgt, "motion": motion,
-                                    "why": f"{a.num_frames} frames at {a.fps:g} fps vs {b.num_frames} at {b.fps:g} fps"})
+                    skipped.append(
+                        {
+                            "source": src,
+                            "target": tgt,
+                            "motion": motion,
+                            "why": f"{a.num_frames} frames at {a.fps:g} fps vs {b.num_frames} at {b.fps:g} fps",
+                        }
+                    )
                     continue
-                cases.append(EvalCase(split.scenario(tgt, motion), src, tgt, motion,
-                                      a.resample(METHOD_FPS), b.skeleton, b))
+                cases.append(
+                    EvalCase(
+                        split.scenario(tgt, motion),
+                        src,
+                        tgt,
+                        motion,
+                        a.resample(METHOD_FPS),
+                        b.skeleton,
+                        b,
+                    )
+                )
     present = {c.name for c in folder.characters}
     rows = []
     for (src, tgt), scenario in paper_pairs().items():
-        motions = sorted(c.clip for c in cases if (c.source_name, c.target_name) == (src, tgt) and is_paper_case(c))
+        motions = sorted(
+            c.clip
+            for c in cases
+            if (c.source_name, c.target_name) == (src, tgt) and is_paper_case(c)
+        )
         absent = [n for n in (src, tgt) if n not in present]
-        status = ("present" if motions else f"missing: no {', '.join(absent)} folder" if absent
-                  else "missing: no shared motion with the same frame count")
-        rows.append({"scenario": scenario, "source": src, "target": tgt, "motions": "; ".join(motions), "status": status})
-    return cases, pd.DataFrame(rows), pd.DataFrame(skipped, columns=["source", "target", "motion", "why"])
+        status = (
+            "present"
+            if motions
+            else f"missing: no {', '.join(absent)} folder"
+            if absent
+            else "missing: no shared motion with the same frame count"
+        )
+        rows.append(
+            {
+                "scenario": scenario,
+                "source": src,
+                "target": tgt,
+                "motions": "; ".join(motions),
+                "status": status,
+            }
+        )
+    return (
+        cases,
+        pd.DataFrame(rows),
+        pd.DataFrame(skipped, columns=["source", "target", "motion", "why"]),
+    )
 
 
 def is_paper_case(case: EvalCase) -> bool:
@@ -121,13 +190,28 @@ def mixamo_tdcn_per_case(methods: Mapping[str, Method], cases: list[EvalCase]) -
     extra = []
     for src, tgt, motion in zip(per_case["source"], per_case["target"], per_case["clip"]):
         c = by_case[src, tgt, motion]
-        extra.append({"frames": len(truth_frames(c.source.num_frames, c.source.fps, 0, c.truth.num_frames, c.truth.fps)),
-                      "paper_pair": is_paper_case(c),
-                      "short_chunks": len(short_chunks(c.source.num_frames)),
-                      "source_fps": c.source.fps, "truth_fps": c.truth.fps})
-    per_case = pd.concat([per_case, pd.DataFrame(extra)], axis=1).rename(columns={
-        "clip": "motion", "long": "nmse", "long_root_relative": "nmse_root_relative",
-        "short": "nmse_short", "short_root_relative": "nmse_short_root_relative"})
+        extra.append(
+            {
+                "frames": len(
+                    truth_frames(
+                        c.source.num_frames, c.source.fps, 0, c.truth.num_frames, c.truth.fps
+                    )
+                ),
+                "paper_pair": is_paper_case(c),
+                "short_chunks": len(short_chunks(c.source.num_frames)),
+                "source_fps": c.source.fps,
+                "truth_fps": c.truth.fps,
+            }
+        )
+    per_case = pd.concat([per_case, pd.DataFrame(extra)], axis=1).rename(
+        columns={
+            "clip": "motion",
+            "long": "nmse",
+            "long_root_relative": "nmse_root_relative",
+            "short": "nmse_short",
+            "short_root_relative": "nmse_short_root_relative",
+        }
+    )
     return per_case[list(CASE_COLUMNS)]
 
 
@@ -138,9 +222,13 @@ def _table4(per_case: pd.DataFrame) -> pd.DataFrame:
     return table_from_cases(per_case.rename(columns={"nmse": "long", "nmse_short": "short"}))
 
 
-def run_mixamo_tdcn_evaluation(out_dir: str | Path, root: str | Path | None = None, only: Sequence[str] | None = None,
-                               checkpoints: Sequence[str | Path] = (), methods: Mapping[str, Method] | None = None,
-                               ) -> tuple[pd.DataFrame, pd.DataFrame, list[str]]:
+def run_mixamo_tdcn_evaluation(
+    out_dir: str | Path,
+    root: str | Path | None = None,
+    only: Sequence[str] | None = None,
+    checkpoints: Sequence[str | Path] = (),
+    methods: Mapping[str, Method] | None = None,
+) -> tuple[pd.DataFrame, pd.DataFrame, list[str]]:
     """Table 4 on a ``mixamo-local`` folder; writes ``table4.md``, ``table4.csv`` and
     ``table4_cases.csv`` into ``out_dir``.
 
@@ -161,10 +249,18 @@ def run_mixamo_tdcn_evaluation(out_dir: str | Path, root: str | Path | None = No
     if methods is None:
         methods, missing = tdcn_methods(only)
         methods.update(checkpoint_method(p) for p in checkpoints)
-    per_case = (mixamo_tdcn_per_case(methods, cases) if cases
-                else pd.DataFrame(columns=list(CASE_COLUMNS)))
-    tables = {"paper": _table4(per_case[per_case["paper_pair"].astype(bool)]), "all": _table4(per_case)}
-    table = pd.concat(tables, names=["pairs", "method"]) if any(len(t) for t in tables.values()) else pd.DataFrame()
+    per_case = (
+        mixamo_tdcn_per_case(methods, cases) if cases else pd.DataFrame(columns=list(CASE_COLUMNS))
+    )
+    tables = {
+        "paper": _table4(per_case[per_case["paper_pair"].astype(bool)]),
+        "all": _table4(per_case),
+    }
+    table = (
+        pd.concat(tables, names=["pairs", "method"])
+        if any(len(t) for t in tables.values())
+        else pd.DataFrame()
+    )
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     with atomic_write(out / "table4.csv", "w") as f:
@@ -176,25 +272,52 @@ def run_mixamo_tdcn_evaluation(out_dir: str | Path, root: str | Path | None = No
     return table, coverage, missing
 
 
-def _report(folder: MixamoFolder, cases: list[EvalCase], tables: dict[str, pd.DataFrame], coverage: pd.DataFrame,
-            skipped: pd.DataFrame, missing: list[str]) -> str:
+def _report(
+    folder: MixamoFolder,
+    cases: list[EvalCase],
+    tables: dict[str, pd.DataFrame],
+    coverage: pd.DataFrame,
+    skipped: pd.DataFrame,
+    missing: list[str],
+) -> str:
     """``table4.md``: protocol, coverage, both tables."""
-    per_scenario = pd.Series([c.scenario for c in cases], dtype=int).value_counts().reindex([1, 2, 3, 4], fill_value=0)
-    lines = [f"# Table 4 on the mixamo-local folder {folder.root}", "",
-             "Protocol: Kim et al. 2020, Sec. 6.1. Ground truth = the target character's own clip of the same "
-             "motion; normalised MSE of global joint positions (cm² / H in cm, H of the target). Short = "
-             f"120-frame chunks at {METHOD_FPS:g} fps retargeted on their own, long = whole clip; compared at the "
-             "ground truth's frame times. 'avg' is the mean over the scenarios present. 'paper' columns: Kim et al. "
-             "2020, Table 4 (their data, not this folder).", "",
-             f"Folder: {len(folder.characters)} characters, {len(folder.clips)} clips; {len(cases)} ordered "
-             f"(source, target, motion) cases; cases per scenario 1-4: {', '.join(map(str, per_scenario.values))}.", "",
-             f"Split: {folder_split(folder).describe()}.", "",
-             "## Coverage of the paper's pairs (Table 3)", "", markdown_table(coverage.set_index("scenario")), ""]
+    per_scenario = (
+        pd.Series([c.scenario for c in cases], dtype=int)
+        .value_counts()
+        .reindex([1, 2, 3, 4], fill_value=0)
+    )
+    lines = [
+        f"# Table 4 on the mixamo-local folder {folder.root}",
+        "",
+        "Protocol: Kim et al. 2020, Sec. 6.1. Ground truth = the target character's own clip of the same "
+        "motion; normalised MSE of global joint positions (cm² / H in cm, H of the target). Short = "
+        f"120-frame chunks at {METHOD_FPS:g} fps retargeted on their own, long = whole clip; compared at the "
+        "ground truth's frame times. 'avg' is the mean over the scenarios present. 'paper' columns: Kim et al. "
+        "2020, Table 4 (their data, not this folder).",
+        "",
+        f"Folder: {len(folder.characters)} characters, {len(folder.clips)} clips; {len(cases)} ordered "
+        f"(source, target, motion) cases; cases per scenario 1-4: {', '.join(map(str, per_scenario.values))}.",
+        "",
+        f"Split: {folder_split(folder).describe()}.",
+        "",
+        "## Coverage of the paper's pairs (Table 3)",
+        "",
+        markdown_table(coverage.set_index("scenario")),
+        "",
+    ]
     if len(skipped):
-        lines += ["## Pairs not evaluated (frame counts differ)", "", markdown_table(skipped.set_index("source")), ""]
+        lines += [
+            "## Pairs not evaluated (frame counts differ)",
+            "",
+            markdown_table(skipped.set_index("source")),
+            "",
+        ]
     if missing:
         lines += [f"Rows without a trained checkpoint: {', '.join(missing)}.", ""]
-    for key, title in (("paper", "Table 4 over the paper's pairs"), ("all", "Table 4 over every pair of the folder")):
+    for key, title in (
+        ("paper", "Table 4 over the paper's pairs"),
+        ("all", "Table 4 over every pair of the folder"),
+    ):
         body = markdown_table(tables[key]) if len(tables[key]) else "(no case)"
         lines += [f"## {title}", "", body, ""]
     return "\n".join(lines)

@@ -40,9 +40,9 @@ are kept exactly.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
@@ -70,8 +70,17 @@ from ..methods.retarget import on_the_ground
 from .results import StoredResult, load_result, write_result
 from .tdcn import markdown_table
 
-__all__ = ["REAL_METHODS", "RealClip", "WorstCase", "real_clips", "real_measures", "run_real_evaluation",
-           "stored_real_results", "welded", "worst_cases"]
+__all__ = [
+    "REAL_METHODS",
+    "RealClip",
+    "WorstCase",
+    "real_clips",
+    "real_measures",
+    "run_real_evaluation",
+    "stored_real_results",
+    "welded",
+    "worst_cases",
+]
 
 #: table row -> (registry method, Table 4 row whose shipped checkpoint it loads, None = the
 #: method's default)
@@ -118,15 +127,22 @@ def real_clips(frames: int = CLIP_FRAMES) -> list[RealClip]:
     with labelled hand contacts, on its performer) and a second real mocap source's clip
     (``motion_capture_rom`` from :data:`ROM_START`, :mod:`~retarget_lib.data.sources.real_motions`),
     each cut to ``frames`` frames."""
-    clips = [RealClip(name[:-4], _first(load_cmu_clip(name), frames), None, None) for name in ("01_01.bvh", "01_03.bvh")]
+    clips = [
+        RealClip(name[:-4], _first(load_cmu_clip(name), frames), None, None)
+        for name in ("01_01.bvh", "01_03.bvh")
+    ]
     ds = load_synthetic()
     clap = ds.clip("clap_008")
     motion = _first(clap.motion, frames)
     hand_hand = [c for c in clap.hand_contacts if c.part in ("LeftHand", "RightHand")]
-    touch = authored_contact_frames(hand_hand, clap.motion.num_frames)[:motion.num_frames]
+    touch = authored_contact_frames(hand_hand, clap.motion.num_frames)[: motion.num_frames]
     clips.append(RealClip(clap.name, motion, ds.characters[clap.performer], touch))
     rom = load_real_motion("motion_capture_rom")
-    clips.append(RealClip(rom.name, rom.slice(ROM_START, min(ROM_START + frames, rom.num_frames)), None, None))
+    clips.append(
+        RealClip(
+            rom.name, rom.slice(ROM_START, min(ROM_START + frames, rom.num_frames)), None, None
+        )
+    )
     return clips
 
 
@@ -145,9 +161,18 @@ def welded(character: Character, tolerance: float = 1e-6) -> Character:
     keys = np.round(character.rest_vertices / tolerance).astype(np.int64)
     _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
     faces = inverse.reshape(-1)[character.faces]
-    keep = (faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])
-    return Character(character.name, character.skeleton.copy(), character.rest_vertices[first], faces[keep],
-                     character.weights[first], character.bulk, dict(character.style))
+    keep = (
+        (faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])
+    )
+    return Character(
+        character.name,
+        character.skeleton.copy(),
+        character.rest_vertices[first],
+        faces[keep],
+        character.weights[first],
+        character.bulk,
+        dict(character.style),
+    )
 
 
 def real_measures(result: Motion, clip: RealClip, character: Character) -> dict[str, float]:
@@ -157,20 +182,35 @@ def real_measures(result: Motion, clip: RealClip, character: Character) -> dict[
     src_pos, out_pos = src.global_positions(), result.global_positions()
     src_mesh = None if clip.character is None else clip.character.rest_vertices
     src_soles = sole_heights(src_pos, src.skeleton, src_mesh)
-    standing = standing_feet(foot_positions(src_pos, src.skeleton), src_soles, clip_floor(src_soles),
-                             src.skeleton.height(), src.fps)
+    standing = standing_feet(
+        foot_positions(src_pos, src.skeleton),
+        src_soles,
+        clip_floor(src_soles),
+        src.skeleton.height(),
+        src.fps,
+    )
     feet = foot_positions(out_pos, result.skeleton)
     speed = np.linalg.norm(np.diff(feet[..., [0, 2]], axis=0), axis=-1) * result.fps  # (T-1, 4) m/s
     stand_steps = standing[1:] & standing[:-1]
     soles = sole_heights(out_pos, result.skeleton, character.rest_vertices)
     out = {
-        "skate_pct_per_s": 100 * float(speed[stand_steps].mean() / h) if stand_steps.any() else float("nan"),
+        "skate_pct_per_s": 100 * float(speed[stand_steps].mean() / h)
+        if stand_steps.any()
+        else float("nan"),
         "under_floor_pct": 100 * float(np.maximum(0.0, -soles.min(axis=1)).mean() / h),
-        "float_pct": 100 * float(np.maximum(0.0, soles[standing]).mean() / h) if standing.any() else float("nan"),
-        "foot_contact_mismatch": float((detect_foot_contacts(out_pos, result.skeleton,
-                                                             estimated_standing_height(result.skeleton))
-                                        != detect_foot_contacts(src_pos, src.skeleton,
-                                                                estimated_standing_height(src.skeleton))).mean()),
+        "float_pct": 100 * float(np.maximum(0.0, soles[standing]).mean() / h)
+        if standing.any()
+        else float("nan"),
+        "foot_contact_mismatch": float(
+            (
+                detect_foot_contacts(
+                    out_pos, result.skeleton, estimated_standing_height(result.skeleton)
+                )
+                != detect_foot_contacts(
+                    src_pos, src.skeleton, estimated_standing_height(src.skeleton)
+                )
+            ).mean()
+        ),
     }
     frames = np.arange(0, result.num_frames, PENETRATION_EVERY)
     verts = character.skinned(result.rotations[frames], result.root_positions[frames])
@@ -179,7 +219,11 @@ def real_measures(result: Motion, clip: RealClip, character: Character) -> dict[
     if clip.hands_touch is not None and clip.hands_touch.any():
         lh, rh = J["LeftHand"], J["RightHand"]
         gap_out = np.linalg.norm(out_pos[:, lh] - out_pos[:, rh], axis=-1)[clip.hands_touch]
-        gap_src = np.linalg.norm(src_pos[:, lh] - src_pos[:, rh], axis=-1)[clip.hands_touch] * h / src.skeleton.height()
+        gap_src = (
+            np.linalg.norm(src_pos[:, lh] - src_pos[:, rh], axis=-1)[clip.hands_touch]
+            * h
+            / src.skeleton.height()
+        )
         out["hand_gap_pct"] = 100 * float(np.abs(gap_out - gap_src).mean() / h)
     else:
         out["hand_gap_pct"] = float("nan")
@@ -198,7 +242,11 @@ def real_checkpoints() -> dict[str, CheckpointEntry]:
     shipped, entries = table_checkpoints("tdcn"), checkpoint_entries()
     out = {}
     for row, (name, table_row) in REAL_METHODS.items():
-        ident = default_checkpoint(name) if table_row is None else getattr(shipped.get(table_row), "id", None)
+        ident = (
+            default_checkpoint(name)
+            if table_row is None
+            else getattr(shipped.get(table_row), "id", None)
+        )
         if ident is not None:
             out[row] = entries[ident]
     return out
@@ -210,21 +258,31 @@ def _methods(only: Sequence[str] | None, device: str | None) -> dict[str, tuple[
     methods = {}
     for row, (name, _) in REAL_METHODS.items():
         method = get_method(name)
-        if (only is not None and row not in only) or (method.needs_checkpoint and row not in checkpoints):
+        if (only is not None and row not in only) or (
+            method.needs_checkpoint and row not in checkpoints
+        ):
             continue
         entry = checkpoints.get(row)
-        methods[row] = (method.retargeter(None if entry is None else entry.id, device), method.needs_mesh)
+        methods[row] = (
+            method.retargeter(None if entry is None else entry.id, device),
+            method.needs_mesh,
+        )
     return methods
 
 
-def _run(fn: Retarget, needs_mesh: bool, motion: Motion, character: Character, source: Character | None) -> Motion:
+def _run(
+    fn: Retarget, needs_mesh: bool, motion: Motion, character: Character, source: Character | None
+) -> Motion:
     if needs_mesh:  # the contact method: its ESO compiled (every case of the table repays it)
         return fn(motion, character, source_character=source, compile=True)
     return fn(motion, character.skeleton)
 
 
-def evaluate_real(methods: Mapping[str, tuple[Retarget, bool]], clips: Sequence[RealClip],
-                  characters: Sequence[str]) -> pd.DataFrame:
+def evaluate_real(
+    methods: Mapping[str, tuple[Retarget, bool]],
+    clips: Sequence[RealClip],
+    characters: Sequence[str],
+) -> pd.DataFrame:
     """One row per (character, method, clip) with :func:`real_measures` and ``identity_pct``."""
     copy_rest = get_method("copy-rest").retargeter()
     rows = []
@@ -232,17 +290,36 @@ def evaluate_real(methods: Mapping[str, tuple[Retarget, bool]], clips: Sequence[
         character = welded(load_real_character(name).character())
         h = character.skeleton.height()
         for k, clip in enumerate(clips):
-            own = copy_rest(clip.motion, character.skeleton)  # the character's own version of the clip
+            own = copy_rest(
+                clip.motion, character.skeleton
+            )  # the character's own version of the clip
             for row, (fn, needs_mesh) in methods.items():
-                result = on_the_ground(_run(fn, needs_mesh, clip.motion, character, clip.character), clip.motion,
-                                       character, clip.character)
+                result = on_the_ground(
+                    _run(fn, needs_mesh, clip.motion, character, clip.character),
+                    clip.motion,
+                    character,
+                    clip.character,
+                )
                 identity = float("nan")
-                if k == 0:  # identity on the first clip only (contact: ~0.5 s a frame on a real mesh)
+                if (
+                    k == 0
+                ):  # identity on the first clip only (contact: ~0.5 s a frame on a real mesh)
                     again = _run(fn, needs_mesh, own, character, character)
-                    identity = 100 * float(np.linalg.norm(again.global_positions() - own.global_positions(),
-                                                          axis=-1).mean() / h)
-                rows.append({"character": name, "method": row, "clip": clip.name, "identity_pct": identity,
-                             **real_measures(result, clip, character)})
+                    identity = 100 * float(
+                        np.linalg.norm(
+                            again.global_positions() - own.global_positions(), axis=-1
+                        ).mean()
+                        / h
+                    )
+                rows.append(
+                    {
+                        "character": name,
+                        "method": row,
+                        "clip": clip.name,
+                        "identity_pct": identity,
+                        **real_measures(result, clip, character),
+                    }
+                )
     return pd.DataFrame(rows)
 
 
@@ -268,8 +345,9 @@ class WorstCase:
     penetration: float
 
 
-def worst_cases(per_case: pd.DataFrame, methods: Mapping[str, tuple[Retarget, bool]],
-                clips: Sequence[RealClip]) -> list[WorstCase]:
+def worst_cases(
+    per_case: pd.DataFrame, methods: Mapping[str, tuple[Retarget, bool]], clips: Sequence[RealClip]
+) -> list[WorstCase]:
     """Per method, the (character, clip) with the largest ``arm_penetration`` in ``per_case``,
     retargeted again, at the measured frame with the most arm vertices inside the body."""
     by_name = {c.name: c for c in clips}
@@ -281,33 +359,61 @@ def worst_cases(per_case: pd.DataFrame, methods: Mapping[str, tuple[Retarget, bo
         worst = cases.loc[cases["arm_penetration"].idxmax()]
         clip = by_name[worst["clip"]]
         character = welded(load_real_character(worst["character"]).character())
-        result = on_the_ground(_run(fn, needs_mesh, clip.motion, character, clip.character), clip.motion,
-                               character, clip.character)
+        result = on_the_ground(
+            _run(fn, needs_mesh, clip.motion, character, clip.character),
+            clip.motion,
+            character,
+            clip.character,
+        )
         frames = np.arange(0, result.num_frames, PENETRATION_EVERY)
         verts = character.skinned(result.rotations[frames], result.root_positions[frames])
         inside = [limb_vertices_inside(v, character.faces, character.weights, ARMS) for v in verts]
         k = int(np.argmax([m.sum() for m in inside]))
-        out.append(WorstCase(row, worst["character"], worst["clip"], int(frames[k]), verts[k], character.faces,
-                             inside[k], float(worst["arm_penetration"])))
+        out.append(
+            WorstCase(
+                row,
+                worst["character"],
+                worst["clip"],
+                int(frames[k]),
+                verts[k],
+                character.faces,
+                inside[k],
+                float(worst["arm_penetration"]),
+            )
+        )
     return out
 
 
 #: the table's columns, in order
-MEASURES = ("identity_pct", "skate_pct_per_s", "under_floor_pct", "float_pct", "foot_contact_mismatch",
-            "arm_penetration", "hand_gap_pct", "jitter_log_ratio")
+MEASURES = (
+    "identity_pct",
+    "skate_pct_per_s",
+    "under_floor_pct",
+    "float_pct",
+    "foot_contact_mismatch",
+    "arm_penetration",
+    "hand_gap_pct",
+    "jitter_log_ratio",
+)
 
 
 def real_table(per_case: pd.DataFrame) -> pd.DataFrame:
     """Mean over characters and clips of each measure, one row per method (:data:`REAL_METHODS`
     order, then any other method in the order it first appears)."""
     present = list(dict.fromkeys(per_case["method"]))
-    order = [m for m in REAL_METHODS if m in present] + [m for m in present if m not in REAL_METHODS]
+    order = [m for m in REAL_METHODS if m in present] + [
+        m for m in present if m not in REAL_METHODS
+    ]
     return per_case.groupby("method")[list(MEASURES)].mean().loc[order]
 
 
-def run_real_evaluation(out_dir: str | Path, device: str | None = None, only: Sequence[str] | None = None,
-                        characters: Sequence[str] | None = None,
-                        command: str = "retarget evaluate --table real --out DIR") -> tuple[pd.DataFrame, list[WorstCase]]:
+def run_real_evaluation(
+    out_dir: str | Path,
+    device: str | None = None,
+    only: Sequence[str] | None = None,
+    characters: Sequence[str] | None = None,
+    command: str = "retarget evaluate --table real --out DIR",
+) -> tuple[pd.DataFrame, list[WorstCase]]:
     """Evaluate, write ``real_cases`` (with provenance), ``real.csv`` and ``real.md``; return the
     table and each method's :func:`worst_cases` (for a render)."""
     methods = _methods(only, device)
@@ -315,18 +421,28 @@ def run_real_evaluation(out_dir: str | Path, device: str | None = None, only: Se
     t0 = time.perf_counter()
     clips = real_clips()
     per_case = evaluate_real(methods, clips, characters or real_character_names())
-    write_result(per_case, out_dir, "real_cases", command=command, checkpoints=checkpoints,
-                 profile="fast", seconds=time.perf_counter() - t0)
+    write_result(
+        per_case,
+        out_dir,
+        "real_cases",
+        command=command,
+        checkpoints=checkpoints,
+        profile="fast",
+        seconds=time.perf_counter() - t0,
+    )
     table = real_table(per_case)
     out = Path(out_dir)
     with atomic_write(out / "real.csv", "w") as f:
         table.to_csv(f)
     with atomic_write(out / "real.md", "w") as f:
-        f.write("Real characters (data/real_characters), no ground truth: mean over characters and clips "
-                f"(CMU 01_01, 01_03, synthetic clap_008, assimp's motion capture ROM; {CLIP_FRAMES} frames each). Lengths in % of the target's "
-                "height; lower is better in every column (identity: 0 is exact; foot contact mismatch: 1 - the foot contact "
-                "accuracy of Villegas et al.; jitter: 0 is as smooth as the source).\n\n"
-                + markdown_table(table, 3) + "\n")
+        f.write(
+            "Real characters (data/real_characters), no ground truth: mean over characters and clips "
+            f"(CMU 01_01, 01_03, synthetic clap_008, assimp's motion capture ROM; {CLIP_FRAMES} frames each). Lengths in % of the target's "
+            "height; lower is better in every column (identity: 0 is exact; foot contact mismatch: 1 - the foot contact "
+            "accuracy of Villegas et al.; jitter: 0 is as smooth as the source).\n\n"
+            + markdown_table(table, 3)
+            + "\n"
+        )
     return table, worst_cases(per_case, methods, clips)
 
 

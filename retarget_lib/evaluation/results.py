@@ -25,9 +25,9 @@ import os
 import platform
 import subprocess
 import sys
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Iterable, Mapping, Sequence
 
 import pandas as pd
 
@@ -44,11 +44,22 @@ RECOMPUTE_COMMAND = "make tables   (= retarget evaluate --all --out results)"
 #: FBX or shape file), devices, and this module; a change to them does not make a stored result
 #: stale. The rig conventions (io/rig_maps.py) name the CMU clips' joints, and io/amass.py orders
 #: mannequin-x's: they count.
-NOT_NUMERIC = ("retarget_lib/cli.py", "retarget_lib/files.py", "retarget_lib/errors.py", "retarget_lib/devices.py",
-               "retarget_lib/data/manifest.py", "retarget_lib/data/checkpoints.py", "retarget_lib/io/gltf.py",
-               "retarget_lib/io/gltf_write.py", "retarget_lib/io/fbx.py", "retarget_lib/io/fbx_write.py",
-               "retarget_lib/io/shape.py", "retarget_lib/io/gltf_validator.py", "retarget_lib/io/untrusted.py",
-               "retarget_lib/evaluation/results.py")
+NOT_NUMERIC = (
+    "retarget_lib/cli.py",
+    "retarget_lib/files.py",
+    "retarget_lib/errors.py",
+    "retarget_lib/devices.py",
+    "retarget_lib/data/manifest.py",
+    "retarget_lib/data/checkpoints.py",
+    "retarget_lib/io/gltf.py",
+    "retarget_lib/io/gltf_write.py",
+    "retarget_lib/io/fbx.py",
+    "retarget_lib/io/fbx_write.py",
+    "retarget_lib/io/shape.py",
+    "retarget_lib/io/gltf_validator.py",
+    "retarget_lib/io/untrusted.py",
+    "retarget_lib/evaluation/results.py",
+)
 #: printed float precision of stored CSVs: 7 significant digits, 1e-7 relative, far below every
 #: re-run tolerance (1e-3 relative at the tightest)
 CSV_FLOAT_FORMAT = "%.7g"
@@ -60,8 +71,13 @@ def _source_without_docstrings(path: Path) -> str:
     tree = ast.parse(path.read_text(encoding="utf-8"))
     for node in ast.walk(tree):
         body = getattr(node, "body", None)
-        if (isinstance(body, list) and body and isinstance(body[0], ast.Expr)
-                and isinstance(body[0].value, ast.Constant) and isinstance(body[0].value.value, str)):
+        if (
+            isinstance(body, list)
+            and body
+            and isinstance(body[0], ast.Expr)
+            and isinstance(body[0].value, ast.Constant)
+            and isinstance(body[0].value.value, str)
+        ):
             body[0] = ast.Pass()
     return ast.dump(tree, annotate_fields=False)
 
@@ -85,7 +101,9 @@ def code_fingerprint(files: Sequence[str]) -> str:
     for rel in sorted(files):
         path = REPO_ROOT / rel
         h.update(rel.encode() + b"\0")
-        h.update((_source_without_docstrings(path) if path.exists() else "<missing>").encode() + b"\0")
+        h.update(
+            (_source_without_docstrings(path) if path.exists() else "<missing>").encode() + b"\0"
+        )
     return h.hexdigest()
 
 
@@ -93,11 +111,26 @@ def _git_commit(code_files: Sequence[str]) -> str:
     """The checkout's commit, ``+dirty`` when the code that computed the numbers (``code_files``),
     the configs, the checkpoints or the manifest differ from it; ``unknown`` outside git."""
     try:
-        head = subprocess.run(["git", "rev-parse", "HEAD"], cwd=REPO_ROOT, capture_output=True, text=True,
-                              check=True).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "--", *code_files,
-                                "configs", "checkpoints", "data_manifest.yaml"], cwd=REPO_ROOT,
-                               capture_output=True, text=True, check=True).stdout.strip()
+        head = subprocess.run(
+            ["git", "rev-parse", "HEAD"], cwd=REPO_ROOT, capture_output=True, text=True, check=True
+        ).stdout.strip()
+        dirty = subprocess.run(
+            [
+                "git",
+                "status",
+                "--porcelain",
+                "--untracked-files=no",
+                "--",
+                *code_files,
+                "configs",
+                "checkpoints",
+                "data_manifest.yaml",
+            ],
+            cwd=REPO_ROOT,
+            capture_output=True,
+            text=True,
+            check=True,
+        ).stdout.strip()
     except (OSError, subprocess.CalledProcessError):
         return "unknown"
     return head + ("+dirty" if dirty else "")
@@ -106,8 +139,14 @@ def _git_commit(code_files: Sequence[str]) -> str:
 def git_changed(path: str, commit: str) -> bool:
     """Whether ``path`` differs from its version at ``commit`` (False when git cannot tell)."""
     try:
-        return subprocess.run(["git", "diff", "--quiet", commit.removesuffix("+dirty"), "--", path], cwd=REPO_ROOT,
-                              capture_output=True).returncode == 1
+        return (
+            subprocess.run(
+                ["git", "diff", "--quiet", commit.removesuffix("+dirty"), "--", path],
+                cwd=REPO_ROOT,
+                capture_output=True,
+            ).returncode
+            == 1
+        )
     except OSError:
         return False
 
@@ -144,18 +183,32 @@ class StoredResult:
     def report(self) -> str:
         """One paragraph: where the numbers come from, and a loud warning when they are stale."""
         p = self.provenance
-        text = (f"stored {self.name}: {len(self.frame)} rows, computed {p['date']} at commit {p['commit'][:12]} "
-                f"on {p['machine']} ({p['seconds']:.0f} s; `{p['command']}`)")
+        text = (
+            f"stored {self.name}: {len(self.frame)} rows, computed {p['date']} at commit {p['commit'][:12]} "
+            f"on {p['machine']} ({p['seconds']:.0f} s; `{p['command']}`)"
+        )
         if self.stale:
-            text += ("\n" + "!" * 78 + "\nSTALE: these stored numbers no longer match this checkout:\n"
-                     + "\n".join(f"  - {why}" for why in self.stale)
-                     + f"\nRe-compute them with `{RECOMPUTE_COMMAND}`; the live re-run below checks a subset.\n"
-                     + "!" * 78)
+            text += (
+                "\n"
+                + "!" * 78
+                + "\nSTALE: these stored numbers no longer match this checkout:\n"
+                + "\n".join(f"  - {why}" for why in self.stale)
+                + f"\nRe-compute them with `{RECOMPUTE_COMMAND}`; the live re-run below checks a subset.\n"
+                + "!" * 78
+            )
         return text
 
 
-def write_result(frame: pd.DataFrame, out_dir: str | Path, name: str, *, command: str,
-                 checkpoints: Mapping[str, CheckpointEntry | Path | str], profile: str, seconds: float) -> Path:
+def write_result(
+    frame: pd.DataFrame,
+    out_dir: str | Path,
+    name: str,
+    *,
+    command: str,
+    checkpoints: Mapping[str, CheckpointEntry | Path | str],
+    profile: str,
+    seconds: float,
+) -> Path:
     """Write ``<name>.csv`` and ``<name>.provenance.json`` into ``out_dir`` (atomically).
 
     Args:
@@ -182,11 +235,19 @@ def write_result(frame: pd.DataFrame, out_dir: str | Path, name: str, *, command
         else:
             rows[row] = {"id": Path(ck).name, "sha256": sha256_file(ck)}
     code_files = loaded_library_files()
-    provenance = {"name": name, "command": command, "commit": _git_commit(code_files),
-                  "date": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
-                  "machine": machine_description(), "profile": profile, "seconds": round(seconds, 1),
-                  "checkpoints": rows, "code": code_fingerprint(code_files), "code_files": code_files,
-                  "sha256": sha256_file(csv_path)}
+    provenance = {
+        "name": name,
+        "command": command,
+        "commit": _git_commit(code_files),
+        "date": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
+        "machine": machine_description(),
+        "profile": profile,
+        "seconds": round(seconds, 1),
+        "checkpoints": rows,
+        "code": code_fingerprint(code_files),
+        "code_files": code_files,
+        "sha256": sha256_file(csv_path),
+    }
     with atomic_write(out / f"{name}.provenance.json", "w") as f:
         json.dump(provenance, f, indent=1)
         f.write("\n")
@@ -208,21 +269,31 @@ def staleness(provenance: Mapping, rows: Mapping[str, CheckpointEntry] | None = 
         if entry is None:
             reasons.append(f"row {row!r}: checkpoint {ck['id']} is not in data_manifest.yaml")
         elif entry.sha256 != ck["sha256"]:
-            reasons.append(f"row {row!r}: checkpoint {ck['id']} was retrained (sha256 {ck['sha256'][:12]} "
-                           f"stored, {entry.sha256[:12]} in the manifest)")
+            reasons.append(
+                f"row {row!r}: checkpoint {ck['id']} was retrained (sha256 {ck['sha256'][:12]} "
+                f"stored, {entry.sha256[:12]} in the manifest)"
+            )
     for row, entry in (rows or {}).items():
         if row not in provenance["checkpoints"]:
             reasons.append(f"row {row!r} (checkpoint {entry.id}) has no stored numbers")
     if provenance["code"] != code_fingerprint(provenance["code_files"]):
-        changed = [f for f in provenance["code_files"]
-                   if not (REPO_ROOT / f).exists() or git_changed(f, provenance["commit"])]
-        reasons.append(f"the library code that computed them changed since commit {provenance['commit'][:12]}"
-                       + (f" ({', '.join(changed[:6])}{' …' if len(changed) > 6 else ''})" if changed else ""))
+        changed = [
+            f
+            for f in provenance["code_files"]
+            if not (REPO_ROOT / f).exists() or git_changed(f, provenance["commit"])
+        ]
+        reasons.append(
+            f"the library code that computed them changed since commit {provenance['commit'][:12]}"
+            + (f" ({', '.join(changed[:6])}{' …' if len(changed) > 6 else ''})" if changed else "")
+        )
     return reasons
 
 
-def load_result(name: str, rows: Mapping[str, CheckpointEntry] | None = None,
-                results_dir: str | Path = RESULTS_DIR) -> StoredResult:
+def load_result(
+    name: str,
+    rows: Mapping[str, CheckpointEntry] | None = None,
+    results_dir: str | Path = RESULTS_DIR,
+) -> StoredResult:
     """Read ``<name>.csv`` and its provenance from ``results_dir``, check the CSV's sha256 and say
     whether it is stale (:func:`staleness`).
 
@@ -237,13 +308,20 @@ def load_result(name: str, rows: Mapping[str, CheckpointEntry] | None = None,
             raise DataError(f"stored result {p} is missing; compute it with: {RECOMPUTE_COMMAND}")
     provenance = json.loads(prov_path.read_text())
     if sha256_file(csv_path) != provenance["sha256"]:
-        raise DataError(f"{csv_path} does not match the sha256 in {prov_path.name} (edited by hand?); "
-                        f"recompute it with: {RECOMPUTE_COMMAND}")
+        raise DataError(
+            f"{csv_path} does not match the sha256 in {prov_path.name} (edited by hand?); "
+            f"recompute it with: {RECOMPUTE_COMMAND}"
+        )
     return StoredResult(name, pd.read_csv(csv_path), provenance, staleness(provenance, rows))
 
 
-def compare_with_stored(now: pd.DataFrame, stored: pd.DataFrame, keys: Sequence[str], metrics: Iterable[str],
-                        tolerance: Callable[[str, str, float], float]) -> pd.DataFrame:
+def compare_with_stored(
+    now: pd.DataFrame,
+    stored: pd.DataFrame,
+    keys: Sequence[str],
+    metrics: Iterable[str],
+    tolerance: Callable[[str, str, float], float],
+) -> pd.DataFrame:
     """Put live numbers beside the stored ones, case by case.
 
     Args:
@@ -265,9 +343,25 @@ def compare_with_stored(now: pd.DataFrame, stored: pd.DataFrame, keys: Sequence[
     if (both["_merge"] != "both").any():
         missing = both.loc[both["_merge"] != "both", keys].to_dict("records")
         raise ValueError(f"live cases without stored numbers: {missing[:3]}")
-    out = pd.concat([pd.DataFrame({**{k: both[k] for k in keys}, "metric": m, "stored": both[f"{m} stored"],
-                                   "now": both[f"{m} now"]}) for m in metrics], ignore_index=True)
+    out = pd.concat(
+        [
+            pd.DataFrame(
+                {
+                    **{k: both[k] for k in keys},
+                    "metric": m,
+                    "stored": both[f"{m} stored"],
+                    "now": both[f"{m} now"],
+                }
+            )
+            for m in metrics
+        ],
+        ignore_index=True,
+    )
     out["abs diff"] = (out["now"] - out["stored"]).abs()
-    out["tolerance"] = [tolerance(r, m, v) for r, m, v in zip(out[keys[0]], out["metric"], out["stored"])]
-    out["reproduces"] = (out["abs diff"] <= out["tolerance"]) | (out["now"].isna() & out["stored"].isna())
+    out["tolerance"] = [
+        tolerance(r, m, v) for r, m, v in zip(out[keys[0]], out["metric"], out["stored"])
+    ]
+    out["reproduces"] = (out["abs diff"] <= out["tolerance"]) | (
+        out["now"].isna() & out["stored"].isna()
+    )
     return out

@@ -15,10 +15,10 @@ is the mean over the four scenarios.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
-from typing import Callable, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
@@ -46,7 +46,9 @@ WINDOWED_ROW = "ours (windowed)"
 METRES_TO_CM = 100.0
 
 
-def normalized_mse(pred: np.ndarray, truth: np.ndarray, height: float, squared_height: bool = False) -> float:
+def normalized_mse(
+    pred: np.ndarray, truth: np.ndarray, height: float, squared_height: bool = False
+) -> float:
     """NKN/TDCN normalised MSE of global joint positions.
 
     Args:
@@ -90,9 +92,17 @@ def tdcn_cases() -> list[EvalCase]:
         for p in pairs:
             clip = ds.clip(f"{p.motion.family}_{p.motion.seed:03d}").motion
             src_skel, tgt_skel = ds.characters[p.source].skeleton, ds.characters[p.target].skeleton
-            cases.append(EvalCase(int(scenario), p.source, p.target, clip.name,
-                                  retarget_ground_truth(clip, src_skel), tgt_skel,
-                                  retarget_ground_truth(clip, tgt_skel)))
+            cases.append(
+                EvalCase(
+                    int(scenario),
+                    p.source,
+                    p.target,
+                    clip.name,
+                    retarget_ground_truth(clip, src_skel),
+                    tgt_skel,
+                    retarget_ground_truth(clip, tgt_skel),
+                )
+            )
     return cases
 
 
@@ -106,8 +116,17 @@ def mixamo_convention_cases() -> list[EvalCase]:
     for scenario, pairs in split.scenarios.items():
         for p in pairs:
             versions = data.clips[f"{p.motion.family}_{p.motion.seed:03d}"]
-            cases.append(EvalCase(int(scenario), p.source, p.target, versions[p.source].name, versions[p.source],
-                                  data.characters[p.target].skeleton, versions[p.target]))
+            cases.append(
+                EvalCase(
+                    int(scenario),
+                    p.source,
+                    p.target,
+                    versions[p.source].name,
+                    versions[p.source],
+                    data.characters[p.target].skeleton,
+                    versions[p.target],
+                )
+            )
     return cases
 
 
@@ -125,8 +144,20 @@ def cmu_cases(characters: Sequence[str] | None = None) -> list[EvalCase]:
     """
     chars = load_synthetic().characters
     names = tdcn_split().test_characters if characters is None else characters
-    return [EvalCase(0, "CMU", t, name, clip, chars[t].skeleton, retarget_ground_truth(clip, chars[t].skeleton))
-            for name in CMU_CLIPS for clip in [load_cmu_clip(name)] for t in names]
+    return [
+        EvalCase(
+            0,
+            "CMU",
+            t,
+            name,
+            clip,
+            chars[t].skeleton,
+            retarget_ground_truth(clip, chars[t].skeleton),
+        )
+        for name in CMU_CLIPS
+        for clip in [load_cmu_clip(name)]
+        for t in names
+    ]
 
 
 #: per-comparison scores: ``(pred (N,J,3), truth (N,J,3), H) -> {suffix: value}`` (metres in, any unit out)
@@ -135,7 +166,10 @@ Scores = Callable[[np.ndarray, np.ndarray, float], dict[str, float]]
 
 def table4_scores(pred: np.ndarray, truth: np.ndarray, height: float) -> dict[str, float]:
     """Table 4's scores of one comparison: ``""`` (cm²/H in cm) and ``"_h2"`` (/H², unit-free)."""
-    return {"": normalized_mse(pred, truth, height), "_h2": normalized_mse(pred, truth, height, squared_height=True)}
+    return {
+        "": normalized_mse(pred, truth, height),
+        "_h2": normalized_mse(pred, truth, height, squared_height=True),
+    }
 
 
 def short_chunks(frames: int, short_frames: int = SHORT_FRAMES) -> list[tuple[int, int]]:
@@ -146,7 +180,9 @@ def short_chunks(frames: int, short_frames: int = SHORT_FRAMES) -> list[tuple[in
     return chunks or [(0, frames)]
 
 
-def truth_frames(pred_frames: int, pred_fps: float, start: int, truth_frames_total: int, truth_fps: float) -> np.ndarray:
+def truth_frames(
+    pred_frames: int, pred_fps: float, start: int, truth_frames_total: int, truth_fps: float
+) -> np.ndarray:
     """Indices of the ground-truth frames inside the time span of a prediction.
 
     The prediction covers source frames ``start .. start + pred_frames - 1`` at ``pred_fps``; the
@@ -163,7 +199,9 @@ def truth_frames(pred_frames: int, pred_fps: float, start: int, truth_frames_tot
     return k[(k >= 0) & (k < truth_frames_total)]
 
 
-def aligned_positions(pred: Motion, start: int, truth: np.ndarray, truth_fps: float) -> tuple[np.ndarray, np.ndarray]:
+def aligned_positions(
+    pred: Motion, start: int, truth: np.ndarray, truth_fps: float
+) -> tuple[np.ndarray, np.ndarray]:
     """A prediction's and the ground truth's global joint positions at the ground truth's frame times.
 
     Args:
@@ -183,8 +221,9 @@ def aligned_positions(pred: Motion, start: int, truth: np.ndarray, truth_fps: fl
     return pred.at_times(k / truth_fps - start / pred.fps).global_positions(), truth[k]
 
 
-def evaluate_case(method: Method, case: EvalCase, short_frames: int = SHORT_FRAMES,
-                  scores: Scores = table4_scores) -> dict[str, float]:
+def evaluate_case(
+    method: Method, case: EvalCase, short_frames: int = SHORT_FRAMES, scores: Scores = table4_scores
+) -> dict[str, float]:
     """Long (whole clip) and short (mean over :func:`short_chunks`) scores of one method on one case.
 
     Each chunk is retargeted on its own and compared at the ground truth's frame times
@@ -199,9 +238,18 @@ def evaluate_case(method: Method, case: EvalCase, short_frames: int = SHORT_FRAM
     out = {}
     frames = case.source.num_frames
     for length, chunks in (("long", [(0, frames)]), ("short", short_chunks(frames, short_frames))):
-        per_chunk = [scores(*aligned_positions(method(case.source.slice(a, b), case.target), a, truth,
-                                               case.truth.fps), h) for a, b in chunks]
-        out.update({f"{length}{k}": float(np.mean([c[k] for c in per_chunk])) for k in per_chunk[0]})
+        per_chunk = [
+            scores(
+                *aligned_positions(
+                    method(case.source.slice(a, b), case.target), a, truth, case.truth.fps
+                ),
+                h,
+            )
+            for a, b in chunks
+        ]
+        out.update(
+            {f"{length}{k}": float(np.mean([c[k] for c in per_chunk])) for k in per_chunk[0]}
+        )
     return out
 
 
@@ -218,18 +266,34 @@ def error_breakdown(method: Method, case: EvalCase, frames: int = SHORT_FRAMES) 
     pred = method(case.source.slice(0, frames), case.target).global_positions()
     truth = case.truth.slice(0, frames).global_positions()
     h = case.target.height()
-    return {"total": normalized_mse(pred, truth, h),
-            "root": normalized_mse(pred[:, :1], truth[:, :1], h),
-            "pose": normalized_mse(pred - pred[:, :1], truth - truth[:, :1], h)}
+    return {
+        "total": normalized_mse(pred, truth, h),
+        "root": normalized_mse(pred[:, :1], truth[:, :1], h),
+        "pose": normalized_mse(pred - pred[:, :1], truth - truth[:, :1], h),
+    }
 
 
-def evaluate_method(method: Method, cases: list[EvalCase], scores: Scores = table4_scores) -> pd.DataFrame:
+def evaluate_method(
+    method: Method, cases: list[EvalCase], scores: Scores = table4_scores
+) -> pd.DataFrame:
     """Per-case results: one row per case with scenario, names and the scores of :func:`evaluate_case`."""
-    return pd.DataFrame([{"scenario": c.scenario, "source": c.source_name, "target": c.target_name,
-                          "clip": c.clip, **evaluate_case(method, c, scores=scores)} for c in cases])
+    return pd.DataFrame(
+        [
+            {
+                "scenario": c.scenario,
+                "source": c.source_name,
+                "target": c.target_name,
+                "clip": c.clip,
+                **evaluate_case(method, c, scores=scores),
+            }
+            for c in cases
+        ]
+    )
 
 
-def evaluate_methods(methods: Mapping[str, Method], cases: list[EvalCase], scores: Scores = table4_scores) -> pd.DataFrame:
+def evaluate_methods(
+    methods: Mapping[str, Method], cases: list[EvalCase], scores: Scores = table4_scores
+) -> pd.DataFrame:
     """:func:`evaluate_method` of every method, stacked, with a leading ``method`` column."""
     per_case = []
     for name, method in methods.items():
@@ -265,8 +329,9 @@ def table_from_cases(per_case: pd.DataFrame, squared_height: bool = False) -> pd
     return pd.DataFrame(rows).T
 
 
-def tdcn_table(methods: Mapping[str, Method], cases: list[EvalCase] | None = None,
-               squared_height: bool = False) -> tuple[pd.DataFrame, pd.DataFrame]:
+def tdcn_table(
+    methods: Mapping[str, Method], cases: list[EvalCase] | None = None, squared_height: bool = False
+) -> tuple[pd.DataFrame, pd.DataFrame]:
     """Table 4: our measurement of each method, and the paper's numbers beside it.
 
     Args:
@@ -313,16 +378,26 @@ def ordering_checks(table: pd.DataFrame, reference: str = "ours") -> pd.DataFram
             col = f"{length} avg"
             paper = table.loc[name, f"paper {col}"] / table.loc[reference, f"paper {col}"]
             ours = table.loc[name, f"ours {col}"] / table.loc[reference, f"ours {col}"]
-            row.update({f"paper {col} ratio": paper, f"ours {col} ratio": ours,
-                        f"{length} reproduces": bool((paper > 1) == (ours > 1))})
+            row.update(
+                {
+                    f"paper {col} ratio": paper,
+                    f"ours {col} ratio": ours,
+                    f"{length} reproduces": bool((paper > 1) == (ours > 1)),
+                }
+            )
         rows[name] = row
     return pd.DataFrame(rows).T
 
 
 def markdown_table(table: pd.DataFrame, digits: int = 2) -> str:
     """A pipe table of ``table`` (index as the first column), numbers with ``digits`` decimals."""
+
     def cell(v):
-        return f"{v:.{digits}f}" if isinstance(v, (float, np.floating)) and np.isfinite(v) else ("" if v is None or (isinstance(v, float) and np.isnan(v)) else str(v))
+        return (
+            f"{v:.{digits}f}"
+            if isinstance(v, (float, np.floating)) and np.isfinite(v)
+            else ("" if v is None or (isinstance(v, float) and np.isnan(v)) else str(v))
+        )
 
     head = [str(table.index.name or "")] + [str(c) for c in table.columns]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
@@ -331,7 +406,9 @@ def markdown_table(table: pd.DataFrame, digits: int = 2) -> str:
     return "\n".join(lines)
 
 
-def write_table(table: pd.DataFrame, out_dir: str | Path, name: str, note: str = "") -> tuple[Path, Path]:
+def write_table(
+    table: pd.DataFrame, out_dir: str | Path, name: str, note: str = ""
+) -> tuple[Path, Path]:
     """Write ``<name>.csv`` and ``<name>.md`` (atomically) into ``out_dir``."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -344,8 +421,11 @@ def write_table(table: pd.DataFrame, out_dir: str | Path, name: str, note: str =
     return csv_path, md_path
 
 
-def tdcn_methods(only: Sequence[str] | None = None, device: str | None = None,
-                 runs: Mapping[str, Path] | None = None) -> tuple[dict[str, Method], list[str]]:
+def tdcn_methods(
+    only: Sequence[str] | None = None,
+    device: str | None = None,
+    runs: Mapping[str, Path] | None = None,
+) -> tuple[dict[str, Method], list[str]]:
     """The methods to put in Table 4: the registry's two copy baselines, every Table 4 row whose
     checkpoint is shipped (``table: tdcn`` in the manifest; loaded once, by the registry method its
     entry names), then our shipped variants that are not rows of the paper (e.g. ``ours-residual``,
@@ -359,7 +439,9 @@ def tdcn_methods(only: Sequence[str] | None = None, device: str | None = None,
             shipped one.
     """
     keep = (lambda row: True) if only is None else (lambda row: row in only)
-    methods: dict[str, Method] = {name: get_method(name).retargeter() for name in ("copy", "copy-rest") if keep(name)}
+    methods: dict[str, Method] = {
+        name: get_method(name).retargeter() for name in ("copy", "copy-rest") if keep(name)
+    }
     shipped = table_checkpoints("tdcn")
     runs = runs or {}
     missing = []
@@ -395,7 +477,9 @@ def mixamo_convention_checkpoints() -> dict[str, CheckpointEntry]:
 def mixamo_convention_methods(device: str | None = None) -> dict[str, Method]:
     """The methods of the Mixamo-convention Table 4: ``copy``, ``copy-rest`` and
     :func:`mixamo_convention_checkpoints`, each through the registry method its entry names."""
-    methods: dict[str, Method] = {name: get_method(name).retargeter() for name in ("copy", "copy-rest")}
+    methods: dict[str, Method] = {
+        name: get_method(name).retargeter() for name in ("copy", "copy-rest")
+    }
     for row, entry in mixamo_convention_checkpoints().items():
         methods[row] = get_method(entry.method).retargeter(entry.id, device)
     return methods
@@ -430,8 +514,13 @@ def rerun_subset(cases: Sequence[EvalCase], per_group: int = 1) -> list[EvalCase
     return out
 
 
-def rerun_cases(stored: pd.DataFrame, methods: Mapping[str, Method], cases: Sequence[EvalCase],
-                per_group: int = 1, metrics: Sequence[str] = ("short", "long")) -> pd.DataFrame:
+def rerun_cases(
+    stored: pd.DataFrame,
+    methods: Mapping[str, Method],
+    cases: Sequence[EvalCase],
+    per_group: int = 1,
+    metrics: Sequence[str] = ("short", "long"),
+) -> pd.DataFrame:
     """Re-evaluate a few stored Table 4 cases live (:func:`rerun_subset`) and put the new numbers
     beside the stored ones (:func:`~retarget_lib.evaluation.results.compare_with_stored`,
     :func:`rerun_tolerance`).
@@ -465,8 +554,12 @@ def _row_checkpoints(rows: Sequence[str], runs: Mapping[str, Path] | None) -> di
     return {row: runs.get(row, shipped[row]) for row in rows if row in shipped}
 
 
-def run_tdcn_evaluation(out_dir: str | Path, device: str | None = None, runs: Mapping[str, Path] | None = None,
-                        command: str = "retarget evaluate --table tdcn --out DIR") -> tuple[pd.DataFrame, list[str]]:
+def run_tdcn_evaluation(
+    out_dir: str | Path,
+    device: str | None = None,
+    runs: Mapping[str, Path] | None = None,
+    command: str = "retarget evaluate --table tdcn --out DIR",
+) -> tuple[pd.DataFrame, list[str]]:
     """Evaluate :func:`tdcn_methods` on the four scenarios; write ``table4.csv/.md`` (normalised
     MSE, paper beside ours), ``table4_h2.csv/.md`` (squared-height variant), and three per-case
     files with their provenance (:func:`~retarget_lib.evaluation.results.write_result`):
@@ -489,31 +582,69 @@ def run_tdcn_evaluation(out_dir: str | Path, device: str | None = None, runs: Ma
     cases = tdcn_cases()
     table, per_case = tdcn_table(methods, cases)
     table_h2 = table_from_cases(per_case, squared_height=True)
-    note = ("Normalised MSE of global joint positions (cm² / H in cm; NKN/TDCN definition) on the "
-            "synthetic four-scenario split; 'paper' columns are Kim et al. 2020, Table 4 (Mixamo). "
-            "copy-rest is the synthetic ground truth's own definition, so it scores 0 by construction. "
-            + (f"Rows without a trained checkpoint yet: {', '.join(missing)}." if missing else ""))
+    note = (
+        "Normalised MSE of global joint positions (cm² / H in cm; NKN/TDCN definition) on the "
+        "synthetic four-scenario split; 'paper' columns are Kim et al. 2020, Table 4 (Mixamo). "
+        "copy-rest is the synthetic ground truth's own definition, so it scores 0 by construction. "
+        + (f"Rows without a trained checkpoint yet: {', '.join(missing)}." if missing else "")
+    )
     write_table(table, out_dir, "table4", note)
     write_table(table_h2, out_dir, "table4_h2", "Same, divided by H² (unit-free).")
-    write_result(per_case, out_dir, "table4_cases", command=command, checkpoints=checkpoints, profile="fast",
-                 seconds=time.perf_counter() - t0)
+    write_result(
+        per_case,
+        out_dir,
+        "table4_cases",
+        command=command,
+        checkpoints=checkpoints,
+        profile="fast",
+        seconds=time.perf_counter() - t0,
+    )
     t0 = time.perf_counter()
     _, real = tdcn_table(methods, cmu_cases())
-    write_result(real, out_dir, "table4_cmu_cases", command=command, checkpoints=checkpoints, profile="fast",
-                 seconds=time.perf_counter() - t0)
+    write_result(
+        real,
+        out_dir,
+        "table4_cmu_cases",
+        command=command,
+        checkpoints=checkpoints,
+        profile="fast",
+        seconds=time.perf_counter() - t0,
+    )
     if "ours" in checkpoints:
         t0 = time.perf_counter()
         ours = checkpoints["ours"]
-        generator, _ = load_generator(ours.id if isinstance(ours, CheckpointEntry) else ours, device)
-        windowed = evaluate_methods({WINDOWED_ROW: partial(retarget_motion_with, generator, windowed=True)}, cases)
-        write_result(windowed, out_dir, "table4_windowed_cases", command=command,
-                     checkpoints={WINDOWED_ROW: ours}, profile="fast", seconds=time.perf_counter() - t0)
+        generator, _ = load_generator(
+            ours.id if isinstance(ours, CheckpointEntry) else ours, device
+        )
+        windowed = evaluate_methods(
+            {WINDOWED_ROW: partial(retarget_motion_with, generator, windowed=True)}, cases
+        )
+        write_result(
+            windowed,
+            out_dir,
+            "table4_windowed_cases",
+            command=command,
+            checkpoints={WINDOWED_ROW: ours},
+            profile="fast",
+            seconds=time.perf_counter() - t0,
+        )
     t0 = time.perf_counter()
     mc_table, mc_per_case = tdcn_table(mixamo_convention_methods(device), mixamo_convention_cases())
-    write_table(mc_table, out_dir, "table4_mixamo_convention",
-                "Normalised MSE (as table4.md) on the Mixamo-convention synthetic profile: every character in "
-                "one T-pose rest, each clip authored on every character (its own version is the ground truth), "
-                "as on Mixamo. Rows trained on this profile, and the default TDCN.")
-    write_result(mc_per_case, out_dir, "table4_mixamo_convention_cases", command=command,
-                 checkpoints=mixamo_convention_checkpoints(), profile="fast", seconds=time.perf_counter() - t0)
+    write_table(
+        mc_table,
+        out_dir,
+        "table4_mixamo_convention",
+        "Normalised MSE (as table4.md) on the Mixamo-convention synthetic profile: every character in "
+        "one T-pose rest, each clip authored on every character (its own version is the ground truth), "
+        "as on Mixamo. Rows trained on this profile, and the default TDCN.",
+    )
+    write_result(
+        mc_per_case,
+        out_dir,
+        "table4_mixamo_convention_cases",
+        command=command,
+        checkpoints=mixamo_convention_checkpoints(),
+        profile="fast",
+        seconds=time.perf_counter() - t0,
+    )
     return table, missing

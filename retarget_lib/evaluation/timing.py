@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import statistics
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 __all__ = ["BenchRow", "time_it", "format_table"]
 
@@ -26,7 +26,9 @@ class BenchRow:
         return None if self.reference_seconds is None else self.reference_seconds / self.seconds
 
 
-def time_it(fn: Callable[[], object], repeat: int = 7, warmup: int = 2, min_time: float = 0.0) -> float:
+def time_it(
+    fn: Callable[[], object], repeat: int = 7, warmup: int = 2, min_time: float = 0.0
+) -> float:
     """Median wall time of ``fn()`` in seconds over ``repeat`` runs after ``warmup`` runs."""
     for _ in range(warmup):
         fn()
@@ -41,11 +43,21 @@ def time_it(fn: Callable[[], object], repeat: int = 7, warmup: int = 2, min_time
 
 def format_table(rows: list[BenchRow]) -> str:
     """Markdown table of benchmark rows."""
-    lines = ["| benchmark | median | reference (same run) | speed-up | target |", "|---|---|---|---|---|"]
+    lines = [
+        "| benchmark | median | reference (same run) | speed-up | target |",
+        "|---|---|---|---|---|",
+    ]
     for r in rows:
         ref = "" if r.reference_seconds is None else f"{r.reference}: {_fmt(r.reference_seconds)}"
-        sp = ("" if r.speedup is None else f"{r.speedup:,.0f}x" if r.speedup >= 10 else f"{r.speedup:.1f}x"
-              if r.speedup >= 0.1 else f"1/{1 / r.speedup:,.0f}x")  # slower than its reference
+        sp = (
+            ""
+            if r.speedup is None
+            else f"{r.speedup:,.0f}x"
+            if r.speedup >= 10
+            else f"{r.speedup:.1f}x"
+            if r.speedup >= 0.1
+            else f"1/{1 / r.speedup:,.0f}x"
+        )  # slower than its reference
         lines.append(f"| {r.name} | {_fmt(r.seconds)} | {ref} | {sp} | {r.target} |")
     return "\n".join(lines)
 

@@ -23,8 +23,15 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import torch
 
-__all__ = ["TriangleBVH", "as_face_array", "as_face_pairs", "as_vertex_array", "brute_force_candidate_pairs",
-           "colliding_triangle_pairs", "triangles_intersect"]
+__all__ = [
+    "TriangleBVH",
+    "as_face_array",
+    "as_face_pairs",
+    "as_vertex_array",
+    "brute_force_candidate_pairs",
+    "colliding_triangle_pairs",
+    "triangles_intersect",
+]
 
 
 # ----------------------------------------------------------------------------- input checks
@@ -84,15 +91,18 @@ def triangles_intersect(tri_a: np.ndarray, tri_b: np.ndarray) -> np.ndarray:
     """
     tri_a, tri_b = np.asarray(tri_a, dtype=np.float64), np.asarray(tri_b, dtype=np.float64)
     if tri_a.shape != tri_b.shape or tri_a.shape[1:] != (3, 3):
-        raise ValueError(f"tri_a and tri_b must both be (P, 3, 3), got {tri_a.shape} and {tri_b.shape}")
+        raise ValueError(
+            f"tri_a and tri_b must both be (P, 3, 3), got {tri_a.shape} and {tri_b.shape}"
+        )
     side_a = _plane_sides(tri_a, tri_b)  # (P, 3): signed volumes of a's vertices w.r.t. b's plane
     side_b = _plane_sides(tri_b, tri_a)
     straddle = _straddles(side_a) & _straddles(side_b)
     hit = np.zeros(len(tri_a), dtype=bool)
     idx = np.flatnonzero(straddle)
     if len(idx):
-        hit[idx] = (_edges_cross(tri_a[idx], side_a[idx], tri_b[idx])
-                    | _edges_cross(tri_b[idx], side_b[idx], tri_a[idx]))
+        hit[idx] = _edges_cross(tri_a[idx], side_a[idx], tri_b[idx]) | _edges_cross(
+            tri_b[idx], side_b[idx], tri_a[idx]
+        )
     return hit
 
 
@@ -111,10 +121,10 @@ def _edges_cross(tri: np.ndarray, side: np.ndarray, other: np.ndarray) -> np.nda
     """``(P,)``: some edge of ``tri`` crosses triangle ``other`` (``side`` = ``tri``'s vertices'
     signed volumes w.r.t. ``other``'s plane)."""
     nxt = [1, 2, 0]
-    p, q = tri, tri[:, nxt]                      # (P, 3 edges, 3)
+    p, q = tri, tri[:, nxt]  # (P, 3 edges, 3)
     sp, sq = side, side[:, nxt]
     meets_plane = (sp * sq <= 0) & ~((sp == 0) & (sq == 0))
-    d = q - p                                    # (P, 3 edges, 3)
+    d = q - p  # (P, 3 edges, 3)
     rel = other[:, None, :, :] - p[:, :, None, :]  # (P, 3 edges, 3 corners, 3)
     orient = _triple(d[:, :, None], rel, rel[:, :, nxt])  # (P, 3 edges, 3 triangle edges)
     inside = (orient >= 0).all(-1) | (orient <= 0).all(-1)
@@ -155,16 +165,18 @@ class TriangleBVH:
 
     def _median_split_order(self, centroids: np.ndarray) -> np.ndarray:
         """``(2**depth,)`` face index per leaf slot (``-1`` = empty), by recursive halving."""
-        order = np.full(2 ** self.depth, -1, dtype=np.int64)
+        order = np.full(2**self.depth, -1, dtype=np.int64)
         order[: len(centroids)] = np.arange(len(centroids))
         for level in range(self.depth):
-            seg = order.reshape(2 ** level, -1)
+            seg = order.reshape(2**level, -1)
             valid = (seg >= 0)[..., None]
             pts = centroids[np.maximum(seg, 0)]
             extent = np.where(valid, pts, -np.inf).max(1) - np.where(valid, pts, np.inf).min(1)
             axis = np.where(np.isfinite(extent), extent, 0.0).argmax(1)
             key = np.take_along_axis(np.where(valid, pts, np.inf), axis[:, None, None], 2)[..., 0]
-            seg[:] = np.take_along_axis(seg, np.argsort(key, axis=1, kind="stable"), 1)  # empty last
+            seg[:] = np.take_along_axis(
+                seg, np.argsort(key, axis=1, kind="stable"), 1
+            )  # empty last
         return order
 
     def refit(self, vertices: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -207,8 +219,14 @@ class TriangleBVH:
         root = np.zeros(1, dtype=np.int64)  # (root, root)
         return self.leaf_pairs(levels, *self.descend(levels, root, root, 1, self.depth + 1))
 
-    def descend(self, levels: list[tuple[np.ndarray, np.ndarray]], a: np.ndarray, b: np.ndarray, start: int,
-                stop: int) -> tuple[np.ndarray, np.ndarray]:
+    def descend(
+        self,
+        levels: list[tuple[np.ndarray, np.ndarray]],
+        a: np.ndarray,
+        b: np.ndarray,
+        start: int,
+        stop: int,
+    ) -> tuple[np.ndarray, np.ndarray]:
         """The node pairs of level ``stop - 1`` below the pairs ``(a, b)`` of level ``start - 1``
         whose boxes overlap (``levels`` from :meth:`refit`)."""
         for depth in range(start, stop):
@@ -218,8 +236,9 @@ class TriangleBVH:
             a, b = a[keep], b[keep]
         return a, b
 
-    def leaf_pairs(self, levels: list[tuple[np.ndarray, np.ndarray]], a: np.ndarray,
-                   b: np.ndarray) -> np.ndarray:
+    def leaf_pairs(
+        self, levels: list[tuple[np.ndarray, np.ndarray]], a: np.ndarray, b: np.ndarray
+    ) -> np.ndarray:
         """``(C, 2)`` face pairs ``r < i`` of overlapping leaf pairs ``(a, b)`` that share no vertex."""
         fa, fb = self.order[a], self.order[b]
         r, i = np.minimum(fa, fb), np.maximum(fa, fb)
@@ -227,7 +246,9 @@ class TriangleBVH:
         return np.stack([r[keep], i[keep]], 1)
 
 
-def _boxes_overlap(lower: np.ndarray, upper: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+def _boxes_overlap(
+    lower: np.ndarray, upper: np.ndarray, a: np.ndarray, b: np.ndarray
+) -> np.ndarray:
     """``(n,)`` bool: boxes ``a`` and ``b`` overlap (``lower``/``upper`` as in :meth:`TriangleBVH.refit`);
     one 1-D gather per coordinate, several times faster than gathering rows."""
     keep = np.take(lower[0], a) <= np.take(upper[0], b)
@@ -247,8 +268,10 @@ def _child_pairs(a: np.ndarray, b: np.ndarray, leaves: bool) -> tuple[np.ndarray
     same = a == b
     sa, ca, cb = 2 * a[same, None], 2 * a[~same, None], 2 * b[~same, None]
     self_a, self_b = (_SELF_A[1:2], _SELF_B[1:2]) if leaves else (_SELF_A, _SELF_B)
-    return (np.concatenate([(sa + self_a).ravel(), (ca + _CROSS_A).ravel()]),
-            np.concatenate([(sa + self_b).ravel(), (cb + _CROSS_B).ravel()]))
+    return (
+        np.concatenate([(sa + self_a).ravel(), (ca + _CROSS_A).ravel()]),
+        np.concatenate([(sa + self_b).ravel(), (cb + _CROSS_B).ravel()]),
+    )
 
 
 def _share_vertex(faces: np.ndarray, r: np.ndarray, i: np.ndarray) -> np.ndarray:
@@ -292,7 +315,9 @@ def brute_force_candidate_pairs(vertices, faces, chunk: int = 512) -> np.ndarray
     return pairs[~_share_vertex(faces, pairs[:, 0], pairs[:, 1])]
 
 
-def colliding_triangle_pairs(vertices, faces, bvh: TriangleBVH | None = None, workers: int = 1) -> np.ndarray:
+def colliding_triangle_pairs(
+    vertices, faces, bvh: TriangleBVH | None = None, workers: int = 1
+) -> np.ndarray:
     """Intersecting triangle pairs of one mesh (self-intersections), Villegas et al. 2021 Sec. 3.3.
 
     Broad phase :class:`TriangleBVH`, narrow phase :func:`triangles_intersect`. Pairs sharing a
@@ -323,7 +348,9 @@ def colliding_triangle_pairs(vertices, faces, bvh: TriangleBVH | None = None, wo
         a, b = bvh.descend(levels, root, root, 1, SPLIT_DEPTH + 1)
 
         def part(k: int) -> np.ndarray:
-            below = bvh.descend(levels, a[k::workers], b[k::workers], SPLIT_DEPTH + 1, bvh.depth + 1)
+            below = bvh.descend(
+                levels, a[k::workers], b[k::workers], SPLIT_DEPTH + 1, bvh.depth + 1
+            )
             return _intersecting(vertices, faces, bvh.leaf_pairs(levels, *below))
 
         pairs = np.concatenate(list(_pool(workers).map(part, range(workers))))
@@ -337,7 +364,9 @@ SPLIT_DEPTH = 6
 
 def _intersecting(vertices: np.ndarray, faces: np.ndarray, candidates: np.ndarray) -> np.ndarray:
     """The ``(P, 2)`` candidate face pairs whose triangles intersect (the narrow phase)."""
-    return candidates[triangles_intersect(vertices[faces[candidates[:, 0]]], vertices[faces[candidates[:, 1]]])]
+    return candidates[
+        triangles_intersect(vertices[faces[candidates[:, 0]]], vertices[faces[candidates[:, 1]]])
+    ]
 
 
 @functools.lru_cache(maxsize=4)

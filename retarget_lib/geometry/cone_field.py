@@ -11,7 +11,14 @@ import torch
 
 Tensor = torch.Tensor
 
-__all__ = ["CONE_HEIGHT", "RADIUS_SCALE", "SIGMA", "check_cone", "circumcircle", "cone_distance_field"]
+__all__ = [
+    "CONE_HEIGHT",
+    "RADIUS_SCALE",
+    "SIGMA",
+    "check_cone",
+    "circumcircle",
+    "cone_distance_field",
+]
 
 #: default cone parameters (:func:`cone_distance_field`): quadratic zone and apex height in metres,
 #: base radius in circumradii
@@ -20,8 +27,13 @@ CONE_HEIGHT = 0.1
 RADIUS_SCALE = 1.0
 
 
-def cone_distance_field(points: Tensor, triangles: Tensor, sigma: float = SIGMA, height: float = CONE_HEIGHT,
-                        radius_scale: float = RADIUS_SCALE) -> Tensor:
+def cone_distance_field(
+    points: Tensor,
+    triangles: Tensor,
+    sigma: float = SIGMA,
+    height: float = CONE_HEIGHT,
+    radius_scale: float = RADIUS_SCALE,
+) -> Tensor:
     """Cone-shaped local distance field ``psi`` of triangles (after Tzionas et al. 2016, IJCV).
 
     Geometry, for a triangle with circumcentre ``c``, circumradius ``R`` and unit normal ``n``
@@ -56,8 +68,10 @@ def cone_distance_field(points: Tensor, triangles: Tensor, sigma: float = SIGMA,
     """
     check_cone(sigma, height, radius_scale)
     if points.shape[-1] != 3 or triangles.shape[-2:] != (3, 3):
-        raise ValueError(f"points must be (..., 3) and triangles (..., 3, 3), got "
-                         f"{tuple(points.shape)} and {tuple(triangles.shape)}")
+        raise ValueError(
+            f"points must be (..., 3) and triangles (..., 3, 3), got "
+            f"{tuple(points.shape)} and {tuple(triangles.shape)}"
+        )
     centre, radius, normal = circumcircle(triangles)
     rel = points - centre
     elevation = (rel * normal).sum(-1)
@@ -65,13 +79,17 @@ def cone_distance_field(points: Tensor, triangles: Tensor, sigma: float = SIGMA,
     d = (-elevation).clamp(min=0.0)
     intensity = torch.where(d < sigma, d.square() / (2.0 * sigma), d - 0.5 * sigma)
     cone_radius = radius_scale * radius * (1.0 + d / height)
-    falloff = (1.0 - radial_sq / cone_radius.square().clamp(min=torch.finfo(radius.dtype).tiny)).clamp(min=0.0)
+    falloff = (
+        1.0 - radial_sq / cone_radius.square().clamp(min=torch.finfo(radius.dtype).tiny)
+    ).clamp(min=0.0)
     return intensity * falloff
 
 
 def check_cone(sigma: float, height: float, radius_scale: float) -> None:
     if min(sigma, height, radius_scale) <= 0:
-        raise ValueError(f"sigma, height and radius_scale must be positive, got {sigma}, {height}, {radius_scale}")
+        raise ValueError(
+            f"sigma, height and radius_scale must be positive, got {sigma}, {height}, {radius_scale}"
+        )
 
 
 def circumcircle(triangles: Tensor) -> tuple[Tensor, Tensor, Tensor]:
@@ -88,6 +106,8 @@ def circumcircle(triangles: Tensor) -> tuple[Tensor, Tensor, Tensor]:
     e1, e2 = triangles[..., 1, :] - a, triangles[..., 2, :] - a
     m = torch.cross(e1, e2, dim=-1)
     m_sq = m.square().sum(-1, keepdim=True).clamp(min=torch.finfo(m.dtype).tiny)
-    offset = (e1.square().sum(-1, keepdim=True) * torch.cross(e2, m, dim=-1)
-              + e2.square().sum(-1, keepdim=True) * torch.cross(m, e1, dim=-1)) / (2.0 * m_sq)
+    offset = (
+        e1.square().sum(-1, keepdim=True) * torch.cross(e2, m, dim=-1)
+        + e2.square().sum(-1, keepdim=True) * torch.cross(m, e1, dim=-1)
+    ) / (2.0 * m_sq)
     return a + offset, offset.norm(dim=-1), m / m_sq.sqrt()

@@ -26,8 +26,8 @@ Conventions: metres, +Y up, ground at ``y = 0``, canonical 22 joints, 30 fps unl
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
-from typing import Iterable, Sequence
 
 import fcl
 import numpy as np
@@ -82,7 +82,9 @@ def fill_contacts(contacts: np.ndarray, window: int = 5) -> np.ndarray:
     if window < 1 or window % 2 == 0:
         raise ValueError(f"window must be a positive odd number of frames, got {window}")
     half, T = window // 2, len(contacts)
-    cumulative = np.concatenate([np.zeros((1,) + contacts.shape[1:], int), np.cumsum(contacts, axis=0)])
+    cumulative = np.concatenate(
+        [np.zeros((1,) + contacts.shape[1:], int), np.cumsum(contacts, axis=0)]
+    )
     lo = np.clip(np.arange(T) - half, 0, T)
     hi = np.clip(np.arange(T) + half + 1, 0, T)
     in_contact = cumulative[hi] - cumulative[lo]
@@ -97,8 +99,13 @@ def _frame_displacements(points: np.ndarray) -> np.ndarray:
     return np.concatenate([step[:1], step])
 
 
-def detect_foot_contacts(positions: np.ndarray, skeleton: Skeleton, character_height: float,
-                         window: int = 5, fps: float = REFERENCE_FPS) -> np.ndarray:
+def detect_foot_contacts(
+    positions: np.ndarray,
+    skeleton: Skeleton,
+    character_height: float,
+    window: int = 5,
+    fps: float = REFERENCE_FPS,
+) -> np.ndarray:
     """Heel and toe contacts with the ground (Villegas et al. 2021, Sec. 3.4), for ``Efoot`` (Eq. 6).
 
     Thresholds at 180 cm scale, multiplied by ``character_height / 1.80``:
@@ -132,7 +139,9 @@ def detect_foot_contacts(positions: np.ndarray, skeleton: Skeleton, character_he
     """
     positions = np.asarray(positions, dtype=np.float64)
     if positions.ndim != 3 or positions.shape[1:] != (skeleton.num_joints, 3) or len(positions) < 2:
-        raise ValueError(f"positions must be (T >= 2, {skeleton.num_joints}, 3), got {positions.shape}")
+        raise ValueError(
+            f"positions must be (T >= 2, {skeleton.num_joints}, 3), got {positions.shape}"
+        )
     if fps <= 0:
         raise ValueError(f"fps must be positive, got {fps}")
     height = float(character_height)
@@ -167,8 +176,9 @@ def vertex_groups(weights: np.ndarray, threshold: float = 0.5) -> list[np.ndarra
     return [np.flatnonzero(weights[:, j] >= threshold) for j in range(weights.shape[1])]
 
 
-def group_faces(faces: np.ndarray, groups: Sequence[np.ndarray],
-                num_vertices: int | None = None) -> list[np.ndarray]:
+def group_faces(
+    faces: np.ndarray, groups: Sequence[np.ndarray], num_vertices: int | None = None
+) -> list[np.ndarray]:
     """Per group, the triangles whose three vertices all belong to it ("each group also includes
     the triangles formed by its vertices", Sec. 3.4).
 
@@ -216,7 +226,9 @@ class SelfContacts:
         self.groups = np.asarray(self.groups, dtype=np.int64).reshape(-1, 2)
         k = len(self.frames)
         if len(self.pairs) != k or len(self.groups) != k:
-            raise ValueError(f"SelfContacts: {k} frames, {len(self.pairs)} pairs, {len(self.groups)} groups")
+            raise ValueError(
+                f"SelfContacts: {k} frames, {len(self.pairs)} pairs, {len(self.groups)} groups"
+            )
         if k and (self.frames.min() < 0 or self.frames.max() >= self.num_frames):
             raise ValueError(f"SelfContacts: frames must lie in [0, {self.num_frames})")
 
@@ -238,7 +250,7 @@ class SelfContacts:
         mask[self.frames[keep]] = True
         return mask
 
-    def remap(self, correspondence: np.ndarray) -> "SelfContacts":
+    def remap(self, correspondence: np.ndarray) -> SelfContacts:
         """The constraints on another mesh: each vertex id mapped through ``correspondence``.
 
         Rows that become identical within a frame are kept once, and a pair whose two vertices map
@@ -249,9 +261,13 @@ class SelfContacts:
                 (:func:`vertex_correspondence`).
         """
         correspondence = np.asarray(correspondence, dtype=np.int64)
-        if correspondence.ndim != 1 or (len(self.pairs) and self.pairs.max() >= len(correspondence)):
-            raise ValueError(f"correspondence must be (V_src,) covering vertex {self.pairs.max(initial=-1)}, "
-                             f"got {correspondence.shape}")
+        if correspondence.ndim != 1 or (
+            len(self.pairs) and self.pairs.max() >= len(correspondence)
+        ):
+            raise ValueError(
+                f"correspondence must be (V_src,) covering vertex {self.pairs.max(initial=-1)}, "
+                f"got {correspondence.shape}"
+            )
         pairs = correspondence[self.pairs]
         rows = np.column_stack([self.frames, pairs, self.groups])
         rows = rows[pairs[:, 0] != pairs[:, 1]]
@@ -269,13 +285,22 @@ def _tested_group_pairs(hands: Sequence[int], has_faces: Sequence[bool]) -> list
     hand-hand pair once, skipping the hand's own forearm (always touching across the wrist)."""
     out = []
     for n, hand in enumerate(hands):
-        skipped = {hand, CANONICAL22_PARENTS[hand], *hands[:n]}  # hand-hand: tested from the first hand
-        out += [(hand, other) for other in range(len(has_faces))
-                if has_faces[hand] and has_faces[other] and other not in skipped]
+        skipped = {
+            hand,
+            CANONICAL22_PARENTS[hand],
+            *hands[:n],
+        }  # hand-hand: tested from the first hand
+        out += [
+            (hand, other)
+            for other in range(len(has_faces))
+            if has_faces[hand] and has_faces[other] and other not in skipped
+        ]
     return out
 
 
-def _group_boxes(vertices: np.ndarray, groups: Sequence[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+def _group_boxes(
+    vertices: np.ndarray, groups: Sequence[np.ndarray]
+) -> tuple[np.ndarray, np.ndarray]:
     """``(T, G, 3)`` lower and upper corners of each group's axis-aligned box per frame (empty
     groups get an inverted box that overlaps nothing)."""
     T = len(vertices)
@@ -304,8 +329,14 @@ def _longest_edge(vertices: np.ndarray, faces: np.ndarray) -> float:
     return float(np.linalg.norm(tri - np.roll(tri, 1, axis=1), axis=-1).max())
 
 
-def _meshes_within(verts_a: np.ndarray, faces_a: np.ndarray, verts_b: np.ndarray, faces_b: np.ndarray,
-                   margin: float, nearest_b_of_a: np.ndarray) -> bool:
+def _meshes_within(
+    verts_a: np.ndarray,
+    faces_a: np.ndarray,
+    verts_b: np.ndarray,
+    faces_b: np.ndarray,
+    margin: float,
+    nearest_b_of_a: np.ndarray,
+) -> bool:
     """Whether two triangle meshes intersect or come closer than ``margin`` (metres).
 
     Two vertices closer than ``margin`` settle it at once. Otherwise, broad phase: a point of a
@@ -325,8 +356,11 @@ def _meshes_within(verts_a: np.ndarray, faces_a: np.ndarray, verts_b: np.ndarray
         return True  # two vertices, points of both surfaces, are already that close
     reach = margin + _longest_edge(verts_a, faces_a) + _longest_edge(verts_b, faces_b)
     near_a = nearest_b_of_a <= reach
-    near_b = np.isfinite(cKDTree(verts_a[near_a]).query(verts_b, distance_upper_bound=reach)[0]) \
-        if near_a.any() else np.zeros(len(verts_b), bool)
+    near_b = (
+        np.isfinite(cKDTree(verts_a[near_a]).query(verts_b, distance_upper_bound=reach)[0])
+        if near_a.any()
+        else np.zeros(len(verts_b), bool)
+    )
     faces_a, faces_b = faces_a[near_a[faces_a].any(axis=1)], faces_b[near_b[faces_b].any(axis=1)]
     if len(faces_a) == 0 or len(faces_b) == 0:
         return False
@@ -345,12 +379,21 @@ def _velocity_similarity(vel_a: np.ndarray, vel_b: np.ndarray, still_step: float
     return float(cos.mean())
 
 
-def detect_self_contacts(vertices: np.ndarray, faces: np.ndarray, weights: np.ndarray,
-                         character_height: float, fps: float = REFERENCE_FPS,
-                         hands: Sequence[int | str] = ("LeftHand", "RightHand"),
-                         cosine: float = 0.9, distance_cm: float = 0.2, reference_height_cm: float = 138.0,
-                         top_k: int = 3, margin_cm: float = 1.0, still_speed_cm: float = 1.0,
-                         threshold: float = 0.5) -> SelfContacts:
+def detect_self_contacts(
+    vertices: np.ndarray,
+    faces: np.ndarray,
+    weights: np.ndarray,
+    character_height: float,
+    fps: float = REFERENCE_FPS,
+    hands: Sequence[int | str] = ("LeftHand", "RightHand"),
+    cosine: float = 0.9,
+    distance_cm: float = 0.2,
+    reference_height_cm: float = 138.0,
+    top_k: int = 3,
+    margin_cm: float = 1.0,
+    still_speed_cm: float = 1.0,
+    threshold: float = 0.5,
+) -> SelfContacts:
     """Hand self-contacts in a skinned source motion (Villegas et al. 2021, Sec. 3.4).
 
     1. Vertex groups: per joint the vertices with weight ``>= threshold`` and the triangles among
@@ -424,22 +467,28 @@ def detect_self_contacts(vertices: np.ndarray, faces: np.ndarray, weights: np.nd
 
     candidates = []  # (frame, hand, other)
     for hand, other in tested:
-        close = ((lo[:, hand] - margin <= hi[:, other]) & (lo[:, other] - margin <= hi[:, hand])).all(axis=1)
+        close = (
+            (lo[:, hand] - margin <= hi[:, other]) & (lo[:, other] - margin <= hi[:, hand])
+        ).all(axis=1)
         candidates += [(int(f), hand, other) for f in np.flatnonzero(close)]
     candidates.sort()
 
     rows = []
     for f, hand, other in candidates:
         pa, pb = vertices[f, groups[hand]], vertices[f, groups[other]]
-        dist, nearest = cKDTree(pb).query(pa)  # each hand vertex's nearest vertex of the other group
+        dist, nearest = cKDTree(pb).query(
+            pa
+        )  # each hand vertex's nearest vertex of the other group
         ia = np.lexsort((np.arange(len(pa)), dist))[:top_k]  # the top_k closest pairs
         i, j = groups[hand][ia], groups[other][nearest[ia]]
         prev, cur = (f - 1, f) if f > 0 else (0, 1)
-        similarity = _velocity_similarity(vertices[cur, i] - vertices[prev, i],
-                                          vertices[cur, j] - vertices[prev, j], still_step)
+        similarity = _velocity_similarity(
+            vertices[cur, i] - vertices[prev, i], vertices[cur, j] - vertices[prev, j], still_step
+        )
         # the cheap contact criteria first, the BVH test only for the pairs that pass them
         if (similarity > cosine or dist[ia[0]] < near) and _meshes_within(
-                pa, local_faces[hand], pb, local_faces[other], margin, dist):
+            pa, local_faces[hand], pb, local_faces[other], margin, dist
+        ):
             rows += [(f, a, b, hand, other) for a, b in zip(i, j)]
     rows = np.asarray(rows, dtype=np.int64).reshape(-1, 5)
     return SelfContacts(len(vertices), rows[:, 0], rows[:, 1:3], rows[:, 3:5])
@@ -455,11 +504,15 @@ def _canonical_rest_vertices(character) -> tuple[np.ndarray, np.ndarray]:
     identity[:, 0] = 1.0
     rotations = transfer_rotations(identity, canonical, skeleton)
     root = skeleton.offsets[0]
-    joints = forward_kinematics(rotations[None], skeleton.offsets, skeleton.parents, root[None])[0][0]
+    joints = forward_kinematics(rotations[None], skeleton.offsets, skeleton.parents, root[None])[0][
+        0
+    ]
     return character.skinned(rotations, root), np.asarray(joints)
 
 
-def correspondence_features(character, offset_weight: float = 1.0, canonical_pose: bool = True) -> np.ndarray:
+def correspondence_features(
+    character, offset_weight: float = 1.0, canonical_pose: bool = True
+) -> np.ndarray:
     """Per-vertex features for mesh correspondence (Villegas et al. 2021, Appendix F).
 
     ``[w_v (22), offset_weight * (x_j - v) / h]``: the vertex's skinning weights and the offset
@@ -492,8 +545,9 @@ def correspondence_features(character, offset_weight: float = 1.0, canonical_pos
     return np.hstack([weights, offset_weight * offsets / character.height])
 
 
-def vertex_correspondence(source, target, offset_weight: float = 1.0,
-                          canonical_pose: bool = True) -> np.ndarray:
+def vertex_correspondence(
+    source, target, offset_weight: float = 1.0, canonical_pose: bool = True
+) -> np.ndarray:
     """For each source vertex, the target vertex with the nearest feature vector (Appendix F:
     :func:`correspondence_features`, KD-tree nearest neighbour, Euclidean).
 
@@ -509,21 +563,25 @@ def vertex_correspondence(source, target, offset_weight: float = 1.0,
     return cKDTree(tgt).query(src)[1].astype(np.int64)
 
 
-def transfer_contacts(contacts: SelfContacts, source, target, offset_weight: float = 1.0) -> SelfContacts:
+def transfer_contacts(
+    contacts: SelfContacts, source, target, offset_weight: float = 1.0
+) -> SelfContacts:
     """Source self-contact constraints expressed on the target mesh (Sec. 3.4): vertices ``(vA_i,
     vA_j)`` in contact become ``(vB_i, vB_j)`` through :func:`vertex_correspondence`."""
     return contacts.remap(vertex_correspondence(source, target, offset_weight))
 
 
 # ----------------------------------------------------------------------------- evaluation
-def authored_contact_frames(hand_contacts: Iterable, num_frames: int, hand: str | None = None) -> np.ndarray:
+def authored_contact_frames(
+    hand_contacts: Iterable, num_frames: int, hand: str | None = None
+) -> np.ndarray:
     """``(T,)`` bool: frames inside any authored hand-contact interval ``[start, stop)`` (the
     synthetic clips' :class:`~retarget_lib.data.synthetic.authoring.HandContact` list), optionally only
     those of one ``hand`` (``"LeftHand"`` / ``"RightHand"``)."""
     mask = np.zeros(num_frames, dtype=bool)
     for c in hand_contacts:
         if hand is None or c.hand == hand:
-            mask[c.start:c.stop] = True
+            mask[c.start : c.stop] = True
     return mask
 
 

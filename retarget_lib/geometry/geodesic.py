@@ -84,8 +84,13 @@ class GeodesicDistances:
     def _diameter(self) -> float:
         pieces, label = connected_components(self.graph, directed=False)
         sizes = np.bincount(label, minlength=pieces)
-        best = max((self._piece_diameter(np.flatnonzero(label == piece)) for piece in np.flatnonzero(sizes > 1)),
-                   default=0.0)
+        best = max(
+            (
+                self._piece_diameter(np.flatnonzero(label == piece))
+                for piece in np.flatnonzero(sizes > 1)
+            ),
+            default=0.0,
+        )
         return best if best > 0 else 1.0
 
     def _piece_diameter(self, members: np.ndarray) -> float:
@@ -107,7 +112,11 @@ class GeodesicDistances:
             open_ &= upper > best * (1 + 1e-12)
             if not open_.any():
                 break
-            pick = int(np.argmax(np.where(open_, upper, -np.inf)) if step % 2 else np.argmin(np.where(open_, lower, np.inf)))
+            pick = int(
+                np.argmax(np.where(open_, upper, -np.inf))
+                if step % 2
+                else np.argmin(np.where(open_, lower, np.inf))
+            )
         return best
 
     def from_face(self, face: int) -> np.ndarray:
@@ -115,8 +124,9 @@ class GeodesicDistances:
         ``inf`` on other pieces)."""
         face = int(face)
         if face not in self._from_face:
-            self._from_face[face] = dijkstra(self.graph, directed=False, indices=self.faces[face],
-                                             min_only=True).astype(np.float32)
+            self._from_face[face] = dijkstra(
+                self.graph, directed=False, indices=self.faces[face], min_only=True
+            ).astype(np.float32)
         return self._from_face[face]
 
     def between_faces(self, pairs) -> np.ndarray:
@@ -138,8 +148,9 @@ class GeodesicDistances:
         return sum(d.nbytes for d in self._from_face.values())
 
 
-def geodesic_pair_weights(pairs, faces, geodesic: "np.ndarray | GeodesicDistances",
-                          eta: float | None = None) -> np.ndarray:
+def geodesic_pair_weights(
+    pairs, faces, geodesic: np.ndarray | GeodesicDistances, eta: float | None = None
+) -> np.ndarray:
     """Eq. 5: ``w_ri = eta^-1 min_{v_j in f_r, v_k in f_i} D(v_j, v_k)``.
 
     Args:
@@ -162,13 +173,24 @@ def geodesic_pair_weights(pairs, faces, geodesic: "np.ndarray | GeodesicDistance
         dmin = geodesic.between_faces(pairs)
         eta = geodesic.eta if eta is None else eta
     else:
-        if geodesic.ndim != 2 or geodesic.shape[0] != geodesic.shape[1] or faces.max(initial=-1) >= len(geodesic):
-            raise ValueError(f"geodesic must be (V, V) over the faces' vertices, got {geodesic.shape}")
+        if (
+            geodesic.ndim != 2
+            or geodesic.shape[0] != geodesic.shape[1]
+            or faces.max(initial=-1) >= len(geodesic)
+        ):
+            raise ValueError(
+                f"geodesic must be (V, V) over the faces' vertices, got {geodesic.shape}"
+            )
         if eta is None:
             finite = geodesic[np.isfinite(geodesic)]
             eta = float(finite.max()) if finite.size else 1.0
         fr, fi = faces[pairs[:, 0]], faces[pairs[:, 1]]
-        dmin = geodesic[fr[:, :, None], fi[:, None, :]].reshape(len(pairs), 9).min(1).astype(np.float64)
+        dmin = (
+            geodesic[fr[:, :, None], fi[:, None, :]]
+            .reshape(len(pairs), 9)
+            .min(1)
+            .astype(np.float64)
+        )
     if eta <= 0:
         raise ValueError(f"eta must be positive, got {eta}")
     return np.where(np.isfinite(dmin), np.minimum(dmin / eta, 1.0), 1.0)

@@ -20,7 +20,7 @@ Rotations are local, unit wxyz; ``quat_mul(a, b)`` applies ``b`` first (see
 
 from __future__ import annotations
 
-from typing import Mapping, Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 import torch
@@ -112,8 +112,9 @@ def _normal(u: Tensor, v: Tensor) -> tuple[Tensor, Tensor]:
 
 
 # ----------------------------------------------------------------------------- two-bone IK
-def two_bone_positions(a: Array, b: Array, c: Array, target: Array,
-                       pole: Array | None = None) -> tuple[Array, Array]:
+def two_bone_positions(
+    a: Array, b: Array, c: Array, target: Array, pole: Array | None = None
+) -> tuple[Array, Array]:
     """New middle and end joint positions of a two-bone chain (law of cosines).
 
     The chain keeps its bone lengths ``|b - a|`` and ``|c - b|``. The end lands on ``target`` when
@@ -150,9 +151,16 @@ def two_bone_positions(a: Array, b: Array, c: Array, target: Array,
     return b_new, c_new
 
 
-def two_bone_ik(rotations: Array, offsets: Array, parents: Sequence[int], root_positions: Array,
-                chain: tuple[int, int, int], target: Array, pole: Array | None = None,
-                end_rotation: Array | None = None) -> Array:
+def two_bone_ik(
+    rotations: Array,
+    offsets: Array,
+    parents: Sequence[int],
+    root_positions: Array,
+    chain: tuple[int, int, int],
+    target: Array,
+    pole: Array | None = None,
+    end_rotation: Array | None = None,
+) -> Array:
     """Analytic IK for one limb, batched over frames.
 
     The middle joint bends as a hinge: its rotation changes only about the axis normal to the
@@ -191,8 +199,9 @@ def two_bone_ik(rotations: Array, offsets: Array, parents: Sequence[int], root_p
     swing = quat_between(u0, u1)
     n0, ok0 = _normal(u0, c - b)
     n1, ok1 = _normal(u1, c_new - b_new)
-    h0 = torch.where(ok0, n0, torch.where(ok1, quat_rotate(quat_conjugate(swing), n1),
-                                          _any_perpendicular(u0)))
+    h0 = torch.where(
+        ok0, n0, torch.where(ok1, quat_rotate(quat_conjugate(swing), n1), _any_perpendicular(u0))
+    )
     h1 = torch.where(ok1, n1, quat_rotate(swing, h0))
     r_up = frame_rotation(u0, h0, u1, h1)
     g_up = quat_mul(r_up, grot[..., up, :])
@@ -225,8 +234,18 @@ def _skew(v: Tensor) -> Tensor:
     return torch.stack((z, -w, y, w, z, -x, -y, x, z), dim=-1).reshape(v.shape + (3,))
 
 
-def _dls_step(pos: Tensor, r: Tensor, dev: Tensor, tj: list[int], free: list[int], anc: Tensor,
-              inv_w: Tensor, move_root: bool, gain: Tensor, mu: float) -> Tensor:
+def _dls_step(
+    pos: Tensor,
+    r: Tensor,
+    dev: Tensor,
+    tj: list[int],
+    free: list[int],
+    anc: Tensor,
+    inv_w: Tensor,
+    move_root: bool,
+    gain: Tensor,
+    mu: float,
+) -> Tensor:
     """One damped least-squares step with a null-space pull towards the input pose.
 
     Args:
@@ -256,11 +275,21 @@ def _dls_step(pos: Tensor, r: Tensor, dev: Tensor, tj: list[int], free: list[int
     return -gain * dev + (jw.transpose(1, 2) @ y).squeeze(-1)
 
 
-def solve_ik(rotations: Array, offsets: Array, parents: Sequence[int], root_positions: Array,
-             targets: Mapping[int, Array], free_joints: Sequence[int] | None = None,
-             move_root: bool = True, joint_weights: Mapping[int, float] | None = None,
-             root_weight: float = 1.0, iterations: int = 30, damping: float = 1e-2,
-             tol: float = 1e-7, max_step: float = 0.5) -> tuple[Array, Array]:
+def solve_ik(
+    rotations: Array,
+    offsets: Array,
+    parents: Sequence[int],
+    root_positions: Array,
+    targets: Mapping[int, Array],
+    free_joints: Sequence[int] | None = None,
+    move_root: bool = True,
+    joint_weights: Mapping[int, float] | None = None,
+    root_weight: float = 1.0,
+    iterations: int = 30,
+    damping: float = 1e-2,
+    tol: float = 1e-7,
+    max_step: float = 0.5,
+) -> tuple[Array, Array]:
     """Full-body IK: reach several position targets while staying close to the input pose.
 
     Damped least squares on the geometric Jacobian: joint positions are linearised in world-axis
@@ -301,8 +330,9 @@ def solve_ik(rotations: Array, offsets: Array, parents: Sequence[int], root_posi
     free = list(range(len(parents))) if free_joints is None else list(free_joints)
     tj = list(targets)
     tgt = torch.stack([_to_torch(targets[e]) for e in tj], dim=1)  # (T, K, 3)
-    anc = torch.tensor([[float(f in _ancestors(parents, e)) for f in free] for e in tj],
-                       dtype=q_in.dtype)
+    anc = torch.tensor(
+        [[float(f in _ancestors(parents, e)) for f in free] for e in tj], dtype=q_in.dtype
+    )
     stiff = [(joint_weights or {}).get(f, 1.0) for f in free for _ in range(3)]
     inv_w = 1.0 / torch.tensor(stiff + ([root_weight] * 3 if move_root else []), dtype=q_in.dtype)
     par_free = torch.tensor([max(parents[f], 0) for f in free])
@@ -323,15 +353,15 @@ def solve_ik(rotations: Array, offsets: Array, parents: Sequence[int], root_posi
         if move_root:
             dev = torch.cat((dev, root - root_in), dim=-1)
         gain = torch.zeros_like(err) if polish else 0.5 * (err < 0.01).to(q.dtype)
-        mu = max(damping * 0.5 ** it, 1e-9)
+        mu = max(damping * 0.5**it, 1e-9)
         step = _dls_step(pos, r, dev, tj, free, anc, inv_w, move_root, gain, mu)
-        rot_step = step[:, :3 * F].reshape(-1, F, 3)
+        rot_step = step[:, : 3 * F].reshape(-1, F, 3)
         biggest = rot_step.norm(dim=-1).amax(-1, keepdim=True).clamp_min(_EPS)
         scale = (max_step / biggest).clamp(max=1.0)
         local = quat_rotate(quat_conjugate(g_par), rot_step * scale.unsqueeze(-1))
         q[:, free] = quat_mul(quat_from_axis_angle(local), q[:, free])
         if move_root:
-            root = root + step[:, 3 * F:] * scale
+            root = root + step[:, 3 * F :] * scale
     q = quat_canonical(q)
     return (q.numpy(), root.numpy()) if as_numpy else (q, root)
 
@@ -347,11 +377,12 @@ def _segments(mask: np.ndarray) -> list[tuple[int, int]]:
 def _falloff(x: np.ndarray) -> np.ndarray:
     """SAN's blend weight ``2x^3 - 3x^2 + 1`` on ``[0, 1]`` (1 at the contact, 0 at ``x = 1``)."""
     x = np.clip(x, 0.0, 1.0)
-    return 2 * x ** 3 - 3 * x ** 2 + 1
+    return 2 * x**3 - 3 * x**2 + 1
 
 
-def _locked_displacement(x: np.ndarray, contact: np.ndarray,
-                         blend: int) -> tuple[np.ndarray, np.ndarray]:
+def _locked_displacement(
+    x: np.ndarray, contact: np.ndarray, blend: int
+) -> tuple[np.ndarray, np.ndarray]:
     """Displacement that pins one joint during each contact run, blended out around it.
 
     In a run the joint is moved to the run's mean position (as in SAN). In the ``blend`` free
@@ -388,8 +419,9 @@ def _locked_displacement(x: np.ndarray, contact: np.ndarray,
     return disp, weight
 
 
-def foot_contact_targets(positions: np.ndarray, skeleton: Skeleton, contacts: np.ndarray,
-                         blend_frames: int = 5) -> dict[str, np.ndarray]:
+def foot_contact_targets(
+    positions: np.ndarray, skeleton: Skeleton, contacts: np.ndarray, blend_frames: int = 5
+) -> dict[str, np.ndarray]:
     """Where each ankle and toe should be so that feet stay still while in contact.
 
     Each contact joint is pinned to its mean position over each contact run (SAN's IK
@@ -410,8 +442,9 @@ def foot_contact_targets(positions: np.ndarray, skeleton: Skeleton, contacts: np
     """
     contacts = np.asarray(contacts, dtype=bool)
     if contacts.ndim != 2 or contacts.shape[1] not in (2, 4) or contacts.shape[0] != len(positions):
-        raise ValueError(f"contacts must be (T, 2) or (T, 4) with T={len(positions)}, "
-                         f"got {contacts.shape}")
+        raise ValueError(
+            f"contacts must be (T, 2) or (T, 4) with T={len(positions)}, got {contacts.shape}"
+        )
     if contacts.shape[1] == 2:
         contacts = np.concatenate((contacts, contacts), axis=1)
     out = {}
@@ -459,9 +492,19 @@ def apply_foot_contact_ik(motion: Motion, contacts: np.ndarray, blend_frames: in
     off = torch.from_numpy(sk.offsets)
     for side, limb in (("Left", "left_leg"), ("Right", "right_leg")):
         ankle, toe = sk.index(f"{side}Foot"), sk.index(f"{side}ToeBase")
-        aim = quat_between(torch.from_numpy(pos[:, toe] - pos[:, ankle]),
-                           torch.from_numpy(goals[f"{side}ToeBase"] - goals[f"{side}Foot"]))
+        aim = quat_between(
+            torch.from_numpy(pos[:, toe] - pos[:, ankle]),
+            torch.from_numpy(goals[f"{side}ToeBase"] - goals[f"{side}Foot"]),
+        )
         foot_rot = quat_mul(aim, torch.from_numpy(grot[:, ankle]))
-        rot = two_bone_ik(rot, off, sk.parents, root, limb_chain(sk, limb),
-                          torch.from_numpy(goals[f"{side}Foot"]), None, foot_rot)
+        rot = two_bone_ik(
+            rot,
+            off,
+            sk.parents,
+            root,
+            limb_chain(sk, limb),
+            torch.from_numpy(goals[f"{side}Foot"]),
+            None,
+            foot_rot,
+        )
     return motion.copy(rotations=rot.numpy(), meta=dict(motion.meta, foot_contact_ik=True))

@@ -21,7 +21,13 @@ from .collision import as_face_array
 
 Tensor = torch.Tensor
 
-__all__ = ["area_weighted_normals", "faces_around", "normals_at", "vertex_face_csr", "vertex_normals"]
+__all__ = [
+    "area_weighted_normals",
+    "faces_around",
+    "normals_at",
+    "vertex_face_csr",
+    "vertex_normals",
+]
 
 
 def vertex_normals(vertices, faces):
@@ -59,8 +65,9 @@ def vertex_face_csr(faces: np.ndarray, num_vertices: int) -> tuple[np.ndarray, n
     return ptr, np.argsort(corners, kind="stable") // 3
 
 
-def faces_around(faces: np.ndarray, csr: tuple[np.ndarray, np.ndarray],
-                 corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def faces_around(
+    faces: np.ndarray, csr: tuple[np.ndarray, np.ndarray], corners: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """The faces around each of the ``corners (U,)`` vertices, padded to the largest count ``M``:
     ``(U, M, 3)`` their vertex ids and ``(U, M)`` bool, which slots hold a face (a padding slot
     repeats the corner's first face)."""
@@ -69,8 +76,11 @@ def faces_around(faces: np.ndarray, csr: tuple[np.ndarray, np.ndarray],
     slots = np.arange(counts.max(initial=0))
     present = slots[None] < counts[:, None]
     first = np.minimum(ptr[corners], len(ids) - 1)[:, None]
-    face = ids[np.where(present, ptr[corners][:, None] + slots[None], first)] if len(ids) else \
-        np.zeros(present.shape, np.int64)
+    face = (
+        ids[np.where(present, ptr[corners][:, None] + slots[None], first)]
+        if len(ids)
+        else np.zeros(present.shape, np.int64)
+    )
     return faces[face], present
 
 
@@ -79,16 +89,20 @@ def area_weighted_normals(vertices: Tensor, around: Tensor, present: Tensor) -> 
     ``present (U, M)``, :func:`faces_around`), each face weighted by its area. Gathers and sums
     only (no scatter), so a compiled step has no atomic writes."""
     tri = vertices[..., around, :]  # (..., U, M, 3, 3)
-    face_normal = torch.cross(tri[..., 1, :] - tri[..., 0, :], tri[..., 2, :] - tri[..., 0, :], dim=-1)
+    face_normal = torch.cross(
+        tri[..., 1, :] - tri[..., 0, :], tri[..., 2, :] - tri[..., 0, :], dim=-1
+    )
     summed = (face_normal * present.to(vertices.dtype)[..., None]).sum(-2)
     return summed / summed.norm(dim=-1, keepdim=True).clamp(min=1e-12)
 
 
-def normals_at(vertices: Tensor, faces: np.ndarray, csr: tuple[np.ndarray, np.ndarray],
-               needed: np.ndarray) -> Tensor:
+def normals_at(
+    vertices: Tensor, faces: np.ndarray, csr: tuple[np.ndarray, np.ndarray], needed: np.ndarray
+) -> Tensor:
     """``(..., U, 3)`` area-weighted unit normals of the ``needed (U,)`` vertices, from their own
     faces only (a colliding frame needs a few hundred vertices' normals, not all of them)."""
     around, present = faces_around(faces, csr, needed)
     device = vertices.device
-    return area_weighted_normals(vertices, torch.as_tensor(around, device=device),
-                                 torch.as_tensor(present, device=device))
+    return area_weighted_normals(
+        vertices, torch.as_tensor(around, device=device), torch.as_tensor(present, device=device)
+    )

@@ -25,12 +25,19 @@ Units: metres; ``psi`` is a length (metres), ``E_int`` is in square metres.
 
 from __future__ import annotations
 
-from typing import Mapping, NamedTuple, Sequence
+from collections.abc import Mapping, Sequence
+from typing import NamedTuple
 
 import numpy as np
 import torch
 
-from .collision import TriangleBVH, as_face_array, as_face_pairs, as_vertex_array, colliding_triangle_pairs
+from .collision import (
+    TriangleBVH,
+    as_face_array,
+    as_face_pairs,
+    as_vertex_array,
+    colliding_triangle_pairs,
+)
 from .cone_field import CONE_HEIGHT, RADIUS_SCALE, SIGMA, check_cone, cone_distance_field
 from .geodesic import GeodesicDistances, geodesic_pair_weights
 from .normals import area_weighted_normals, faces_around, normals_at, vertex_face_csr
@@ -94,13 +101,24 @@ def plan_energy(vertices: Tensor, plan: PairPlan, cone: Mapping[str, float]) -> 
     """
     normals = area_weighted_normals(vertices, plan.around, plan.present)
     fr = plan.frame[:, None]
-    terms = _pair_terms(vertices[fr, plan.tri_r], vertices[fr, plan.tri_i], normals[fr, plan.corner_r],
-                        normals[fr, plan.corner_i], cone)
-    in_frame = (plan.frame[:, None] == torch.arange(vertices.shape[0], device=vertices.device)).to(vertices.dtype)
-    return ((terms * plan.weights.to(vertices.dtype))[:, None] * in_frame).sum(0)  # (B,): a sum per frame
+    terms = _pair_terms(
+        vertices[fr, plan.tri_r],
+        vertices[fr, plan.tri_i],
+        normals[fr, plan.corner_r],
+        normals[fr, plan.corner_i],
+        cone,
+    )
+    in_frame = (plan.frame[:, None] == torch.arange(vertices.shape[0], device=vertices.device)).to(
+        vertices.dtype
+    )
+    return ((terms * plan.weights.to(vertices.dtype))[:, None] * in_frame).sum(
+        0
+    )  # (B,): a sum per frame
 
 
-def _pair_terms(tri_r: Tensor, tri_i: Tensor, normals_r: Tensor, normals_i: Tensor, cone: dict) -> Tensor:
+def _pair_terms(
+    tri_r: Tensor, tri_i: Tensor, normals_r: Tensor, normals_i: Tensor, cone: dict
+) -> Tensor:
     """Eq. 4's bracket for each pair: ``sum_j ||-psi_i(v_j) n_j||^2 + sum_k ||-psi_r(v_k) n_k||^2``.
 
     Args:
@@ -113,13 +131,21 @@ def _pair_terms(tri_r: Tensor, tri_i: Tensor, normals_r: Tensor, normals_i: Tens
     """
     psi_i = cone_distance_field(tri_r, tri_i.unsqueeze(-3), **cone)  # (..., P, 3)
     psi_r = cone_distance_field(tri_i, tri_r.unsqueeze(-3), **cone)
-    return ((-psi_i.unsqueeze(-1) * normals_r).square().sum((-1, -2))
-            + (-psi_r.unsqueeze(-1) * normals_i).square().sum((-1, -2)))
+    return (-psi_i.unsqueeze(-1) * normals_r).square().sum((-1, -2)) + (
+        -psi_r.unsqueeze(-1) * normals_i
+    ).square().sum((-1, -2))
 
 
-def interpenetration_energy(vertices: Tensor, faces, pairs, pair_weights=None, normals: Tensor | None = None,
-                            sigma: float = SIGMA, height: float = CONE_HEIGHT,
-                            radius_scale: float = RADIUS_SCALE) -> Tensor:
+def interpenetration_energy(
+    vertices: Tensor,
+    faces,
+    pairs,
+    pair_weights=None,
+    normals: Tensor | None = None,
+    sigma: float = SIGMA,
+    height: float = CONE_HEIGHT,
+    radius_scale: float = RADIUS_SCALE,
+) -> Tensor:
     """Eq. 4, ``E_int``, for given colliding pairs (the same pairs for every leading index).
 
     Args:
@@ -138,22 +164,35 @@ def interpenetration_energy(vertices: Tensor, faces, pairs, pair_weights=None, n
     faces_np = as_face_array(faces, vertices.shape[-2])
     pairs = as_face_pairs(pairs, len(faces_np))
     if normals is not None and normals.shape != vertices.shape:
-        raise ValueError(f"normals must match vertices {tuple(vertices.shape)}, got {tuple(normals.shape)}")
+        raise ValueError(
+            f"normals must match vertices {tuple(vertices.shape)}, got {tuple(normals.shape)}"
+        )
     if not len(pairs):
         return vertices.sum((-1, -2)) * 0.0
-    needed, local = np.unique(faces_np[pairs], return_inverse=True)  # pair corners -> needed vertices
+    needed, local = np.unique(
+        faces_np[pairs], return_inverse=True
+    )  # pair corners -> needed vertices
     local = torch.as_tensor(local.reshape(len(pairs), 2, 3), device=vertices.device)
     if normals is None:
-        normals = normals_at(vertices, faces_np, vertex_face_csr(faces_np, vertices.shape[-2]), needed)
+        normals = normals_at(
+            vertices, faces_np, vertex_face_csr(faces_np, vertices.shape[-2]), needed
+        )
     else:
         normals = normals[..., torch.as_tensor(needed, device=vertices.device), :]
     idx_r = torch.as_tensor(faces_np[pairs[:, 0]], device=vertices.device)
     idx_i = torch.as_tensor(faces_np[pairs[:, 1]], device=vertices.device)
-    terms = _pair_terms(vertices[..., idx_r, :], vertices[..., idx_i, :], normals[..., local[:, 0], :],
-                        normals[..., local[:, 1], :], dict(sigma=sigma, height=height, radius_scale=radius_scale))
+    terms = _pair_terms(
+        vertices[..., idx_r, :],
+        vertices[..., idx_i, :],
+        normals[..., local[:, 0], :],
+        normals[..., local[:, 1], :],
+        dict(sigma=sigma, height=height, radius_scale=radius_scale),
+    )
     if pair_weights is None:
         return terms.sum(-1)
-    weights = torch.as_tensor(np.asarray(pair_weights), dtype=vertices.dtype, device=vertices.device)
+    weights = torch.as_tensor(
+        np.asarray(pair_weights), dtype=vertices.dtype, device=vertices.device
+    )
     if weights.shape != (len(pairs),):
         raise ValueError(f"pair_weights must be ({len(pairs)},), got {tuple(weights.shape)}")
     return (terms * weights).sum(-1)
@@ -184,9 +223,16 @@ class InterpenetrationEnergy:
             method sets it; the default counts every intersection (Eq. 4 as printed).
     """
 
-    def __init__(self, faces, rest_vertices, geodesic_weights: bool = True, sigma: float = SIGMA,
-                 height: float = CONE_HEIGHT, radius_scale: float = RADIUS_SCALE,
-                 ignore_rest_intersections: bool = False):
+    def __init__(
+        self,
+        faces,
+        rest_vertices,
+        geodesic_weights: bool = True,
+        sigma: float = SIGMA,
+        height: float = CONE_HEIGHT,
+        radius_scale: float = RADIUS_SCALE,
+        ignore_rest_intersections: bool = False,
+    ):
         rest = as_vertex_array(rest_vertices)
         self.faces = as_face_array(faces, len(rest))
         self.num_vertices = len(rest)
@@ -220,7 +266,12 @@ class InterpenetrationEnergy:
             raise ValueError(f"expected {self.num_vertices} vertices, got {len(vertices)}")
         found = colliding_triangle_pairs(vertices, self.faces, self.bvh, workers)
         if len(self.rest_pairs) and len(found):
-            found = found[~np.isin(_pair_codes(found, len(self.faces)), _pair_codes(self.rest_pairs, len(self.faces)))]
+            found = found[
+                ~np.isin(
+                    _pair_codes(found, len(self.faces)),
+                    _pair_codes(self.rest_pairs, len(self.faces)),
+                )
+            ]
         return found
 
     def pair_weights(self, pairs: np.ndarray) -> np.ndarray:
@@ -252,13 +303,20 @@ class InterpenetrationEnergy:
         if not isinstance(vertices, torch.Tensor):
             vertices = torch.as_tensor(np.asarray(vertices, dtype=np.float64))
         if vertices.dim() < 2 or vertices.shape[-2:] != (self.num_vertices, 3):
-            raise ValueError(f"vertices must be (..., {self.num_vertices}, 3), got {tuple(vertices.shape)}")
+            raise ValueError(
+                f"vertices must be (..., {self.num_vertices}, 3), got {tuple(vertices.shape)}"
+            )
         batch = vertices.reshape(-1, self.num_vertices, 3)
         per_frame = [self.pairs(f) for f in batch.detach().cpu().numpy()]
         return self.energy_of_pairs(batch, per_frame).reshape(vertices.shape[:-2])
 
-    def plan(self, per_frame: Sequence[np.ndarray], vertex_index: np.ndarray | None = None,
-             min_pairs: int = 0, device: torch.device | str | None = None) -> PairPlan:
+    def plan(
+        self,
+        per_frame: Sequence[np.ndarray],
+        vertex_index: np.ndarray | None = None,
+        min_pairs: int = 0,
+        device: torch.device | str | None = None,
+    ) -> PairPlan:
         """Eq. 4's :class:`PairPlan` for given colliding pairs of each batch element.
 
         Args:
@@ -274,8 +332,11 @@ class InterpenetrationEnergy:
             :class:`PairPlan`.
         """
         frame = np.repeat(np.arange(len(per_frame)), [len(p) for p in per_frame])
-        pairs = np.concatenate([as_face_pairs(p, len(self.faces)) for p in per_frame]) if len(per_frame) else \
-            np.zeros((0, 2), np.int64)
+        pairs = (
+            np.concatenate([as_face_pairs(p, len(self.faces)) for p in per_frame])
+            if len(per_frame)
+            else np.zeros((0, 2), np.int64)
+        )
         weights = self.pair_weights(pairs)
         pad = max(min_pairs - len(pairs), 0)
         if pad:
@@ -284,15 +345,23 @@ class InterpenetrationEnergy:
             pairs = np.concatenate([pairs, np.tile([PADDING_PAIR], (pad, 1))])
             frame = np.concatenate([frame, np.zeros(pad, np.int64)])
             weights = np.concatenate([weights, np.zeros(pad)])
-        corners, local = np.unique(self.faces[pairs], return_inverse=True)  # pair corners -> normals
+        corners, local = np.unique(
+            self.faces[pairs], return_inverse=True
+        )  # pair corners -> normals
         local = local.reshape(len(pairs), 2, 3)
         around, present = faces_around(self.faces, self._vertex_faces, corners)
         where = np.arange(self.num_vertices) if vertex_index is None else np.asarray(vertex_index)
         as_tensor = lambda a, dtype=torch.int64: torch.as_tensor(a, dtype=dtype, device=device)  # noqa: E731
-        return PairPlan(as_tensor(frame), as_tensor(where[self.faces[pairs[:, 0]]]),
-                        as_tensor(where[self.faces[pairs[:, 1]]]), as_tensor(where[around]),
-                        as_tensor(present, torch.bool), as_tensor(local[:, 0]), as_tensor(local[:, 1]),
-                        as_tensor(weights, torch.float64))
+        return PairPlan(
+            as_tensor(frame),
+            as_tensor(where[self.faces[pairs[:, 0]]]),
+            as_tensor(where[self.faces[pairs[:, 1]]]),
+            as_tensor(where[around]),
+            as_tensor(present, torch.bool),
+            as_tensor(local[:, 0]),
+            as_tensor(local[:, 1]),
+            as_tensor(weights, torch.float64),
+        )
 
     def energy_of_pairs(self, batch: Tensor, per_frame: Sequence[np.ndarray]) -> Tensor:
         """Eq. 4 per frame for given colliding pairs (detection skipped, e.g. pairs found once and
@@ -335,5 +404,9 @@ def interpenetration_score(energy: InterpenetrationEnergy, vertices, height: flo
     if len(vertices.shape if isinstance(vertices, torch.Tensor) else np.shape(vertices)) != 3:
         raise ValueError(f"vertices must be (T, V, 3), got {tuple(vertices.shape)}")
     with torch.no_grad():
-        values = energy(vertices if isinstance(vertices, torch.Tensor) else np.asarray(vertices, dtype=np.float64))
-    return float(values.mean()) / height ** 2
+        values = energy(
+            vertices
+            if isinstance(vertices, torch.Tensor)
+            else np.asarray(vertices, dtype=np.float64)
+        )
+    return float(values.mean()) / height**2

@@ -6,7 +6,7 @@ Units: metres.
 
 from __future__ import annotations
 
-from typing import Mapping, Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 import scipy.sparse
@@ -17,7 +17,13 @@ from scipy.sparse.csgraph import connected_components
 from ..core.skeleton import CANONICAL22
 from .collision import as_face_array, as_vertex_array
 
-__all__ = ["DEFAULT_LIMBS", "cap_holes", "limb_vertices_inside", "penetration_rate", "ray_winding_numbers"]
+__all__ = [
+    "DEFAULT_LIMBS",
+    "cap_holes",
+    "limb_vertices_inside",
+    "penetration_rate",
+    "ray_winding_numbers",
+]
 
 #: limbs of :func:`penetration_rate`: name -> canonical joints whose dominant-weight vertices form it
 DEFAULT_LIMBS: dict[str, tuple[str, ...]] = {
@@ -54,7 +60,9 @@ def cap_holes(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
     boundary = half[~np.isin(half[:, 1] * nv + half[:, 0], half[:, 0] * nv + half[:, 1])]
     if not len(boundary):
         return vertices, faces
-    graph = scipy.sparse.coo_matrix((np.ones(len(boundary)), (boundary[:, 0], boundary[:, 1])), shape=(nv, nv))
+    graph = scipy.sparse.coo_matrix(
+        (np.ones(len(boundary)), (boundary[:, 0], boundary[:, 1])), shape=(nv, nv)
+    )
     _, label = connected_components(graph, directed=False)
     on_boundary = np.unique(boundary)
     holes, hole_of_vertex = np.unique(label[on_boundary], return_inverse=True)
@@ -100,8 +108,9 @@ def ray_winding_numbers(points, vertices, faces) -> np.ndarray:
     return np.rint(np.median(counts, axis=0)).astype(np.int64)
 
 
-def penetration_rate(vertices, faces, weights, limbs: Mapping[str, Sequence[str]] | None = None
-                     ) -> dict[str, float]:
+def penetration_rate(
+    vertices, faces, weights, limbs: Mapping[str, Sequence[str]] | None = None
+) -> dict[str, float]:
     """Per-limb penetration rate: the share of a limb's vertices inside the rest of the body.
 
     Definition: a vertex belongs to the limb whose joints hold its largest skinning weight
@@ -121,8 +130,10 @@ def penetration_rate(vertices, faces, weights, limbs: Mapping[str, Sequence[str]
     Returns:
         ``{limb: rate in [0, 1]}`` (``nan`` for a limb with no vertex).
     """
-    frames = np.asarray(vertices.detach().cpu().numpy() if isinstance(vertices, torch.Tensor) else vertices,
-                        dtype=np.float64)
+    frames = np.asarray(
+        vertices.detach().cpu().numpy() if isinstance(vertices, torch.Tensor) else vertices,
+        dtype=np.float64,
+    )
     frames = frames[None] if frames.ndim == 2 else frames
     if frames.ndim != 3 or frames.shape[2] != 3:
         raise ValueError(f"vertices must be (V, 3) or (T, V, 3), got {frames.shape}")
@@ -151,7 +162,9 @@ def _inside_body(vertices: np.ndarray, faces: np.ndarray, in_limb: np.ndarray) -
     return ray_winding_numbers(vertices[in_limb], body_vertices, body_closed) >= 1
 
 
-def limb_vertices_inside(vertices, faces, weights, limbs: Mapping[str, Sequence[str]] | None = None) -> np.ndarray:
+def limb_vertices_inside(
+    vertices, faces, weights, limbs: Mapping[str, Sequence[str]] | None = None
+) -> np.ndarray:
     """``(V,)`` bool: the vertices of one posed mesh that :func:`penetration_rate` counts as inside
     the body (a limb vertex inside the rest of the body); every other vertex is ``False``.
 

@@ -58,8 +58,16 @@ from .joint_maps import to_canonical22
 from .rig_maps import JointMapLike, map_joints
 from .untrusted import check_count, check_motion_samples, is_real_dtype, read_npz
 
-__all__ = ["AMASSError", "SMPLX_CALIBRATION_SHA256", "SMPLX_BODY_NAMES", "SMPLX_BODY_PARENTS", "SMPLX_TO_CANONICAL",
-           "smplx_skeleton", "load_amass", "save_amass"]
+__all__ = [
+    "AMASSError",
+    "SMPLX_CALIBRATION_SHA256",
+    "SMPLX_BODY_NAMES",
+    "SMPLX_BODY_PARENTS",
+    "SMPLX_TO_CANONICAL",
+    "smplx_skeleton",
+    "load_amass",
+    "save_amass",
+]
 
 #: SHA-256 of ``mannequin/assets/smplx_calibration.npz`` in mannequin-x 0.3.0
 SMPLX_CALIBRATION_SHA256 = "fe149bebd6e813a67305e264bd4e5e6648652f5acdc5f3aeb15e219763dfbeca"
@@ -70,12 +78,53 @@ MAX_BETAS, MAX_POSE_COLUMNS = 10_000, 330
 _NUM_BETAS = 10
 #: the SMPL-X (and SMPL-H) body joints in the order of a file's pose columns, and their parents
 SMPLX_BODY_NAMES: tuple[str, ...] = (
-    "pelvis", "left_hip", "right_hip", "spine1", "left_knee", "right_knee", "spine2",
-    "left_ankle", "right_ankle", "spine3", "left_foot", "right_foot", "neck", "left_collar",
-    "right_collar", "head", "left_shoulder", "right_shoulder", "left_elbow", "right_elbow",
-    "left_wrist", "right_wrist",
+    "pelvis",
+    "left_hip",
+    "right_hip",
+    "spine1",
+    "left_knee",
+    "right_knee",
+    "spine2",
+    "left_ankle",
+    "right_ankle",
+    "spine3",
+    "left_foot",
+    "right_foot",
+    "neck",
+    "left_collar",
+    "right_collar",
+    "head",
+    "left_shoulder",
+    "right_shoulder",
+    "left_elbow",
+    "right_elbow",
+    "left_wrist",
+    "right_wrist",
 )
-SMPLX_BODY_PARENTS: tuple[int, ...] = (-1, 0, 0, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 9, 9, 12, 13, 14, 16, 17, 18, 19)
+SMPLX_BODY_PARENTS: tuple[int, ...] = (
+    -1,
+    0,
+    0,
+    0,
+    1,
+    2,
+    3,
+    4,
+    5,
+    6,
+    7,
+    8,
+    9,
+    9,
+    9,
+    12,
+    13,
+    14,
+    16,
+    17,
+    18,
+    19,
+)
 
 
 def _body_order() -> tuple[int, ...]:
@@ -94,26 +143,35 @@ _Z_TO_Y = np.array([np.cos(-np.pi / 4), np.sin(-np.pi / 4), 0.0, 0.0])
 def _calibration() -> dict[str, np.ndarray]:
     """The SMPL-X joint/sole table of mannequin-x (:class:`~retarget_lib.files.DataError` if missing)."""
     try:
-        path = Path(str(importlib.resources.files("mannequin") / "assets" / "smplx_calibration.npz"))
+        path = Path(
+            str(importlib.resources.files("mannequin") / "assets" / "smplx_calibration.npz")
+        )
     except ModuleNotFoundError:
-        raise DataError("the mannequin-x package is not installed; `pip install mannequin-x==0.3.0`") from None
+        raise DataError(
+            "the mannequin-x package is not installed; `pip install mannequin-x==0.3.0`"
+        ) from None
     check_sha256(path, SMPLX_CALIBRATION_SHA256)
     with np.load(path, allow_pickle=False) as data:
-        return {k: data[k].astype(np.float64) for k in ("joint_rest", "joint_dirs", "sole_y_rest", "sole_y_dirs")}
+        return {
+            k: data[k].astype(np.float64)
+            for k in ("joint_rest", "joint_dirs", "sole_y_rest", "sole_y_dirs")
+        }
 
 
 def _body_skeleton(betas: np.ndarray) -> Skeleton:
     """The neutral SMPL-X body with shape ``betas`` on its own joints (:data:`SMPLX_BODY_NAMES`, in
     metres, +Y up, facing +Z, the soles on ``y = 0``)."""
     cal, b = _calibration(), _first_betas(betas)
-    joints = (cal["joint_rest"] + cal["joint_dirs"] @ b)[:len(SMPLX_BODY_NAMES)]
+    joints = (cal["joint_rest"] + cal["joint_dirs"] @ b)[: len(SMPLX_BODY_NAMES)]
     joints[:, 1] -= (cal["sole_y_rest"] + cal["sole_y_dirs"] @ b).min()
     offsets = joints.copy()
     offsets[1:] -= joints[list(SMPLX_BODY_PARENTS[1:])]
     return Skeleton(SMPLX_BODY_NAMES, SMPLX_BODY_PARENTS, offsets)
 
 
-def smplx_skeleton(betas: np.ndarray, mapping: JointMapLike = None, what: str = "the SMPL-X body") -> Skeleton:
+def smplx_skeleton(
+    betas: np.ndarray, mapping: JointMapLike = None, what: str = "the SMPL-X body"
+) -> Skeleton:
     """The canonical-22 skeleton of the neutral SMPL-X body with shape ``betas``.
 
     Args:
@@ -126,7 +184,9 @@ def smplx_skeleton(betas: np.ndarray, mapping: JointMapLike = None, what: str = 
         the root's offset = the pelvis rest position with the soles on ``y = 0``.
     """
     body = _body_skeleton(betas)
-    rest = Motion(body, np.tile([1.0, 0.0, 0.0, 0.0], (1, body.num_joints, 1)), body.offsets[:1].copy(), 30.0)
+    rest = Motion(
+        body, np.tile([1.0, 0.0, 0.0, 0.0], (1, body.num_joints, 1)), body.offsets[:1].copy(), 30.0
+    )
     return to_canonical22(rest, mapping=mapping, what=what).skeleton
 
 
@@ -139,12 +199,21 @@ def _pelvis_rest(betas: np.ndarray) -> np.ndarray:
 def _first_betas(betas: np.ndarray) -> np.ndarray:
     """``(10,)`` the first ten betas, zero-padded."""
     b = np.zeros(_NUM_BETAS)
-    b[:min(_NUM_BETAS, len(betas))] = np.asarray(betas, dtype=np.float64)[:_NUM_BETAS]
+    b[: min(_NUM_BETAS, len(betas))] = np.asarray(betas, dtype=np.float64)[:_NUM_BETAS]
     return b
 
 
-_WANTED = ("poses", "root_orient", "pose_body", "betas", "trans", "mocap_frame_rate", "mocap_framerate", "gender",
-           "surface_model_type")
+_WANTED = (
+    "poses",
+    "root_orient",
+    "pose_body",
+    "betas",
+    "trans",
+    "mocap_frame_rate",
+    "mocap_framerate",
+    "gender",
+    "surface_model_type",
+)
 _PER_FRAME = ("poses", "root_orient", "pose_body", "trans")
 
 
@@ -161,8 +230,13 @@ def _check_shape(path: Path, key: str, shape: tuple[int, ...]) -> None:
 
 def _read_arrays(path: Path) -> dict[str, np.ndarray]:
     """The arrays of the file the reader uses (pickled ``gender`` / ``surface_model_type`` left out)."""
-    return read_npz(path, _WANTED, AMASSError, objects_skipped=("gender", "surface_model_type"),
-                    shape_check=lambda key, shape: _check_shape(path, key, shape))
+    return read_npz(
+        path,
+        _WANTED,
+        AMASSError,
+        objects_skipped=("gender", "surface_model_type"),
+        shape_check=lambda key, shape: _check_shape(path, key, shape),
+    )
 
 
 def _frame_rate(a: dict[str, np.ndarray], fps: float | None, path: Path) -> float:
@@ -170,14 +244,18 @@ def _frame_rate(a: dict[str, np.ndarray], fps: float | None, path: Path) -> floa
     key = next((k for k in ("mocap_frame_rate", "mocap_framerate") if k in a), None)
     if key is None:
         if fps is None:
-            raise AMASSError(f"{path}: no frame rate: the file has no 'mocap_frame_rate' or 'mocap_framerate' key; "
-                             "add it (frames per second), as AMASS files have it")
+            raise AMASSError(
+                f"{path}: no frame rate: the file has no 'mocap_frame_rate' or 'mocap_framerate' key; "
+                "add it (frames per second), as AMASS files have it"
+            )
         rate = float(fps)
     else:
         value = np.asarray(a[key])
         if value.size != 1 or not is_real_dtype(value.dtype):
-            raise AMASSError(f"{path}: {key} must be one number (frames per second), got {value.dtype} of shape "
-                             f"{value.shape}")
+            raise AMASSError(
+                f"{path}: {key} must be one number (frames per second), got {value.dtype} of shape "
+                f"{value.shape}"
+            )
         rate = float(value.ravel()[0])
     if not (np.isfinite(rate) and 1.0 <= rate <= 1000.0):
         raise AMASSError(f"{path}: frame rate {rate} is outside 1-1000")
@@ -191,12 +269,18 @@ def _finite(a: np.ndarray, key: str, path: Path, bound: float) -> np.ndarray:
     if not np.isfinite(a).all():
         raise AMASSError(f"{path}: {key} holds NaN or inf")
     if np.abs(a).max(initial=0.0) > bound:
-        raise AMASSError(f"{path}: {key} has |values| up to {np.abs(a).max():.3g}, beyond the bound {bound:g}")
+        raise AMASSError(
+            f"{path}: {key} has |values| up to {np.abs(a).max():.3g}, beyond the bound {bound:g}"
+        )
     return a
 
 
-def load_amass(path: str | os.PathLike, up: str | None = None, fps: float | None = None,
-               mapping: JointMapLike = None) -> Motion:
+def load_amass(
+    path: str | os.PathLike,
+    up: str | None = None,
+    fps: float | None = None,
+    mapping: JointMapLike = None,
+) -> Motion:
     """Read an SMPL-X / AMASS ``.npz`` motion onto the canonical 22 joints.
 
     Args:
@@ -221,24 +305,37 @@ def load_amass(path: str | os.PathLike, up: str | None = None, fps: float | None
     path = readable_file(path, "SMPL-X/AMASS .npz file", MAX_FILE_BYTES)
     a = _read_arrays(path)
     if "betas" not in a:
-        raise AMASSError(f"{path}: no 'betas': the skeleton's bone lengths come from the body shape (an AMASS "
-                         "motion file has betas; a file of poses alone cannot be sized)")
+        raise AMASSError(
+            f"{path}: no 'betas': the skeleton's bone lengths come from the body shape (an AMASS "
+            "motion file has betas; a file of poses alone cannot be sized)"
+        )
     betas = _finite(np.atleast_1d(a["betas"]).ravel(), "betas", path, MAX_BETA)
     if len(betas) == 0:
         raise AMASSError(f"{path}: 'betas' is empty")
     if "poses" in a:
         poses = a["poses"]
         if poses.ndim != 2 or poses.shape[1] < 66:
-            raise AMASSError(f"{path}: poses must be (T, >=66) axis-angles (pelvis + 21 body joints), got {poses.shape}")
+            raise AMASSError(
+                f"{path}: poses must be (T, >=66) axis-angles (pelvis + 21 body joints), got {poses.shape}"
+            )
         poses = poses[:, :66]
     elif "root_orient" in a and "pose_body" in a:
-        if a["root_orient"].ndim != 2 or a["pose_body"].ndim != 2 or a["root_orient"].shape[1] != 3 \
-                or a["pose_body"].shape[1] != 63 or len(a["root_orient"]) != len(a["pose_body"]):
-            raise AMASSError(f"{path}: root_orient must be (T, 3) and pose_body (T, 63), got {a['root_orient'].shape} "
-                             f"and {a['pose_body'].shape}")
+        if (
+            a["root_orient"].ndim != 2
+            or a["pose_body"].ndim != 2
+            or a["root_orient"].shape[1] != 3
+            or a["pose_body"].shape[1] != 63
+            or len(a["root_orient"]) != len(a["pose_body"])
+        ):
+            raise AMASSError(
+                f"{path}: root_orient must be (T, 3) and pose_body (T, 63), got {a['root_orient'].shape} "
+                f"and {a['pose_body'].shape}"
+            )
         poses = np.concatenate([a["root_orient"], a["pose_body"]], axis=1)
     else:
-        raise AMASSError(f"{path}: no 'poses' (or 'root_orient' + 'pose_body'): not an SMPL-X/AMASS motion file")
+        raise AMASSError(
+            f"{path}: no 'poses' (or 'root_orient' + 'pose_body'): not an SMPL-X/AMASS motion file"
+        )
     poses = _finite(poses, "poses", path, MAX_ANGLE)
     if "trans" not in a:
         raise AMASSError(f"{path}: no 'trans' (the body's translation per frame)")
@@ -259,10 +356,18 @@ def load_amass(path: str | os.PathLike, up: str | None = None, fps: float | None
         turn = np.broadcast_to(_Z_TO_Y, local[:, 0].shape)
         local[:, 0] = quat_mul(torch.from_numpy(turn.copy()), torch.from_numpy(local[:, 0])).numpy()
         root = _rotate(turn, root)
-    meta = dict(source=str(path), betas=betas, up=up, gender=_text(a.get("gender")),
-                surface_model_type=_text(a.get("surface_model_type")))
-    return to_canonical22(Motion(_body_skeleton(betas), local, root, rate, name=path.stem, meta=meta),
-                          mapping=mapping, what=str(path))
+    meta = dict(
+        source=str(path),
+        betas=betas,
+        up=up,
+        gender=_text(a.get("gender")),
+        surface_model_type=_text(a.get("surface_model_type")),
+    )
+    return to_canonical22(
+        Motion(_body_skeleton(betas), local, root, rate, name=path.stem, meta=meta),
+        mapping=mapping,
+        what=str(path),
+    )
 
 
 def _rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -275,10 +380,14 @@ def _text(value) -> str:
     if value is None:
         return ""
     item = np.asarray(value).ravel()
-    return "" if item.size == 0 else (item[0].decode() if isinstance(item[0], bytes) else str(item[0]))
+    return (
+        "" if item.size == 0 else (item[0].decode() if isinstance(item[0], bytes) else str(item[0]))
+    )
 
 
-def save_amass(motion: Motion, path: str | os.PathLike, betas: np.ndarray, gender: str = "neutral") -> None:
+def save_amass(
+    motion: Motion, path: str | os.PathLike, betas: np.ndarray, gender: str = "neutral"
+) -> None:
     """Write a canonical-22 motion on :func:`smplx_skeleton` ``(betas)`` as an AMASS-style SMPL-X
     ``.npz`` (Z-up, ``poses (T, 165)`` with zero jaw/eye/hand poses; atomically).
 
@@ -292,11 +401,18 @@ def save_amass(motion: Motion, path: str | os.PathLike, betas: np.ndarray, gende
         AMASSError: the motion is not on that skeleton.
     """
     skeleton = smplx_skeleton(betas)
-    if not motion.skeleton.is_canonical22() or np.abs(motion.skeleton.offsets[1:] - skeleton.offsets[1:]).max() > 1e-3:
-        raise AMASSError(f"{path}: the motion must be on smplx_skeleton(betas) (retarget it there first)")
+    if (
+        not motion.skeleton.is_canonical22()
+        or np.abs(motion.skeleton.offsets[1:] - skeleton.offsets[1:]).max() > 1e-3
+    ):
+        raise AMASSError(
+            f"{path}: the motion must be on smplx_skeleton(betas) (retarget it there first)"
+        )
     T = motion.num_frames
     local = motion.rotations.copy()
-    back = np.broadcast_to(_Z_TO_Y * np.array([1.0, -1.0, -1.0, -1.0]), (T, 4)).copy()  # Y-up -> Z-up
+    back = np.broadcast_to(
+        _Z_TO_Y * np.array([1.0, -1.0, -1.0, -1.0]), (T, 4)
+    ).copy()  # Y-up -> Z-up
     local[:, 0] = quat_mul(torch.from_numpy(back), torch.from_numpy(local[:, 0])).numpy()
     root = _rotate(back, motion.root_positions)
     body = np.zeros((T, 22, 3))
@@ -304,8 +420,14 @@ def save_amass(motion: Motion, path: str | os.PathLike, betas: np.ndarray, gende
     poses = np.zeros((T, 165))
     poses[:, :66] = body.reshape(T, 66)
     b16 = np.zeros(16)
-    b16[:min(16, len(betas))] = np.asarray(betas, dtype=np.float64)[:16]
+    b16[: min(16, len(betas))] = np.asarray(betas, dtype=np.float64)[:16]
     with atomic_write(path) as f:
-        np.savez_compressed(f, poses=poses.astype(np.float32), betas=b16, trans=root - _pelvis_rest(b16),
-                            mocap_frame_rate=np.float64(motion.fps), gender=np.str_(gender),
-                            surface_model_type=np.str_("smplx"))
+        np.savez_compressed(
+            f,
+            poses=poses.astype(np.float32),
+            betas=b16,
+            trans=root - _pelvis_rest(b16),
+            mocap_frame_rate=np.float64(motion.fps),
+            gender=np.str_(gender),
+            surface_model_type=np.str_("smplx"),
+        )

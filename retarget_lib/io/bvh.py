@@ -62,8 +62,21 @@ from ..files import atomic_write, readable_file
 from .joint_maps import to_canonical22
 from .rig_maps import JointMapLike, strip_prefix
 
-__all__ = ["BVHError", "UNIT_SCALES", "infer_unit_scale", "load_bvh", "save_bvh", "MAX_FILE_BYTES", "MAX_JOINTS",
-           "MAX_DEPTH", "MAX_FRAMES", "MIN_FRAME_TIME", "MAX_FRAME_TIME", "MAX_ANGLE_DEG", "MAX_LENGTH"]
+__all__ = [
+    "BVHError",
+    "UNIT_SCALES",
+    "infer_unit_scale",
+    "load_bvh",
+    "save_bvh",
+    "MAX_FILE_BYTES",
+    "MAX_JOINTS",
+    "MAX_DEPTH",
+    "MAX_FRAMES",
+    "MIN_FRAME_TIME",
+    "MAX_FRAME_TIME",
+    "MAX_ANGLE_DEG",
+    "MAX_LENGTH",
+]
 
 #: Metres per file unit of the length units met in BVH files. ``"cmu"`` is the ASF/AMC length unit
 #: of the CMU database (``length = 1/0.45`` inch), kept by the cgspeed BVH conversion.
@@ -77,8 +90,10 @@ UNIT_SCALES: dict[str, float] = {
 #: The height (metres) a unit is chosen to reproduce when the file does not say.
 HUMAN_HEIGHT = 1.7
 
-_CHANNELS = {c.lower(): c for c in (
-    "Xposition", "Yposition", "Zposition", "Xrotation", "Yrotation", "Zrotation")}
+_CHANNELS = {
+    c.lower(): c
+    for c in ("Xposition", "Yposition", "Zposition", "Xrotation", "Yrotation", "Zrotation")
+}
 # bounds (module docstring: why each)
 MAX_FILE_BYTES = 64 * 2**20
 MAX_JOINTS = 1000
@@ -88,7 +103,14 @@ MIN_FRAME_TIME, MAX_FRAME_TIME = 1e-3, 1.0
 MAX_ANGLE_DEG = 1e5
 MAX_LENGTH = 1e6
 
-_DEFAULT_ROOT_CHANNELS = ["Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation"]
+_DEFAULT_ROOT_CHANNELS = [
+    "Xposition",
+    "Yposition",
+    "Zposition",
+    "Zrotation",
+    "Xrotation",
+    "Yrotation",
+]
 _DEFAULT_CHANNELS = ["Zrotation", "Xrotation", "Yrotation"]
 _TOKEN = re.compile(r"[{}]|[^\s{}]+")
 _FRAMES = re.compile(r"^\s*Frames\s*:\s*(\S*)\s*$", re.IGNORECASE)
@@ -126,8 +148,10 @@ class _Tokens:
 
     def next(self, expected: str) -> tuple[str, int]:
         if self.done():
-            raise BVHError(f"line {self.end_line}: unexpected {self.end_what} in the hierarchy, "
-                           f"expected {expected} (unbalanced braces?)")
+            raise BVHError(
+                f"line {self.end_line}: unexpected {self.end_what} in the hierarchy, "
+                f"expected {expected} (unbalanced braces?)"
+            )
         item = self.items[self.pos]
         self.pos += 1
         return item
@@ -135,7 +159,11 @@ class _Tokens:
     def rest_of_line(self, line: int) -> list[str]:
         """Consume the tokens left on ``line`` up to the next brace."""
         out = []
-        while not self.done() and self.items[self.pos][1] == line and self.items[self.pos][0] not in "{}":
+        while (
+            not self.done()
+            and self.items[self.pos][1] == line
+            and self.items[self.pos][0] not in "{}"
+        ):
             out.append(self.items[self.pos][0])
             self.pos += 1
         return out
@@ -151,7 +179,9 @@ def _floats(tokens: list[str], count: int, what: str, line: int) -> np.ndarray:
     if not np.isfinite(out).all():
         raise BVHError(f"line {line}: non-finite number in {what}: {tokens}")
     if np.abs(out).max() > MAX_LENGTH:
-        raise BVHError(f"line {line}: {what} value beyond the limit |x| <= {MAX_LENGTH:g} file units: {tokens}")
+        raise BVHError(
+            f"line {line}: {what} value beyond the limit |x| <= {MAX_LENGTH:g} file units: {tokens}"
+        )
     return out
 
 
@@ -161,40 +191,59 @@ def _parse_channels(tokens: list[str], line: int, joint: str) -> list[str]:
     try:
         n = int(tokens[0])
     except ValueError:
-        raise BVHError(f"line {line}: bad channel count {tokens[0]!r} for joint {joint!r}") from None
+        raise BVHError(
+            f"line {line}: bad channel count {tokens[0]!r} for joint {joint!r}"
+        ) from None
     names = tokens[1:]
     if n != len(names):
-        raise BVHError(f"line {line}: CHANNELS of joint {joint!r} says {n} but lists "
-                       f"{len(names)}: {names}")
+        raise BVHError(
+            f"line {line}: CHANNELS of joint {joint!r} says {n} but lists {len(names)}: {names}"
+        )
     out = []
     for name in names:
         canon = _CHANNELS.get(name.lower())
         if canon is None:
-            raise BVHError(f"line {line}: unknown channel name {name!r} for joint {joint!r} "
-                           f"(expected one of {sorted(_CHANNELS.values())})")
+            raise BVHError(
+                f"line {line}: unknown channel name {name!r} for joint {joint!r} "
+                f"(expected one of {sorted(_CHANNELS.values())})"
+            )
         out.append(canon)
     for kind in ("position", "rotation"):
         axes = [c[0] for c in out if c.endswith(kind)]
         if axes and sorted(axes) != ["X", "Y", "Z"]:
-            raise BVHError(f"line {line}: joint {joint!r} has {kind} channels for axes {axes}; "
-                           f"expected none or each of X, Y, Z once")
+            raise BVHError(
+                f"line {line}: joint {joint!r} has {kind} channels for axes {axes}; "
+                f"expected none or each of X, Y, Z once"
+            )
     return out
 
 
-def _parse_block(tok: _Tokens, joints: list[_Joint], by_name: dict[str, _Joint], parent: int, name_line: int,
-                 depth: int = 1) -> None:
+def _parse_block(
+    tok: _Tokens,
+    joints: list[_Joint],
+    by_name: dict[str, _Joint],
+    parent: int,
+    name_line: int,
+    depth: int = 1,
+) -> None:
     """Parse one ``ROOT``/``JOINT`` block whose keyword was on ``name_line``, ``depth`` levels deep
     (the root is 1); ``by_name`` indexes ``joints`` by name."""
     name = " ".join(tok.rest_of_line(name_line))
     if not name:
         raise BVHError(f"line {name_line}: joint without a name")
     if name in by_name:
-        raise BVHError(f"line {name_line}: duplicate joint name {name!r} (first on line {by_name[name].line})")
+        raise BVHError(
+            f"line {name_line}: duplicate joint name {name!r} (first on line {by_name[name].line})"
+        )
     if len(joints) >= MAX_JOINTS:
-        raise BVHError(f"line {name_line}: more than {MAX_JOINTS} joints (the limit; real skeletons have < 100)")
+        raise BVHError(
+            f"line {name_line}: more than {MAX_JOINTS} joints (the limit; real skeletons have < 100)"
+        )
     if depth > MAX_DEPTH:
-        raise BVHError(f"line {name_line}: joints nested more than {MAX_DEPTH} deep (the limit; human "
-                       "skeletons nest < 30)")
+        raise BVHError(
+            f"line {name_line}: joints nested more than {MAX_DEPTH} deep (the limit; human "
+            "skeletons nest < 30)"
+        )
     joint = _Joint(name, parent, name_line)
     joints.append(joint)
     by_name[name] = joint
@@ -216,8 +265,10 @@ def _parse_block(tok: _Tokens, joints: list[_Joint], by_name: dict[str, _Joint],
         elif key == "END":
             _parse_end_site(tok, joint, line)
         elif key == "ROOT":
-            raise BVHError(f"line {line}: ROOT inside joint {name!r} (opened on line {name_line}): "
-                           "unbalanced braces?")
+            raise BVHError(
+                f"line {line}: ROOT inside joint {name!r} (opened on line {name_line}): "
+                "unbalanced braces?"
+            )
         else:
             raise BVHError(f"line {line}: unexpected {t!r} in joint {name!r}")
     if joint.offset is None:
@@ -248,8 +299,14 @@ def _parse_end_site(tok: _Tokens, joint: _Joint, end_line: int) -> None:
 
 def _parse_hierarchy(lines: list[str]) -> tuple[list[_Joint], int]:
     """Parse ``HIERARCHY``; return the joints (parents first) and the index of the MOTION line."""
-    motion_idx = next((i for i, line in enumerate(lines)
-                       if line.split()[:1] and line.split()[0].upper() == "MOTION"), None)
+    motion_idx = next(
+        (
+            i
+            for i, line in enumerate(lines)
+            if line.split()[:1] and line.split()[0].upper() == "MOTION"
+        ),
+        None,
+    )
     head = lines if motion_idx is None else lines[:motion_idx]
     end_line = len(lines) if motion_idx is None else motion_idx + 1
     tok = _Tokens(head, end_line, "end of file" if motion_idx is None else "MOTION")
@@ -268,7 +325,9 @@ def _parse_hierarchy(lines: list[str]) -> tuple[list[_Joint], int]:
             raise BVHError(f"line {line}: unmatched '}}' (unbalanced braces)")
         raise BVHError(f"line {line}: unexpected {t!r} after the ROOT block")
     if motion_idx is None:
-        raise BVHError(f"line {len(lines)}: missing MOTION section (end of file after the hierarchy)")
+        raise BVHError(
+            f"line {len(lines)}: missing MOTION section (end of file after the hierarchy)"
+        )
     return joints, motion_idx
 
 
@@ -284,7 +343,9 @@ def _header_value(lines: list[str], idx: int, pattern: re.Pattern, what: str) ->
     return m.group(1), idx
 
 
-def _parse_motion(lines: list[str], motion_idx: int, channels: list[list[str]]) -> tuple[np.ndarray, float, int]:
+def _parse_motion(
+    lines: list[str], motion_idx: int, channels: list[list[str]]
+) -> tuple[np.ndarray, float, int]:
     """Parse ``MOTION`` (``channels``: each joint's, in file order).
 
     Returns:
@@ -298,7 +359,9 @@ def _parse_motion(lines: list[str], motion_idx: int, channels: list[list[str]]) 
     except ValueError:
         raise BVHError(f"line {fi + 1}: bad frame count {value!r}") from None
     if n_frames <= 0:
-        raise BVHError(f"line {fi + 1}: the file has {n_frames} frames; a motion needs at least one")
+        raise BVHError(
+            f"line {fi + 1}: the file has {n_frames} frames; a motion needs at least one"
+        )
     if n_frames > MAX_FRAMES:
         raise BVHError(f"line {fi + 1}: {n_frames} frames exceed the limit of {MAX_FRAMES}")
     value, ti = _header_value(lines, fi + 1, _FRAME_TIME, "Frame Time:")
@@ -307,27 +370,33 @@ def _parse_motion(lines: list[str], motion_idx: int, channels: list[list[str]]) 
     except ValueError:
         raise BVHError(f"line {ti + 1}: bad frame time {value!r}") from None
     if not MIN_FRAME_TIME <= frame_time <= MAX_FRAME_TIME:
-        raise BVHError(f"line {ti + 1}: frame time must be positive and within the limits {MIN_FRAME_TIME:g}-"
-                       f"{MAX_FRAME_TIME:g} s (1 to 1000 frames per second), got {value!r}")
+        raise BVHError(
+            f"line {ti + 1}: frame time must be positive and within the limits {MIN_FRAME_TIME:g}-"
+            f"{MAX_FRAME_TIME:g} s (1 to 1000 frames per second), got {value!r}"
+        )
 
     rows: list[list[str]] = []
     numbers: list[int] = []  # 1-based line number of each row
-    for n, line in enumerate(lines[ti + 1:], start=ti + 2):
+    for n, line in enumerate(lines[ti + 1 :], start=ti + 2):
         parts = line.split()
         if parts:
             rows.append(parts)
             numbers.append(n)
     if len(rows) < n_frames:
-        raise BVHError(f"line {len(lines)}: unexpected end of file: 'Frames: {n_frames}' "
-                       f"(line {fi + 1}) but the motion block is truncated after {len(rows)} frames")
+        raise BVHError(
+            f"line {len(lines)}: unexpected end of file: 'Frames: {n_frames}' "
+            f"(line {fi + 1}) but the motion block is truncated after {len(rows)} frames"
+        )
     extra = len(rows) - n_frames
     rows = rows[:n_frames]  # like assimp, lines beyond the declared count are ignored
     counts = np.fromiter((len(r) for r in rows), dtype=np.int64, count=len(rows))
     bad = np.flatnonzero(counts != n_channels)
     if bad.size:
         k = int(bad[0])
-        raise BVHError(f"line {numbers[k]}: frame {k} has {counts[k]} values; the hierarchy "
-                       f"declares {n_channels} channels")
+        raise BVHError(
+            f"line {numbers[k]}: frame {k} has {counts[k]} values; the hierarchy "
+            f"declares {n_channels} channels"
+        )
     try:
         data = np.array(list(chain.from_iterable(rows)), dtype=np.float64)
     except ValueError:
@@ -357,9 +426,14 @@ def _check_magnitudes(data: np.ndarray, channels: list[list[str]], numbers: list
     if over.any():
         k = int(np.flatnonzero(over)[0])
         c = int(np.flatnonzero(np.abs(data[k]) > limit)[0])
-        what = f"rotation beyond |a| <= {MAX_ANGLE_DEG:g} degrees" if rotation[c] else \
-            f"position beyond |x| <= {MAX_LENGTH:g} file units"
-        raise BVHError(f"line {numbers[k]}: {names[c]} value {data[k, c]:g} in frame {k} is a {what} (the limit)")
+        what = (
+            f"rotation beyond |a| <= {MAX_ANGLE_DEG:g} degrees"
+            if rotation[c]
+            else f"position beyond |x| <= {MAX_LENGTH:g} file units"
+        )
+        raise BVHError(
+            f"line {numbers[k]}: {names[c]} value {data[k, c]:g} in frame {k} is a {what} (the limit)"
+        )
 
 
 # ------------------------------------------------------------------------------------ units
@@ -368,13 +442,19 @@ def _resolve_unit(unit: str | float) -> tuple[str, float]:
     if isinstance(unit, str):
         key = unit.lower()
         if key not in UNIT_SCALES:
-            raise ValueError(f"unknown unit {unit!r}; use one of {list(UNIT_SCALES)} or a float "
-                             "(metres per file unit)")
+            raise ValueError(
+                f"unknown unit {unit!r}; use one of {list(UNIT_SCALES)} or a float "
+                "(metres per file unit)"
+            )
         return key, UNIT_SCALES[key]
     scale = float(unit)
     if not scale > 0 or not math.isfinite(scale):
-        raise ValueError(f"unit scale must be a positive number of metres per file unit, got {unit!r}")
-    name = next((k for k, v in UNIT_SCALES.items() if math.isclose(v, scale, rel_tol=1e-9)), "custom")
+        raise ValueError(
+            f"unit scale must be a positive number of metres per file unit, got {unit!r}"
+        )
+    name = next(
+        (k for k, v in UNIT_SCALES.items() if math.isclose(v, scale, rel_tol=1e-9)), "custom"
+    )
     return name, scale
 
 
@@ -469,7 +549,9 @@ def _build_motion(lines: list[str], path: Path, unit: str | float | None) -> Mot
     data, frame_time, extra = _parse_motion(lines, motion_idx, channels)
     T, nj = data.shape[0], len(joints)
 
-    offsets = np.stack([cast(np.ndarray, j.offset) for j in joints])  # file units; every parsed joint has one
+    offsets = np.stack(
+        [cast(np.ndarray, j.offset) for j in joints]
+    )  # file units; every parsed joint has one
     root_pos = np.repeat(offsets[:1], T, axis=0)
     folded: list[str] = []
     dropped: list[str] = []
@@ -488,8 +570,10 @@ def _build_motion(lines: list[str], path: Path, unit: str | float | None) -> Mot
     rotations = np.zeros((T, nj, 4))
     rotations[..., 0] = 1.0
     for order, idx in _euler_groups(channels).items():
-        cols = [[starts[j] + k for k, c in enumerate(channels[j]) if c.endswith("rotation")]
-                for j in idx]
+        cols = [
+            [starts[j] + k for k, c in enumerate(channels[j]) if c.endswith("rotation")]
+            for j in idx
+        ]
         angles = torch.from_numpy(data[:, np.array(cols)])  # (T, k, 3) degrees, in file order
         rotations[:, idx] = quat_from_euler(angles, order, degrees=True).numpy()
 
@@ -497,12 +581,16 @@ def _build_motion(lines: list[str], path: Path, unit: str | float | None) -> Mot
     rest = offsets.copy()  # rest-pose positions, file units
     for j, jt in enumerate(joints[1:], start=1):
         rest[j] += rest[jt.parent]
-    points = np.concatenate([rest] + [rest[j:j + 1] + e for j, e in end_sites.items()])
+    points = np.concatenate([rest] + [rest[j : j + 1] + e for j, e in end_sites.items()])
     unit_name, scale = infer_unit_scale(points) if unit is None else _resolve_unit(unit)
 
     file_names = [jt.name for jt in joints]
-    skeleton = Skeleton(tuple(_skeleton_names(file_names)), tuple(jt.parent for jt in joints), offsets * scale,
-                        {j: e * scale for j, e in end_sites.items()})
+    skeleton = Skeleton(
+        tuple(_skeleton_names(file_names)),
+        tuple(jt.parent for jt in joints),
+        offsets * scale,
+        {j: e * scale for j, e in end_sites.items()},
+    )
     fps = 1.0 / frame_time
     if abs(fps - round(fps)) <= 1e-4 * fps:
         fps = float(round(fps))
@@ -526,19 +614,25 @@ def _file_layout(motion: Motion) -> tuple[list[str], list[list[str]]]:
     names = motion.skeleton.joint_names
     meta_names = motion.meta.get("file_joint_names")
     meta_channels = motion.meta.get("channels")
-    fits = (meta_names is not None and meta_channels is not None
-            and len(meta_names) == len(names) == len(meta_channels)
-            and all(strip_prefix(f) == n or f == n for f, n in zip(meta_names, names)))
+    fits = (
+        meta_names is not None
+        and meta_channels is not None
+        and len(meta_names) == len(names) == len(meta_channels)
+        and all(strip_prefix(f) == n or f == n for f, n in zip(meta_names, names))
+    )
     if fits:
         file_names = [str(n) for n in meta_names or ()]  # fits: neither is None
         channels = [list(c) for c in meta_channels or ()]
     else:
         file_names = list(names)
-        channels = [list(_DEFAULT_ROOT_CHANNELS if j == 0 else _DEFAULT_CHANNELS)
-                    for j in range(len(names))]
+        channels = [
+            list(_DEFAULT_ROOT_CHANNELS if j == 0 else _DEFAULT_CHANNELS) for j in range(len(names))
+        ]
     # keep the motion representable: root translation and every non-identity rotation need channels
-    if (not any(c.endswith("position") for c in channels[0])
-            and np.abs(motion.root_positions - motion.skeleton.offsets[0]).max() > 1e-9):
+    if (
+        not any(c.endswith("position") for c in channels[0])
+        and np.abs(motion.root_positions - motion.skeleton.offsets[0]).max() > 1e-9
+    ):
         channels[0] = _DEFAULT_ROOT_CHANNELS[:3] + channels[0]
     angles = quat_angle(torch.from_numpy(motion.rotations)).amax(dim=0).numpy()  # (J,)
     for j, ch in enumerate(channels):
@@ -552,20 +646,31 @@ def _check_writable(motion: Motion, scale: float, path: Path) -> None:
     back (``scale``: metres per file unit)."""
     fps = float(motion.fps)
     if not (math.isfinite(fps) and fps > 0 and MIN_FRAME_TIME <= 1.0 / fps <= MAX_FRAME_TIME):
-        raise BVHError(f"{path}: cannot write frame rate {fps:g} fps: the frame time must be positive and within "
-                       f"{MIN_FRAME_TIME:g}-{MAX_FRAME_TIME:g} s")
-    arrays = {"rotations": motion.rotations, "root positions": motion.root_positions / scale,
-              "offsets": motion.skeleton.offsets / scale}
+        raise BVHError(
+            f"{path}: cannot write frame rate {fps:g} fps: the frame time must be positive and within "
+            f"{MIN_FRAME_TIME:g}-{MAX_FRAME_TIME:g} s"
+        )
+    arrays = {
+        "rotations": motion.rotations,
+        "root positions": motion.root_positions / scale,
+        "offsets": motion.skeleton.offsets / scale,
+    }
     for what, values in arrays.items():
         if not np.isfinite(values).all():
             raise BVHError(f"{path}: cannot write non-finite (NaN or inf) {what}")
     for what in ("root positions", "offsets"):
         if np.abs(arrays[what]).max() > MAX_LENGTH:
-            raise BVHError(f"{path}: cannot write {what} beyond the limit |x| <= {MAX_LENGTH:g} file units")
+            raise BVHError(
+                f"{path}: cannot write {what} beyond the limit |x| <= {MAX_LENGTH:g} file units"
+            )
 
 
-def load_canonical_bvh(path: str | os.PathLike, fps: float = 30.0, convention: str | None = None,
-                       mapping: JointMapLike = None) -> Motion:
+def load_canonical_bvh(
+    path: str | os.PathLike,
+    fps: float = 30.0,
+    convention: str | None = None,
+    mapping: JointMapLike = None,
+) -> Motion:
     """:func:`load_bvh`, folded onto the canonical 22 joints
     (:func:`~retarget_lib.io.joint_maps.to_canonical22`) and resampled to ``fps``.
 
@@ -662,8 +767,14 @@ def save_bvh(motion: Motion, path: str | os.PathLike, unit: str | float | None =
             end = 0.5 * sk.offsets[j]
         if end is not None:
             end = np.asarray(end) / scale
-            out.extend([f"{tab}\tEnd Site", f"{tab}\t{{",
-                        f"{tab}\t\tOFFSET {' '.join(f'{v:.6f}' for v in end)}", f"{tab}\t}}"])
+            out.extend(
+                [
+                    f"{tab}\tEnd Site",
+                    f"{tab}\t{{",
+                    f"{tab}\t\tOFFSET {' '.join(f'{v:.6f}' for v in end)}",
+                    f"{tab}\t}}",
+                ]
+            )
         out.append(f"{tab}}}")
 
     block(0, 0)

@@ -58,8 +58,16 @@ from ..files import readable_file
 from .gltf import MAX_FILE_BYTES, animation_from, motion_from, parse_gltf_bytes, rig_from
 from .untrusted import check_array_bytes
 
-__all__ = ["FBXError", "MAX_DEPTH", "MAX_RECORDS", "TIMEOUT_SECONDS", "fbx_missing", "load_fbx_rig", "load_fbx_motion",
-           "load_fbx_animation"]
+__all__ = [
+    "FBXError",
+    "MAX_DEPTH",
+    "MAX_RECORDS",
+    "TIMEOUT_SECONDS",
+    "fbx_missing",
+    "load_fbx_rig",
+    "load_fbx_motion",
+    "load_fbx_animation",
+]
 
 _INSTALL = "install the fbx extra: `sudo apt-get install libassimp5` and `pip install -e .[fbx]`"
 #: records nested deeper than this are refused (FBX SDK files nest 6 deep)
@@ -101,7 +109,9 @@ def _impasse():
     try:
         import impasse  # noqa: PLC0415 (optional dependency)
     except (ImportError, OSError) as e:  # OSError: the binding is there but libassimp is not
-        raise FBXError(f"FBX needs the Open Asset Import Library ({type(e).__name__}: {e}); {_INSTALL}") from None
+        raise FBXError(
+            f"FBX needs the Open Asset Import Library ({type(e).__name__}: {e}); {_INSTALL}"
+        ) from None
     return impasse
 
 
@@ -137,22 +147,28 @@ def _properties(data: bytes, pos: int, end: int, count: int, path: Path) -> list
         pos += 1
         if code in _SCALAR:
             size = _SCALAR[code]
-            value = data[pos:pos + size]
+            value = data[pos : pos + size]
             out.append(int.from_bytes(value, "little", signed=True) if code in "YIL" else value)
         elif code in "SR":
-            size = 4 + int.from_bytes(data[pos:pos + 4], "little")
-            out.append(data[pos + 4:pos + size])
+            size = 4 + int.from_bytes(data[pos : pos + 4], "little")
+            out.append(data[pos + 4 : pos + size])
         elif code in _ARRAY_ITEM:
             if pos + 12 > end:
                 raise FBXError(f"{path}: malformed FBX: a record's properties run past its end")
             length, encoding, size = struct.unpack_from("<III", data, pos)
-            check_array_bytes((length,), _ARRAY_ITEM[code], f"an FBX array property ({code})", str(path))
+            check_array_bytes(
+                (length,), _ARRAY_ITEM[code], f"an FBX array property ({code})", str(path)
+            )
             if encoding not in (0, 1) or (encoding == 0 and size != length * _ARRAY_ITEM[code]):
-                raise FBXError(f"{path}: malformed FBX: an array of {length} '{code}' items holds {size} bytes")
-            out.append((code, length, encoding, data[pos + 12:pos + 12 + size]))
+                raise FBXError(
+                    f"{path}: malformed FBX: an array of {length} '{code}' items holds {size} bytes"
+                )
+            out.append((code, length, encoding, data[pos + 12 : pos + 12 + size]))
             size += 12
         else:
-            raise FBXError(f"{path}: malformed FBX: unknown property type {code!r} at byte {pos - 1}")
+            raise FBXError(
+                f"{path}: malformed FBX: unknown property type {code!r} at byte {pos - 1}"
+            )
         pos += size
         if pos > end:
             raise FBXError(f"{path}: malformed FBX: a record's properties run past its end")
@@ -164,24 +180,41 @@ def _int_array(prop, path: Path) -> np.ndarray:
     code, length, encoding, payload = prop
     size = length * _ARRAY_ITEM[code]
     try:  # max_length 0 would mean "all of it": an empty array is not inflated at all
-        raw = payload if encoding == 0 or size == 0 else zlib.decompressobj().decompress(payload, size)
+        raw = (
+            payload
+            if encoding == 0 or size == 0
+            else zlib.decompressobj().decompress(payload, size)
+        )
     except zlib.error:
         raw = b""
     if len(raw) != size:
-        raise FBXError(f"{path}: malformed FBX: a compressed array does not hold its declared {length} items")
+        raise FBXError(
+            f"{path}: malformed FBX: a compressed array does not hold its declared {length} items"
+        )
     return np.frombuffer(raw, "<i4" if code == "i" else "<i8")
 
 
-def _collect(scan: _Scan, name: str, parent: str, owner: int | None, props: list, path: Path) -> int | None:
+def _collect(
+    scan: _Scan, name: str, parent: str, owner: int | None, props: list, path: Path
+) -> int | None:
     """Note what the checks need from one record; return the object id its children belong to."""
     if parent == "Objects" and props and isinstance(props[0], int):
         label = props[1] if len(props) > 1 and isinstance(props[1], bytes) else b""
         class_name = props[2] if len(props) > 2 and isinstance(props[2], bytes) else b""
         name_part = label.split(b"\x00\x01")[0]
-        scan.objects[props[0]] = (name_part.decode("utf-8", "replace"), class_name.decode("utf-8", "replace"))
+        scan.objects[props[0]] = (
+            name_part.decode("utf-8", "replace"),
+            class_name.decode("utf-8", "replace"),
+        )
         return props[0]
-    if name == "C" and parent == "Connections" and len(props) >= 3 and props[0] == b"OO" \
-            and isinstance(props[1], int) and isinstance(props[2], int):
+    if (
+        name == "C"
+        and parent == "Connections"
+        and len(props) >= 3
+        and props[0] == b"OO"
+        and isinstance(props[1], int)
+        and isinstance(props[2], int)
+    ):
         scan.parents.setdefault(props[1], []).append(props[2])
     if owner is None or not props or not isinstance(props[0], tuple):
         return owner
@@ -220,13 +253,22 @@ def _scan_binary_fbx(data: bytes, path: Path) -> _Scan:
             continue
         props_start = pos + head + name_size
         if not props_start + props_size <= record_end <= end:
-            raise FBXError(f"{path}: malformed FBX: the record at byte {pos} does not fit inside its parent "
-                           "(truncated file?)")
+            raise FBXError(
+                f"{path}: malformed FBX: the record at byte {pos} does not fit inside its parent "
+                "(truncated file?)"
+            )
         records += 1
         if records > MAX_RECORDS or depth > MAX_DEPTH:
-            raise FBXError(f"{path}: malformed FBX: " + (f"more than {MAX_RECORDS:,} records" if records > MAX_RECORDS
-                           else f"records nested more than {MAX_DEPTH} deep") + " (the limit)")
-        name = data[pos + head:props_start].decode("ascii", "replace")
+            raise FBXError(
+                f"{path}: malformed FBX: "
+                + (
+                    f"more than {MAX_RECORDS:,} records"
+                    if records > MAX_RECORDS
+                    else f"records nested more than {MAX_DEPTH} deep"
+                )
+                + " (the limit)"
+            )
+        name = data[pos + head : props_start].decode("ascii", "replace")
         props = _properties(data, props_start, props_start + props_size, count, path)
         child_owner = _collect(scan, name, parent, owner, props, path)
         stack[-1] = (record_end, end, depth, parent, owner)
@@ -251,9 +293,11 @@ def _check_connections(scan: _Scan, path: Path) -> None:
                 stack.pop()
             elif state.get(nxt) == 1:
                 on_path = [n for n, _ in stack]
-                loop = on_path[on_path.index(nxt):] + [nxt]
+                loop = on_path[on_path.index(nxt) :] + [nxt]
                 cycle = " -> ".join(repr(scan.objects.get(n, (str(n), ""))[0]) for n in loop)
-                raise FBXError(f"{path}: malformed FBX: the object connections form a cycle ({cycle})")
+                raise FBXError(
+                    f"{path}: malformed FBX: the object connections form a cycle ({cycle})"
+                )
             elif not state.get(nxt):
                 state[nxt] = 1
                 stack.append((nxt, iter(scan.parents.get(nxt, ()))))
@@ -264,12 +308,16 @@ def _check_clusters(scan: _Scan, path: Path) -> None:
     for cluster, (low, high) in scan.cluster_range.items():
         skins = scan.parents.get(cluster, [])
         meshes = [g for s in skins for g in scan.parents.get(s, []) if g in scan.vertices]
-        vertices = max((scan.vertices[g] for g in meshes), default=max(scan.vertices.values(), default=0))
+        vertices = max(
+            (scan.vertices[g] for g in meshes), default=max(scan.vertices.values(), default=0)
+        )
         if low < 0 or high >= vertices:
             name = scan.objects.get(cluster, ("?", ""))[0]
             bad = low if low < 0 else high
-            raise FBXError(f"{path}: malformed FBX: cluster {name!r} binds vertex {bad:,} of a mesh with {vertices:,} "
-                           "vertices")
+            raise FBXError(
+                f"{path}: malformed FBX: cluster {name!r} binds vertex {bad:,} of a mesh with {vertices:,} "
+                "vertices"
+            )
 
 
 # --------------------------------------------------------------------------- the conversion
@@ -292,22 +340,33 @@ def _convert(data: bytes, path: Path) -> tuple[bytes, float | None, float]:
     """``(GLB bytes, the first animation's frame rate or None, metres per file unit)`` of an FBX
     file's bytes, converted by assimp in the contained child (module docstring)."""
     try:
-        done = subprocess.run([sys.executable, "-I", "-c", _CONVERTER, str(_child_memory(len(data)))], input=data,
-                              capture_output=True, timeout=TIMEOUT_SECONDS, check=False)
+        done = subprocess.run(
+            [sys.executable, "-I", "-c", _CONVERTER, str(_child_memory(len(data)))],
+            input=data,
+            capture_output=True,
+            timeout=TIMEOUT_SECONDS,
+            check=False,
+        )
     except subprocess.TimeoutExpired:
-        raise FBXError(f"{path}: the FBX reader (assimp) took longer than {TIMEOUT_SECONDS} s; the file is malformed "
-                       "or too large") from None
+        raise FBXError(
+            f"{path}: the FBX reader (assimp) took longer than {TIMEOUT_SECONDS} s; the file is malformed "
+            "or too large"
+        ) from None
     problem = done.stderr.decode("utf-8", "replace").strip().splitlines()
     if done.returncode == 3:
-        raise FBXError(f"{path}: the Open Asset Import Library cannot read it as FBX "
-                       f"({problem[-1][:200] if problem else 'no message'})")
+        raise FBXError(
+            f"{path}: the Open Asset Import Library cannot read it as FBX "
+            f"({problem[-1][:200] if problem else 'no message'})"
+        )
     if done.returncode != 0:
         how = _ending(done.returncode)
-        raise FBXError(f"{path}: the FBX reader (assimp) crashed on it ({how}: "
-                       f"{problem[-1][:200] if problem else 'no message'}); the file is malformed or needs more than "
-                       f"{_child_memory(len(data)) / 2**30:.1f} GiB to read")
+        raise FBXError(
+            f"{path}: the FBX reader (assimp) crashed on it ({how}: "
+            f"{problem[-1][:200] if problem else 'no message'}); the file is malformed or needs more than "
+            f"{_child_memory(len(data)) / 2**30:.1f} GiB to read"
+        )
     size = int.from_bytes(done.stdout[:8], "little")
-    info = json.loads(done.stdout[8:8 + size])
+    info = json.loads(done.stdout[8 : 8 + size])
     rate = round(float(info["rate"]), 3) if info["rate"] is not None else None
     try:
         metres = float(info["unit"]) / 100.0
@@ -315,7 +374,11 @@ def _convert(data: bytes, path: Path) -> tuple[bytes, float | None, float]:
         metres = float("nan")
     if not (np.isfinite(metres) and 1e-6 <= metres <= 1e6):
         raise FBXError(f"{path}: UnitScaleFactor {info['unit']} is not a length unit")
-    return done.stdout[8 + size:], (rate if rate is not None and 1.0 <= rate <= 1000.0 else None), metres
+    return (
+        done.stdout[8 + size :],
+        (rate if rate is not None and 1.0 <= rate <= 1000.0 else None),
+        metres,
+    )
 
 
 def _as_glb(path: str | os.PathLike):
@@ -341,8 +404,15 @@ def _in_metres(rig: Rig, metres: float) -> Rig:
     """``rig`` with every length multiplied by ``metres`` (metres per file unit)."""
     if metres == 1.0:
         return rig
-    return Rig(rig.name, rig.skeleton.scaled(metres), rig.rest_vertices * metres, rig.faces, rig.weights,
-               rig.joint_map, dict(rig.meta, unit_scale=metres))
+    return Rig(
+        rig.name,
+        rig.skeleton.scaled(metres),
+        rig.rest_vertices * metres,
+        rig.faces,
+        rig.weights,
+        rig.joint_map,
+        dict(rig.meta, unit_scale=metres),
+    )
 
 
 def load_fbx_rig(path: str | os.PathLike, mapping: str | os.PathLike | dict | None = None) -> Rig:
@@ -358,8 +428,11 @@ def load_fbx_rig(path: str | os.PathLike, mapping: str | os.PathLike | dict | No
     return rig
 
 
-def load_fbx_motion(path: str | os.PathLike, fps: float | None = None,
-                    mapping: str | os.PathLike | dict | None = None) -> tuple[Motion, Rig]:
+def load_fbx_motion(
+    path: str | os.PathLike,
+    fps: float | None = None,
+    mapping: str | os.PathLike | dict | None = None,
+) -> tuple[Motion, Rig]:
     """Sample the first animation of a skinned FBX file (see :func:`~retarget_lib.io.gltf.load_gltf_motion`)
     at ``fps``, by default the file's own frame rate (else 30)."""
     doc, rate, metres = _as_glb(path)
@@ -370,8 +443,11 @@ def load_fbx_motion(path: str | os.PathLike, fps: float | None = None,
     return motion, rig
 
 
-def load_fbx_animation(path: str | os.PathLike, fps: float | None = None,
-                       mapping: str | os.PathLike | dict | None = None) -> tuple[Motion, dict[int, int]]:
+def load_fbx_animation(
+    path: str | os.PathLike,
+    fps: float | None = None,
+    mapping: str | os.PathLike | dict | None = None,
+) -> tuple[Motion, dict[int, int]]:
     """Sample the first animation of an FBX file with or without a skin (a Mixamo clip downloaded
     "With Skin" or "Without Skin"; see :func:`~retarget_lib.io.gltf.load_gltf_animation`).
 
@@ -383,6 +459,8 @@ def load_fbx_animation(path: str | os.PathLike, fps: float | None = None,
     """
     doc, rate, metres = _as_glb(path)
     motion, joint_map = animation_from(doc, fps=fps or rate, mapping=mapping)
-    motion = motion.copy(skeleton=motion.skeleton.scaled(metres), root_positions=motion.root_positions * metres)
+    motion = motion.copy(
+        skeleton=motion.skeleton.scaled(metres), root_positions=motion.root_positions * metres
+    )
     motion.meta["source"] = str(path)
     return motion, joint_map

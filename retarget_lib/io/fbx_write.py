@@ -53,12 +53,12 @@ import zlib
 import numpy as np
 import torch
 
-from ..geometry.normals import vertex_normals
 from ..core.motion import Motion
 from ..core.rig import Rig
 from ..core.rotations import quat_to_euler
 from ..errors import FBXError
 from ..files import atomic_write
+from ..geometry.normals import vertex_normals
 from .untrusted import name_problem
 
 __all__ = ["KTIME_PER_SECOND", "FBX_VERSION", "save_fbx", "fbx_time_mode"]
@@ -79,8 +79,19 @@ _NULL_RECORD = b"\x00" * 13
 #: records closed by a zero record even without children (as FBX SDK files have them)
 _ALWAYS_CLOSED = {"AnimationStack", "AnimationLayer"}
 #: FBX ``TimeMode`` enum values of the standard frame rates (``eCustom`` = 14 otherwise)
-_TIME_MODES = {120.0: 1, 100.0: 2, 60.0: 3, 50.0: 4, 48.0: 5, 30.0: 6, 25.0: 10, 24.0: 11, 1000.0: 12,
-               96.0: 15, 72.0: 16}
+_TIME_MODES = {
+    120.0: 1,
+    100.0: 2,
+    60.0: 3,
+    50.0: 4,
+    48.0: 5,
+    30.0: 6,
+    25.0: 10,
+    24.0: 11,
+    1000.0: 12,
+    96.0: 15,
+    72.0: 16,
+}
 _CUSTOM_TIME_MODE = 14
 _LINEAR_KEY = 4  # KeyAttrFlags: eInterpolationLinear
 
@@ -100,7 +111,7 @@ class _Node:
         self.name, self.props = name, [_typed(p) for p in props]
         self.children: list[_Node] = []
 
-    def add(self, name: str, *props) -> "_Node":
+    def add(self, name: str, *props) -> _Node:
         """Append a child record and return it."""
         child = _Node(name, *props)
         self.children.append(child)
@@ -132,7 +143,12 @@ def _typed(value) -> tuple[str, object]:
     if isinstance(value, bytes):
         return "S", value
     if isinstance(value, np.ndarray):
-        codes = {np.dtype(np.int32): "i", np.dtype(np.int64): "l", np.dtype(np.float32): "f", np.dtype(np.float64): "d"}
+        codes = {
+            np.dtype(np.int32): "i",
+            np.dtype(np.int64): "l",
+            np.dtype(np.float32): "f",
+            np.dtype(np.float64): "d",
+        }
         return codes[value.dtype], np.ascontiguousarray(value.ravel())
     raise TypeError(f"no FBX property type for {type(value).__name__}")
 
@@ -174,7 +190,7 @@ def _encode(node: _Node, offset: int, is_last: bool, out: list[bytes]) -> int:
     if node.children or node.name in _ALWAYS_CLOSED or (not node.props and not is_last):
         out.append(_NULL_RECORD)
         end += len(_NULL_RECORD)
-    if end >= 2 ** 32:
+    if end >= 2**32:
         raise FBXError("the FBX file would exceed 4 GiB, the limit of FBX 7.4 record offsets")
     out[at] = struct.pack("<3IB", end, len(node.props), len(props), len(name)) + name
     return end
@@ -188,7 +204,9 @@ def _file_bytes(top: list[_Node]) -> bytes:
         offset = _encode(node, offset, i == len(top) - 1, out)
     out += [_NULL_RECORD, _FOOTER_ID]
     offset += len(_NULL_RECORD) + len(_FOOTER_ID)
-    out.append(b"\x00" * (-offset % 16))  # 0-15 bytes: what follows is 16-byte aligned, as in SDK files
+    out.append(
+        b"\x00" * (-offset % 16)
+    )  # 0-15 bytes: what follows is 16-byte aligned, as in SDK files
     out += [b"\x00" * 4, struct.pack("<I", FBX_VERSION), b"\x00" * 120, _FOOTER_END]
     return b"".join(out)
 
@@ -225,7 +243,9 @@ def _continuous_euler_xyz(rotations: np.ndarray) -> np.ndarray:
     shifts, the one closest to the previous frame."""
     zyx = quat_to_euler(torch.from_numpy(rotations), "ZYX", degrees=True).numpy()
     angles = zyx[..., ::-1].copy()  # (x, y, z)
-    other = np.stack([angles[..., 0] + 180.0, 180.0 - angles[..., 1], angles[..., 2] + 180.0], axis=-1)
+    other = np.stack(
+        [angles[..., 0] + 180.0, 180.0 - angles[..., 1], angles[..., 2] + 180.0], axis=-1
+    )
     for t in range(1, len(angles)):
         prev = angles[t - 1]
         candidates = np.stack([angles[t], other[t]])  # (2, J, 3)
@@ -257,8 +277,12 @@ class _Scene:
             self.connections.add("C", "OP", child, parent, prop)
 
 
-def save_fbx(rig: Rig, path: str | os.PathLike, motion: Motion | None = None,
-             unit_scale_factor: float = 100.0) -> None:
+def save_fbx(
+    rig: Rig,
+    path: str | os.PathLike,
+    motion: Motion | None = None,
+    unit_scale_factor: float = 100.0,
+) -> None:
     """Write ``rig`` (mesh, skin, all its joints) and optionally ``motion`` as a binary ``.fbx``
     (atomically; see the module docstring for what the file holds).
 
@@ -281,15 +305,26 @@ def save_fbx(rig: Rig, path: str | os.PathLike, motion: Motion | None = None,
     if motion is not None and motion.skeleton.joint_names != sk.joint_names:
         raise FBXError(f"{path}: the motion's joints are not the rig {rig.name!r}'s joints")
     if not (np.isfinite(unit_scale_factor) and unit_scale_factor > 0):
-        raise FBXError(f"{path}: unit_scale_factor {unit_scale_factor} must be a positive number of centimetres")
+        raise FBXError(
+            f"{path}: unit_scale_factor {unit_scale_factor} must be a positive number of centimetres"
+        )
     for name in sk.joint_names:
         if name_problem(name):
             raise FBXError(f"{path}: cannot write the joint name {name!r}: it {name_problem(name)}")
     to_file = 100.0 / float(unit_scale_factor)  # file units per metre
     if to_file != 1.0:
-        rig = Rig(rig.name, sk.scaled(to_file), rig.rest_vertices * to_file, rig.faces, rig.weights, rig.joint_map)
+        rig = Rig(
+            rig.name,
+            sk.scaled(to_file),
+            rig.rest_vertices * to_file,
+            rig.faces,
+            rig.weights,
+            rig.joint_map,
+        )
         if motion is not None:
-            motion = motion.copy(skeleton=rig.skeleton, root_positions=motion.root_positions * to_file)
+            motion = motion.copy(
+                skeleton=rig.skeleton, root_positions=motion.root_positions * to_file
+            )
     fps = float(motion.fps) if motion is not None else 30.0
     scene = _Scene()
     joint_ids = _add_skeleton(scene, rig)
@@ -298,11 +333,19 @@ def save_fbx(rig: Rig, path: str | os.PathLike, motion: Motion | None = None,
         _add_animation(scene, motion, joint_ids)
     frames = motion.num_frames if motion is not None else 1
     stop = round((frames - 1) * KTIME_PER_SECOND / fps)
-    top = [_header(), _Node("FileId", _Typed("R", _FILE_ID)), _Node("CreationTime", _CREATION_TIME),
-           _Node("Creator", "retarget-notebooks"), _global_settings(fps, stop, float(unit_scale_factor)),
-           _documents(_take_name(motion) if motion is not None else ""),
-           _Node("References"), _definitions(scene.counts), scene.objects, scene.connections,
-           _takes(motion, stop)]
+    top = [
+        _header(),
+        _Node("FileId", _Typed("R", _FILE_ID)),
+        _Node("CreationTime", _CREATION_TIME),
+        _Node("Creator", "retarget-notebooks"),
+        _global_settings(fps, stop, float(unit_scale_factor)),
+        _documents(_take_name(motion) if motion is not None else ""),
+        _Node("References"),
+        _definitions(scene.counts),
+        scene.objects,
+        scene.connections,
+        _takes(motion, stop),
+    ]
     data = _file_bytes(top)
     with atomic_write(path) as f:
         f.write(data)
@@ -311,7 +354,9 @@ def save_fbx(rig: Rig, path: str | os.PathLike, motion: Motion | None = None,
 def _add_skeleton(scene: _Scene, rig: Rig) -> list[int]:
     """One LimbNode model (and node attribute) per joint, parented as the skeleton; their ids."""
     sk = rig.skeleton
-    size = max(float(np.linalg.norm(sk.offsets[1:], axis=1).mean()) if sk.num_joints > 1 else 0.1, 1e-3)
+    size = max(
+        float(np.linalg.norm(sk.offsets[1:], axis=1).mean()) if sk.num_joints > 1 else 0.1, 1e-3
+    )
     ids: list[int] = []
     for j, name in enumerate(sk.joint_names):
         attr_id, attr = scene.new("NodeAttribute", name, "NodeAttribute", "LimbNode")
@@ -319,12 +364,15 @@ def _add_skeleton(scene: _Scene, rig: Rig) -> list[int]:
         attr.add("TypeFlags", "Skeleton")
         model_id, model = scene.new("Model", name, "Model", "LimbNode")
         model.add("Version", _i32(232))
-        model.children.append(_properties(
-            _vec3("Lcl Translation", "Lcl Translation", sk.offsets[j]),
-            _vec3("Lcl Rotation", "Lcl Rotation", (0.0, 0.0, 0.0)),
-            _vec3("Lcl Scaling", "Lcl Scaling", (1.0, 1.0, 1.0)),
-            ("InheritType", "enum", "", "", _i32(1)),
-            ("DefaultAttributeIndex", "int", "Integer", "", _i32(0))))
+        model.children.append(
+            _properties(
+                _vec3("Lcl Translation", "Lcl Translation", sk.offsets[j]),
+                _vec3("Lcl Rotation", "Lcl Rotation", (0.0, 0.0, 0.0)),
+                _vec3("Lcl Scaling", "Lcl Scaling", (1.0, 1.0, 1.0)),
+                ("InheritType", "enum", "", "", _i32(1)),
+                ("DefaultAttributeIndex", "int", "Integer", "", _i32(0)),
+            )
+        )
         model.add("Shading", True)
         model.add("Culling", "CullingOff")
         scene.link(attr_id, model_id)
@@ -356,8 +404,12 @@ def _add_mesh(scene: _Scene, rig: Rig, joint_ids: list[int]) -> None:
     element.add("TypedIndex", _i32(0))
     mesh_id, mesh = scene.new("Model", rig.name, "Model", "Mesh")
     mesh.add("Version", _i32(232))
-    mesh.children.append(_properties(("InheritType", "enum", "", "", _i32(1)),
-                                     ("DefaultAttributeIndex", "int", "Integer", "", _i32(0))))
+    mesh.children.append(
+        _properties(
+            ("InheritType", "enum", "", "", _i32(1)),
+            ("DefaultAttributeIndex", "int", "Integer", "", _i32(0)),
+        )
+    )
     mesh.add("Shading", True)
     mesh.add("Culling", "CullingOff")
     scene.link(mesh_id, 0)
@@ -398,11 +450,23 @@ def _take_name(motion: Motion) -> str:
 
 def _add_animation(scene: _Scene, motion: Motion, joint_ids: list[int]) -> None:
     """One stack and layer; a rotation curve node per joint and the root's translation."""
-    times = np.round(np.arange(motion.num_frames) * (KTIME_PER_SECOND / motion.fps)).astype(np.int64)
+    times = np.round(np.arange(motion.num_frames) * (KTIME_PER_SECOND / motion.fps)).astype(
+        np.int64
+    )
     stack_id, stack = scene.new("AnimationStack", _take_name(motion), "AnimStack", "")
-    stack.children.append(_properties(*[(name, "KTime", "Time", "", int(t)) for name, t in
-                                        (("LocalStart", 0), ("LocalStop", times[-1]),
-                                         ("ReferenceStart", 0), ("ReferenceStop", times[-1]))]))
+    stack.children.append(
+        _properties(
+            *[
+                (name, "KTime", "Time", "", int(t))
+                for name, t in (
+                    ("LocalStart", 0),
+                    ("LocalStop", times[-1]),
+                    ("ReferenceStart", 0),
+                    ("ReferenceStop", times[-1]),
+                )
+            ]
+        )
+    )
     layer_id, _ = scene.new("AnimationLayer", "BaseLayer", "AnimLayer", "")
     scene.link(layer_id, stack_id)
     q = motion.rotations / np.linalg.norm(motion.rotations, axis=-1, keepdims=True)
@@ -411,8 +475,14 @@ def _add_animation(scene: _Scene, motion: Motion, joint_ids: list[int]) -> None:
     channels.insert(0, (0, "T", "Lcl Translation", motion.root_positions))
     for j, short, prop, values in channels:
         node_id, node = scene.new("AnimationCurveNode", short, "AnimCurveNode", "")
-        node.children.append(_properties(*[(f"d|{axis}", "Number", "", "A", float(values[0, k]))
-                                           for k, axis in enumerate("XYZ")]))
+        node.children.append(
+            _properties(
+                *[
+                    (f"d|{axis}", "Number", "", "A", float(values[0, k]))
+                    for k, axis in enumerate("XYZ")
+                ]
+            )
+        )
         scene.link(node_id, layer_id)
         scene.link(node_id, joint_ids[j], prop)
         for k, axis in enumerate("XYZ"):
@@ -433,8 +503,16 @@ def _header() -> _Node:
     header.add("FBXVersion", _i32(FBX_VERSION))
     header.add("EncryptionType", _i32(0))
     stamp = header.add("CreationTimeStamp")
-    for key, value in (("Version", 1000), ("Year", 1970), ("Month", 1), ("Day", 1), ("Hour", 10), ("Minute", 0),
-                       ("Second", 0), ("Millisecond", 0)):
+    for key, value in (
+        ("Version", 1000),
+        ("Year", 1970),
+        ("Month", 1),
+        ("Day", 1),
+        ("Hour", 10),
+        ("Minute", 0),
+        ("Second", 0),
+        ("Millisecond", 0),
+    ):
         stamp.add(key, _i32(value))
     header.add("Creator", "retarget-notebooks")
     return header
@@ -443,17 +521,30 @@ def _header() -> _Node:
 def _global_settings(fps: float, stop: int, unit_scale_factor: float) -> _Node:
     settings = _Node("GlobalSettings")
     settings.add("Version", _i32(1000))
-    axes = [(name, "int", "Integer", "", _i32(v)) for name, v in
-            (("UpAxis", 1), ("UpAxisSign", 1), ("FrontAxis", 2), ("FrontAxisSign", 1), ("CoordAxis", 0),
-             ("CoordAxisSign", 1), ("OriginalUpAxis", 1), ("OriginalUpAxisSign", 1))]
-    settings.children.append(_properties(
-        *axes,
-        ("UnitScaleFactor", "double", "Number", "", unit_scale_factor),
-        ("OriginalUnitScaleFactor", "double", "Number", "", unit_scale_factor),
-        ("TimeMode", "enum", "", "", _i32(fbx_time_mode(fps))),
-        ("TimeSpanStart", "KTime", "Time", "", 0),
-        ("TimeSpanStop", "KTime", "Time", "", int(stop)),
-        ("CustomFrameRate", "double", "Number", "", float(fps))))
+    axes = [
+        (name, "int", "Integer", "", _i32(v))
+        for name, v in (
+            ("UpAxis", 1),
+            ("UpAxisSign", 1),
+            ("FrontAxis", 2),
+            ("FrontAxisSign", 1),
+            ("CoordAxis", 0),
+            ("CoordAxisSign", 1),
+            ("OriginalUpAxis", 1),
+            ("OriginalUpAxisSign", 1),
+        )
+    ]
+    settings.children.append(
+        _properties(
+            *axes,
+            ("UnitScaleFactor", "double", "Number", "", unit_scale_factor),
+            ("OriginalUnitScaleFactor", "double", "Number", "", unit_scale_factor),
+            ("TimeMode", "enum", "", "", _i32(fbx_time_mode(fps))),
+            ("TimeSpanStart", "KTime", "Time", "", 0),
+            ("TimeSpanStop", "KTime", "Time", "", int(stop)),
+            ("CustomFrameRate", "double", "Number", "", float(fps)),
+        )
+    )
     return settings
 
 
@@ -461,8 +552,12 @@ def _documents(active_stack: str) -> _Node:
     docs = _Node("Documents")
     docs.add("Count", _i32(1))
     doc = docs.add("Document", 999_999, "Scene", "Scene")
-    doc.children.append(_properties(("SourceObject", "object", "", ""),
-                                    ("ActiveAnimStackName", "KString", "", "", active_stack)))
+    doc.children.append(
+        _properties(
+            ("SourceObject", "object", "", ""),
+            ("ActiveAnimStackName", "KString", "", "", active_stack),
+        )
+    )
     doc.add("RootNode", 0)
     return docs
 

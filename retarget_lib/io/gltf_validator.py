@@ -39,8 +39,10 @@ def validator_missing() -> str | None:
     if shutil.which("node") is None:
         return "node is not installed (the Khronos glTF validator runs on Node.js)"
     if not (validator_path() / "package.json").is_file():
-        return (f"gltf-validator is not installed at {validator_path()}; run "
-                f"`npm install --prefix {Path(sys.prefix) / 'node'} gltf-validator@{GLTF_VALIDATOR_VERSION}`")
+        return (
+            f"gltf-validator is not installed at {validator_path()}; run "
+            f"`npm install --prefix {Path(sys.prefix) / 'node'} gltf-validator@{GLTF_VALIDATOR_VERSION}`"
+        )
     return None
 
 
@@ -57,8 +59,13 @@ def validate_gltf(path: str | os.PathLike, timeout: float = 120.0) -> dict:
     reason = validator_missing()
     if reason:
         raise RuntimeError(reason)
-    done = subprocess.run(["node", "-e", _SCRIPT, str(validator_path()), str(path)], capture_output=True, text=True,
-                          timeout=timeout, check=False)
+    done = subprocess.run(
+        ["node", "-e", _SCRIPT, str(validator_path()), str(path)],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        check=False,
+    )
     if done.returncode != 0:
         raise RuntimeError(f"gltf-validator failed on {path}: {done.stderr.strip()}")
     return json.loads(done.stdout)

@@ -36,22 +36,32 @@ class _Builder:
     """Accumulates accessors and buffer views in one binary chunk (4-byte aligned)."""
 
     def __init__(self) -> None:
-        self.gltf = pygltflib.GLTF2(asset=pygltflib.Asset(version="2.0", generator="retarget-notebooks"))
+        self.gltf = pygltflib.GLTF2(
+            asset=pygltflib.Asset(version="2.0", generator="retarget-notebooks")
+        )
         self.blob = bytearray()
 
-    def add(self, array: np.ndarray, component: int, target: int | None = None, bounds: bool = False) -> int:
+    def add(
+        self, array: np.ndarray, component: int, target: int | None = None, bounds: bool = False
+    ) -> int:
         """Append ``array`` ``(count, width)`` as one accessor; return its index."""
         array = np.ascontiguousarray(array)
         count, width = array.shape[0], int(np.prod(array.shape[1:], dtype=int))
         self.blob.extend(b"\0" * (-len(self.blob) % 4))
-        view = pygltflib.BufferView(buffer=0, byteOffset=len(self.blob), byteLength=array.nbytes, target=target)
+        view = pygltflib.BufferView(
+            buffer=0, byteOffset=len(self.blob), byteLength=array.nbytes, target=target
+        )
         self.blob.extend(array.astype(array.dtype.newbyteorder("<")).tobytes())
         self.gltf.bufferViews.append(view)
         flat = array.reshape(count, width)
-        acc = pygltflib.Accessor(bufferView=len(self.gltf.bufferViews) - 1, componentType=component,
-                                 count=count, type=_TYPES[width],
-                                 min=flat.min(0).tolist() if bounds else None,
-                                 max=flat.max(0).tolist() if bounds else None)
+        acc = pygltflib.Accessor(
+            bufferView=len(self.gltf.bufferViews) - 1,
+            componentType=component,
+            count=count,
+            type=_TYPES[width],
+            min=flat.min(0).tolist() if bounds else None,
+            max=flat.max(0).tolist() if bounds else None,
+        )
         self.gltf.accessors.append(acc)
         return len(self.gltf.accessors) - 1
 
@@ -72,10 +82,12 @@ def _weight_sets(weights: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
     w = np.take_along_axis(weights, idx, 1).astype(np.float32)
     w /= w.sum(axis=1, keepdims=True, dtype=np.float32)
     idx = np.where(w > 0, idx, 0).astype(np.uint16)
-    return [(idx[:, k:k + 4], w[:, k:k + 4]) for k in range(0, width, 4)]
+    return [(idx[:, k : k + 4], w[:, k : k + 4]) for k in range(0, width, 4)]
 
 
-def save_glb(rig: Rig, path: str | os.PathLike, motion: Motion | None = None, skin: bool = True) -> None:
+def save_glb(
+    rig: Rig, path: str | os.PathLike, motion: Motion | None = None, skin: bool = True
+) -> None:
     """Write ``rig`` (mesh, skin, all its joints) and optionally ``motion`` as a ``.glb`` (atomically).
 
     Args:
@@ -91,18 +103,29 @@ def save_glb(rig: Rig, path: str | os.PathLike, motion: Motion | None = None, sk
             ``skin=False`` without a motion.
     """
     if not skin and motion is None:
-        raise RetargetInputError(f"{path}: a file without a skin needs a motion (it would hold only joints)")
+        raise RetargetInputError(
+            f"{path}: a file without a skin needs a motion (it would hold only joints)"
+        )
     sk = rig.skeleton
     if motion is not None and motion.skeleton.joint_names != sk.joint_names:
-        raise RetargetInputError(f"{path}: the motion's joints are not the rig {rig.name!r}'s joints")
+        raise RetargetInputError(
+            f"{path}: the motion's joints are not the rig {rig.name!r}'s joints"
+        )
     if sk.num_joints > 65536:
-        raise RetargetInputError(f"{path}: {sk.num_joints} joints do not fit glTF's 16-bit joint indices")
+        raise RetargetInputError(
+            f"{path}: {sk.num_joints} joints do not fit glTF's 16-bit joint indices"
+        )
     b = _Builder()
     g = b.gltf
     rest = sk.rest_positions()
     for j, name in enumerate(sk.joint_names):
-        g.nodes.append(pygltflib.Node(name=name, translation=sk.offsets[j].astype(np.float32).tolist(),
-                                      children=sk.children(j) or None))
+        g.nodes.append(
+            pygltflib.Node(
+                name=name,
+                translation=sk.offsets[j].astype(np.float32).tolist(),
+                children=sk.children(j) or None,
+            )
+        )
     if not skin:
         assert motion is not None  # refused above
         g.scenes.append(pygltflib.Scene(nodes=[0]))
@@ -111,16 +134,27 @@ def save_glb(rig: Rig, path: str | os.PathLike, motion: Motion | None = None, sk
         with atomic_write(path) as f:
             f.write(b.to_bytes())
         return
-    attributes = pygltflib.Attributes(POSITION=b.add(rig.rest_vertices.astype(np.float32), _FLOAT, _ARRAY_BUFFER, True))
+    attributes = pygltflib.Attributes(
+        POSITION=b.add(rig.rest_vertices.astype(np.float32), _FLOAT, _ARRAY_BUFFER, True)
+    )
     for k, (joints, weights) in enumerate(_weight_sets(rig.weights)):
         setattr(attributes, f"JOINTS_{k}", b.add(joints, _USHORT, _ARRAY_BUFFER))
         setattr(attributes, f"WEIGHTS_{k}", b.add(weights, _FLOAT, _ARRAY_BUFFER))
     faces = b.add(rig.faces.astype(np.uint32).reshape(-1, 1), _UINT, _ELEMENT_ARRAY_BUFFER)
-    g.meshes.append(pygltflib.Mesh(name=rig.name, primitives=[pygltflib.Primitive(attributes=attributes, indices=faces)]))
+    g.meshes.append(
+        pygltflib.Mesh(
+            name=rig.name, primitives=[pygltflib.Primitive(attributes=attributes, indices=faces)]
+        )
+    )
     ibm = np.tile(np.eye(4, dtype=np.float32), (sk.num_joints, 1, 1))
     ibm[:, :3, 3] = -rest
-    g.skins.append(pygltflib.Skin(joints=list(range(sk.num_joints)), skeleton=0,
-                                  inverseBindMatrices=b.add(ibm.transpose(0, 2, 1).copy(), _FLOAT)))
+    g.skins.append(
+        pygltflib.Skin(
+            joints=list(range(sk.num_joints)),
+            skeleton=0,
+            inverseBindMatrices=b.add(ibm.transpose(0, 2, 1).copy(), _FLOAT),
+        )
+    )
     g.nodes.append(pygltflib.Node(name=rig.name, mesh=0, skin=0))
     g.scenes.append(pygltflib.Scene(nodes=[0, sk.num_joints]))
     g.scene = 0
@@ -132,16 +166,43 @@ def save_glb(rig: Rig, path: str | os.PathLike, motion: Motion | None = None, sk
 
 def _add_animation(b: _Builder, motion: Motion) -> None:
     """One animation: every joint's local rotation and the root's translation, keyed per frame."""
-    times = b.add((np.arange(motion.num_frames) / motion.fps).astype(np.float32).reshape(-1, 1), _FLOAT, bounds=True)
+    times = b.add(
+        (np.arange(motion.num_frames) / motion.fps).astype(np.float32).reshape(-1, 1),
+        _FLOAT,
+        bounds=True,
+    )
     q = motion.rotations / np.linalg.norm(motion.rotations, axis=-1, keepdims=True)
     q = q[..., [1, 2, 3, 0]].astype(np.float32)
     q /= np.linalg.norm(q, axis=-1, keepdims=True)
-    samplers = [pygltflib.AnimationSampler(input=times, output=b.add(motion.root_positions.astype(np.float32), _FLOAT),
-                                           interpolation="LINEAR")]
-    channels = [pygltflib.AnimationChannel(sampler=0, target=pygltflib.AnimationChannelTarget(node=0, path="translation"))]
+    samplers = [
+        pygltflib.AnimationSampler(
+            input=times,
+            output=b.add(motion.root_positions.astype(np.float32), _FLOAT),
+            interpolation="LINEAR",
+        )
+    ]
+    channels = [
+        pygltflib.AnimationChannel(
+            sampler=0, target=pygltflib.AnimationChannelTarget(node=0, path="translation")
+        )
+    ]
     for j in range(motion.skeleton.num_joints):
-        samplers.append(pygltflib.AnimationSampler(input=times, output=b.add(q[:, j], _FLOAT), interpolation="LINEAR"))
-        channels.append(pygltflib.AnimationChannel(sampler=len(samplers) - 1,
-                                                   target=pygltflib.AnimationChannelTarget(node=j, path="rotation")))
-    b.gltf.animations.append(pygltflib.Animation(name=motion.name or "motion", samplers=samplers, channels=channels,
-                                                 extras={"fps": motion.fps}))
+        samplers.append(
+            pygltflib.AnimationSampler(
+                input=times, output=b.add(q[:, j], _FLOAT), interpolation="LINEAR"
+            )
+        )
+        channels.append(
+            pygltflib.AnimationChannel(
+                sampler=len(samplers) - 1,
+                target=pygltflib.AnimationChannelTarget(node=j, path="rotation"),
+            )
+        )
+    b.gltf.animations.append(
+        pygltflib.Animation(
+            name=motion.name or "motion",
+            samplers=samplers,
+            channels=channels,
+            extras={"fps": motion.fps},
+        )
+    )

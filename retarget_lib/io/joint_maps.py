@@ -23,8 +23,13 @@ from .rig_maps import JointMapLike, map_joints, read_mapping
 __all__ = ["present_map", "to_canonical22"]
 
 
-def present_map(skeleton: Skeleton, mapping: JointMapLike = None, what: str = "the rig",
-                mapping_source: str = "the joint map", convention: str | None = None) -> tuple[dict[int, int], str]:
+def present_map(
+    skeleton: Skeleton,
+    mapping: JointMapLike = None,
+    what: str = "the rig",
+    mapping_source: str = "the joint map",
+    convention: str | None = None,
+) -> tuple[dict[int, int], str]:
     """The canonical joints a file's skeleton has.
 
     Args:
@@ -42,12 +47,23 @@ def present_map(skeleton: Skeleton, mapping: JointMapLike = None, what: str = "t
         JointSetError: :func:`~retarget_lib.io.rig_maps.map_joints`' errors, naming ``what``.
     """
     entries, source = read_mapping(mapping, mapping_source)
-    return map_joints(skeleton.joint_names, skeleton.parents, entries, what=what, mapping_source=source,
-                      may_be_absent=MAY_BE_ABSENT, convention=convention)
+    return map_joints(
+        skeleton.joint_names,
+        skeleton.parents,
+        entries,
+        what=what,
+        mapping_source=source,
+        may_be_absent=MAY_BE_ABSENT,
+        convention=convention,
+    )
 
 
-def to_canonical22(motion: Motion, convention: str | None = None, mapping: JointMapLike = None,
-                   what: str | None = None) -> Motion:
+def to_canonical22(
+    motion: Motion,
+    convention: str | None = None,
+    mapping: JointMapLike = None,
+    what: str | None = None,
+) -> Motion:
     """Fold a motion on any named joint set onto the canonical 22 joints (a motion already on them
     is copied).
 
@@ -66,6 +82,10 @@ def to_canonical22(motion: Motion, convention: str | None = None, mapping: Joint
     """
     if mapping is None and motion.skeleton.is_canonical22():
         return motion.copy()
-    found, rig = present_map(motion.skeleton, mapping, what or str(motion.meta.get("source", motion.name)),
-                             convention=convention)
+    found, rig = present_map(
+        motion.skeleton,
+        mapping,
+        what or str(motion.meta.get("source", motion.name)),
+        convention=convention,
+    )
     return fold_to_canonical22(motion, found, label=rig)

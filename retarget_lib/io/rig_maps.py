@@ -39,14 +39,21 @@ file and every joint it could not map. Joints left unmapped (fingers, twist bone
 from __future__ import annotations
 
 import os
-from typing import Mapping, Sequence
+from collections.abc import Mapping, Sequence
 
 from ..core.skeleton import CANONICAL22, CANONICAL22_PARENTS, J, JointSetError
 from ..errors import short_repr
 from ..files import read_yaml
 
-__all__ = ["RIG_MAPS", "JointMapLike", "strip_prefix", "joint_key", "map_joints", "load_mapping_file",
-           "read_mapping"]
+__all__ = [
+    "RIG_MAPS",
+    "JointMapLike",
+    "strip_prefix",
+    "joint_key",
+    "map_joints",
+    "load_mapping_file",
+    "read_mapping",
+]
 
 #: what a reader takes as a joint map: a mapping file's path, ``{canonical name: file joint name or
 #: None}``, or None (detection alone)
@@ -64,13 +71,25 @@ def _sided(pattern: dict[str, str]) -> dict[str, str]:
     return out
 
 
-def _table(spine: tuple[str | None, ...], leg: tuple[str, ...], arm: tuple[str, ...]) -> dict[str, str]:
+def _table(
+    spine: tuple[str | None, ...], leg: tuple[str, ...], arm: tuple[str, ...]
+) -> dict[str, str]:
     """``{file name: canonical name}`` from the six spine names (Hips, Spine, Spine1, Spine2, Neck,
     Head; None for one the convention lacks) and the leg (UpLeg, Leg, Foot, ToeBase) and arm
     (Shoulder, Arm, ForeArm, Hand) templates of :func:`_sided`."""
-    limbs = ("{Side}UpLeg", "{Side}Leg", "{Side}Foot", "{Side}ToeBase",
-             "{Side}Shoulder", "{Side}Arm", "{Side}ForeArm", "{Side}Hand")
-    canon_of = {c: n for c, n in zip(CANONICAL22[:6], spine) if n is not None} | _sided(dict(zip(limbs, leg + arm)))
+    limbs = (
+        "{Side}UpLeg",
+        "{Side}Leg",
+        "{Side}Foot",
+        "{Side}ToeBase",
+        "{Side}Shoulder",
+        "{Side}Arm",
+        "{Side}ForeArm",
+        "{Side}Hand",
+    )
+    canon_of = {c: n for c, n in zip(CANONICAL22[:6], spine) if n is not None} | _sided(
+        dict(zip(limbs, leg + arm))
+    )
     return {v: k for k, v in canon_of.items()}
 
 
@@ -78,31 +97,53 @@ def _table(spine: tuple[str | None, ...], leg: tuple[str, ...], arm: tuple[str, 
 #: no name stands for is one the convention lacks (inserted where the reader may: Biovision's Spine2)
 RIG_MAPS: dict[str, dict[str, str]] = {
     "mixamo": {n: n for n in CANONICAL22},
-    "cmu": _table(("Hips", "LowerBack", "Spine", "Spine1", "Neck", "Head"),
-                  ("{Side}UpLeg", "{Side}Leg", "{Side}Foot", "{Side}ToeBase"),
-                  ("{Side}Shoulder", "{Side}Arm", "{Side}ForeArm", "{Side}Hand")),
-    "biovision": _table(("Hips", "Ab", "Chest", None, "Neck", "Head"),
-                        ("{Side}Hip", "{Side}Knee", "{Side}Ankle", "{Side}Toes"),
-                        ("{Side}Collar", "{Side}Shoulder", "{Side}Elbow", "{Side}Wrist")),
-    "smplx": _table(("pelvis", "spine1", "spine2", "spine3", "neck", "head"),
-                    ("{side}_hip", "{side}_knee", "{side}_ankle", "{side}_foot"),
-                    ("{side}_collar", "{side}_shoulder", "{side}_elbow", "{side}_wrist")),
-    "smpl": _table(("Pelvis", "Spine1", "Spine2", "Spine3", "Neck", "Head"),
-                   ("{S}_Hip", "{S}_Knee", "{S}_Ankle", "{S}_Foot"),
-                   ("{S}_Collar", "{S}_Shoulder", "{S}_Elbow", "{S}_Wrist")),
-    "vrm": _table(("hips", "spine", "chest", "upperChest", "neck", "head"),
-                  ("{side}UpperLeg", "{side}LowerLeg", "{side}Foot", "{side}Toes"),
-                  ("{side}Shoulder", "{side}UpperArm", "{side}LowerArm", "{side}Hand")),
-    "vroid": _table(("J_Bip_C_Hips", "J_Bip_C_Spine", "J_Bip_C_Chest", "J_Bip_C_UpperChest", "J_Bip_C_Neck",
-                     "J_Bip_C_Head"),
-                    ("J_Bip_{S}_UpperLeg", "J_Bip_{S}_LowerLeg", "J_Bip_{S}_Foot", "J_Bip_{S}_ToeBase"),
-                    ("J_Bip_{S}_Shoulder", "J_Bip_{S}_UpperArm", "J_Bip_{S}_LowerArm", "J_Bip_{S}_Hand")),
-    "unreal": _table(("pelvis", "spine_01", "spine_02", "spine_03", "neck_01", "head"),
-                     ("thigh_{s}", "calf_{s}", "foot_{s}", "ball_{s}"),
-                     ("clavicle_{s}", "upperarm_{s}", "lowerarm_{s}", "hand_{s}")),
-    "rigify": _table(("spine", "spine.001", "spine.002", "spine.003", "spine.004", "spine.006"),
-                     ("thigh.{S}", "shin.{S}", "foot.{S}", "toe.{S}"),
-                     ("shoulder.{S}", "upper_arm.{S}", "forearm.{S}", "hand.{S}")),
+    "cmu": _table(
+        ("Hips", "LowerBack", "Spine", "Spine1", "Neck", "Head"),
+        ("{Side}UpLeg", "{Side}Leg", "{Side}Foot", "{Side}ToeBase"),
+        ("{Side}Shoulder", "{Side}Arm", "{Side}ForeArm", "{Side}Hand"),
+    ),
+    "biovision": _table(
+        ("Hips", "Ab", "Chest", None, "Neck", "Head"),
+        ("{Side}Hip", "{Side}Knee", "{Side}Ankle", "{Side}Toes"),
+        ("{Side}Collar", "{Side}Shoulder", "{Side}Elbow", "{Side}Wrist"),
+    ),
+    "smplx": _table(
+        ("pelvis", "spine1", "spine2", "spine3", "neck", "head"),
+        ("{side}_hip", "{side}_knee", "{side}_ankle", "{side}_foot"),
+        ("{side}_collar", "{side}_shoulder", "{side}_elbow", "{side}_wrist"),
+    ),
+    "smpl": _table(
+        ("Pelvis", "Spine1", "Spine2", "Spine3", "Neck", "Head"),
+        ("{S}_Hip", "{S}_Knee", "{S}_Ankle", "{S}_Foot"),
+        ("{S}_Collar", "{S}_Shoulder", "{S}_Elbow", "{S}_Wrist"),
+    ),
+    "vrm": _table(
+        ("hips", "spine", "chest", "upperChest", "neck", "head"),
+        ("{side}UpperLeg", "{side}LowerLeg", "{side}Foot", "{side}Toes"),
+        ("{side}Shoulder", "{side}UpperArm", "{side}LowerArm", "{side}Hand"),
+    ),
+    "vroid": _table(
+        (
+            "J_Bip_C_Hips",
+            "J_Bip_C_Spine",
+            "J_Bip_C_Chest",
+            "J_Bip_C_UpperChest",
+            "J_Bip_C_Neck",
+            "J_Bip_C_Head",
+        ),
+        ("J_Bip_{S}_UpperLeg", "J_Bip_{S}_LowerLeg", "J_Bip_{S}_Foot", "J_Bip_{S}_ToeBase"),
+        ("J_Bip_{S}_Shoulder", "J_Bip_{S}_UpperArm", "J_Bip_{S}_LowerArm", "J_Bip_{S}_Hand"),
+    ),
+    "unreal": _table(
+        ("pelvis", "spine_01", "spine_02", "spine_03", "neck_01", "head"),
+        ("thigh_{s}", "calf_{s}", "foot_{s}", "ball_{s}"),
+        ("clavicle_{s}", "upperarm_{s}", "lowerarm_{s}", "hand_{s}"),
+    ),
+    "rigify": _table(
+        ("spine", "spine.001", "spine.002", "spine.003", "spine.004", "spine.006"),
+        ("thigh.{S}", "shin.{S}", "foot.{S}", "toe.{S}"),
+        ("shoulder.{S}", "upper_arm.{S}", "forearm.{S}", "hand.{S}"),
+    ),
 }
 
 
@@ -144,18 +185,25 @@ def _detect(names: Sequence[str], convention: str | None, what: str) -> tuple[st
     first in the table's order on a tie), or ``convention``, and its ``{file index: canonical index}``."""
     if convention is not None:
         if convention not in RIG_MAPS:
-            raise JointSetError(f"{what}: unknown joint-name convention {short_repr(convention)}; known: "
-                                f"{', '.join(RIG_MAPS)}")
+            raise JointSetError(
+                f"{what}: unknown joint-name convention {short_repr(convention)}; known: "
+                f"{', '.join(RIG_MAPS)}"
+            )
         return convention, _match(names, RIG_MAPS[convention])
     matches = {rig: _match(names, table) for rig, table in RIG_MAPS.items()}
     rig = max(matches, key=lambda r: len(matches[r]))
     return rig, matches[rig]
 
 
-def map_joints(names: Sequence[str], parents: Sequence[int] | None,
-               mapping: Mapping[str, str | None] | None = None, what: str = "the rig",
-               mapping_source: str = "the mapping", may_be_absent: Sequence[str] = (),
-               convention: str | None = None) -> tuple[dict[int, int], str]:
+def map_joints(
+    names: Sequence[str],
+    parents: Sequence[int] | None,
+    mapping: Mapping[str, str | None] | None = None,
+    what: str = "the rig",
+    mapping_source: str = "the mapping",
+    may_be_absent: Sequence[str] = (),
+    convention: str | None = None,
+) -> tuple[dict[int, int], str]:
     """Map a rig's joints onto the canonical 22: the one detector.
 
     Args:
@@ -189,25 +237,37 @@ def map_joints(names: Sequence[str], parents: Sequence[int] | None,
     rig, found = _detect(names, convention, what)
     lacks = {J[c] for c in CANONICAL22 if c not in RIG_MAPS[rig].values()}
     absent = {c for c in lacks if CANONICAL22[c] in may_be_absent}
-    taken: dict[int, tuple[str, str]] = {}  # canonical joint -> (file joint, the canonical joint given it)
+    taken: dict[
+        int, tuple[str, str]
+    ] = {}  # canonical joint -> (file joint, the canonical joint given it)
     if mapping:
         keys = [joint_key(n) for n in names]
         for canon, file_name in mapping.items():
             if canon not in J:
-                raise JointSetError(f"{what}: {mapping_source} names {short_repr(canon)}, not a canonical joint "
-                                    f"({', '.join(CANONICAL22)})")
+                raise JointSetError(
+                    f"{what}: {mapping_source} names {short_repr(canon)}, not a canonical joint "
+                    f"({', '.join(CANONICAL22)})"
+                )
             found = {i: c for i, c in found.items() if c != J[canon]}
             taken.pop(J[canon], None)
             if file_name is None:
                 if canon not in may_be_absent:
-                    can = f"only {', '.join(may_be_absent)} may be" if may_be_absent else "no joint may be"
-                    raise JointSetError(f"{what}: {mapping_source} marks {canon} absent (null); {can} absent"
-                                        + ("" if may_be_absent else " in this format"))
+                    can = (
+                        f"only {', '.join(may_be_absent)} may be"
+                        if may_be_absent
+                        else "no joint may be"
+                    )
+                    raise JointSetError(
+                        f"{what}: {mapping_source} marks {canon} absent (null); {can} absent"
+                        + ("" if may_be_absent else " in this format")
+                    )
                 absent.add(J[canon])
                 continue
             if joint_key(file_name) not in keys:
-                raise JointSetError(f"{what}: {mapping_source} maps {canon} to {short_repr(file_name)}, which is not a "
-                                    "joint of the rig")
+                raise JointSetError(
+                    f"{what}: {mapping_source} maps {canon} to {short_repr(file_name)}, which is not a "
+                    "joint of the rig"
+                )
             i = keys.index(joint_key(file_name))
             if i in found:  # the joint stood for another canonical joint
                 taken[found[i]] = (names[i], canon)
@@ -217,22 +277,36 @@ def map_joints(names: Sequence[str], parents: Sequence[int] | None,
     with_mapping = f", with {mapping_source}" if mapping else ""
     missing = [CANONICAL22[c] for c in range(22) if c not in found.values() and c not in absent]
     if missing:
-        null = f"; 'Name: null' marks one the rig does not have ({', '.join(may_be_absent)})" if may_be_absent else ""
-        dup = "".join(f"; {short_repr(n)} stood for {CANONICAL22[c]} but {mapping_source} maps {canon} to it "
-                      f"(two canonical joints on one bone)" for c, (n, canon) in taken.items()
-                      if CANONICAL22[c] in missing)
+        null = (
+            f"; 'Name: null' marks one the rig does not have ({', '.join(may_be_absent)})"
+            if may_be_absent
+            else ""
+        )
+        dup = "".join(
+            f"; {short_repr(n)} stood for {CANONICAL22[c]} but {mapping_source} maps {canon} to it "
+            f"(two canonical joints on one bone)"
+            for c, (n, canon) in taken.items()
+            if CANONICAL22[c] in missing
+        )
         raise JointSetError(
             f"{what}: cannot map joints {missing} onto the canonical 22 (closest rig naming: {rig}{with_mapping})"
             f"{dup}; "
             f"give a joint map (a YAML file with a line 'CanonicalName: file_joint_name' for each joint listed{null}; "
-            f"--joint-map for a target, --source-joint-map for a source); the rig's joints: {_listed(names)}")
+            f"--joint-map for a target, --source-joint-map for a source); the rig's joints: {_listed(names)}"
+        )
     if parents is not None:
         _check_tree(names, parents, found, absent, what, with_mapping)
     return found, rig
 
 
-def _check_tree(names: Sequence[str], parents: Sequence[int], found: Mapping[int, int], absent: set[int],
-                what: str, with_mapping: str) -> None:
+def _check_tree(
+    names: Sequence[str],
+    parents: Sequence[int],
+    found: Mapping[int, int],
+    absent: set[int],
+    what: str,
+    with_mapping: str,
+) -> None:
     """Raise :class:`JointSetError` unless each mapped joint is below its canonical parent's joint
     (an absent parent's: its nearest present ancestor's)."""
     file_of = {c: i for i, c in found.items()}
@@ -242,9 +316,11 @@ def _check_tree(names: Sequence[str], parents: Sequence[int], found: Mapping[int
         if c in absent or p < 0:
             continue
         if file_of[p] not in _ancestors(file_of[c], parents):
-            raise JointSetError(f"{what}: {short_repr(names[file_of[c]])} (mapped to {CANONICAL22[c]}) is not below "
-                                f"{short_repr(names[file_of[p]])} (mapped to {CANONICAL22[p]}) in the joint tree"
-                                f"{with_mapping}")
+            raise JointSetError(
+                f"{what}: {short_repr(names[file_of[c]])} (mapped to {CANONICAL22[c]}) is not below "
+                f"{short_repr(names[file_of[p]])} (mapped to {CANONICAL22[p]}) in the joint tree"
+                f"{with_mapping}"
+            )
 
 
 def _listed(names: Sequence[str], limit: int = 60) -> str:
@@ -263,23 +339,30 @@ def load_mapping_file(path: str | os.PathLike) -> dict[str, str | None]:
         InputFileError: missing, empty or unreadable.
     """
     data = read_yaml(path, "joint mapping file", JointSetError)
-    if not isinstance(data, dict) or not all(isinstance(k, str) and (v is None or isinstance(v, str))
-                                             for k, v in data.items()):
-        raise JointSetError(f"{path}: a joint mapping file holds lines 'CanonicalName: file_joint_name' (or "
-                            "'CanonicalName: null' for a joint the rig does not have)")
+    if not isinstance(data, dict) or not all(
+        isinstance(k, str) and (v is None or isinstance(v, str)) for k, v in data.items()
+    ):
+        raise JointSetError(
+            f"{path}: a joint mapping file holds lines 'CanonicalName: file_joint_name' (or "
+            "'CanonicalName: null' for a joint the rig does not have)"
+        )
     first: dict[str, str] = {}
     for canon, file_name in data.items():
         if file_name is None:
             continue
         if joint_key(file_name) in first:
-            raise JointSetError(f"{path}: maps both {first[joint_key(file_name)]} and {canon} to "
-                                f"{short_repr(file_name)}; a file joint can stand for one canonical joint")
+            raise JointSetError(
+                f"{path}: maps both {first[joint_key(file_name)]} and {canon} to "
+                f"{short_repr(file_name)}; a file joint can stand for one canonical joint"
+            )
         first[joint_key(file_name)] = canon
     return data
 
 
-def read_mapping(mapping: JointMapLike, default_source: str = "the mapping",
-                 ) -> tuple[dict[str, str | None] | None, str]:
+def read_mapping(
+    mapping: JointMapLike,
+    default_source: str = "the mapping",
+) -> tuple[dict[str, str | None] | None, str]:
     """A joint map's entries and what to call it in messages.
 
     Args:

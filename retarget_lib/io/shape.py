@@ -55,7 +55,9 @@ def _unit_scale(unit: str | float) -> float:
     """Metres per file unit for ``"m"``, ``"cm"``, ``"mm"`` or a positive number."""
     if isinstance(unit, str):
         if unit not in _UNITS:
-            raise ValueError(f"unit must be one of {sorted(_UNITS)} or metres per unit, got {unit!r}")
+            raise ValueError(
+                f"unit must be one of {sorted(_UNITS)} or metres per unit, got {unit!r}"
+            )
         return _UNITS[unit]
     if not unit > 0:
         raise ValueError(f"unit must be positive metres per file unit, got {unit!r}")
@@ -67,8 +69,9 @@ def _infer_scale(height: float) -> float:
     return 0.01 if height > 5.0 else 1.0
 
 
-def load_shape_npz(path: str | os.PathLike, unit: str | float | None = None,
-                   mapping: JointMapLike = None) -> Character:
+def load_shape_npz(
+    path: str | os.PathLike, unit: str | float | None = None, mapping: JointMapLike = None
+) -> Character:
     """Read a character shape ``.npz``.
 
     Args:
@@ -92,18 +95,30 @@ def load_shape_npz(path: str | os.PathLike, unit: str | float | None = None,
             beyond the budget (read from its header, before it is inflated).
     """
     path = readable_file(path, "shape .npz file")
-    arrays = read_npz(path, SHAPE_KEYS, ShapeError, shape_check=lambda key, shape: _check_shape(path, key, shape))
+    arrays = read_npz(
+        path, SHAPE_KEYS, ShapeError, shape_check=lambda key, shape: _check_shape(path, key, shape)
+    )
     missing = [k for k in SHAPE_KEYS if k not in arrays]
     if missing:
         raise ShapeError(f"{path}: missing keys {missing} (a shape file needs {list(SHAPE_KEYS)})")
     vertices, faces, weights, offsets, names = _validated(arrays, path)
     order = _canonical_order(names, path, mapping)
     offsets, weights = offsets[order], weights[:, order]
-    scale = _unit_scale(unit) if unit is not None else _infer_scale(canonical22_skeleton(offsets).height())
+    scale = (
+        _unit_scale(unit)
+        if unit is not None
+        else _infer_scale(canonical22_skeleton(offsets).height())
+    )
     offsets = offsets * scale
     vertices = vertices * scale + offsets[0]
-    return Character(path.stem, canonical22_skeleton(offsets), vertices, faces, weights,
-                     style=dict(source=str(path), unit_scale=scale))
+    return Character(
+        path.stem,
+        canonical22_skeleton(offsets),
+        vertices,
+        faces,
+        weights,
+        style=dict(source=str(path), unit_scale=scale),
+    )
 
 
 def _check_shape(path: Path, key: str, shape: tuple[int, ...]) -> None:
@@ -114,13 +129,20 @@ def _check_shape(path: Path, key: str, shape: tuple[int, ...]) -> None:
         check_count(shape[0], MAX_FACES, "faces", str(path))
 
 
-def _validated(arrays: dict, path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, list[str]]:
+def _validated(
+    arrays: dict, path: Path
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, list[str]]:
     """Check shapes, finiteness, face indices and weight sums; return the arrays as
     ``(vertices, faces, weights, offsets, names)``."""
     vertices, faces, weights, offsets, names = (arrays[k] for k in SHAPE_KEYS)
     nv = len(vertices)
-    expected = {"rest_vertices": (nv, 3), "rest_faces": (len(faces), 3), "skinning_weights": (nv, 22),
-                "skeleton": (22, 3), "joint_names": (22,)}
+    expected = {
+        "rest_vertices": (nv, 3),
+        "rest_faces": (len(faces), 3),
+        "skinning_weights": (nv, 22),
+        "skeleton": (22, 3),
+        "joint_names": (22,),
+    }
     for key, shape in expected.items():
         if arrays[key].shape != shape:
             raise ShapeError(f"{path}: {key} must have shape {shape}, got {arrays[key].shape}")
@@ -137,22 +159,36 @@ def _validated(arrays: dict, path: Path) -> tuple[np.ndarray, np.ndarray, np.nda
         raise ShapeError(f"{path}: rest_faces index vertices outside 0..{nv - 1}")
     negative = (weights < 0).any(axis=1)
     if negative.any():
-        raise ShapeError(f"{path}: skinning_weights must be >= 0; rows {_rows(negative)} have negative weights")
+        raise ShapeError(
+            f"{path}: skinning_weights must be >= 0; rows {_rows(negative)} have negative weights"
+        )
     sums = weights.sum(axis=1)
     empty = sums <= 0
     if empty.any():
-        raise ShapeError(f"{path}: skinning_weights rows {_rows(empty)} are all zero (vertices bound to no joint)")
+        raise ShapeError(
+            f"{path}: skinning_weights rows {_rows(empty)} are all zero (vertices bound to no joint)"
+        )
     off = np.abs(sums - 1.0) > _RENORMALIZE_TOL
     if off.any():
-        raise ShapeError(f"{path}: skinning_weights rows must sum to 1 (within {_RENORMALIZE_TOL}); rows {_rows(off)} "
-                         "do not")
+        raise ShapeError(
+            f"{path}: skinning_weights rows must sum to 1 (within {_RENORMALIZE_TOL}); rows {_rows(off)} "
+            "do not"
+        )
     drift = np.abs(sums - 1.0) > _WEIGHT_TOL
     if drift.any():
-        print(f"{path}: renormalised {int(drift.sum())} skinning-weight rows that sum to "
-              f"{sums[drift].min():.4f}..{sums[drift].max():.4f} (float32 export rounding)", file=sys.stderr)
+        print(
+            f"{path}: renormalised {int(drift.sum())} skinning-weight rows that sum to "
+            f"{sums[drift].min():.4f}..{sums[drift].max():.4f} (float32 export rounding)",
+            file=sys.stderr,
+        )
     weights = weights / sums[:, None]
-    return (vertices.astype(np.float64), faces.astype(np.int64), weights.astype(np.float64),
-            offsets.astype(np.float64), [strip_prefix(str(n)) for n in names])
+    return (
+        vertices.astype(np.float64),
+        faces.astype(np.int64),
+        weights.astype(np.float64),
+        offsets.astype(np.float64),
+        [strip_prefix(str(n)) for n in names],
+    )
 
 
 def _rows(mask: np.ndarray, limit: int = 10) -> str:
@@ -171,8 +207,12 @@ def _canonical_order(names: list[str], path: Path, mapping: JointMapLike) -> lis
     return [row_of[c] for c in range(22)]
 
 
-def save_shape_npz(character: Character, path: str | os.PathLike, unit: str | float = "cm",
-                   prefix: str = "mixamorig:") -> None:
+def save_shape_npz(
+    character: Character,
+    path: str | os.PathLike,
+    unit: str | float = "cm",
+    prefix: str = "mixamorig:",
+) -> None:
     """Write a character in the shape ``.npz`` layout (atomically).
 
     Args:
@@ -184,9 +224,11 @@ def save_shape_npz(character: Character, path: str | os.PathLike, unit: str | fl
     scale = _unit_scale(unit)
     offsets = character.skeleton.offsets
     with atomic_write(path) as f:
-        np.savez(f,
-                 rest_vertices=(character.rest_vertices - offsets[0]) / scale,
-                 rest_faces=character.faces.astype(np.int64),
-                 skinning_weights=character.weights,
-                 skeleton=offsets / scale,
-                 joint_names=np.array([prefix + n for n in character.skeleton.joint_names]))
+        np.savez(
+            f,
+            rest_vertices=(character.rest_vertices - offsets[0]) / scale,
+            rest_faces=character.faces.astype(np.int64),
+            skinning_weights=character.weights,
+            skeleton=offsets / scale,
+            joint_names=np.array([prefix + n for n in character.skeleton.joint_names]),
+        )

@@ -31,23 +31,47 @@ import os
 import unicodedata
 import zipfile
 import zlib
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Any
 
 import numpy as np
 
 from ..errors import LimitError, RetargetInputError, short_repr
 
-__all__ = ["MAX_ARRAY_BYTES", "MAX_MOTION_SAMPLES", "MAX_JSON_DEPTH", "MAX_JSON_ITEMS", "check_count",
-           "check_array_bytes", "check_motion_samples", "Leaf", "Arr", "Obj", "JsonObject", "INDEX", "COUNT", "INT",
-           "NUMBER", "TEXT", "FLAG", "ANY", "parse_json", "typed_json", "name_problem", "is_real_dtype", "npz_keys",
-           "read_npz"]
+__all__ = [
+    "MAX_ARRAY_BYTES",
+    "MAX_MOTION_SAMPLES",
+    "MAX_JSON_DEPTH",
+    "MAX_JSON_ITEMS",
+    "check_count",
+    "check_array_bytes",
+    "check_motion_samples",
+    "Leaf",
+    "Arr",
+    "Obj",
+    "JsonObject",
+    "INDEX",
+    "COUNT",
+    "INT",
+    "NUMBER",
+    "TEXT",
+    "FLAG",
+    "ANY",
+    "parse_json",
+    "typed_json",
+    "name_problem",
+    "is_real_dtype",
+    "npz_keys",
+    "read_npz",
+]
 
 MAX_ARRAY_BYTES = 2**30
 MAX_MOTION_SAMPLES = 3_000_000
 MAX_JSON_DEPTH = 64
 MAX_JSON_ITEMS = 100_000
+
 
 # ----------------------------------------------------------------------------------- budgets
 def check_count(count: int, limit: int, what: str, where: str) -> None:
@@ -69,16 +93,20 @@ def check_array_bytes(shape: Sequence[int], itemsize: int, what: str, where: str
     nbytes = math.prod(int(n) for n in shape) * int(itemsize)
     if nbytes > MAX_ARRAY_BYTES:
         dims = " x ".join(f"{int(n):,}" for n in shape)
-        raise LimitError(f"{where}: {what} ({dims}) would take {nbytes / 2**30:.1f} GiB, beyond the "
-                         f"{MAX_ARRAY_BYTES / 2**30:.0f} GiB budget for one array")
+        raise LimitError(
+            f"{where}: {what} ({dims}) would take {nbytes / 2**30:.1f} GiB, beyond the "
+            f"{MAX_ARRAY_BYTES / 2**30:.0f} GiB budget for one array"
+        )
 
 
 def check_motion_samples(frames: int, joints: int, where: str, hint: str = "") -> None:
     """Raise :class:`~retarget_lib.errors.LimitError` if a motion of ``frames`` x ``joints``
     exceeds :data:`MAX_MOTION_SAMPLES` (``hint`` is appended to the message)."""
     if frames * joints > MAX_MOTION_SAMPLES:
-        raise LimitError(f"{where}: {frames:,} frames x {joints} joints = {frames * joints:,} joint-frames exceed the "
-                         f"limit of {MAX_MOTION_SAMPLES:,} for one motion{hint}")
+        raise LimitError(
+            f"{where}: {frames:,} frames x {joints} joints = {frames * joints:,} joint-frames exceed the "
+            f"limit of {MAX_MOTION_SAMPLES:,} for one motion{hint}"
+        )
 
 
 # ------------------------------------------------------------------------------- typed JSON
@@ -145,7 +173,13 @@ class JsonObject:
 
 
 def _kind(value: Any) -> str:
-    kinds = {dict: "an object", list: "an array", str: "a string", bool: "a boolean", type(None): "null"}
+    kinds = {
+        dict: "an object",
+        list: "an array",
+        str: "a string",
+        bool: "a boolean",
+        type(None): "null",
+    }
     return f"{short_repr(value)} ({kinds.get(type(value), 'a number')})"
 
 
@@ -168,7 +202,9 @@ def _typed(value: Any, spec: Any, where: str) -> Any:
         if not isinstance(value, list) or (spec.length is not None and len(value) != spec.length):
             raise ValueError(f"{where} must be {_describe(spec)}, got {_kind(value)}")
         if len(value) > MAX_JSON_ITEMS:
-            raise ValueError(f"{where} has {len(value):,} items, beyond the limit of {MAX_JSON_ITEMS:,}")
+            raise ValueError(
+                f"{where} has {len(value):,} items, beyond the limit of {MAX_JSON_ITEMS:,}"
+            )
         return [_typed(v, spec.item, f"{where}[{i}]") for i, v in enumerate(value)]
     if not isinstance(value, dict):
         raise ValueError(f"{where} must be a JSON object, got {_kind(value)}")
@@ -177,7 +213,9 @@ def _typed(value: Any, spec: Any, where: str) -> Any:
         key = name.rstrip("!")
         if value.get(key) is None:
             if name.endswith("!"):
-                raise ValueError(f"{where}.{key} is required" + (", got null" if key in value else ""))
+                raise ValueError(
+                    f"{where}.{key} is required" + (", got null" if key in value else "")
+                )
             if isinstance(sub, Arr):
                 out[key] = []
             continue
@@ -221,7 +259,9 @@ def _depth_exceeds(data: Any, limit: int) -> bool:
         if isinstance(value, (dict, list)):
             if depth > limit:
                 return True
-            stack.extend((v, depth + 1) for v in (value.values() if isinstance(value, dict) else value))
+            stack.extend(
+                (v, depth + 1) for v in (value.values() if isinstance(value, dict) else value)
+            )
     return False
 
 
@@ -234,7 +274,9 @@ def parse_json(text: bytes | str, where: str, error: type[RetargetInputError]) -
     try:
         data = json.loads(text, parse_constant=_reject_constant)
     except RecursionError:
-        raise error(f"{where}: the JSON is nested more than {MAX_JSON_DEPTH} deep (the limit)") from None
+        raise error(
+            f"{where}: the JSON is nested more than {MAX_JSON_DEPTH} deep (the limit)"
+        ) from None
     except (ValueError, UnicodeDecodeError) as e:
         raise error(f"{where}: not valid JSON: {str(e).splitlines()[0][:200]}") from None
     if _depth_exceeds(data, MAX_JSON_DEPTH):
@@ -277,7 +319,9 @@ def _check_archive(path: Path, error: type[RetargetInputError]) -> None:
     with open(path, "rb") as f:
         head = f.read(6)
     if head.startswith(_NPY_MAGIC):
-        raise error(f"{path}: a single .npy array, not an .npz archive of named arrays (write it with np.savez)")
+        raise error(
+            f"{path}: a single .npy array, not an .npz archive of named arrays (write it with np.savez)"
+        )
     if not head.startswith(_ZIP_MAGICS):
         raise error(f"{path}: not an .npz file (an .npz is a zip archive of .npy arrays)")
 
@@ -297,7 +341,9 @@ def npz_keys(path: str | os.PathLike, error: type[RetargetInputError]) -> list[s
         raise error(f"{path}: not a readable .npz file (truncated or corrupt?): {e}") from None
 
 
-def _header(member, path: Path, key: str, error: type[RetargetInputError]) -> tuple[tuple[int, ...], np.dtype]:
+def _header(
+    member, path: Path, key: str, error: type[RetargetInputError]
+) -> tuple[tuple[int, ...], np.dtype]:
     """``(shape, dtype)`` from the ``.npy`` header of one member (its data not read)."""
     version = np.lib.format.read_magic(member)
     if version == (1, 0):
@@ -305,13 +351,19 @@ def _header(member, path: Path, key: str, error: type[RetargetInputError]) -> tu
     elif version == (2, 0):
         shape, _, dtype = np.lib.format.read_array_header_2_0(member)
     else:
-        raise error(f"{path}: array {key!r} has .npy format version {version}, which is not read here")
+        raise error(
+            f"{path}: array {key!r} has .npy format version {version}, which is not read here"
+        )
     return tuple(int(n) for n in shape), dtype
 
 
-def read_npz(path: str | os.PathLike, keys: Sequence[str], error: type[RetargetInputError],
-             objects_skipped: Sequence[str] = (), shape_check: Callable[[str, tuple], None] | None = None,
-             ) -> dict[str, np.ndarray]:
+def read_npz(
+    path: str | os.PathLike,
+    keys: Sequence[str],
+    error: type[RetargetInputError],
+    objects_skipped: Sequence[str] = (),
+    shape_check: Callable[[str, tuple], None] | None = None,
+) -> dict[str, np.ndarray]:
     """The arrays ``keys`` of an ``.npz`` file (those present), each checked before it is inflated:
     its header's size must fit :data:`MAX_ARRAY_BYTES` and the member's declared size.
 
@@ -333,7 +385,9 @@ def read_npz(path: str | os.PathLike, keys: Sequence[str], error: type[RetargetI
     out: dict[str, np.ndarray] = {}
     try:
         with zipfile.ZipFile(path) as zf:
-            members = {n[: -len(".npy")]: zf.getinfo(n) for n in zf.namelist() if n.endswith(".npy")}
+            members = {
+                n[: -len(".npy")]: zf.getinfo(n) for n in zf.namelist() if n.endswith(".npy")
+            }
             for key in (k for k in keys if k in members):
                 info = members[key]
                 with zf.open(info) as member:
@@ -341,17 +395,28 @@ def read_npz(path: str | os.PathLike, keys: Sequence[str], error: type[RetargetI
                 if dtype.hasobject:
                     if key in objects_skipped:
                         continue
-                    raise error(f"{path}: key {key!r} is a pickled object array; store plain numbers")
+                    raise error(
+                        f"{path}: key {key!r} is a pickled object array; store plain numbers"
+                    )
                 check_array_bytes(shape, dtype.itemsize, f"array {key!r}", str(path))
                 if math.prod(shape) * dtype.itemsize > info.file_size:
-                    raise error(f"{path}: array {key!r} declares {shape} of {dtype}, more than its "
-                                f"{info.file_size:,} bytes hold (truncated or corrupt)")
+                    raise error(
+                        f"{path}: array {key!r} declares {shape} of {dtype}, more than its "
+                        f"{info.file_size:,} bytes hold (truncated or corrupt)"
+                    )
                 if shape_check is not None:
                     shape_check(key, shape)
                 with zf.open(info) as member:
                     out[key] = np.lib.format.read_array(member, allow_pickle=False)
     except RetargetInputError:
         raise
-    except (zipfile.BadZipFile, OSError, ValueError, EOFError, zlib.error, NotImplementedError) as e:
+    except (
+        zipfile.BadZipFile,
+        OSError,
+        ValueError,
+        EOFError,
+        zlib.error,
+        NotImplementedError,
+    ) as e:
         raise error(f"{path}: not a readable .npz file (truncated or corrupt?): {e}") from None
     return out

@@ -63,8 +63,8 @@ the metre values as they are.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
-from typing import Callable, Sequence
 
 import numpy as np
 import torch
@@ -124,7 +124,9 @@ ESO_FOOT_WEIGHT = 0.1
 TABLE3_ROWS: dict[str, dict[str, bool]] = {
     "Eskel": dict(use_foot=False, use_int=False, use_j2j=False),
     "Eskel+Efoot": dict(use_foot=True, use_int=False, use_j2j=False),
-    "Eskel+Efoot+Eint w/o w": dict(use_foot=True, use_int=True, use_j2j=False, geodesic_weights=False),
+    "Eskel+Efoot+Eint w/o w": dict(
+        use_foot=True, use_int=True, use_j2j=False, geodesic_weights=False
+    ),
     "Eskel+Efoot+Eint": dict(use_foot=True, use_int=True, use_j2j=False, geodesic_weights=True),
     "Efull": dict(use_foot=True, use_int=True, use_j2j=True, geodesic_weights=True),
 }
@@ -175,13 +177,13 @@ class ContactEnergyWeights:
         return value / self.length_unit ** LENGTH_POWER[term]
 
     @classmethod
-    def eso(cls) -> "ContactEnergyWeights":
+    def eso(cls) -> ContactEnergyWeights:
         """App. B.1's relaxed test-time values ``ρ = 10, β = 1, λ = 100``, with ``hold`` and ``γ``
         as :meth:`relaxed` sets them."""
         return cls().relaxed()
 
     @classmethod
-    def row(cls, name: str) -> "ContactEnergyWeights":
+    def row(cls, name: str) -> ContactEnergyWeights:
         """Training weights for a Table 3 row (:data:`TABLE3_ROWS`).
 
         Raises:
@@ -191,12 +193,12 @@ class ContactEnergyWeights:
             raise ValueError(f"unknown Table 3 row {name!r}; rows: {list(TABLE3_ROWS)}")
         return cls(**TABLE3_ROWS[name])
 
-    def relaxed(self) -> "ContactEnergyWeights":
+    def relaxed(self) -> ContactEnergyWeights:
         """These weights with ESO's relaxed ``ρ = 10, β = 1, λ = 100`` and ``hold = 100`` (App. B.1);
         ``γ`` and the switches kept."""
         return replace(self, rho=10.0, beta_int=1.0, lambda_j2j=100.0, hold=100.0)
 
-    def with_foot_ramp(self, epoch: int, epochs: int) -> "ContactEnergyWeights":
+    def with_foot_ramp(self, epoch: int, epochs: int) -> ContactEnergyWeights:
         """``γ · epoch / epochs`` (App. B.1: "gradually introduce the foot contact loss")."""
         if epochs <= 0 or not 0 <= epoch <= epochs:
             raise ValueError(f"need 0 <= epoch <= epochs and epochs > 0, got {epoch}/{epochs}")
@@ -238,7 +240,7 @@ def _pair_vertices(vertices: Tensor, pairs: Tensor) -> tuple[Tensor, Tensor]:
     lead = torch.broadcast_shapes(vertices.shape[:-2], pairs.shape[:-2])
     verts = vertices.expand(lead + vertices.shape[-2:])
     idx = pairs.expand(lead + pairs.shape[-2:])
-    take = lambda k: torch.gather(verts, -2, idx[..., k:k + 1].expand(idx.shape[:-1] + (3,)))  # noqa: E731
+    take = lambda k: torch.gather(verts, -2, idx[..., k : k + 1].expand(idx.shape[:-1] + (3,)))  # noqa: E731
     return take(0), take(1)
 
 
@@ -252,7 +254,9 @@ def _masked_mean(values: Tensor, mask: Tensor | None) -> Tensor:
     return (values * mask).sum(-1) / mask.sum(-1).clamp_min(1.0)
 
 
-def self_contact_energy(vertices: Tensor, pairs: Tensor | np.ndarray, mask: Tensor | None = None) -> Tensor:
+def self_contact_energy(
+    vertices: Tensor, pairs: Tensor | np.ndarray, mask: Tensor | None = None
+) -> Tensor:
     """``Ej2j``: mean distance between vertices that should touch (Eq. 3, the norm as printed).
 
     Args:
@@ -268,8 +272,13 @@ def self_contact_energy(vertices: Tensor, pairs: Tensor | np.ndarray, mask: Tens
     return _masked_mean((vi - vj).norm(dim=-1), mask)
 
 
-def eso_self_contact_energy(vertices: Tensor, pairs: Tensor | np.ndarray, initial_vertices: Tensor,
-                            blend: float = 0.3, mask: Tensor | None = None) -> Tensor:
+def eso_self_contact_energy(
+    vertices: Tensor,
+    pairs: Tensor | np.ndarray,
+    initial_vertices: Tensor,
+    blend: float = 0.3,
+    mask: Tensor | None = None,
+) -> Tensor:
     """ESO's relaxed self-contact term (App. B.1), our reading explained in the module docstring.
 
     For a pair ``(i, j)`` with initial (pre-ESO) positions ``v⁰``, vertex ``i`` is pulled towards
@@ -298,7 +307,9 @@ def eso_self_contact_energy(vertices: Tensor, pairs: Tensor | np.ndarray, initia
     return _masked_mean(dist, None if mask is None else torch.cat((mask, mask), dim=-1))
 
 
-def reach_hold_energy(positions: Tensor, initial_positions: Tensor, joints: Sequence[int] | Tensor) -> Tensor:
+def reach_hold_energy(
+    positions: Tensor, initial_positions: Tensor, joints: Sequence[int] | Tensor
+) -> Tensor:
     """Mean distance of the joints the hands touch from their initial positions (App. B.1).
 
     Args:
@@ -317,8 +328,12 @@ def reach_hold_energy(positions: Tensor, initial_positions: Tensor, joints: Sequ
     return _masked_mean(drift, None)
 
 
-def foot_contact_energy_per_frame(positions: Tensor, contacts: Tensor | np.ndarray,
-                                  ground_heights: Tensor | np.ndarray, height: Scalar) -> Tensor:
+def foot_contact_energy_per_frame(
+    positions: Tensor,
+    contacts: Tensor | np.ndarray,
+    ground_heights: Tensor | np.ndarray,
+    height: Scalar,
+) -> Tensor:
     """``Efoot(t)`` for every frame (Eq. 6).
 
     ``Σ_(j in contact at t) (‖g_t − g_(t−1)‖² + (g_t^y − ground_j)²) / h_B``, first-frame velocity 0.
@@ -334,8 +349,10 @@ def foot_contact_energy_per_frame(positions: Tensor, contacts: Tensor | np.ndarr
     """
     contacts = torch.as_tensor(contacts, device=positions.device)
     if contacts.shape[-1:] != (4,) or contacts.shape[-2:-1] != positions.shape[-3:-2]:
-        raise ValueError(f"contacts must be (..., T, 4) for positions {tuple(positions.shape)}, "
-                         f"got {tuple(contacts.shape)}")
+        raise ValueError(
+            f"contacts must be (..., T, 4) for positions {tuple(positions.shape)}, "
+            f"got {tuple(contacts.shape)}"
+        )
     feet = positions[..., list(FOOT_CONTACT_IDS), :]  # (..., T, 4, 3)
     ground = torch.as_tensor(ground_heights, dtype=positions.dtype, device=positions.device)
     speed2 = frame_velocities(feet).pow(2).sum(-1)
@@ -344,8 +361,12 @@ def foot_contact_energy_per_frame(positions: Tensor, contacts: Tensor | np.ndarr
     return per_joint.sum(-1) / _batch_scalar(height, positions, 1)
 
 
-def foot_contact_energy(positions: Tensor, contacts: Tensor | np.ndarray,
-                        ground_heights: Tensor | np.ndarray, height: Scalar) -> Tensor:
+def foot_contact_energy(
+    positions: Tensor,
+    contacts: Tensor | np.ndarray,
+    ground_heights: Tensor | np.ndarray,
+    height: Scalar,
+) -> Tensor:
     """``Efoot`` of a clip: mean over frames of :func:`foot_contact_energy_per_frame` (Eq. 6).
 
     Returns:
@@ -355,8 +376,14 @@ def foot_contact_energy(positions: Tensor, contacts: Tensor | np.ndarray,
 
 
 # ----------------------------------------------------------------------------- skeleton terms
-def weak_energy(rot_b: Tensor, rot_a: Tensor, root_vel_b: Tensor, root_vel_a: Tensor,
-                leg_ratio: Scalar, rho: float) -> Tensor:
+def weak_energy(
+    rot_b: Tensor,
+    rot_a: Tensor,
+    root_vel_b: Tensor,
+    root_vel_a: Tensor,
+    leg_ratio: Scalar,
+    rho: float,
+) -> Tensor:
     """``Eweak = ρ Σ_j ‖θ^B_j − θ^A_j‖²_F + ‖o^B − leg_ratio · o^A‖²`` (Eq. 8), per frame.
 
     Args:
@@ -371,13 +398,17 @@ def weak_energy(rot_b: Tensor, rot_a: Tensor, root_vel_b: Tensor, root_vel_a: Te
         ``(...)``.
     """
     if rot_b.shape[-1] != 4 or rot_a.shape[-1] != 4:
-        raise ValueError(f"rotations must be (..., J, 4) wxyz, got {tuple(rot_b.shape)}, {tuple(rot_a.shape)}")
+        raise ValueError(
+            f"rotations must be (..., J, 4) wxyz, got {tuple(rot_b.shape)}, {tuple(rot_a.shape)}"
+        )
     rot_term = (quat_to_matrix(rot_b) - quat_to_matrix(rot_a)).pow(2).sum((-1, -2, -3))
     target_vel = _batch_scalar(leg_ratio, root_vel_b, 1) * root_vel_a
     return rho * rot_term + (root_vel_b - target_vel).pow(2).sum(-1)
 
 
-def end_effector_energy_per_frame(pos_b: Tensor, pos_a: Tensor, height_b: Scalar, height_a: Scalar) -> Tensor:
+def end_effector_energy_per_frame(
+    pos_b: Tensor, pos_a: Tensor, height_b: Scalar, height_a: Scalar
+) -> Tensor:
     """``Eee(t) = Σ_(j∈ee) ‖ġ^B_j / h_B − ġ^A_j / h_A‖²`` for every frame (Eq. 9).
 
     Args:
@@ -409,8 +440,12 @@ def _with_total(terms: dict[str, Tensor]) -> dict[str, Tensor]:
     return terms
 
 
-def skeleton_energy(output: MotionQuantities, source: MotionQuantities, leg_ratio: Scalar,
-                    weights: ContactEnergyWeights) -> dict[str, Tensor]:
+def skeleton_energy(
+    output: MotionQuantities,
+    source: MotionQuantities,
+    leg_ratio: Scalar,
+    weights: ContactEnergyWeights,
+) -> dict[str, Tensor]:
     """``Eskel = Eweak + ω Eee`` (Eq. 7) of a clip, each term averaged over frames.
 
     Args:
@@ -425,20 +460,36 @@ def skeleton_energy(output: MotionQuantities, source: MotionQuantities, leg_rati
         ``{"weak", "ee", "total"}``, each ``(...)``, weighted, lengths in ``weights.length_unit``
         (``"ee"`` is ``ω Eee``).
     """
-    ratio = torch.as_tensor(leg_ratio, dtype=output.root_velocity.dtype, device=output.root_velocity.device)
-    ratio = ratio.unsqueeze(-1) if ratio.dim() else ratio  # (...) -> (..., 1): broadcast over frames
+    ratio = torch.as_tensor(
+        leg_ratio, dtype=output.root_velocity.dtype, device=output.root_velocity.device
+    )
+    ratio = (
+        ratio.unsqueeze(-1) if ratio.dim() else ratio
+    )  # (...) -> (..., 1): broadcast over frames
     unit = weights.length_unit  # ‖Δo‖² in length_unit²: velocities divided by the unit
-    weak = weak_energy(output.rotations, source.rotations, output.root_velocity / unit, source.root_velocity / unit,
-                       ratio, weights.rho).mean(-1)
+    weak = weak_energy(
+        output.rotations,
+        source.rotations,
+        output.root_velocity / unit,
+        source.root_velocity / unit,
+        ratio,
+        weights.rho,
+    ).mean(-1)
     ee = end_effector_energy(output.positions, source.positions, output.height, source.height)
     return _with_total({"weak": weak, "ee": weights.omega * ee})
 
 
-def geometry_energy(vertices: Tensor, contact_pairs: Tensor | np.ndarray | None, positions: Tensor,
-                    foot_contacts: Tensor | np.ndarray, ground_heights: Tensor | np.ndarray, height: Scalar,
-                    weights: ContactEnergyWeights,
-                    interpenetration: Callable[[Tensor], Tensor] | None = None,
-                    contact_mask: Tensor | None = None) -> dict[str, Tensor]:
+def geometry_energy(
+    vertices: Tensor,
+    contact_pairs: Tensor | np.ndarray | None,
+    positions: Tensor,
+    foot_contacts: Tensor | np.ndarray,
+    ground_heights: Tensor | np.ndarray,
+    height: Scalar,
+    weights: ContactEnergyWeights,
+    interpenetration: Callable[[Tensor], Tensor] | None = None,
+    contact_mask: Tensor | None = None,
+) -> dict[str, Tensor]:
     """``Egeo = λ Ej2j + β Eint + γ Efoot`` (Eq. 2), switched terms left out.
 
     Ej2j and Eint are evaluated on ``vertices`` (App. B.1 samples one frame per sequence for
@@ -464,7 +515,9 @@ def geometry_energy(vertices: Tensor, contact_pairs: Tensor | np.ndarray | None,
     w = weights
     terms: dict[str, Tensor] = {}
     if w.use_j2j and contact_pairs is not None:
-        terms["j2j"] = w.lambda_j2j * w.in_units("j2j", self_contact_energy(vertices, contact_pairs, contact_mask))
+        terms["j2j"] = w.lambda_j2j * w.in_units(
+            "j2j", self_contact_energy(vertices, contact_pairs, contact_mask)
+        )
     if w.use_int:
         if interpenetration is None:
             raise ValueError("weights.use_int is set but no interpenetration energy was given")
@@ -477,11 +530,18 @@ def geometry_energy(vertices: Tensor, contact_pairs: Tensor | np.ndarray | None,
     return _with_total(terms)
 
 
-def full_energy(output: MotionQuantities, source: MotionQuantities, vertices: Tensor,
-                contact_pairs: Tensor | np.ndarray | None, foot_contacts: Tensor | np.ndarray,
-                ground_heights: Tensor | np.ndarray, leg_ratio: Scalar, weights: ContactEnergyWeights,
-                interpenetration: Callable[[Tensor], Tensor] | None = None,
-                contact_mask: Tensor | None = None) -> dict[str, Tensor]:
+def full_energy(
+    output: MotionQuantities,
+    source: MotionQuantities,
+    vertices: Tensor,
+    contact_pairs: Tensor | np.ndarray | None,
+    foot_contacts: Tensor | np.ndarray,
+    ground_heights: Tensor | np.ndarray,
+    leg_ratio: Scalar,
+    weights: ContactEnergyWeights,
+    interpenetration: Callable[[Tensor], Tensor] | None = None,
+    contact_mask: Tensor | None = None,
+) -> dict[str, Tensor]:
     """``Efull = Egeo + Eskel`` (Eq. 1): every weighted term and ``"total"``, each ``(...)``.
 
     Args: see :func:`geometry_energy` and :func:`skeleton_energy` (``output.height`` is ``h_B``).
@@ -490,8 +550,17 @@ def full_energy(output: MotionQuantities, source: MotionQuantities, vertices: Te
         ``{"weak", "ee", ["j2j"], ["int"], ["foot"], "total"}``.
     """
     skel = skeleton_energy(output, source, leg_ratio, weights)
-    geo = geometry_energy(vertices, contact_pairs, output.positions, foot_contacts, ground_heights,
-                          output.height, weights, interpenetration, contact_mask)
+    geo = geometry_energy(
+        vertices,
+        contact_pairs,
+        output.positions,
+        foot_contacts,
+        ground_heights,
+        output.height,
+        weights,
+        interpenetration,
+        contact_mask,
+    )
     skel.pop("total")
     geo.pop("total")
     return _with_total({**skel, **geo})

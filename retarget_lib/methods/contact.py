@@ -11,9 +11,10 @@ Source contacts are detected once per clip and cached (``.cache/contact_training
 from __future__ import annotations
 
 import os
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from functools import partial
-from typing import Any, Callable, Mapping
+from typing import Any
 
 import numpy as np
 import torch
@@ -26,16 +27,30 @@ from ..core.transfer import transfer_rotations
 from ..data.checkpoints import load_state
 from ..devices import module_device, resolve_device
 from ..files import atomic_write, cache_dir, quantised_sha256
-from ..geometry.contacts import SelfContacts, detect_foot_contacts, detect_self_contacts, transfer_contacts
+from ..geometry.contacts import (
+    SelfContacts,
+    detect_foot_contacts,
+    detect_self_contacts,
+    transfer_contacts,
+)
 from ..geometry.penetration import InterpenetrationEnergy
 from ..models.georet import GeometryConditionedRNN, ResidualBase, motion_features, pose_outputs
 from .eso import encoder_space_optimization, eso_source, use_compiled
 
 Tensor = torch.Tensor
 
-__all__ = ["ContactClip", "contact_clip", "model_from_config", "load_contact_model", "eweak_rotations",
-           "retarget_with_network",
-           "ESO_MAX_VERTICES", "retarget_contact_with", "retarget_with_eso", "load"]
+__all__ = [
+    "ContactClip",
+    "contact_clip",
+    "model_from_config",
+    "load_contact_model",
+    "eweak_rotations",
+    "retarget_with_network",
+    "ESO_MAX_VERTICES",
+    "retarget_contact_with",
+    "retarget_with_eso",
+    "load",
+]
 
 #: above this many vertices, ESO works on a decimated copy of the target mesh (App. B's 3,000): the
 #: output is skeletal, so the full mesh follows it exactly. Full meshes work too (Eint's geodesics are
@@ -70,29 +85,46 @@ class ContactClip:
 def _motion_digest(motion: Motion) -> str:
     """12 hex digits of :func:`~retarget_lib.files.quantised_sha256` over the clip's rotations and
     root path at 1e-5 (float noise across CPUs does not change it)."""
-    return quantised_sha256((("rotations", motion.rotations), ("root_positions", motion.root_positions)), 1e5)[:12]
+    return quantised_sha256(
+        (("rotations", motion.rotations), ("root_positions", motion.root_positions)), 1e5
+    )[:12]
 
 
-def _detected_contacts(motion: Motion, character: Character, cache_key: str | None) -> tuple[np.ndarray, SelfContacts]:
+def _detected_contacts(
+    motion: Motion, character: Character, cache_key: str | None
+) -> tuple[np.ndarray, SelfContacts]:
     """Foot and hand contacts of a clip on its performer, cached under ``cache_key`` plus a digest of
     the motion's values (a clip that changes, e.g. after a dataset rebuild, never reads a stale entry).
 
     Sec. 3.4's thresholds are scaled with two heights: the feet with the skeleton's
     :func:`~retarget_lib.core.measures.estimated_standing_height`, the hands with the performer's
     :func:`~retarget_lib.core.measures.mesh_standing_height`."""
-    path = cache_dir("contact_training") / f"{cache_key}_{_motion_digest(motion)}.npz" if cache_key else None
+    path = (
+        cache_dir("contact_training") / f"{cache_key}_{_motion_digest(motion)}.npz"
+        if cache_key
+        else None
+    )
     if path is not None and path.exists():
         z = np.load(path)
         return z["foot"], SelfContacts(int(z["num_frames"]), z["frames"], z["pairs"], z["groups"])
     positions = motion.global_positions()
-    foot = detect_foot_contacts(positions, motion.skeleton, estimated_standing_height(motion.skeleton))
+    foot = detect_foot_contacts(
+        positions, motion.skeleton, estimated_standing_height(motion.skeleton)
+    )
     vertices = character.skinned(motion.rotations, motion.root_positions)
-    hands = detect_self_contacts(vertices, character.faces, character.weights,
-                                 mesh_standing_height(character.rest_vertices))
+    hands = detect_self_contacts(
+        vertices, character.faces, character.weights, mesh_standing_height(character.rest_vertices)
+    )
     if path is not None:
         with atomic_write(path) as f:
-            np.savez(f, foot=foot, num_frames=hands.num_frames, frames=hands.frames, pairs=hands.pairs,
-                     groups=hands.groups)
+            np.savez(
+                f,
+                foot=foot,
+                num_frames=hands.num_frames,
+                frames=hands.frames,
+                pairs=hands.pairs,
+                groups=hands.groups,
+            )
     return foot, hands
 
 
@@ -109,12 +141,19 @@ def contact_clip(motion: Motion, character: Character, cache_key: str | None = N
 def model_from_config(config: dict) -> GeometryConditionedRNN:
     """The network of ``config["model"]`` (App. B.1: hidden 512, PointNet 256, dropout 0.1)."""
     m = config["model"]
-    return GeometryConditionedRNN(hidden=int(m["hidden"]), layers=int(m["layers"]), geometry=int(m["geometry"]),
-                                  dropout=float(m["dropout"]), residual=bool(m.get("residual", False)))
+    return GeometryConditionedRNN(
+        hidden=int(m["hidden"]),
+        layers=int(m["layers"]),
+        geometry=int(m["geometry"]),
+        dropout=float(m["dropout"]),
+        residual=bool(m.get("residual", False)),
+    )
 
 
-def load_contact_model(checkpoint: str | os.PathLike, device: str | torch.device | None = None,
-                       ) -> tuple[GeometryConditionedRNN, dict]:
+def load_contact_model(
+    checkpoint: str | os.PathLike,
+    device: str | torch.device | None = None,
+) -> tuple[GeometryConditionedRNN, dict]:
     """``(model in eval mode, config)`` from a training or exported checkpoint: a manifest id (the
     shipped file, sha256 verified) or a path (:func:`~retarget_lib.data.checkpoints.resolve_checkpoint`),
     on ``device`` (a ``--device`` name or ``torch.device``; default the CPU)."""
@@ -124,7 +163,9 @@ def load_contact_model(checkpoint: str | os.PathLike, device: str | torch.device
     return model.eval().to(resolve_device(device or "cpu")), state["config"]
 
 
-def eweak_rotations(model: GeometryConditionedRNN, rotations: np.ndarray, source: Any, target: Any) -> Tensor:
+def eweak_rotations(
+    model: GeometryConditionedRNN, rotations: np.ndarray, source: Any, target: Any
+) -> Tensor:
     """The ``θ^A`` that Eweak (Eq. 8) compares the output with, and a residual network's base.
 
     The paper's network: the source's local rotations as they are. A residual network (our variant,
@@ -158,24 +199,42 @@ def retarget_with_network(model: GeometryConditionedRNN, source: Motion, target:
     """
     device = module_device(model)
     rot, root, off = (x.to(device) for x in source.torch(torch.float32))
-    feats = motion_features(rot[None], root[None], off, source.skeleton.parents, source.skeleton.height())
+    feats = motion_features(
+        rot[None], root[None], off, source.skeleton.parents, source.skeleton.height()
+    )
     as_f32 = lambda a: torch.as_tensor(a, dtype=torch.float32, device=device)  # noqa: E731
     t_off = as_f32(target.skeleton.offsets)
     ratio = leg_ratio(source.skeleton, target.skeleton)
     aligned = eweak_rotations(model, source.rotations, source.skeleton, target.skeleton).to(device)
     base = ResidualBase(aligned[None], forward_root_velocity(root[None]) * ratio)
-    out = model(feats, t_off[None], as_f32(target.rest_vertices)[None], as_f32(target.weights)[None],
-                target.height, base)
+    out = model(
+        feats,
+        t_off[None],
+        as_f32(target.rest_vertices)[None],
+        as_f32(target.weights)[None],
+        target.height,
+        base,
+    )
     start = ratio * root[0]
     posed = pose_outputs(out.rotations, out.root_velocity, t_off, start=start[None])
-    return Motion(target.skeleton, out.rotations[0].double().cpu().numpy(),
-                  posed.root_positions[0].double().cpu().numpy(),
-                  source.fps, name=f"{source.name}->{getattr(target, 'name', 'target')}")
+    return Motion(
+        target.skeleton,
+        out.rotations[0].double().cpu().numpy(),
+        posed.root_positions[0].double().cpu().numpy(),
+        source.fps,
+        name=f"{source.name}->{getattr(target, 'name', 'target')}",
+    )
 
 
-def retarget_contact_with(model: GeometryConditionedRNN, config: dict, source: Motion, target: Character,
-                          source_character: Character | None = None, eso: bool = True,
-                          compile: bool | None = None) -> Motion:
+def retarget_contact_with(
+    model: GeometryConditionedRNN,
+    config: dict,
+    source: Motion,
+    target: Character,
+    source_character: Character | None = None,
+    eso: bool = True,
+    compile: bool | None = None,
+) -> Motion:
     """Contact-aware retargeting (Villegas et al. 2021): the geometry-conditioned RNN, then
     encoder-space optimisation with the source's detected contacts.
 
@@ -204,14 +263,23 @@ def retarget_contact_with(model: GeometryConditionedRNN, config: dict, source: M
     if source_character is not None:
         clip = contact_clip(source, source_character)
         contacts = transfer_contacts(clip.self_contacts, source_character, target)
-    eint = InterpenetrationEnergy(target.faces, target.rest_vertices, ignore_rest_intersections=True)
+    eint = InterpenetrationEnergy(
+        target.faces, target.rest_vertices, ignore_rest_intersections=True
+    )
     return retarget_with_eso(model, config["eso"], source, target, contacts, eint, compile=compile)
 
 
-def retarget_with_eso(model: GeometryConditionedRNN, eso_config: Mapping, source: Motion, target: Character,
-                      contacts: SelfContacts | None, interpenetration: InterpenetrationEnergy,
-                      foot_contacts: np.ndarray | None = None, name: str | None = None,
-                      compile: bool | None = None) -> Motion:
+def retarget_with_eso(
+    model: GeometryConditionedRNN,
+    eso_config: Mapping,
+    source: Motion,
+    target: Character,
+    contacts: SelfContacts | None,
+    interpenetration: InterpenetrationEnergy,
+    foot_contacts: np.ndarray | None = None,
+    name: str | None = None,
+    compile: bool | None = None,
+) -> Motion:
     """The network's output refined by encoder-space optimisation (Sec. 3.3) with the App. B.1
     settings of a checkpoint's config.
 
@@ -231,16 +299,33 @@ def retarget_with_eso(model: GeometryConditionedRNN, eso_config: Mapping, source
         The motion on ``target.skeleton``.
     """
     src = eso_source(source, target, foot_contacts, rest_aligned=model.residual)
-    res = encoder_space_optimization(model, src.features, target, src.quantities, src.foot_contacts, src.leg_ratio,
-                                     contacts=contacts, interpenetration=interpenetration,
-                                     iterations=int(eso_config["iterations"]), lr=float(eso_config["lr"]),
-                                     reach=float(eso_config["reach"]), blend=float(eso_config["blend"]),
-                                     compile=use_compiled(source.num_frames, compile))
-    return Motion(target.skeleton, res.rotations.double().numpy(), res.root_positions.double().numpy(), source.fps,
-                  name=source.name if name is None else name)
+    res = encoder_space_optimization(
+        model,
+        src.features,
+        target,
+        src.quantities,
+        src.foot_contacts,
+        src.leg_ratio,
+        contacts=contacts,
+        interpenetration=interpenetration,
+        iterations=int(eso_config["iterations"]),
+        lr=float(eso_config["lr"]),
+        reach=float(eso_config["reach"]),
+        blend=float(eso_config["blend"]),
+        compile=use_compiled(source.num_frames, compile),
+    )
+    return Motion(
+        target.skeleton,
+        res.rotations.double().numpy(),
+        res.root_positions.double().numpy(),
+        source.fps,
+        name=source.name if name is None else name,
+    )
 
 
-def load(checkpoint: str | os.PathLike, device: str | torch.device | None = None) -> Callable[..., Motion]:
+def load(
+    checkpoint: str | os.PathLike, device: str | torch.device | None = None
+) -> Callable[..., Motion]:
     """The registry's loader: ``retarget(source, target_character, source_character=None,
     eso=True)`` with the contact model of ``checkpoint`` (:func:`retarget_contact_with`) on
     ``device`` (network and ESO; default the CPU)."""

@@ -3,7 +3,7 @@
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 from ..core.motion import Motion
 from ..core.quantities import leg_ratio
@@ -23,8 +23,11 @@ def copy_rotations(motion: Motion, target_skeleton: Skeleton) -> Motion:
         target_skeleton: canonical-22 target character.
     """
     root = motion.root_positions * leg_ratio(motion.skeleton, target_skeleton)
-    return motion.copy(skeleton=target_skeleton.copy(), root_positions=root,
-                       meta=dict(motion.meta, retargeted="copy"))
+    return motion.copy(
+        skeleton=target_skeleton.copy(),
+        root_positions=root,
+        meta=dict(motion.meta, retargeted="copy"),
+    )
 
 
 def load(checkpoint: None = None, device: None = None) -> Callable[..., Motion]:

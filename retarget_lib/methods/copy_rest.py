@@ -3,7 +3,7 @@ twists; :mod:`retarget_lib.core.transfer`)."""
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 from ..core.motion import Motion
 from ..core.skeleton import Skeleton

@@ -115,20 +115,32 @@ def load_source(path: str | os.PathLike, joint_map: str | os.PathLike | None = N
     suffix = _suffix(path)
     if suffix == ".bvh":
         raw = load_bvh(path)
-        return Source(stand_upright(to_canonical22(raw, mapping=joint_map, what=str(path))), raw.meta, None)
+        return Source(
+            stand_upright(to_canonical22(raw, mapping=joint_map, what=str(path))), raw.meta, None
+        )
     if suffix == ".npz":
         return Source(load_amass(path, mapping=joint_map), {}, None)
     if suffix in _GLTF or suffix == ".fbx":
         try:
-            motion, rig = (load_gltf_motion(path, mapping=joint_map) if suffix in _GLTF
-                           else fbx.load_fbx_motion(path, mapping=joint_map))
+            motion, rig = (
+                load_gltf_motion(path, mapping=joint_map)
+                if suffix in _GLTF
+                else fbx.load_fbx_motion(path, mapping=joint_map)
+            )
         except NoSkinError:  # a clip downloaded "Without Skin": joints and animation only
-            motion, ids = (load_gltf_animation(path, mapping=joint_map) if suffix in _GLTF
-                           else fbx.load_fbx_animation(path, mapping=joint_map))
-            return Source(fold_to_canonical22(motion, ids), {}, None)  # absent (null) joints inserted
+            motion, ids = (
+                load_gltf_animation(path, mapping=joint_map)
+                if suffix in _GLTF
+                else fbx.load_fbx_animation(path, mapping=joint_map)
+            )
+            return Source(
+                fold_to_canonical22(motion, ids), {}, None
+            )  # absent (null) joints inserted
         return Source(rig.motion_to_canonical(motion), {}, rig.character())
-    raise InputFileError(f"{path}: cannot read a {suffix or 'suffix-less'} source; supported: "
-                         f"{', '.join(SOURCE_SUFFIXES)}")
+    raise InputFileError(
+        f"{path}: cannot read a {suffix or 'suffix-less'} source; supported: "
+        f"{', '.join(SOURCE_SUFFIXES)}"
+    )
 
 
 def _is_shape_npz(path: str | os.PathLike) -> bool:
@@ -139,8 +151,11 @@ def _is_shape_npz(path: str | os.PathLike) -> bool:
         return True  # let the shape reader name the problem
 
 
-def load_target(target: str, target_mesh: str | os.PathLike | None = None,
-                joint_map: str | os.PathLike | None = None) -> Target:
+def load_target(
+    target: str,
+    target_mesh: str | os.PathLike | None = None,
+    joint_map: str | os.PathLike | None = None,
+) -> Target:
     """Resolve ``--target`` (a file by suffix, or a character name) and ``--target-mesh``.
 
     Args:
@@ -154,15 +169,21 @@ def load_target(target: str, target_mesh: str | os.PathLike | None = None,
     """
     suffix = _suffix(target)
     if joint_map is not None and not suffix:
-        raise RetargetInputError(f"{joint_map}: --joint-map is for a target file's joints; the character {target!r} "
-                                 "is on the canonical 22 already")
+        raise RetargetInputError(
+            f"{joint_map}: --joint-map is for a target file's joints; the character {target!r} "
+            "is on the canonical 22 already"
+        )
     if suffix == ".bvh":
         full = load_bvh(target)
         rest = full.slice(0, 1)
         bvh_map, naming = present_map(rest.skeleton, joint_map, str(target))
         out = Target(fold_to_canonical22(rest, bvh_map, naming).skeleton, bvh=full, bvh_map=bvh_map)
     elif suffix in _GLTF or suffix == ".fbx":
-        rig = load_gltf_rig(target, joint_map) if suffix in _GLTF else fbx.load_fbx_rig(target, joint_map)
+        rig = (
+            load_gltf_rig(target, joint_map)
+            if suffix in _GLTF
+            else fbx.load_fbx_rig(target, joint_map)
+        )
         character = rig.character()
         out = Target(character.skeleton, character, rig)
     elif suffix == ".npz":
@@ -172,14 +193,18 @@ def load_target(target: str, target_mesh: str | os.PathLike | None = None,
         else:
             out = Target(smplx_skeleton(load_amass(target).meta["betas"], joint_map, str(target)))
     elif suffix:
-        raise InputFileError(f"{target}: cannot read a {suffix} target; supported: {', '.join(TARGET_SUFFIXES)} "
-                             "or a character name")
+        raise InputFileError(
+            f"{target}: cannot read a {suffix} target; supported: {', '.join(TARGET_SUFFIXES)} "
+            "or a character name"
+        )
     elif target == "mannequin-x" or target in CHARACTER_NAMES:
         character = load_mannequin() if target == "mannequin-x" else make_character(target)
         out = Target(character.skeleton, character, Rig.from_character(character))
     else:
-        raise RetargetInputError(f"target {target!r} is neither a file ({', '.join(TARGET_SUFFIXES)}) nor a "
-                                 f"character; characters: {', '.join(CHARACTER_NAMES)}, mannequin-x")
+        raise RetargetInputError(
+            f"target {target!r} is neither a file ({', '.join(TARGET_SUFFIXES)}) nor a "
+            f"character; characters: {', '.join(CHARACTER_NAMES)}, mannequin-x"
+        )
     if target_mesh is not None:
         character = load_shape_npz(target_mesh)
         character = _fit_mesh(character, out.skeleton, target_mesh, target)
@@ -203,10 +228,15 @@ def _fit_mesh(character: Character, target_skeleton: Skeleton, target_mesh, targ
     diff = float(np.abs(_root_relative(character.skeleton) - _root_relative(target_skeleton)).max())
     what = f"its skeleton differs from the target {target} by {diff * 100:.1f} cm ({diff / height:.1%} of its height)"
     if diff > MESH_LIMIT * height:
-        raise RetargetInputError(f"{target_mesh}: {what}, more than {MESH_LIMIT:.0%}: a mesh of another character?")
+        raise RetargetInputError(
+            f"{target_mesh}: {what}, more than {MESH_LIMIT:.0%}: a mesh of another character?"
+        )
     if diff > MESH_WARN * height:
-        warnings.warn(f"{target_mesh}: {what}; the mesh is rebound to the target's skeleton", RetargetWarning,
-                      stacklevel=2)
+        warnings.warn(
+            f"{target_mesh}: {what}; the mesh is rebound to the target's skeleton",
+            RetargetWarning,
+            stacklevel=2,
+        )
     return rebind_mesh(character, target_skeleton)
 
 
@@ -229,6 +259,12 @@ def rebind_mesh(character: Character, skeleton: Skeleton) -> Character:
     moved = _root_relative(skeleton) - _root_relative(character.skeleton)  # (22, 3)
     bound = skeleton.copy()
     bound.offsets[0] = character.skeleton.offsets[0]
-    return Character(character.name, bound, character.rest_vertices + character.weights @ moved,
-                     character.faces, character.weights, character.bulk, dict(character.style))
-
+    return Character(
+        character.name,
+        bound,
+        character.rest_vertices + character.weights @ moved,
+        character.faces,
+        character.weights,
+        character.bulk,
+        dict(character.style),
+    )

@@ -14,8 +14,8 @@ A method's ``retarget`` function takes the canonical-22 source motion and the ta
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 from ..core.motion import Motion
 from ..data.manifest import default_checkpoint
@@ -53,7 +53,9 @@ class Method:
         or the method needs none)."""
         return default_checkpoint(self.name) if self.needs_checkpoint else None
 
-    def retargeter(self, checkpoint: str | os.PathLike | None = None, device: str | None = None) -> Retarget:
+    def retargeter(
+        self, checkpoint: str | os.PathLike | None = None, device: str | None = None
+    ) -> Retarget:
         """The ready ``retarget`` function, its checkpoint loaded once.
 
         Args:
@@ -70,20 +72,36 @@ class Method:
             return self.load(None, None)
         checkpoint = checkpoint if checkpoint is not None else self.default_checkpoint()
         if checkpoint is None:
-            raise ValueError(f"--method {self.name} needs --checkpoint (a `retarget train` output): no "
-                             f"{self.name} checkpoint is shipped yet")
+            raise ValueError(
+                f"--method {self.name} needs --checkpoint (a `retarget train` output): no "
+                f"{self.name} checkpoint is shipped yet"
+            )
         return self.load(checkpoint, device)
 
 
 #: every method, by name (the order of ``retarget retarget --help``)
-REGISTRY: dict[str, Method] = {m.name: m for m in (
-    Method("copy", "copy the local rotations, root scaled by the leg-length ratio", copy.load),
-    Method("copy-rest", "copy with rest-pose compensation (same global bone directions)", copy_rest.load),
-    Method("tdcn", "the TDCN generator (Kim et al. 2020)", tdcn.load, needs_checkpoint=True),
-    Method("nkn", "an NKN baseline generator of TDCN's Table 4", nkn.load, needs_checkpoint=True),
-    Method("contact", "contact-aware RNN + encoder-space optimisation (Villegas et al. 2021)", contact.load,
-           needs_checkpoint=True, needs_mesh=True),
-)}
+REGISTRY: dict[str, Method] = {
+    m.name: m
+    for m in (
+        Method("copy", "copy the local rotations, root scaled by the leg-length ratio", copy.load),
+        Method(
+            "copy-rest",
+            "copy with rest-pose compensation (same global bone directions)",
+            copy_rest.load,
+        ),
+        Method("tdcn", "the TDCN generator (Kim et al. 2020)", tdcn.load, needs_checkpoint=True),
+        Method(
+            "nkn", "an NKN baseline generator of TDCN's Table 4", nkn.load, needs_checkpoint=True
+        ),
+        Method(
+            "contact",
+            "contact-aware RNN + encoder-space optimisation (Villegas et al. 2021)",
+            contact.load,
+            needs_checkpoint=True,
+            needs_mesh=True,
+        ),
+    )
+}
 
 
 def method_names() -> list[str]:

@@ -36,9 +36,9 @@ away (a corrupt checkpoint) is refused, not written.
 from __future__ import annotations
 
 import os
+from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Iterator
 
 import numpy as np
 
@@ -57,8 +57,18 @@ from ..io.untrusted import check_motion_samples, name_problem
 from .inputs import MESH_LIMIT, MESH_WARN, Target, load_source, load_target
 from .registry import Method, get_method
 
-__all__ = ["METHOD_FPS", "OUTPUT_SUFFIXES", "MESH_WARN", "MESH_LIMIT", "resolve_target", "retarget_file",
-           "method_times", "output_count", "at_output_rate", "on_the_ground"]
+__all__ = [
+    "METHOD_FPS",
+    "OUTPUT_SUFFIXES",
+    "MESH_WARN",
+    "MESH_LIMIT",
+    "resolve_target",
+    "retarget_file",
+    "method_times",
+    "output_count",
+    "at_output_rate",
+    "on_the_ground",
+]
 
 #: the frame rate every method works at (the models were trained on 30 fps windows)
 METHOD_FPS = 30.0
@@ -81,11 +91,14 @@ def _check_options(chosen: Method, target: str, target_mesh, source_mesh, checkp
     if not chosen.needs_mesh:
         for flag, value in (("--target-mesh", target_mesh), ("--source-mesh", source_mesh)):
             if value is not None:
-                raise RetargetInputError(f"{value}: {flag} is only used by methods that need meshes (contact); "
-                                         f"--method {chosen.name} would ignore it")
+                raise RetargetInputError(
+                    f"{value}: {flag} is only used by methods that need meshes (contact); "
+                    f"--method {chosen.name} would ignore it"
+                )
     if not chosen.needs_checkpoint and checkpoint is not None:
-        raise RetargetInputError(f"{checkpoint}: --method {chosen.name} has no checkpoint; --checkpoint would be "
-                                 "ignored")
+        raise RetargetInputError(
+            f"{checkpoint}: --method {chosen.name} has no checkpoint; --checkpoint would be ignored"
+        )
 
 
 @contextmanager
@@ -112,23 +125,34 @@ def _check_writable_names(tgt: Target, target, out: Path) -> None:
     for name in tgt.rig.skeleton.joint_names:
         problem = name_problem(name, bvh=suffix == ".bvh")
         if problem:
-            raise OutputPathError(f"{out}: cannot write the joint name {name!r} of {target} in a {suffix} file: it "
-                                  f"{problem}; rename the joint or write a .glb")
+            raise OutputPathError(
+                f"{out}: cannot write the joint name {name!r} of {target} in a {suffix} file: it "
+                f"{problem}; rename the joint or write a .glb"
+            )
 
 
-def _check_plausible(result: Motion, source: Motion, target_skeleton: Skeleton, method: str, checkpoint,
-                     source_path) -> None:
+def _check_plausible(
+    result: Motion, source: Motion, target_skeleton: Skeleton, method: str, checkpoint, source_path
+) -> None:
     """Refuse a non-finite result or one whose root leaves :data:`ROOT_RANGE_FACTOR` times the
     source's range."""
     scale = max(1.0, target_skeleton.height() / source.skeleton.height())
-    limit = ROOT_RANGE_FACTOR * (np.abs(source.root_positions).max() * scale + target_skeleton.height())
+    limit = ROOT_RANGE_FACTOR * (
+        np.abs(source.root_positions).max() * scale + target_skeleton.height()
+    )
     finite = np.isfinite(result.rotations).all() and np.isfinite(result.root_positions).all()
     reach = float(np.abs(result.root_positions).max()) if finite else float("inf")
     if reach > limit:
-        what = "non-finite values" if not finite else f"a root {reach:.3g} m from the origin (limit {limit:.3g} m)"
+        what = (
+            "non-finite values"
+            if not finite
+            else f"a root {reach:.3g} m from the origin (limit {limit:.3g} m)"
+        )
         if checkpoint is not None or get_method(method).needs_checkpoint:
-            raise CheckpointError(f"{checkpoint or method}: --method {method} produced {what}; the checkpoint is "
-                                  "corrupt or not trained for this input")
+            raise CheckpointError(
+                f"{checkpoint or method}: --method {method} produced {what}; the checkpoint is "
+                "corrupt or not trained for this input"
+            )
         raise RetargetInputError(f"{source_path}: --method {method} produced {what}")
 
 
@@ -139,15 +163,26 @@ def _load_retargeter(chosen: Method, checkpoint, device):
         return chosen.retargeter(checkpoint, device)
     except (KeyError, TypeError, AttributeError, RuntimeError) as e:
         problem = str(e).strip().splitlines()[0][:200] if str(e).strip() else type(e).__name__
-        raise CheckpointError(f"{checkpoint or chosen.default_checkpoint()}: not a valid {chosen.name} checkpoint: "
-                              f"{type(e).__name__}: {problem}") from None
+        raise CheckpointError(
+            f"{checkpoint or chosen.default_checkpoint()}: not a valid {chosen.name} checkpoint: "
+            f"{type(e).__name__}: {problem}"
+        ) from None
 
 
-def retarget_file(source: str | os.PathLike, target: str, method: str, out: str | os.PathLike,
-                  checkpoint: str | os.PathLike | None = None, target_mesh: str | os.PathLike | None = None,
-                  source_mesh: str | os.PathLike | None = None, fps: float | None = None,
-                  force: bool = False, joint_map: str | os.PathLike | None = None,
-                  source_joint_map: str | os.PathLike | None = None, device: str | None = None) -> Path:
+def retarget_file(
+    source: str | os.PathLike,
+    target: str,
+    method: str,
+    out: str | os.PathLike,
+    checkpoint: str | os.PathLike | None = None,
+    target_mesh: str | os.PathLike | None = None,
+    source_mesh: str | os.PathLike | None = None,
+    fps: float | None = None,
+    force: bool = False,
+    joint_map: str | os.PathLike | None = None,
+    source_joint_map: str | os.PathLike | None = None,
+    device: str | None = None,
+) -> Path:
     """Load ``source``, retarget it to ``target`` with the registry's ``method`` and write ``out``.
 
     Args:
@@ -183,8 +218,12 @@ def retarget_file(source: str | os.PathLike, target: str, method: str, out: str 
     chosen = get_method(method)
     _check_options(chosen, str(target), target_mesh, source_mesh, checkpoint)
     with input_ledger(force):
-        check_output(out, [source, target, target_mesh, source_mesh, checkpoint, joint_map, source_joint_map],
-                     OUTPUT_SUFFIXES, force)
+        check_output(
+            out,
+            [source, target, target_mesh, source_mesh, checkpoint, joint_map, source_joint_map],
+            OUTPUT_SUFFIXES,
+            force,
+        )
         with _naming(source, source_joint_map):
             src = load_source(source, source_joint_map)
         with _naming(target, joint_map, target_mesh):
@@ -196,23 +235,39 @@ def retarget_file(source: str | os.PathLike, target: str, method: str, out: str 
             raise RetargetInputError(f"--fps {fps}: the output frame rate must be within 1-1000")
         _check_result_size(src.motion, tgt, out_fps, source)
         times = method_times(src.motion)
-        motion = src.motion.copy() if _same_rate(src.motion.fps, METHOD_FPS) else \
-            src.motion.at_times(times, fps=METHOD_FPS)
+        motion = (
+            src.motion.copy()
+            if _same_rate(src.motion.fps, METHOD_FPS)
+            else src.motion.at_times(times, fps=METHOD_FPS)
+        )
         if chosen.needs_mesh:
             if tgt.character is None:
-                raise RetargetInputError(f"{target}: --method contact needs the target's mesh: give a .glb/.fbx/shape "
-                                         ".npz target, --target-mesh SHAPE.npz or a character name")
+                raise RetargetInputError(
+                    f"{target}: --method contact needs the target's mesh: give a .glb/.fbx/shape "
+                    ".npz target, --target-mesh SHAPE.npz or a character name"
+                )
             with _naming(source_mesh):
-                source_character = load_shape_npz(source_mesh) if source_mesh is not None else src.character
-            result = _load_retargeter(chosen, checkpoint, device)(motion, tgt.character,
-                                                                  source_character=source_character)
+                source_character = (
+                    load_shape_npz(source_mesh) if source_mesh is not None else src.character
+                )
+            result = _load_retargeter(chosen, checkpoint, device)(
+                motion, tgt.character, source_character=source_character
+            )
         else:
             result = _load_retargeter(chosen, checkpoint, device)(motion, tgt.skeleton)
         _check_plausible(result, motion, tgt.skeleton, method, checkpoint, source)
         result = at_output_rate(result, times, src.motion, out_fps)
-        source_out = src.motion if result.num_frames == src.motion.num_frames else \
-            at_output_rate(motion, times, src.motion, out_fps)
-        _write(on_the_ground(result, source_out, tgt.character, src.character), tgt, src.meta, Path(out))
+        source_out = (
+            src.motion
+            if result.num_frames == src.motion.num_frames
+            else at_output_rate(motion, times, src.motion, out_fps)
+        )
+        _write(
+            on_the_ground(result, source_out, tgt.character, src.character),
+            tgt,
+            src.meta,
+            Path(out),
+        )
     return Path(out)
 
 
@@ -244,12 +299,18 @@ def at_output_rate(result: Motion, times: np.ndarray, source: Motion, fps: float
     count = output_count(source, fps)
     if _same_rate(fps, METHOD_FPS) and count == result.num_frames:
         return result
-    position = np.interp(np.arange(count) / fps, times, np.arange(len(times)))  # fractional result frames
+    position = np.interp(
+        np.arange(count) / fps, times, np.arange(len(times))
+    )  # fractional result frames
     return result.at_times(position / result.fps, fps=fps)
 
 
-def on_the_ground(result: Motion, source: Motion, target: Character | None = None,
-                  source_character: Character | None = None) -> Motion:
+def on_the_ground(
+    result: Motion,
+    source: Motion,
+    target: Character | None = None,
+    source_character: Character | None = None,
+) -> Motion:
     """``result`` shifted vertically by the ground rule (:func:`~retarget_lib.core.ground.floor_offset`):
     where a foot of ``source`` stands on its floor, the result's is on ``y = 0`` (at the source's
     sole height times the height ratio).
@@ -266,16 +327,22 @@ def on_the_ground(result: Motion, source: Motion, target: Character | None = Non
         ``(T,)`` shift applied, metres).
     """
     if source.num_frames != result.num_frames:
-        raise ValueError(f"the result has {result.num_frames} frames and the source {source.num_frames}")
+        raise ValueError(
+            f"the result has {result.num_frames} frames and the source {source.num_frames}"
+        )
     src_mesh = None if source_character is None else source_character.rest_vertices
     tgt_mesh = None if target is None else target.rest_vertices
     src_pos = source.global_positions()
     src_soles = sole_heights(src_pos, source.skeleton, src_mesh)
     floor = clip_floor(src_soles)
     src_height = source.skeleton.height()
-    standing = standing_feet(foot_positions(src_pos, source.skeleton), src_soles, floor, src_height, source.fps)
+    standing = standing_feet(
+        foot_positions(src_pos, source.skeleton), src_soles, floor, src_height, source.fps
+    )
     tgt_soles = sole_heights(result.global_positions(), result.skeleton, tgt_mesh)
-    shift = floor_offset(tgt_soles, src_soles, floor, standing, result.skeleton.height() / src_height)
+    shift = floor_offset(
+        tgt_soles, src_soles, floor, standing, result.skeleton.height() / src_height
+    )
     out = result.copy()
     out.root_positions[:, 1] += shift
     out.meta["floor_offset_m"] = shift
@@ -296,8 +363,10 @@ def _check_target_fits(tgt: Target, target, out: Path) -> None:
     format cannot hold."""
     suffix = out.suffix.lower()
     if suffix != ".bvh" and tgt.rig is None:
-        raise OutputPathError(f"{out}: a {suffix} result is the target's skinned mesh, and the target {target} has "
-                              "none; give a .glb/.fbx/shape .npz target, a character name, or --target-mesh")
+        raise OutputPathError(
+            f"{out}: a {suffix} result is the target's skinned mesh, and the target {target} has "
+            "none; give a .glb/.fbx/shape .npz target, a character name, or --target-mesh"
+        )
     _check_writable_names(tgt, target, out)
 
 
@@ -311,10 +380,17 @@ def _write(result: Motion, tgt: Target, source_layout: dict, out: Path) -> None:
         save(tgt.rig, out, tgt.rig.motion_from_canonical(result))
     elif tgt.bvh is not None:  # the target's joints, names, channels and unit
         full = unfold_from_canonical22(result, tgt.bvh.skeleton, tgt.bvh_map)
-        full.meta.update({k: tgt.bvh.meta[k] for k in ("unit_scale", "unit", "channels", "file_joint_names")
-                          if k in tgt.bvh.meta})
+        full.meta.update(
+            {
+                k: tgt.bvh.meta[k]
+                for k in ("unit_scale", "unit", "channels", "file_joint_names")
+                if k in tgt.bvh.meta
+            }
+        )
         save_bvh(full, out)
     else:  # a GLB/FBX target's own joints, else the canonical 22; in the source file's unit
         full = tgt.rig.motion_from_canonical(result) if tgt.rig is not None else result
-        full.meta.update({k: source_layout[k] for k in ("unit_scale", "unit") if k in source_layout})
+        full.meta.update(
+            {k: source_layout[k] for k in ("unit_scale", "unit") if k in source_layout}
+        )
         save_bvh(full, out)

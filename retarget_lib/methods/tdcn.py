@@ -11,8 +11,9 @@ clips).
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from functools import partial
-from typing import Any, Callable
+from typing import Any
 
 import torch
 
@@ -26,7 +27,14 @@ from ..models.tdcn import edge_pad
 
 Tensor = torch.Tensor
 
-__all__ = ["centre_root", "model_config", "load_generator", "retarget_motion_with", "generator_retargeter", "load"]
+__all__ = [
+    "centre_root",
+    "model_config",
+    "load_generator",
+    "retarget_motion_with",
+    "generator_retargeter",
+    "load",
+]
 
 
 def centre_root(root_positions: Tensor) -> tuple[Tensor, Tensor]:
@@ -57,8 +65,10 @@ def model_config(config: dict) -> dict[str, Any]:
     return {**config["model"], "profile": config.get("profile", "fast")}
 
 
-def load_generator(checkpoint: str | os.PathLike, device: str | torch.device | None = None,
-                   ) -> tuple[torch.nn.Module, dict]:
+def load_generator(
+    checkpoint: str | os.PathLike,
+    device: str | torch.device | None = None,
+) -> tuple[torch.nn.Module, dict]:
     """Rebuild a trained generator from a checkpoint of ``retarget train`` (``last.pt``,
     ``final.pt`` or an ``--export``ed one).
 
@@ -85,8 +95,9 @@ def _frame_windows(x: Tensor, left: int, right: int) -> Tensor:
     return windows.movedim(-1, 1)
 
 
-def retarget_motion_with(generator: Any, motion: Motion, target: Skeleton,
-                         windowed: bool = False, chunk: int = 256) -> Motion:
+def retarget_motion_with(
+    generator: Any, motion: Motion, target: Skeleton, windowed: bool = False, chunk: int = 256
+) -> Motion:
     """Retarget a whole clip with a trained TDCN/NKN generator (any length).
 
     A residual generator (``ours-residual``) has translation-invariant inputs and the source's
@@ -121,7 +132,9 @@ def retarget_motion_with(generator: Any, motion: Motion, target: Skeleton,
     off_b = torch.as_tensor(target.offsets, dtype=torch.float32, device=device)
     ratio = nkn_height(off_b) / nkn_height(off_a)
     with torch.inference_mode():
-        if getattr(generator, "residual", False):  # translation-invariant inputs, analytic root: no centring
+        if getattr(
+            generator, "residual", False
+        ):  # translation-invariant inputs, analytic root: no centring
             q_b, r_b = (x[0] for x in generator.retarget(q[None], r[None], off_a, off_b))
             shift = r.new_zeros(3)
         elif not windowed:
@@ -130,20 +143,30 @@ def retarget_motion_with(generator: Any, motion: Motion, target: Skeleton,
         elif isinstance(generator, TDCNGenerator):
             left, right = generator.body.pad_amounts
             r_win, shift = centre_root(_frame_windows(r, left, right))  # (T, W, 3), (T, 3)
-            q_win = _frame_windows(q, left, right)                       # (T, W, J, 4)
-            outs = [generator.retarget(q_win[i:i + chunk], r_win[i:i + chunk], off_a, off_b)
-                    for i in range(0, len(q_win), chunk)]
+            q_win = _frame_windows(q, left, right)  # (T, W, J, 4)
+            outs = [
+                generator.retarget(q_win[i : i + chunk], r_win[i : i + chunk], off_a, off_b)
+                for i in range(0, len(q_win), chunk)
+            ]
             q_b = torch.cat([o[0][:, left] for o in outs])
             r_b = torch.cat([o[1][:, left] for o in outs])
         else:
-            raise ValueError(f"windowed retargeting needs a TDCNGenerator, got {type(generator).__name__}")
-    return motion.copy(skeleton=target.copy(), rotations=q_b.double().cpu().numpy(),
-                       root_positions=(r_b + shift * ratio).double().cpu().numpy(),
-                       meta=dict(motion.meta, retargeted=generator.config["kind"]))
+            raise ValueError(
+                f"windowed retargeting needs a TDCNGenerator, got {type(generator).__name__}"
+            )
+    return motion.copy(
+        skeleton=target.copy(),
+        rotations=q_b.double().cpu().numpy(),
+        root_positions=(r_b + shift * ratio).double().cpu().numpy(),
+        meta=dict(motion.meta, retargeted=generator.config["kind"]),
+    )
 
 
-def generator_retargeter(checkpoint: str | os.PathLike, kind: str, device: str | torch.device | None = None,
-                         ) -> Callable[[Motion, Skeleton], Motion]:
+def generator_retargeter(
+    checkpoint: str | os.PathLike,
+    kind: str,
+    device: str | torch.device | None = None,
+) -> Callable[[Motion, Skeleton], Motion]:
     """``retarget(motion, target_skeleton)`` with the generator of ``checkpoint``, which must hold
     a ``kind`` model (``"tdcn"``: a TDCN row; ``"nkn"``: a Baseline row of Table 4), on ``device``
     (default the CPU).
@@ -158,7 +181,9 @@ def generator_retargeter(checkpoint: str | os.PathLike, kind: str, device: str |
     return partial(retarget_motion_with, generator)
 
 
-def load(checkpoint: str | os.PathLike, device: str | torch.device | None = None,
-         ) -> Callable[[Motion, Skeleton], Motion]:
+def load(
+    checkpoint: str | os.PathLike,
+    device: str | torch.device | None = None,
+) -> Callable[[Motion, Skeleton], Motion]:
     """The registry's loader: :func:`retarget_motion_with` a TDCN generator on ``device``."""
     return generator_retargeter(checkpoint, "tdcn", device)

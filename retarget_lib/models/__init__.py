@@ -32,7 +32,8 @@ A2 (unbalanced data) and A3 (no ``L_h``) use the same network as "ours"; their r
 
 from __future__ import annotations
 
-from typing import Any, Mapping, NamedTuple
+from collections.abc import Mapping
+from typing import Any, NamedTuple
 
 from torch import nn
 
@@ -42,7 +43,13 @@ from ..config_schema import TDCN as TDCN_SCHEMA
 from .discriminator import PatchDiscriminator
 from .features import FeatureNormalizer, discriminator_features, generator_features
 from .nkn import NKNDiscriminator, NKNGenerator
-from .tdcn import DilatedStack, GeneratorOutput, TDCNGenerator, normalize_quaternions, quaternion_norm
+from .tdcn import (
+    DilatedStack,
+    GeneratorOutput,
+    TDCNGenerator,
+    normalize_quaternions,
+    quaternion_norm,
+)
 
 __all__ = [
     "build_model",
@@ -70,11 +77,18 @@ PROFILE_WIDTHS: dict[str, dict[str, int]] = {
     "paper": {"tdcn": 1024, "nkn": 512, "disc": 256},
 }
 
-_TDCN_VARIANTS = {"ours": {}, "dense": {"dense": True}, "causal": {"causal": True},
-                  "disc81": {"disc_receptive_field": 81}}
-_NKN_VARIANTS = {"baseline": {"backbone": "gru"}, "dense": {"backbone": "dense"},
-                 "dilated": {"backbone": "dilated"},
-                 "height": {"backbone": "gru", "normalize_root": True, "height_loss": True}}
+_TDCN_VARIANTS = {
+    "ours": {},
+    "dense": {"dense": True},
+    "causal": {"causal": True},
+    "disc81": {"disc_receptive_field": 81},
+}
+_NKN_VARIANTS = {
+    "baseline": {"backbone": "gru"},
+    "dense": {"backbone": "dense"},
+    "dilated": {"backbone": "dilated"},
+    "height": {"backbone": "gru", "normalize_root": True, "height_loss": True},
+}
 #: the keys a model config may have: the schema's (:data:`retarget_lib.config_schema.TDCN`)
 _KNOWN = frozenset(TDCN_SCHEMA["model"])
 
@@ -151,16 +165,39 @@ def build_model(config: Mapping[str, Any] | None = None) -> ModelPair:
     cfg = resolve_config(config)
     pick = lambda *keys: {k: cfg[k] for k in keys if k in cfg}  # noqa: E731
     if cfg["kind"] == "tdcn":
-        gen = TDCNGenerator(channels=cfg["channels"],
-                            **pick("dropout", "dilations", "kernel", "causal", "dense", "slope", "head_hidden",
-                                   "skip_projection", "residual"))
-        disc = PatchDiscriminator(channels=cfg["disc_channels"], receptive_field=cfg["disc_receptive_field"],
-                                  **({"norm": cfg["disc_norm"]} if "disc_norm" in cfg else {}),
-                                  **pick("slope"))
+        gen = TDCNGenerator(
+            channels=cfg["channels"],
+            **pick(
+                "dropout",
+                "dilations",
+                "kernel",
+                "causal",
+                "dense",
+                "slope",
+                "head_hidden",
+                "skip_projection",
+                "residual",
+            ),
+        )
+        disc = PatchDiscriminator(
+            channels=cfg["disc_channels"],
+            receptive_field=cfg["disc_receptive_field"],
+            **({"norm": cfg["disc_norm"]} if "disc_norm" in cfg else {}),
+            **pick("slope"),
+        )
     else:
-        gen = NKNGenerator(hidden=cfg["channels"],
-                           **pick("backbone", "normalize_root", "height_loss", "dropout", "dilations",
-                                  "num_layers", "slope"))
+        gen = NKNGenerator(
+            hidden=cfg["channels"],
+            **pick(
+                "backbone",
+                "normalize_root",
+                "height_loss",
+                "dropout",
+                "dilations",
+                "num_layers",
+                "slope",
+            ),
+        )
         disc = NKNDiscriminator(**pick("slope"))
     gen.config = dict(cfg)
     disc.config = dict(cfg)

@@ -32,7 +32,7 @@ clip (instance statistics), so the 31-frame locality no longer holds.
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import torch
 from torch import nn
@@ -67,18 +67,38 @@ class PatchDiscriminator(nn.Module):
 
     height_normalized_inputs = True
 
-    def __init__(self, in_channels: int | None = None, channels: int = 256, receptive_field: int = 31,
-                 dilations: Sequence[int] | None = None, dropout: float = 0.0, norm: bool | str = "batch",
-                 slope: float = DEFAULT_SLOPE):
+    def __init__(
+        self,
+        in_channels: int | None = None,
+        channels: int = 256,
+        receptive_field: int = 31,
+        dilations: Sequence[int] | None = None,
+        dropout: float = 0.0,
+        norm: bool | str = "batch",
+        slope: float = DEFAULT_SLOPE,
+    ):
         super().__init__()
         if dilations is None:
             if receptive_field not in DISCRIMINATOR_DILATIONS:
-                raise ValueError(f"receptive_field must be one of {sorted(DISCRIMINATOR_DILATIONS)}, "
-                                 f"or pass dilations explicitly; got {receptive_field}")
+                raise ValueError(
+                    f"receptive_field must be one of {sorted(DISCRIMINATOR_DILATIONS)}, "
+                    f"or pass dilations explicitly; got {receptive_field}"
+                )
             dilations = DISCRIMINATOR_DILATIONS[receptive_field]
         self.in_channels = discriminator_input_channels() if in_channels is None else in_channels
-        self.body = DilatedStack(self.in_channels, channels, dilations, 3, 3, dropout, causal=False,
-                                 dense=False, norm=norm, slope=slope, padding="valid")
+        self.body = DilatedStack(
+            self.in_channels,
+            channels,
+            dilations,
+            3,
+            3,
+            dropout,
+            causal=False,
+            dense=False,
+            norm=norm,
+            slope=slope,
+            padding="valid",
+        )
         self.head = FrameHead(channels, 1, hidden=0, slope=slope)
 
     @staticmethod
@@ -112,7 +132,9 @@ class PatchDiscriminator(nn.Module):
             least-squares loss, which the loss module applies).
         """
         if features.shape[-1] == 0:
-            raise ValueError("discriminator features need at least one frame pair (clips of >= 2 frames)")
+            raise ValueError(
+                "discriminator features need at least one frame pair (clips of >= 2 frames)"
+            )
         missing = self.receptive_field - features.shape[-1]
         if missing > 0:
             features = edge_pad(features, missing // 2, missing - missing // 2)

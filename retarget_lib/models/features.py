@@ -41,7 +41,7 @@ Discriminator input (TDCN Sec. 4.2, Eqs. 9-12 and 18-20). Per frame pair ``(t-1,
 
 from __future__ import annotations
 
-from typing import Iterable, Sequence
+from collections.abc import Iterable, Sequence
 
 import torch
 from torch import nn
@@ -73,6 +73,7 @@ __all__ = [
 
 NUM_JOINTS = 22
 
+
 def residual_input_channels(num_joints: int = NUM_JOINTS) -> int:
     """``C_in`` of the residual TDCN: ``p`` (3J) + ``q`` (4J) + root (3) + ``s̄B`` (3J) + ``s̄A`` (3J)."""
     return 13 * num_joints + 3
@@ -95,8 +96,12 @@ def nkn_input_channels(num_joints: int = NUM_JOINTS) -> int:
 
 def _layout(num_joints: int) -> dict[str, slice]:
     j = num_joints
-    return {"p": slice(0, 3 * j), "q": slice(3 * j, 7 * j), "r": slice(7 * j, 7 * j + 3),
-            "skeleton": slice(7 * j + 3, 10 * j + 3)}
+    return {
+        "p": slice(0, 3 * j),
+        "q": slice(3 * j, 7 * j),
+        "r": slice(7 * j, 7 * j + 3),
+        "skeleton": slice(7 * j + 3, 10 * j + 3),
+    }
 
 
 #: channel slices of :func:`generator_features` for the canonical 22 joints
@@ -112,8 +117,9 @@ def batched_offsets(offsets: Tensor, batch: int) -> Tensor:
     return offsets.expand(batch, -1, -1)
 
 
-def source_local_positions(rotations: Tensor, offsets: Tensor,
-                           parents: Sequence[int] = CANONICAL22_PARENTS) -> Tensor:
+def source_local_positions(
+    rotations: Tensor, offsets: Tensor, parents: Sequence[int] = CANONICAL22_PARENTS
+) -> Tensor:
     """``p_t = f_FK(q_t, s̄)`` (TDCN Eq. 1): joints relative to the root, root rotation applied.
 
     Args:
@@ -129,9 +135,14 @@ def source_local_positions(rotations: Tensor, offsets: Tensor,
     return forward_kinematics(rotations, offsets, parents, None).positions
 
 
-def generator_features(rotations: Tensor, root_positions: Tensor, offsets_src: Tensor,
-                       offsets_tgt: Tensor, positions: Tensor | None = None,
-                       parents: Sequence[int] = CANONICAL22_PARENTS) -> Tensor:
+def generator_features(
+    rotations: Tensor,
+    root_positions: Tensor,
+    offsets_src: Tensor,
+    offsets_tgt: Tensor,
+    positions: Tensor | None = None,
+    parents: Sequence[int] = CANONICAL22_PARENTS,
+) -> Tensor:
     """The TDCN generator input ``[p_t, q_t, r_t, s̄B]`` per frame (Sec. 3.1, Eq. 2; Fig. 2b).
 
     Args:
@@ -149,14 +160,23 @@ def generator_features(rotations: Tensor, root_positions: Tensor, offsets_src: T
     b, t, j, _ = rotations.shape
     if positions is None:
         positions = source_local_positions(rotations, offsets_src, parents)
-    skel = batched_offsets(offsets_tgt.to(rotations.dtype), b).reshape(b, 1, 3 * j).expand(b, t, 3 * j)
-    x = torch.cat([positions.reshape(b, t, 3 * j), rotations.reshape(b, t, 4 * j), root_positions, skel], -1)
+    skel = (
+        batched_offsets(offsets_tgt.to(rotations.dtype), b).reshape(b, 1, 3 * j).expand(b, t, 3 * j)
+    )
+    x = torch.cat(
+        [positions.reshape(b, t, 3 * j), rotations.reshape(b, t, 4 * j), root_positions, skel], -1
+    )
     return x.transpose(1, 2)
 
 
-def residual_generator_features(rotations: Tensor, root_positions: Tensor, offsets_src: Tensor,
-                                offsets_tgt: Tensor, positions: Tensor | None = None,
-                                parents: Sequence[int] = CANONICAL22_PARENTS) -> Tensor:
+def residual_generator_features(
+    rotations: Tensor,
+    root_positions: Tensor,
+    offsets_src: Tensor,
+    offsets_tgt: Tensor,
+    positions: Tensor | None = None,
+    parents: Sequence[int] = CANONICAL22_PARENTS,
+) -> Tensor:
     """Input of the residual TDCN variant: ``[p_t, q_t, ρ_t, s̄B, s̄A]`` per frame.
 
     Differs from :func:`generator_features` (the paper's Eq. 2) in two ways, both so that the
@@ -181,7 +201,9 @@ def residual_generator_features(rotations: Tensor, root_positions: Tensor, offse
     b, t, j, _ = rotations.shape
     off_a = batched_offsets(offsets_src.to(rotations.dtype), b)
     v = root_velocities(root_positions)
-    rho = torch.stack([v[..., 0], root_positions[..., 1], v[..., 2]], -1) / nkn_height(off_a).view(b, 1, 1)
+    rho = torch.stack([v[..., 0], root_positions[..., 1], v[..., 2]], -1) / nkn_height(off_a).view(
+        b, 1, 1
+    )
     # the paper's [p, q, r, s̄B] with ρ in r's channels, then s̄A
     x = generator_features(rotations, rho, off_a, offsets_tgt, positions, parents)
     return torch.cat([x, off_a.reshape(b, 3 * j, 1).expand(b, 3 * j, t)], 1)
@@ -199,10 +221,12 @@ def split_generator_features(features: Tensor, num_joints: int = NUM_JOINTS) -> 
     lay = _layout(num_joints)
     x = features.transpose(1, 2)
     b, t, _ = x.shape
-    return {"p": x[..., lay["p"]].reshape(b, t, num_joints, 3),
-            "q": x[..., lay["q"]].reshape(b, t, num_joints, 4),
-            "r": x[..., lay["r"]],
-            "skeleton": x[:, 0, lay["skeleton"]].reshape(b, num_joints, 3)}
+    return {
+        "p": x[..., lay["p"]].reshape(b, t, num_joints, 3),
+        "q": x[..., lay["q"]].reshape(b, t, num_joints, 4),
+        "r": x[..., lay["r"]],
+        "skeleton": x[:, 0, lay["skeleton"]].reshape(b, num_joints, 3),
+    }
 
 
 def root_velocities(root_positions: Tensor) -> Tensor:
@@ -217,7 +241,9 @@ def root_velocities(root_positions: Tensor) -> Tensor:
     return torch.cat([torch.zeros_like(root_positions[:, :1]), root_positions.diff(dim=1)], 1)
 
 
-def nkn_source_features(positions: Tensor, root_positions: Tensor, height: Tensor | None = None) -> Tensor:
+def nkn_source_features(
+    positions: Tensor, root_positions: Tensor, height: Tensor | None = None
+) -> Tensor:
     """The NKN encoder input per frame: local joint positions and root velocity (Villegas 2018).
 
     Args:
@@ -236,8 +262,9 @@ def nkn_source_features(positions: Tensor, root_positions: Tensor, height: Tenso
     return torch.cat([positions.reshape(b, t, 3 * j), v], -1).transpose(1, 2)
 
 
-def discriminator_features(positions: Tensor, root_positions: Tensor, offsets: Tensor,
-                           normalize: bool = True) -> Tensor:
+def discriminator_features(
+    positions: Tensor, root_positions: Tensor, offsets: Tensor, normalize: bool = True
+) -> Tensor:
     """Discriminator input ``(l_t, δ_t, B)`` of TDCN Eqs. 19-20 for frames ``2..T``.
 
     Args:
@@ -253,7 +280,9 @@ def discriminator_features(positions: Tensor, root_positions: Tensor, offsets: T
     b, t = positions.shape[:2]
     offsets = batched_offsets(offsets.to(positions.dtype), b)
     # the same l, δ and bone lengths as the loss module's Eqs. 11/12, 18, 19/20; H = 1 keeps metres
-    d = discriminator_inputs(positions, root_positions, offsets, nkn_height(offsets) if normalize else 1.0)
+    d = discriminator_inputs(
+        positions, root_positions, offsets, nkn_height(offsets) if normalize else 1.0
+    )
     bones = d.bones[:, 1:].unsqueeze(1).expand(b, t - 1, -1)
     return torch.cat([d.l[..., 1:], d.delta.unsqueeze(-1), bones], -1).transpose(1, 2)
 
@@ -284,7 +313,7 @@ class FeatureNormalizer(nn.Module):
         return not bool(self.fitted)
 
     @torch.no_grad()
-    def fit(self, features: Tensor | Iterable[Tensor]) -> "FeatureNormalizer":
+    def fit(self, features: Tensor | Iterable[Tensor]) -> FeatureNormalizer:
         """Compute per-channel mean and std over batch and time.
 
         Args:

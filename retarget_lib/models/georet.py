@@ -44,7 +44,8 @@ integration) and :func:`retarget_lib.core.skinning.linear_blend_skinning` with i
 
 from __future__ import annotations
 
-from typing import NamedTuple, Sequence
+from collections.abc import Sequence
+from typing import NamedTuple
 
 import numpy as np
 import torch
@@ -99,9 +100,13 @@ def _heights(height: float | Tensor | None, offsets: Tensor) -> Tensor:
     return h.expand(offsets.shape[0]) if h.dim() == 0 else h
 
 
-def motion_features(rotations: Tensor, root_positions: Tensor, offsets: Tensor | np.ndarray,
-                    parents: Sequence[int] = CANONICAL22_PARENTS,
-                    height: float | Tensor | None = None) -> Tensor:
+def motion_features(
+    rotations: Tensor,
+    root_positions: Tensor,
+    offsets: Tensor | np.ndarray,
+    parents: Sequence[int] = CANONICAL22_PARENTS,
+    height: float | Tensor | None = None,
+) -> Tensor:
     """``m_t`` for every frame (App. B): ``[p_t / h, θ_t (3×3, row-major), o_t / h]``.
 
     Args:
@@ -118,7 +123,9 @@ def motion_features(rotations: Tensor, root_positions: Tensor, offsets: Tensor |
     if rotations.dim() != 4 or rotations.shape[-2:] != (NUM_JOINTS, 4):
         raise ValueError(f"rotations must be (B, T, 22, 4), got {tuple(rotations.shape)}")
     b, t = rotations.shape[:2]
-    off = batched_offsets(torch.as_tensor(offsets, dtype=rotations.dtype, device=rotations.device), b)
+    off = batched_offsets(
+        torch.as_tensor(offsets, dtype=rotations.dtype, device=rotations.device), b
+    )
     h = _heights(height, off).view(b, 1, 1)
     local = forward_kinematics(rotations, off.unsqueeze(1), parents, None).positions
     mats = quat_to_matrix(rotations).reshape(b, t, 9 * NUM_JOINTS)
@@ -141,13 +148,18 @@ def normalize_rest_vertices(vertices: Tensor) -> Tensor:
     """
     lo, hi = vertices.amin(dim=-2, keepdim=True), vertices.amax(dim=-2, keepdim=True)
     ground = mesh_ground(vertices)[..., None, None]
-    origin = torch.cat(((lo[..., :1] + hi[..., :1]) / 2, ground, (lo[..., 2:] + hi[..., 2:]) / 2), -1)
+    origin = torch.cat(
+        ((lo[..., :1] + hi[..., :1]) / 2, ground, (lo[..., 2:] + hi[..., 2:]) / 2), -1
+    )
     extent = mesh_standing_height(vertices)[..., None, None].clamp_min(1e-6)
     return (vertices - origin) / extent
 
 
-def batch_meshes(vertices: Sequence[np.ndarray | Tensor], weights: Sequence[np.ndarray | Tensor],
-                 dtype: torch.dtype = torch.float32) -> tuple[Tensor, Tensor]:
+def batch_meshes(
+    vertices: Sequence[np.ndarray | Tensor],
+    weights: Sequence[np.ndarray | Tensor],
+    dtype: torch.dtype = torch.float32,
+) -> tuple[Tensor, Tensor]:
     """Stack meshes with different vertex counts by repeating vertices (cyclically) up to the largest.
 
     Repeating vertices changes neither :func:`normalize_rest_vertices` nor the max-pool of
@@ -161,8 +173,10 @@ def batch_meshes(vertices: Sequence[np.ndarray | Tensor], weights: Sequence[np.n
         ``(B, V_max, 3)`` and ``(B, V_max, 22)``.
     """
     if len(vertices) != len(weights) or not vertices:
-        raise ValueError(f"need the same non-zero number of vertex and weight arrays, got "
-                         f"{len(vertices)} and {len(weights)}")
+        raise ValueError(
+            f"need the same non-zero number of vertex and weight arrays, got "
+            f"{len(vertices)} and {len(weights)}"
+        )
     n = max(len(v) for v in vertices)
     out_v, out_w = [], []
     for v, w in zip(vertices, weights):
@@ -186,8 +200,9 @@ class PointNetEncoder(nn.Module):
     def __init__(self, in_features: int = 3 + NUM_JOINTS, hidden: int = 256):
         super().__init__()
         self.in_features = in_features
-        self.mlp = nn.Sequential(nn.Linear(in_features, hidden), nn.ReLU(),
-                                 nn.Linear(hidden, hidden), nn.ReLU())
+        self.mlp = nn.Sequential(
+            nn.Linear(in_features, hidden), nn.ReLU(), nn.Linear(hidden, hidden), nn.ReLU()
+        )
 
     def forward(self, vertices: Tensor, weights: Tensor) -> Tensor:
         """Embed rest meshes of any vertex count.
@@ -200,12 +215,20 @@ class PointNetEncoder(nn.Module):
         Returns:
             ``(B, hidden)``.
         """
-        if vertices.dim() != 3 or vertices.shape[-1] != 3 or weights.shape[:2] != vertices.shape[:2]:
-            raise ValueError(f"vertices must be (B, V, 3) and weights (B, V, J); got "
-                             f"{tuple(vertices.shape)} and {tuple(weights.shape)}")
+        if (
+            vertices.dim() != 3
+            or vertices.shape[-1] != 3
+            or weights.shape[:2] != vertices.shape[:2]
+        ):
+            raise ValueError(
+                f"vertices must be (B, V, 3) and weights (B, V, J); got "
+                f"{tuple(vertices.shape)} and {tuple(weights.shape)}"
+            )
         if 3 + weights.shape[-1] != self.in_features:
-            raise ValueError(f"expected {self.in_features - 3} skinning weights per vertex, "
-                             f"got {weights.shape[-1]}")
+            raise ValueError(
+                f"expected {self.in_features - 3} skinning weights per vertex, "
+                f"got {weights.shape[-1]}"
+            )
         x = torch.cat((normalize_rest_vertices(vertices), weights.to(vertices.dtype)), dim=-1)
         return self.mlp(x).amax(dim=1)
 
@@ -240,7 +263,7 @@ class ResidualBase(NamedTuple):
     rotations: Tensor
     root_velocity: Tensor
 
-    def frame(self, t: int) -> "ResidualBase":
+    def frame(self, t: int) -> ResidualBase:
         """Frame ``t``: ``rotations (B, 22, 4)``, ``root_velocity (B, 3)``."""
         return ResidualBase(self.rotations[:, t], self.root_velocity[:, t])
 
@@ -327,8 +350,13 @@ class PosedOutput(NamedTuple):
     root_positions: Tensor
 
 
-def pose_outputs(rotations: Tensor, root_velocity: Tensor, offsets: Tensor | np.ndarray,
-                 parents: Sequence[int] = CANONICAL22_PARENTS, start: Tensor | None = None) -> PosedOutput:
+def pose_outputs(
+    rotations: Tensor,
+    root_velocity: Tensor,
+    offsets: Tensor | np.ndarray,
+    parents: Sequence[int] = CANONICAL22_PARENTS,
+    start: Tensor | None = None,
+) -> PosedOutput:
     """The FK layer (Eq. 15) with the integrated root (Eq. 18): ``r_t = start + Σ_(k<t) o_k``.
 
     Args:
@@ -342,10 +370,14 @@ def pose_outputs(rotations: Tensor, root_velocity: Tensor, offsets: Tensor | np.
         :class:`PosedOutput`.
     """
     b = rotations.shape[0]
-    off = batched_offsets(torch.as_tensor(offsets, dtype=rotations.dtype, device=rotations.device), b)
+    off = batched_offsets(
+        torch.as_tensor(offsets, dtype=rotations.dtype, device=rotations.device), b
+    )
     steps = torch.cumsum(root_velocity, dim=1) - root_velocity  # exclusive: Σ_(k<t) o_k
     if start is not None:
-        steps = steps + torch.as_tensor(start, dtype=rotations.dtype, device=rotations.device).reshape(-1, 1, 3)
+        steps = steps + torch.as_tensor(
+            start, dtype=rotations.dtype, device=rotations.device
+        ).reshape(-1, 1, 3)
     pos, grot = forward_kinematics(rotations, off.unsqueeze(1), parents, steps)
     return PosedOutput(pos, grot, steps)
 
@@ -369,8 +401,16 @@ class GeometryConditionedRNN(nn.Module):
             paper-form heads start small (weights scaled by 0.01). Needs a :class:`ResidualBase` in every call.
     """
 
-    def __init__(self, joints: int = NUM_JOINTS, hidden: int = 512, layers: int = 2, geometry: int = 256,
-                 dropout: float = 0.1, parents: Sequence[int] = CANONICAL22_PARENTS, residual: bool = False):
+    def __init__(
+        self,
+        joints: int = NUM_JOINTS,
+        hidden: int = 512,
+        layers: int = 2,
+        geometry: int = 256,
+        dropout: float = 0.1,
+        parents: Sequence[int] = CANONICAL22_PARENTS,
+        residual: bool = False,
+    ):
         super().__init__()
         self.residual = bool(residual)
         if joints != len(parents):
@@ -378,15 +418,20 @@ class GeometryConditionedRNN(nn.Module):
         self.joints, self.hidden, self.layers = joints, hidden, layers
         self.parents = tuple(parents)
         in_features = 12 * joints + 3
-        self.encoder = nn.GRU(in_features, hidden, layers, batch_first=True,
-                              dropout=dropout if layers > 1 else 0.0)
+        self.encoder = nn.GRU(
+            in_features, hidden, layers, batch_first=True, dropout=dropout if layers > 1 else 0.0
+        )
         self.pointnet = PointNetEncoder(3 + joints, geometry)
         dec_in = hidden + 3 * joints + 3 + 3 * joints + geometry
-        self.decoder = nn.ModuleList([nn.GRUCell(dec_in if i == 0 else hidden, hidden) for i in range(layers)])
+        self.decoder = nn.ModuleList(
+            [nn.GRUCell(dec_in if i == 0 else hidden, hidden) for i in range(layers)]
+        )
         self.dropout = nn.Dropout(dropout)
         self.rotation_head = nn.Linear(hidden, 6 * joints)  # f_θ, 6D per joint
         self.velocity_head = nn.Linear(hidden, 3)  # f_o, o^B / h_B
-        with torch.no_grad():  # residual: heads at exactly zero, so the untrained network is its base
+        with (
+            torch.no_grad()
+        ):  # residual: heads at exactly zero, so the untrained network is its base
             for head in (self.rotation_head, self.velocity_head):
                 head.weight.mul_(0.0 if self.residual else 0.01)
             self.rotation_head.bias.copy_(torch.tensor([1.0, 0, 0, 0, 1.0, 0]).repeat(joints))
@@ -403,15 +448,22 @@ class GeometryConditionedRNN(nn.Module):
             ``(B, T, hidden)`` top-layer encoder states.
         """
         if source.dim() != 3 or source.shape[-1] != self.encoder.input_size:
-            raise ValueError(f"source must be (B, T, {self.encoder.input_size}), got {tuple(source.shape)}")
+            raise ValueError(
+                f"source must be (B, T, {self.encoder.input_size}), got {tuple(source.shape)}"
+            )
         return self.encoder(source)[0]
 
     def geometry(self, vertices: Tensor, weights: Tensor) -> Tensor:
         """``e^B`` (Eq. 19) of ``(B, V, 3)`` rest vertices (metres) and ``(B, V, 22)`` weights → ``(B, G)``."""
         return self.pointnet(vertices, weights)
 
-    def target_context(self, offsets: Tensor, vertices: Tensor, weights: Tensor,
-                       height: float | Tensor | None = None) -> TargetContext:
+    def target_context(
+        self,
+        offsets: Tensor,
+        vertices: Tensor,
+        weights: Tensor,
+        height: float | Tensor | None = None,
+    ) -> TargetContext:
         """The decoder's per-sequence inputs ``s̄^B / h_B`` and ``e^B``.
 
         Args:
@@ -438,8 +490,14 @@ class GeometryConditionedRNN(nn.Module):
         b = off.shape[0]
         identity = quat_identity((b, self.joints), off.dtype, off.device)
         rest = forward_kinematics(identity, off, self.parents, None).positions
-        root = off.new_zeros(b, 3) if start is None else torch.as_tensor(start, dtype=off.dtype).expand(b, 3)
-        return DecoderState(off.new_zeros(self.layers, b, self.hidden), rest, off.new_zeros(b, 3), root, identity)
+        root = (
+            off.new_zeros(b, 3)
+            if start is None
+            else torch.as_tensor(start, dtype=off.dtype).expand(b, 3)
+        )
+        return DecoderState(
+            off.new_zeros(self.layers, b, self.hidden), rest, off.new_zeros(b, 3), root, identity
+        )
 
     def compile_decoder(self) -> None:
         """Compile :meth:`decode_step` with ``torch.compile`` (inductor; needs a C++ compiler on the CPU).
@@ -475,9 +533,13 @@ class GeometryConditionedRNN(nn.Module):
         cell = self.decoder[0]
         _, positions, _, rest = self._input_columns()
         fixed = torch.cat((context.skeleton, context.geometry), dim=-1)
-        input0 = (F.linear(state.local_positions.reshape(b, -1) / context.height.view(b, 1), cell.weight_ih[:, positions])
-                  + F.linear(fixed, cell.weight_ih[:, rest], cell.bias_ih))
-        hidden = torch.stack([F.linear(state.hidden[i], c.weight_hh, c.bias_hh) for i, c in enumerate(self.decoder)])
+        input0 = F.linear(
+            state.local_positions.reshape(b, -1) / context.height.view(b, 1),
+            cell.weight_ih[:, positions],
+        ) + F.linear(fixed, cell.weight_ih[:, rest], cell.bias_ih)
+        hidden = torch.stack(
+            [F.linear(state.hidden[i], c.weight_hh, c.bias_hh) for i, c in enumerate(self.decoder)]
+        )
         return DecoderGates(input0, hidden)
 
     def _input_columns(self) -> tuple[slice, slice, slice, slice]:
@@ -485,9 +547,14 @@ class GeometryConditionedRNN(nn.Module):
         h, p = self.hidden, 3 * self.joints
         return slice(0, h), slice(h, h + p), slice(h + p, h + p + 3), slice(h + p + 3, None)
 
-    def decode_step(self, h_enc: Tensor, state: DecoderState, context: TargetContext,
-                    base: ResidualBase | None = None,
-                    gates: DecoderGates | None = None) -> tuple[Tensor, Tensor, DecoderState]:
+    def decode_step(
+        self,
+        h_enc: Tensor,
+        state: DecoderState,
+        context: TargetContext,
+        base: ResidualBase | None = None,
+        gates: DecoderGates | None = None,
+    ) -> tuple[Tensor, Tensor, DecoderState]:
         """One decoder step (Eqs. 13-15, 17-18).
 
         Args:
@@ -508,7 +575,11 @@ class GeometryConditionedRNN(nn.Module):
         gates = self.decoder_gates(state, context) if gates is None else gates
         encoder, _, velocity_in, _ = self._input_columns()
         w0 = self.decoder[0].weight_ih
-        gi = gates.input0 + F.linear(h_enc, w0[:, encoder]) + F.linear(state.root_velocity / h, w0[:, velocity_in])
+        gi = (
+            gates.input0
+            + F.linear(h_enc, w0[:, encoder])
+            + F.linear(state.root_velocity / h, w0[:, velocity_in])
+        )
         hidden: list[Tensor] = []
         for i, cell in enumerate(self.decoder):
             if hidden:
@@ -519,17 +590,30 @@ class GeometryConditionedRNN(nn.Module):
         velocity = self.velocity_head(x) * h
         if self.residual:
             if base is None:
-                raise ValueError("a residual GeometryConditionedRNN needs the ResidualBase of the frame")
-            rotations = align_local_rotations(base.rotations.to(rotations.dtype), rotations, self.parents)
+                raise ValueError(
+                    "a residual GeometryConditionedRNN needs the ResidualBase of the frame"
+                )
+            rotations = align_local_rotations(
+                base.rotations.to(rotations.dtype), rotations, self.parents
+            )
             velocity = velocity + base.root_velocity.to(velocity.dtype)
         local, global_rotations = forward_kinematics(rotations, context.offsets, self.parents, None)
-        return rotations, velocity, DecoderState(torch.stack(hidden), local, velocity, state.next_root(),
-                                                 global_rotations)
+        return (
+            rotations,
+            velocity,
+            DecoderState(torch.stack(hidden), local, velocity, state.next_root(), global_rotations),
+        )
 
     # ------------------------------------------------------------------ whole sequences
-    def forward(self, source_features: Tensor, target_offsets: Tensor, target_vertices: Tensor,
-                target_weights: Tensor, target_height: float | Tensor | None = None,
-                base: ResidualBase | None = None) -> GeoRetOutput:
+    def forward(
+        self,
+        source_features: Tensor,
+        target_offsets: Tensor,
+        target_vertices: Tensor,
+        target_weights: Tensor,
+        target_height: float | Tensor | None = None,
+        base: ResidualBase | None = None,
+    ) -> GeoRetOutput:
         """Retarget a batch of clips (Eqs. 12-19), decoding frame by frame.
 
         Args:
@@ -544,13 +628,18 @@ class GeometryConditionedRNN(nn.Module):
             :class:`GeoRetOutput`; global joints via :func:`pose_outputs`.
         """
         h_enc = self.encode(source_features)
-        context = self.target_context(target_offsets, target_vertices, target_weights, target_height)
+        context = self.target_context(
+            target_offsets, target_vertices, target_weights, target_height
+        )
         state = self.initial_state(context)
         rots, vels, locs = [], [], []
         for t in range(h_enc.shape[1]):  # autoregressive: needs p_(t−1), o_(t−1)
-            rot, vel, state = self.decode_step(h_enc[:, t], state, context,
-                                               None if base is None else base.frame(t))
+            rot, vel, state = self.decode_step(
+                h_enc[:, t], state, context, None if base is None else base.frame(t)
+            )
             rots.append(rot)
             vels.append(vel)
             locs.append(state.local_positions)
-        return GeoRetOutput(torch.stack(rots, 1), torch.stack(vels, 1), torch.stack(locs, 1), context.geometry)
+        return GeoRetOutput(
+            torch.stack(rots, 1), torch.stack(vels, 1), torch.stack(locs, 1), context.geometry
+        )

@@ -41,7 +41,7 @@ and a linear layer → one logit per clip. The sigmoid cross-entropy belongs to 
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import torch
 from torch import nn
@@ -50,10 +50,23 @@ from ..core.kinematics import forward_kinematics
 from ..core.measures import nkn_height
 from ..core.skeleton import CANONICAL22_PARENTS
 from .compiling import compile_frame_step
-from .features import (NUM_JOINTS, FeatureNormalizer, batched_offsets, nkn_input_channels,
-                       nkn_source_features, root_velocities, source_local_positions)
-from .tdcn import (DEFAULT_SLOPE, DilatedStack, GeneratorOutput, edge_pad, init_identity_head,
-                   normalize_quaternions)
+from .features import (
+    NUM_JOINTS,
+    FeatureNormalizer,
+    batched_offsets,
+    nkn_input_channels,
+    nkn_source_features,
+    root_velocities,
+    source_local_positions,
+)
+from .tdcn import (
+    DEFAULT_SLOPE,
+    DilatedStack,
+    GeneratorOutput,
+    edge_pad,
+    init_identity_head,
+    normalize_quaternions,
+)
 
 Tensor = torch.Tensor
 
@@ -83,10 +96,19 @@ class NKNGenerator(nn.Module):
             (identity unless fitted).
     """
 
-    def __init__(self, hidden: int = 512, backbone: str = "gru", num_layers: int = 1,
-                 normalize_root: bool = False, height_loss: bool = False, dropout: float | None = None,
-                 dilations: Sequence[int] = (3, 9, 27), num_joints: int = NUM_JOINTS,
-                 parents: Sequence[int] = CANONICAL22_PARENTS, slope: float = DEFAULT_SLOPE):
+    def __init__(
+        self,
+        hidden: int = 512,
+        backbone: str = "gru",
+        num_layers: int = 1,
+        normalize_root: bool = False,
+        height_loss: bool = False,
+        dropout: float | None = None,
+        dilations: Sequence[int] = (3, 9, 27),
+        num_joints: int = NUM_JOINTS,
+        parents: Sequence[int] = CANONICAL22_PARENTS,
+        slope: float = DEFAULT_SLOPE,
+    ):
         super().__init__()
         if backbone not in NKN_BACKBONES:
             raise ValueError(f"backbone must be one of {NKN_BACKBONES}, got {backbone!r}")
@@ -97,17 +119,26 @@ class NKNGenerator(nn.Module):
         c_in, c_skel, c_out = nkn_input_channels(num_joints), 3 * num_joints, 4 * num_joints + 3
         self.normalizer = FeatureNormalizer(c_in)
         if backbone == "gru":
-            self.encoder = nn.GRU(c_in, hidden, num_layers, batch_first=True,
-                                  dropout=dropout if num_layers > 1 else 0.0)
+            self.encoder = nn.GRU(
+                c_in,
+                hidden,
+                num_layers,
+                batch_first=True,
+                dropout=dropout if num_layers > 1 else 0.0,
+            )
             dec_in = hidden + c_skel + 3 * num_joints + 3
-            self.decoder = nn.ModuleList([nn.GRUCell(dec_in if i == 0 else hidden, hidden)
-                                          for i in range(num_layers)])
+            self.decoder = nn.ModuleList(
+                [nn.GRUCell(dec_in if i == 0 else hidden, hidden) for i in range(num_layers)]
+            )
             self.dropout = nn.Dropout(dropout) if dropout > 0 else nn.Identity()
         else:
             dense = backbone == "dense"
-            self.encoder = DilatedStack(c_in, hidden, dilations, dropout=dropout, dense=dense, slope=slope)
-            self.decoder = DilatedStack(hidden + c_skel, hidden, dilations, dropout=dropout, dense=dense,
-                                        slope=slope)
+            self.encoder = DilatedStack(
+                c_in, hidden, dilations, dropout=dropout, dense=dense, slope=slope
+            )
+            self.decoder = DilatedStack(
+                hidden + c_skel, hidden, dilations, dropout=dropout, dense=dense, slope=slope
+            )
         self.out = nn.Linear(hidden, c_out)
         init_identity_head(self.out, num_joints)
 
@@ -118,8 +149,14 @@ class NKNGenerator(nn.Module):
             return None
         return self.encoder.receptive_field + self.decoder.receptive_field - 1
 
-    def forward(self, rotations: Tensor, root_positions: Tensor, offsets_src: Tensor,
-                offsets_tgt: Tensor, positions: Tensor | None = None) -> GeneratorOutput:
+    def forward(
+        self,
+        rotations: Tensor,
+        root_positions: Tensor,
+        offsets_src: Tensor,
+        offsets_tgt: Tensor,
+        positions: Tensor | None = None,
+    ) -> GeneratorOutput:
         """Retarget with raw outputs (for training).
 
         Args:
@@ -140,8 +177,9 @@ class NKNGenerator(nn.Module):
         if positions is None:
             positions = source_local_positions(rotations, off_src, self.parents)
         h_src, h_tgt = nkn_height(off_src), nkn_height(off_tgt)
-        x = self.normalizer(nkn_source_features(positions, root_positions,
-                                                h_src if self.normalize_root else None))
+        x = self.normalizer(
+            nkn_source_features(positions, root_positions, h_src if self.normalize_root else None)
+        )
         if self.backbone == "gru":
             q, v = self._decode_gru(x, off_tgt)
         else:
@@ -155,7 +193,7 @@ class NKNGenerator(nn.Module):
 
     def _split(self, out: Tensor) -> tuple[Tensor, Tensor]:
         j = self.num_joints
-        return out[..., :4 * j].reshape(*out.shape[:-1], j, 4), out[..., 4 * j:]
+        return out[..., : 4 * j].reshape(*out.shape[:-1], j, 4), out[..., 4 * j :]
 
     def _decode_conv(self, x: Tensor, off_tgt: Tensor) -> tuple[Tensor, Tensor]:
         b, _, t = x.shape
@@ -178,8 +216,14 @@ class NKNGenerator(nn.Module):
             vs.append(v)
         return torch.stack(qs, 1), torch.stack(vs, 1)
 
-    def decode_step(self, enc_t: Tensor, skel: Tensor, prev: Tensor, states: list[Tensor], off_tgt: Tensor,
-                    ) -> tuple[Tensor, Tensor, Tensor, list[Tensor]]:
+    def decode_step(
+        self,
+        enc_t: Tensor,
+        skel: Tensor,
+        prev: Tensor,
+        states: list[Tensor],
+        off_tgt: Tensor,
+    ) -> tuple[Tensor, Tensor, Tensor, list[Tensor]]:
         """One frame of the GRU decoder: stacked cells, the output head, FK of the new pose.
 
         Args:
@@ -214,8 +258,13 @@ class NKNGenerator(nn.Module):
             return
         self.decode_step = compile_frame_step(self.decode_step)
 
-    def retarget(self, rotations: Tensor, root_positions: Tensor, offsets_src: Tensor, offsets_tgt: Tensor,
-                 ) -> tuple[Tensor, Tensor]:
+    def retarget(
+        self,
+        rotations: Tensor,
+        root_positions: Tensor,
+        offsets_src: Tensor,
+        offsets_tgt: Tensor,
+    ) -> tuple[Tensor, Tensor]:
         """Unit quaternions ``(B, T, J, 4)`` and root positions ``(B, T, 3)`` for the target.
 
         Args: as :meth:`forward`.
@@ -224,7 +273,9 @@ class NKNGenerator(nn.Module):
         return normalize_quaternions(out.rotations), out.root_positions
 
 
-def nkn_discriminator_features(positions: Tensor, root_positions: Tensor, offsets: Tensor) -> Tensor:
+def nkn_discriminator_features(
+    positions: Tensor, root_positions: Tensor, offsets: Tensor
+) -> Tensor:
     """NKN discriminator input: ``[p_t - p_{t-1}, r_t - r_{t-1}, s̄ (non-root rows)]`` in metres.
 
     Args:
@@ -257,8 +308,13 @@ class NKNDiscriminator(nn.Module):
 
     height_normalized_inputs = False
 
-    def __init__(self, in_channels: int | None = None, widths: Sequence[int] = (32, 64, 128, 256),
-                 slope: float = DEFAULT_SLOPE, num_joints: int = NUM_JOINTS):
+    def __init__(
+        self,
+        in_channels: int | None = None,
+        widths: Sequence[int] = (32, 64, 128, 256),
+        slope: float = DEFAULT_SLOPE,
+        num_joints: int = NUM_JOINTS,
+    ):
         super().__init__()
         self.in_channels = 6 * num_joints if in_channels is None else in_channels
         layers, c = [], self.in_channels
@@ -280,7 +336,9 @@ class NKNDiscriminator(nn.Module):
     def forward(self, features: Tensor) -> Tensor:
         """Args: features ``(B, C, T)`` (any ``T >= 1``). Returns: ``(B, 1)`` raw logits."""
         if features.shape[-1] == 0:
-            raise ValueError("discriminator features need at least one frame pair (clips of >= 2 frames)")
+            raise ValueError(
+                "discriminator features need at least one frame pair (clips of >= 2 frames)"
+            )
         missing = self.min_frames - features.shape[-1]
         if missing > 0:  # each stride-2 layer halves T; edge-pad very short clips
             features = edge_pad(features, missing // 2, missing - missing // 2)

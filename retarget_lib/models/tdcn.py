@@ -62,7 +62,8 @@ batch 1, features + network + FK: ≈ 88 ms fused vs ≈ 96 ms unfused at C=1024
 
 from __future__ import annotations
 
-from typing import NamedTuple, Sequence
+from collections.abc import Sequence
+from typing import NamedTuple
 
 import torch
 import torch.nn.functional as F
@@ -72,8 +73,14 @@ from ..core.kinematics import align_local_rotations
 from ..core.measures import leg_length
 from ..core.rotations import quat_conjugate, quat_mul, quat_normalize
 from ..core.skeleton import CANONICAL22_PARENTS
-from .features import (NUM_JOINTS, FeatureNormalizer, generator_features, generator_input_channels,
-                       residual_generator_features, residual_input_channels)
+from .features import (
+    NUM_JOINTS,
+    FeatureNormalizer,
+    generator_features,
+    generator_input_channels,
+    residual_generator_features,
+    residual_input_channels,
+)
 
 Tensor = torch.Tensor
 
@@ -144,11 +151,15 @@ def edge_pad(x: Tensor, left: int, right: int, time_dim: int = -1) -> Tensor:
     parts = []
     if left:
         first = x.narrow(time_dim, 0, 1)
-        parts.append(first.expand(*[left if d == (time_dim % x.dim()) else -1 for d in range(x.dim())]))
+        parts.append(
+            first.expand(*[left if d == (time_dim % x.dim()) else -1 for d in range(x.dim())])
+        )
     parts.append(x)
     if right:
         last = x.narrow(time_dim, x.shape[time_dim] - 1, 1)
-        parts.append(last.expand(*[right if d == (time_dim % x.dim()) else -1 for d in range(x.dim())]))
+        parts.append(
+            last.expand(*[right if d == (time_dim % x.dim()) else -1 for d in range(x.dim())])
+        )
     return torch.cat(parts, time_dim)
 
 
@@ -181,14 +192,26 @@ class ConvUnit(nn.Module):
         slope: LeakyReLU negative slope.
     """
 
-    def __init__(self, in_channels: int, out_channels: int, kernel: int, dilation: int = 1,
-                 dropout: float = 0.0, norm: bool | str = True, slope: float = DEFAULT_SLOPE):
+    def __init__(
+        self,
+        in_channels: int,
+        out_channels: int,
+        kernel: int,
+        dilation: int = 1,
+        dropout: float = 0.0,
+        norm: bool | str = True,
+        slope: float = DEFAULT_SLOPE,
+    ):
         super().__init__()
         norm = _norm_kind(norm)
-        self.conv = nn.Conv1d(in_channels, out_channels, kernel, dilation=dilation, bias=norm == "none")
-        self.norm = {"batch": lambda: nn.BatchNorm1d(out_channels),
-                     "instance": lambda: nn.InstanceNorm1d(out_channels, affine=True),
-                     "none": nn.Identity}[norm]()
+        self.conv = nn.Conv1d(
+            in_channels, out_channels, kernel, dilation=dilation, bias=norm == "none"
+        )
+        self.norm = {
+            "batch": lambda: nn.BatchNorm1d(out_channels),
+            "instance": lambda: nn.InstanceNorm1d(out_channels, affine=True),
+            "none": nn.Identity,
+        }[norm]()
         self.dropout = nn.Dropout(dropout) if dropout > 0 else nn.Identity()
         self.slope = float(slope)
         self.fused = False
@@ -216,8 +239,13 @@ class ConvUnit(nn.Module):
             bias = bn.bias - bn.running_mean * scale
             if conv.bias is not None:
                 bias = bias + conv.bias * scale
-            fused = nn.Conv1d(conv.in_channels, conv.out_channels, conv.kernel_size[0],
-                              dilation=conv.dilation[0], bias=True).to(conv.weight)
+            fused = nn.Conv1d(
+                conv.in_channels,
+                conv.out_channels,
+                conv.kernel_size[0],
+                dilation=conv.dilation[0],
+                bias=True,
+            ).to(conv.weight)
             fused.weight.copy_(conv.weight * scale.view(-1, 1, 1))
             fused.bias.copy_(bias)
             self.conv, self.norm = fused, nn.Identity()
@@ -225,7 +253,9 @@ class ConvUnit(nn.Module):
             conv.bias = nn.Parameter(conv.weight.new_zeros(conv.out_channels))
         self.dropout = nn.Identity()
         # (K, C_out, C_in): tap k is a contiguous (C_out, C_in) matrix; .t() is a free view for BLAS
-        self.register_buffer("taps", self.conv.weight.detach().permute(2, 0, 1).contiguous(), persistent=False)
+        self.register_buffer(
+            "taps", self.conv.weight.detach().permute(2, 0, 1).contiguous(), persistent=False
+        )
         self.fused = True
 
     def forward_time_major(self, h: Tensor) -> Tensor:
@@ -241,7 +271,7 @@ class ConvUnit(nn.Module):
         t_out = h.shape[0] - self.span
         out = torch.addmm(self.conv.bias, h[:t_out], self.taps[0].t())
         for k in range(1, self.taps.shape[0]):
-            out.addmm_(h[k * d:k * d + t_out], self.taps[k].t())
+            out.addmm_(h[k * d : k * d + t_out], self.taps[k].t())
         return F.leaky_relu_(out, self.slope)
 
 
@@ -262,9 +292,17 @@ class ResidualBlock(nn.Module):
             described in Sec. 3.2.
     """
 
-    def __init__(self, channels: int, kernel: int, dilation: int, dropout: float = 0.0,
-                 norm: bool | str = True, slope: float = DEFAULT_SLOPE, causal: bool = False,
-                 skip_projection: bool = False):
+    def __init__(
+        self,
+        channels: int,
+        kernel: int,
+        dilation: int,
+        dropout: float = 0.0,
+        norm: bool | str = True,
+        slope: float = DEFAULT_SLOPE,
+        causal: bool = False,
+        skip_projection: bool = False,
+    ):
         super().__init__()
         self.temporal = ConvUnit(channels, channels, kernel, dilation, dropout, norm, slope)
         self.pointwise = ConvUnit(channels, channels, 1, 1, dropout, norm, slope)
@@ -318,10 +356,21 @@ class DilatedStack(nn.Module):
             outputs (Sec. 3.1); ``"valid"`` — no padding, ``T - RF + 1`` outputs.
     """
 
-    def __init__(self, in_channels: int, channels: int, dilations: Sequence[int] = (3, 9, 27),
-                 kernel: int = 3, first_kernel: int = 3, dropout: float = 0.0, causal: bool = False,
-                 dense: bool = False, norm: bool | str = True, slope: float = DEFAULT_SLOPE,
-                 skip_projection: bool = False, padding: str = "edge"):
+    def __init__(
+        self,
+        in_channels: int,
+        channels: int,
+        dilations: Sequence[int] = (3, 9, 27),
+        kernel: int = 3,
+        first_kernel: int = 3,
+        dropout: float = 0.0,
+        causal: bool = False,
+        dense: bool = False,
+        norm: bool | str = True,
+        slope: float = DEFAULT_SLOPE,
+        skip_projection: bool = False,
+        padding: str = "edge",
+    ):
         super().__init__()
         if padding not in ("edge", "valid"):
             raise ValueError(f"padding must be 'edge' or 'valid', got {padding!r}")
@@ -332,7 +381,9 @@ class DilatedStack(nn.Module):
         blocks = []
         for d in self.dilations:
             k, dil = ((kernel - 1) * d + 1, 1) if dense else (kernel, d)
-            blocks.append(ResidualBlock(channels, k, dil, dropout, norm, slope, causal, skip_projection))
+            blocks.append(
+                ResidualBlock(channels, k, dil, dropout, norm, slope, causal, skip_projection)
+            )
         self.blocks = nn.ModuleList(blocks)
 
     @property
@@ -378,7 +429,7 @@ class DilatedStack(nn.Module):
             outs.append(h)
         return torch.stack(outs)
 
-    def fuse_for_inference(self) -> "DilatedStack":
+    def fuse_for_inference(self) -> DilatedStack:
         """Fold BatchNorm into the convs and drop dropout (eval-only afterwards). Returns ``self``."""
         self.eval()
         for m in self.modules():
@@ -399,8 +450,13 @@ class FrameHead(nn.Module):
         slope: LeakyReLU slope.
     """
 
-    def __init__(self, channels: int, out_channels: int, hidden: int | None = None,
-                 slope: float = DEFAULT_SLOPE):
+    def __init__(
+        self,
+        channels: int,
+        out_channels: int,
+        hidden: int | None = None,
+        slope: float = DEFAULT_SLOPE,
+    ):
         super().__init__()
         hidden = channels if hidden is None else hidden
         self.extra = nn.Linear(channels, hidden) if hidden else None
@@ -423,7 +479,7 @@ def init_identity_head(linear: nn.Linear, num_joints: int, std: float = 0.002) -
     with torch.no_grad():
         nn.init.normal_(linear.weight, std=std)
         linear.bias.zero_()
-        linear.bias[0:4 * num_joints:4] = 1.0
+        linear.bias[0 : 4 * num_joints : 4] = 1.0
 
 
 class TDCNGenerator(nn.Module):
@@ -449,22 +505,49 @@ class TDCNGenerator(nn.Module):
             features (identity unless fitted; saved in the state dict).
     """
 
-    def __init__(self, channels: int = 1024, dropout: float = 0.1, dilations: Sequence[int] = (3, 9, 27),
-                 kernel: int = 3, causal: bool = False, dense: bool = False, num_joints: int = NUM_JOINTS,
-                 in_channels: int | None = None, slope: float = DEFAULT_SLOPE,
-                 head_hidden: int | None = None, skip_projection: bool = False,
-                 parents: Sequence[int] = CANONICAL22_PARENTS, residual: bool = False):
+    def __init__(
+        self,
+        channels: int = 1024,
+        dropout: float = 0.1,
+        dilations: Sequence[int] = (3, 9, 27),
+        kernel: int = 3,
+        causal: bool = False,
+        dense: bool = False,
+        num_joints: int = NUM_JOINTS,
+        in_channels: int | None = None,
+        slope: float = DEFAULT_SLOPE,
+        head_hidden: int | None = None,
+        skip_projection: bool = False,
+        parents: Sequence[int] = CANONICAL22_PARENTS,
+        residual: bool = False,
+    ):
         super().__init__()
         self.num_joints = num_joints
         self.residual = bool(residual)
-        default_in = (residual_input_channels if self.residual else generator_input_channels)(num_joints)
+        default_in = (residual_input_channels if self.residual else generator_input_channels)(
+            num_joints
+        )
         self.in_channels = default_in if in_channels is None else in_channels
         self.parents = tuple(parents)
         self.normalizer = FeatureNormalizer(self.in_channels)
-        self.body = DilatedStack(self.in_channels, channels, dilations, kernel, 3, dropout, causal, dense,
-                                 norm="batch", slope=slope, skip_projection=skip_projection, padding="edge")
+        self.body = DilatedStack(
+            self.in_channels,
+            channels,
+            dilations,
+            kernel,
+            3,
+            dropout,
+            causal,
+            dense,
+            norm="batch",
+            slope=slope,
+            skip_projection=skip_projection,
+            padding="edge",
+        )
         head_hidden = channels // 2 if head_hidden is None else head_hidden
-        self.head = FrameHead(channels, 4 * num_joints + (0 if self.residual else 3), head_hidden, slope)
+        self.head = FrameHead(
+            channels, 4 * num_joints + (0 if self.residual else 3), head_hidden, slope
+        )
         init_identity_head(self.head.out, num_joints)
 
     @property
@@ -480,7 +563,7 @@ class TDCNGenerator(nn.Module):
     def fused(self) -> bool:
         return self.body.fused
 
-    def fuse_for_inference(self) -> "TDCNGenerator":
+    def fuse_for_inference(self) -> TDCNGenerator:
         """Fold BatchNorm into the convs, drop dropout, switch to the GEMM eval path.
 
         In place and irreversible (the model can no longer be trained; load weights *before*
@@ -489,7 +572,7 @@ class TDCNGenerator(nn.Module):
         self.body.fuse_for_inference()
         return self.eval()
 
-    def train(self, mode: bool = True) -> "TDCNGenerator":
+    def train(self, mode: bool = True) -> TDCNGenerator:
         if mode and self.fused:
             raise RuntimeError("this TDCNGenerator was fused for inference and cannot be trained")
         return super().train(mode)
@@ -511,12 +594,19 @@ class TDCNGenerator(nn.Module):
         h = self.body.forward_time_major(x)  # (B, T, C)
         out = self.head(h)
         b, t, _ = out.shape
-        q = out[..., :4 * self.num_joints].reshape(b, t, self.num_joints, 4)
-        r = out[..., 4 * self.num_joints:]
+        q = out[..., : 4 * self.num_joints].reshape(b, t, self.num_joints, 4)
+        r = out[..., 4 * self.num_joints :]
         return (normalize_quaternions(q) if normalize else q), r
 
-    def generate(self, rotations: Tensor, root_positions: Tensor, offsets_src: Tensor, offsets_tgt: Tensor,
-                 positions: Tensor | None = None, normalizer: nn.Module | None = None) -> GeneratorOutput:
+    def generate(
+        self,
+        rotations: Tensor,
+        root_positions: Tensor,
+        offsets_src: Tensor,
+        offsets_tgt: Tensor,
+        positions: Tensor | None = None,
+        normalizer: nn.Module | None = None,
+    ) -> GeneratorOutput:
         """Retarget with raw outputs, for training (Eqs. 4-5).
 
         Args:
@@ -532,22 +622,35 @@ class TDCNGenerator(nn.Module):
         """
         norm = self.normalizer if normalizer is None else normalizer
         if not self.residual:
-            x = generator_features(rotations, root_positions, offsets_src, offsets_tgt, positions, self.parents)
+            x = generator_features(
+                rotations, root_positions, offsets_src, offsets_tgt, positions, self.parents
+            )
             q, r = self._run(norm(x), normalize=False)
             return GeneratorOutput(q, r, None)
         b = rotations.shape[0]
         off_a, off_b = offsets_src.expand(b, -1, -1), offsets_tgt.expand(b, -1, -1)
         # one pass over the batch twice: towards the target, and towards the source itself
-        x = residual_generator_features(rotations.repeat(2, 1, 1, 1), root_positions.repeat(2, 1, 1),
-                                        off_a.repeat(2, 1, 1), torch.cat([off_b, off_a]),
-                                        None if positions is None else positions.repeat(2, 1, 1, 1), self.parents)
+        x = residual_generator_features(
+            rotations.repeat(2, 1, 1, 1),
+            root_positions.repeat(2, 1, 1),
+            off_a.repeat(2, 1, 1),
+            torch.cat([off_b, off_a]),
+            None if positions is None else positions.repeat(2, 1, 1, 1),
+            self.parents,
+        )
         raw, _ = self._run(norm(x), normalize=False)
         align = quat_mul(raw[:b], quat_conjugate(normalize_quaternions(raw[b:])))
         q, r = self.compose_residual(align, rotations, root_positions, offsets_src, offsets_tgt)
         return GeneratorOutput(q, r, None)
 
-    def compose_residual(self, align: Tensor, rotations: Tensor, root_positions: Tensor,
-                         offsets_src: Tensor, offsets_tgt: Tensor) -> tuple[Tensor, Tensor]:
+    def compose_residual(
+        self,
+        align: Tensor,
+        rotations: Tensor,
+        root_positions: Tensor,
+        offsets_src: Tensor,
+        offsets_tgt: Tensor,
+    ) -> tuple[Tensor, Tensor]:
         """The residual variant's output: a correction of "copy" (our variant, not the paper).
 
         The alignments are ``C_j(t) = N_j(x, s̄A → s̄B) ⊗ unit(N_j(x, s̄A → s̄A))⁻¹``: the head's
@@ -581,11 +684,21 @@ class TDCNGenerator(nn.Module):
             ``(q̂ (B, T, J, 4) raw, r̂ (B, T, 3))``.
         """
         b = rotations.shape[0]
-        ratio = leg_length(offsets_tgt.expand(b, -1, -1)) / leg_length(offsets_src.expand(b, -1, -1))
-        return align_local_rotations(rotations, align, self.parents), root_positions * ratio.view(b, 1, 1)
+        ratio = leg_length(offsets_tgt.expand(b, -1, -1)) / leg_length(
+            offsets_src.expand(b, -1, -1)
+        )
+        return align_local_rotations(rotations, align, self.parents), root_positions * ratio.view(
+            b, 1, 1
+        )
 
-    def retarget(self, rotations: Tensor, root_positions: Tensor, offsets_src: Tensor, offsets_tgt: Tensor,
-                 normalizer: nn.Module | None = None) -> tuple[Tensor, Tensor]:
+    def retarget(
+        self,
+        rotations: Tensor,
+        root_positions: Tensor,
+        offsets_src: Tensor,
+        offsets_tgt: Tensor,
+        normalizer: nn.Module | None = None,
+    ) -> tuple[Tensor, Tensor]:
         """Features → padding → network → unit quaternions and root positions.
 
         Call in eval mode (and under ``torch.inference_mode()`` for speed); any clip length works.
@@ -600,5 +713,7 @@ class TDCNGenerator(nn.Module):
         Returns:
             ``(q̂ (B, T, J, 4) unit, r̂ (B, T, 3))`` for the target skeleton.
         """
-        out = self.generate(rotations, root_positions, offsets_src, offsets_tgt, normalizer=normalizer)
+        out = self.generate(
+            rotations, root_positions, offsets_src, offsets_tgt, normalizer=normalizer
+        )
         return normalize_quaternions(out.rotations), out.root_positions

@@ -59,7 +59,8 @@ TIMINGS_FILE = "timings.json"
 REMOTE_REFERENCE = re.compile(
     r"""<(?:script|link|img|iframe|source|video|audio)\b[^>]*?\b(?:src|href)\s*=\s*["']?\s*(?:https?:)?//"""
     r"""|\bimport\s*\(\s*["'](?:https?:)?//|@import\s+(?:url\()?["']?(?:https?:)?//|url\(\s*["']?(?:https?:)?//""",
-    re.IGNORECASE)
+    re.IGNORECASE,
+)
 
 
 @dataclass(frozen=True)
@@ -104,19 +105,34 @@ def load_learning_path(path: Path = LEARNING_PATH) -> LearningPath:
     for i, entry in enumerate(raw.get("notebooks") or []):
         missing = {"file", "title", "teaches", "needs", "minutes", "workshop"} - set(entry)
         if missing:
-            raise ValueError(f"{path}: entry {i} ({entry.get('file', '?')}) lacks {sorted(missing)}")
+            raise ValueError(
+                f"{path}: entry {i} ({entry.get('file', '?')}) lacks {sorted(missing)}"
+            )
         if entry["file"] in seen:
             raise ValueError(f"{path}: {entry['file']} is listed twice")
         for need in entry["needs"] or []:
             if need not in seen:
-                raise ValueError(f"{path}: {entry['file']} needs {need}, which is not listed before it")
+                raise ValueError(
+                    f"{path}: {entry['file']} needs {need}, which is not listed before it"
+                )
         if not isinstance(entry["workshop"], bool):
             raise ValueError(f"{path}: {entry['file']}: workshop must be yes or no")
         if not entry["workshop"] and not entry.get("workshop_note"):
-            raise ValueError(f"{path}: {entry['file']} is left out of the workshop without a workshop_note")
+            raise ValueError(
+                f"{path}: {entry['file']} is left out of the workshop without a workshop_note"
+            )
         seen.add(entry["file"])
-        lessons.append(Lesson(entry["file"], entry["title"], entry["teaches"], tuple(entry["needs"] or ()),
-                              int(entry["minutes"]), entry["workshop"], entry.get("workshop_note", "")))
+        lessons.append(
+            Lesson(
+                entry["file"],
+                entry["title"],
+                entry["teaches"],
+                tuple(entry["needs"] or ()),
+                int(entry["minutes"]),
+                entry["workshop"],
+                entry.get("workshop_note", ""),
+            )
+        )
     return LearningPath(raw.get("title", "Notebooks"), tuple(lessons))
 
 
@@ -141,7 +157,9 @@ def offline_outputs(nb):
             if "image/gif" in data and "text/html" not in data:
                 gif = data["image/gif"]
                 gif = gif if isinstance(gif, str) else base64.b64encode(gif).decode()
-                data["text/html"] = f'<img src="data:image/gif;base64,{"".join(gif.split())}" alt="animation">'
+                data["text/html"] = (
+                    f'<img src="data:image/gif;base64,{"".join(gif.split())}" alt="animation">'
+                )
     nb.metadata.pop("widgets", None)
     return nb
 
@@ -149,8 +167,12 @@ def offline_outputs(nb):
 def widget_only_outputs(nb) -> list[int]:
     """Indices of code cells with an output that is a widget view and nothing else to show: such an
     output is blank in the book (give it a picture, like the player and the knobs)."""
-    return [i for i, cell in enumerate(nb.cells) for out in cell.get("outputs", [])
-            if WIDGET_VIEW in out.get("data", {}) and not set(out["data"]) - {WIDGET_VIEW, "text/plain"}]
+    return [
+        i
+        for i, cell in enumerate(nb.cells)
+        for out in cell.get("outputs", [])
+        if WIDGET_VIEW in out.get("data", {}) and not set(out["data"]) - {WIDGET_VIEW, "text/plain"}
+    ]
 
 
 def _exporter():
@@ -162,8 +184,9 @@ def _exporter():
     return HTMLExporter(config=config, template_name="book", embed_images=True)
 
 
-def export_page(nb, lesson: Lesson | None, path: LearningPath | None, source_note: str,
-                exporter=None) -> str:
+def export_page(
+    nb, lesson: Lesson | None, path: LearningPath | None, source_note: str, exporter=None
+) -> str:
     """One notebook as an offline HTML page with the book's navigation bar.
 
     Args:
@@ -183,15 +206,22 @@ def export_page(nb, lesson: Lesson | None, path: LearningPath | None, source_not
         if i + 1 < len(stems):
             next_link = f"{stems[i + 1]}.html"
     needs = [(Path(n).stem + ".html", n.split("_", 1)[0]) for n in (lesson.needs if lesson else ())]
-    resources = {"book": {"prev": prev_link, "next": next_link, "note": source_note, "needs": needs,
-                          "minutes": lesson.minutes if lesson else None}}
+    resources = {
+        "book": {
+            "prev": prev_link,
+            "next": next_link,
+            "note": source_note,
+            "needs": needs,
+            "minutes": lesson.minutes if lesson else None,
+        }
+    }
     body, _ = exporter.from_notebook_node(offline_outputs(nb), resources=resources)
     return body
 
 
 def remote_references(page: str) -> list[str]:
     """Every place in an HTML page that would load something from another host."""
-    return [page[max(0, m.start() - 20):m.end() + 60] for m in REMOTE_REFERENCE.finditer(page)]
+    return [page[max(0, m.start() - 20) : m.end() + 60] for m in REMOTE_REFERENCE.finditer(page)]
 
 
 def copy_mathjax(out: Path) -> Path:
@@ -217,21 +247,34 @@ def index_html(path: LearningPath, sources: dict[str, str], timings: dict[str, d
     """The book's front page: the learning path as a table (what, needs, time) and a dependency list."""
     rows = []
     for les in path.lessons:
-        needs = ", ".join(f'<a href="{Path(n).stem}.html">{html.escape(n.split("_", 1)[0])}</a>'
-                          for n in les.needs) or "—"
+        needs = (
+            ", ".join(
+                f'<a href="{Path(n).stem}.html">{html.escape(n.split("_", 1)[0])}</a>'
+                for n in les.needs
+            )
+            or "—"
+        )
         t = timings.get(les.file)
-        run = (f'{_fmt_seconds(t["seconds"])}<br><span class="note">{_fmt_seconds(t["cpu_seconds"])} CPU</span>'
-               if t else "not executed here")
-        workshop = "yes" if les.workshop else f'no <span class="note">({html.escape(les.workshop_note)})</span>'
+        run = (
+            f'{_fmt_seconds(t["seconds"])}<br><span class="note">{_fmt_seconds(t["cpu_seconds"])} CPU</span>'
+            if t
+            else "not executed here"
+        )
+        workshop = (
+            "yes"
+            if les.workshop
+            else f'no <span class="note">({html.escape(les.workshop_note)})</span>'
+        )
         rows.append(
             f'<tr><td class="num">{html.escape(les.number)}</td>'
             f'<td><a href="{les.stem}.html"><b>{html.escape(les.title)}</b></a><br>'
             f'<span class="teaches">{html.escape(les.teaches)}</span></td>'
             f'<td>{needs}</td><td class="num">{les.minutes} min</td><td class="num">{run}</td>'
-            f'<td>{workshop}</td><td class="note">{html.escape(sources.get(les.file, ""))}</td></tr>')
+            f'<td>{workshop}</td><td class="note">{html.escape(sources.get(les.file, ""))}</td></tr>'
+        )
     total = sum(les.minutes for les in path.lessons)
     total_ws = sum(les.minutes for les in path.lessons if les.workshop)
-    built = dt.datetime.now(dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    built = dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8">
 <meta name="viewport" content="width=device-width, initial-scale=1.0">
@@ -275,7 +318,9 @@ def _source_for(lesson: Lesson, executed: Path | None, committed: Path) -> tuple
     if executed is not None:
         run = executed / lesson.file
         if run.exists():
-            stamp = dt.datetime.fromtimestamp(run.stat().st_mtime, dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+            stamp = dt.datetime.fromtimestamp(run.stat().st_mtime, dt.UTC).strftime(
+                "%Y-%m-%d %H:%M UTC"
+            )
             return run, f"executed headless {stamp}"
     return committed / lesson.file, "outputs as committed in notebooks/ (not re-executed)"
 
@@ -286,9 +331,14 @@ def read_timings(executed: Path | None) -> dict[str, dict]:
     return json.loads((executed / TIMINGS_FILE).read_text())
 
 
-def build_book(out: Path, executed: Path | None = REPO_ROOT / "build" / "notebooks",
-               committed: Path = NOTEBOOKS_DIR, path: LearningPath | None = None,
-               extra: list[Path] = (), verbose: bool = True) -> list[Path]:
+def build_book(
+    out: Path,
+    executed: Path | None = REPO_ROOT / "build" / "notebooks",
+    committed: Path = NOTEBOOKS_DIR,
+    path: LearningPath | None = None,
+    extra: list[Path] = (),
+    verbose: bool = True,
+) -> list[Path]:
     """Write the book: one page per learning-path notebook, the index, the local MathJax, and the
     3-D viewer page (:mod:`.viewer`).
 
@@ -318,8 +368,10 @@ def build_book(out: Path, executed: Path | None = REPO_ROOT / "build" / "noteboo
         nb = nbformat.read(src, as_version=4)
         blank = widget_only_outputs(nb)
         if blank:
-            print(f"book: WARNING {src.name}: cells {blank} show a widget with no picture; blank in the book",
-                  file=sys.stderr)
+            print(
+                f"book: WARNING {src.name}: cells {blank} show a widget with no picture; blank in the book",
+                file=sys.stderr,
+            )
         page = out / f"{src.stem}.html"
         with atomic_write(page, "w") as f:
             f.write(export_page(nb, lesson, path if lesson else None, note, exporter))
@@ -331,8 +383,10 @@ def build_book(out: Path, executed: Path | None = REPO_ROOT / "build" / "noteboo
     t0 = time.perf_counter()
     viewer = write_viewer(out)
     if verbose:
-        print(f"book: {viewer.name} (3-D viewer: {', '.join(VIEWER_METHODS)}) in {time.perf_counter() - t0:.1f} s",
-              flush=True)
+        print(
+            f"book: {viewer.name} (3-D viewer: {', '.join(VIEWER_METHODS)}) in {time.perf_counter() - t0:.1f} s",
+            flush=True,
+        )
     index = out / "index.html"
     with atomic_write(index, "w") as f:
         f.write(index_html(path, sources, read_timings(executed)))
@@ -342,8 +396,12 @@ def build_book(out: Path, executed: Path | None = REPO_ROOT / "build" / "noteboo
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=REPO_ROOT / "build" / "book")
-    parser.add_argument("--executed", type=Path, default=REPO_ROOT / "build" / "notebooks",
-                        help="folder of executed notebooks; missing ones come from notebooks/ as committed")
+    parser.add_argument(
+        "--executed",
+        type=Path,
+        default=REPO_ROOT / "build" / "notebooks",
+        help="folder of executed notebooks; missing ones come from notebooks/ as committed",
+    )
     parser.add_argument("--notebooks", type=Path, default=NOTEBOOKS_DIR)
     args = parser.parse_args(argv)
     t0 = time.perf_counter()

@@ -60,35 +60,49 @@ from dataclasses import dataclass
 __all__ = ["Violation", "scan_markdown", "notebook_violations", "section_problems"]
 
 _NUM = r"\d+(?:[.,]\d+)*"
-_REF_WORDS = (r"Eqs?|Equations?|Secs?|Sections?|§|Tables?|Tabs?|Figs?|Figures?|Apps?|Appendix|Appendices"
-              r"|Algs?|Algorithms?|[Nn]otebooks?|Exercises?|Rows?|Scenarios?")
+_REF_WORDS = (
+    r"Eqs?|Equations?|Secs?|Sections?|§|Tables?|Tabs?|Figs?|Figures?|Apps?|Appendix|Appendices"
+    r"|Algs?|Algorithms?|[Nn]otebooks?|Exercises?|Rows?|Scenarios?"
+)
 _REF_ITEM = r"(?:\d+(?:\.\d+)*[a-z]?|[A-Z](?:\.\d+)*)"
 #: "Eq. 8", "Eqs. 4-8", "Sec. 3.4", "Table 4", "Figure 5b", "Appendix F", "notebook 04", "Exercise 05.2"
-REFERENCE = re.compile(rf"\b(?i:{_REF_WORDS})\.?\s*{_REF_ITEM}"
-                       rf"(?:\s*(?:[-–—/]|to)\s*{_REF_ITEM}|\s*(?:,|and|&)\s*(?:\d+[a-z]?|[A-Z])(?![\d.]))*")
+REFERENCE = re.compile(
+    rf"\b(?i:{_REF_WORDS})\.?\s*{_REF_ITEM}"
+    rf"(?:\s*(?:[-–—/]|to)\s*{_REF_ITEM}|\s*(?:,|and|&)\s*(?:\d+[a-z]?|[A-Z])(?![\d.]))*"
+)
 #: a parenthesis holding a location in a paper (not "Table" alone: ours are called that too)
-PAREN_CITATION = re.compile(r"\([^()]*\b(?:Eqs?|Equations?|Secs?|Sections?|§|Figs?|Figures?|Apps?|Appendix|Algs?)"
-                            r"\.?\s*[\dA-Z][^()]*\)")
+PAREN_CITATION = re.compile(
+    r"\([^()]*\b(?:Eqs?|Equations?|Secs?|Sections?|§|Figs?|Figures?|Apps?|Appendix|Algs?)"
+    r"\.?\s*[\dA-Z][^()]*\)"
+)
 PAPER_WORD = re.compile(r"\bpapers?(?:'s|’s)?\b", re.IGNORECASE)
-PAPER_LOCATION = re.compile(rf"\b(?i:{_REF_WORDS.replace('|[Nn]otebooks?|Exercises?|Rows?|Scenarios?', '')})"
-                            rf"\.?\s*{_REF_ITEM}")
+PAPER_LOCATION = re.compile(
+    rf"\b(?i:{_REF_WORDS.replace('|[Nn]otebooks?|Exercises?|Rows?|Scenarios?', '')})"
+    rf"\.?\s*{_REF_ITEM}"
+)
 #: "08.1", "08b.2": exercise labels of notebooks 00-09 (leading zero), never a measured value
 EXERCISE_LABEL = re.compile(r"(?<![\w.])0\d[a-z]?\.\d+(?![\w.])")
-VERSION = re.compile(r"\b(?:glTF|GLTF|Python|python|torch|PyTorch|assimp|MathJax|Blender|OpenGL|CUDA|numpy|NumPy|"
-                     r"FBX|VRM|v|version)\s*\d+(?:\.\d+)+\b")
+VERSION = re.compile(
+    r"\b(?:glTF|GLTF|Python|python|torch|PyTorch|assimp|MathJax|Blender|OpenGL|CUDA|numpy|NumPy|"
+    r"FBX|VRM|v|version)\s*\d+(?:\.\d+)+\b"
+)
 #: conventions of the library typed in prose everywhere: token -> the library value it states
 LIBRARY_CONSTANTS: dict[str, tuple[float, str]] = {
     "30 fps": (30.0, "retarget_lib.core.ground.REFERENCE_FPS"),
 }
 ALLOWLIST = re.compile(r"<!--\s*constants\s*:(.*?)-->", re.IGNORECASE | re.DOTALL)
 
-_UNITS = (r"mm|cm|km|m|ms|s|secs?|seconds?|mins?|minutes?|h|hrs?|hours?|deg|degrees?|fps|Hz|kHz|"
-          r"KB|MB|GB|TB|KiB|MiB|GiB|kB|steps?|iterations?|iters?|epochs?|frames?|k|K|M")
+_UNITS = (
+    r"mm|cm|km|m|ms|s|secs?|seconds?|mins?|minutes?|h|hrs?|hours?|deg|degrees?|fps|Hz|kHz|"
+    r"KB|MB|GB|TB|KiB|MiB|GiB|kB|steps?|iterations?|iters?|epochs?|frames?|k|K|M"
+)
 #: the kinds of hand-typed numbers, in the order they are reported
 PATTERNS = {
     "percentage": re.compile(rf"(?<![\w.]){_NUM}\s*(?:%|percent\b)"),
     "ratio": re.compile(rf"(?<![\w.]){_NUM}\s*[x×](?![\w\d])(?!\s*\d)"),
-    "unit": re.compile(rf"(?<![\w.]){_NUM}(?:\s*[-–]\s*{_NUM})?(?:\s*|-)(?:{_UNITS})(?![\w])|(?<![\w.]){_NUM}\s*°"),
+    "unit": re.compile(
+        rf"(?<![\w.]){_NUM}(?:\s*[-–]\s*{_NUM})?(?:\s*|-)(?:{_UNITS})(?![\w])|(?<![\w.]){_NUM}\s*°"
+    ),
     "decimal": re.compile(r"(?<![\w.])\d+\.\d+(?:e[-+]?\d+)?(?![\w.])|(?<![\w.])\d+e[-+]?\d+\b"),
 }
 
@@ -117,22 +131,29 @@ def _strip_code_and_markup(text: str) -> str:
     text = re.sub(r"```.*?```", " ", text, flags=re.DOTALL)
     text = re.sub(r"~~~.*?~~~", " ", text, flags=re.DOTALL)
     text = re.sub(r"``.+?``", " CODE ", text, flags=re.DOTALL)
-    text = re.sub(r"`[^`]*`", " CODE ", text)              # inline code may wrap a line
+    text = re.sub(r"`[^`]*`", " CODE ", text)  # inline code may wrap a line
     text = re.sub(r"<!--.*?-->", " ", text, flags=re.DOTALL)
-    text = re.sub(r"\]\([^)]*\)", "]", text)              # link targets
+    text = re.sub(r"\]\([^)]*\)", "]", text)  # link targets
     text = re.sub(r"https?://\S+|doi:\S+|www\.\S+", " URL ", text)
-    text = re.sub(r"<[^>\n]+>", " ", text)                 # HTML tags and their attributes
+    text = re.sub(r"<[^>\n]+>", " ", text)  # HTML tags and their attributes
     return text
 
 
 def _sentences(text: str) -> list[str]:
-    protected = re.sub(r"\b(et al|e\.g|i\.e|vs|cf|approx|Eqs?|Secs?|Figs?|Apps?|Algs?|Tabs?|resp)\.",
-                       lambda m: m.group(0)[:-1] + "\0", text)
-    parts = re.split(r"\n\s*\n|\n\s*(?=[-*+]\s|\d+\.\s|#|\|)|(?<=[.!?])\s+(?=[A-Z*_(\[$\"“])", protected)
+    protected = re.sub(
+        r"\b(et al|e\.g|i\.e|vs|cf|approx|Eqs?|Secs?|Figs?|Apps?|Algs?|Tabs?|resp)\.",
+        lambda m: m.group(0)[:-1] + "\0",
+        text,
+    )
+    parts = re.split(
+        r"\n\s*\n|\n\s*(?=[-*+]\s|\d+\.\s|#|\|)|(?<=[.!?])\s+(?=[A-Z*_(\[$\"“])", protected
+    )
     sentences: list[str] = []
     for part in (p.replace("\0", ".") for p in parts if p.strip()):
         if part.lstrip().startswith("$$") and sentences:
-            sentences[-1] += "\n" + part      # a display equation belongs to the sentence introducing it
+            sentences[-1] += (
+                "\n" + part
+            )  # a display equation belongs to the sentence introducing it
         else:
             sentences.append(part)
     return sentences
@@ -151,7 +172,9 @@ def _norm(token: str) -> str:
 
 def scan_markdown(source: str, cell: int = 0) -> list[Violation]:
     """The hand-typed numbers in one Markdown cell's source (see the module docstring for the rule)."""
-    allowed = {_norm(tok) for block in ALLOWLIST.findall(source) for tok in block.split(",") if tok.strip()}
+    allowed = {
+        _norm(tok) for block in ALLOWLIST.findall(source) for tok in block.split(",") if tok.strip()
+    }
     allowed |= {_norm(tok) for tok in LIBRARY_CONSTANTS}
     found: list[Violation] = []
     for sentence in _sentences(_strip_code_and_markup(source)):
@@ -163,11 +186,15 @@ def scan_markdown(source: str, cell: int = 0) -> list[Violation]:
                 token = m.group(0).strip()
                 # one report per place (a ratio or unit also contains its decimal), and an allowed
                 # "0.3 m" allows its "0.3"
-                rest = rest[:m.start()] + " " * (m.end() - m.start()) + rest[m.end():]
+                rest = rest[: m.start()] + " " * (m.end() - m.start()) + rest[m.end() :]
                 if _norm(token) in allowed:
                     continue
                 context = " ".join(sentence.split())
-                found.append(Violation(cell, kind, token, context if len(context) < 160 else context[:157] + "..."))
+                found.append(
+                    Violation(
+                        cell, kind, token, context if len(context) < 160 else context[:157] + "..."
+                    )
+                )
     return found
 
 
@@ -182,7 +209,9 @@ def notebook_violations(nb) -> list[Violation]:
 
 # -------------------------------------------------------------------------------------- closing sections
 _H2 = re.compile(r"^##\s+(.+?)\s*$", re.MULTILINE)
-_EXERCISE = re.compile(r"\*\*Exercise\s+(\d+[a-z]?\.\d+)\.?\*\*")   # "**Exercise 05.2**" or "**Exercise 05.2.**"
+_EXERCISE = re.compile(
+    r"\*\*Exercise\s+(\d+[a-z]?\.\d+)\.?\*\*"
+)  # "**Exercise 05.2**" or "**Exercise 05.2.**"
 
 
 def section_problems(nb, number: str) -> list[str]:
@@ -193,8 +222,12 @@ def section_problems(nb, number: str) -> list[str]:
         number: its number as in the file name, e.g. ``"05"`` or ``"08b"``.
     """
     problems: list[str] = []
-    heads = [(i, m.group(1)) for i, c in enumerate(nb.cells) if c.cell_type == "markdown"
-             for m in _H2.finditer(c.source)]
+    heads = [
+        (i, m.group(1))
+        for i, c in enumerate(nb.cells)
+        if c.cell_type == "markdown"
+        for m in _H2.finditer(c.source)
+    ]
     names = [h for _, h in heads]
     where = {}
     for want in ("Summary", "Exercises", "References"):
@@ -205,28 +238,46 @@ def section_problems(nb, number: str) -> list[str]:
     if len(where) < 3:
         return problems
     if names[-3:] != ["Summary", "Exercises", "References"]:
-        problems.append(f"the last '##' sections are {names[-3:]}, not ['Summary', 'Exercises', 'References']")
+        problems.append(
+            f"the last '##' sections are {names[-3:]}, not ['Summary', 'Exercises', 'References']"
+        )
     s, e, r = where["Summary"], where["Exercises"], where["References"]
     if not s < e < r:
         problems.append("Summary, Exercises and References are not in that order")
         return problems
-    if not any("Equations covered:" in c.source for c in nb.cells[s:e] if c.cell_type == "markdown"):
+    if not any(
+        "Equations covered:" in c.source for c in nb.cells[s:e] if c.cell_type == "markdown"
+    ):
         problems.append("the Summary has no 'Equations covered: ...' line")
-    exercises = [(i, m.group(1)) for i in range(e, r) if nb.cells[i].cell_type == "markdown"
-                 for m in _EXERCISE.finditer(nb.cells[i].source)]
+    exercises = [
+        (i, m.group(1))
+        for i in range(e, r)
+        if nb.cells[i].cell_type == "markdown"
+        for m in _EXERCISE.finditer(nb.cells[i].source)
+    ]
     if not 3 <= len(exercises) <= 5:
         problems.append(f"{len(exercises)} exercises (want 3-5, each '**Exercise {number}.k**')")
     for k, (i, label) in enumerate(exercises):
         if label.split(".")[0] != number:
             problems.append(f"Exercise {label} is not numbered {number}.k")
         end = exercises[k + 1][0] if k + 1 < len(exercises) else r
-        solutions = [c for c in nb.cells[i + 1:end] if c.cell_type == "code"
-                     and "solution" in c.metadata.get("tags", [])]
+        solutions = [
+            c
+            for c in nb.cells[i + 1 : end]
+            if c.cell_type == "code" and "solution" in c.metadata.get("tags", [])
+        ]
         if not solutions:
             problems.append(f"Exercise {label} has no code cell tagged 'solution'")
             continue
-        if not any(re.search(rf"check_answer\(\s*['\"]{re.escape(label)}['\"]", c.source) for c in solutions):
-            problems.append(f"Exercise {label}: its solution cell does not call check_answer(\"{label}\", ...)")
+        if not any(
+            re.search(rf"check_answer\(\s*['\"]{re.escape(label)}['\"]", c.source)
+            for c in solutions
+        ):
+            problems.append(
+                f'Exercise {label}: its solution cell does not call check_answer("{label}", ...)'
+            )
         if not all(c.metadata.get("jupyter", {}).get("source_hidden") for c in solutions):
-            problems.append(f"Exercise {label}: its solution cell is not collapsed (jupyter.source_hidden)")
+            problems.append(
+                f"Exercise {label}: its solution cell is not collapsed (jupyter.source_hidden)"
+            )
     return problems

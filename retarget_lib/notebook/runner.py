@@ -37,13 +37,18 @@ _TIMING_PREFIX = "RUNNER-TIMING "
 def _newest_input(notebook: Path) -> float:
     inputs = [notebook, REPO_ROOT / "data_manifest.yaml"]
     for folder in ("retarget_lib", "configs"):
-        inputs += list((REPO_ROOT / folder).rglob("*.py")) + list((REPO_ROOT / folder).rglob("*.yaml"))
+        inputs += list((REPO_ROOT / folder).rglob("*.py")) + list(
+            (REPO_ROOT / folder).rglob("*.yaml")
+        )
     return max(p.stat().st_mtime for p in inputs if p.exists())
 
 
 def _cpu_seconds() -> float:
     """CPU seconds (user + system) of this process and of its finished children (the kernels)."""
-    own, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    own, kids = (
+        resource.getrusage(resource.RUSAGE_SELF),
+        resource.getrusage(resource.RUSAGE_CHILDREN),
+    )
     return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
 
 
@@ -52,7 +57,9 @@ def is_up_to_date(notebook: Path, out_dir: Path) -> bool:
     return out_nb.exists() and out_nb.stat().st_mtime >= _newest_input(notebook)
 
 
-def run_notebook(notebook: Path, out_dir: Path, timeout: int = 900, force: bool = False) -> dict | None:
+def run_notebook(
+    notebook: Path, out_dir: Path, timeout: int = 900, force: bool = False
+) -> dict | None:
     """Execute one notebook; write ``out_dir/<name>.ipynb``.
 
     Args:
@@ -73,26 +80,42 @@ def run_notebook(notebook: Path, out_dir: Path, timeout: int = 900, force: bool 
 
     t0, c0 = time.perf_counter(), _cpu_seconds()
     nb = nbformat.read(notebook, as_version=4)
-    client = NotebookClient(nb, timeout=timeout, kernel_name="python3",
-                            resources={"metadata": {"path": str(notebook.parent)}})
+    client = NotebookClient(
+        nb,
+        timeout=timeout,
+        kernel_name="python3",
+        resources={"metadata": {"path": str(notebook.parent)}},
+    )
     client.execute()
     with atomic_write(out_dir / notebook.name, "w") as f:
         nbformat.write(nb, f)
-    return {"seconds": round(time.perf_counter() - t0, 1), "cpu_seconds": round(_cpu_seconds() - c0, 1),
-            "finished": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
-            "profile": active_profile()}
+    return {
+        "seconds": round(time.perf_counter() - t0, 1),
+        "cpu_seconds": round(_cpu_seconds() - c0, 1),
+        "finished": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
+        "profile": active_profile(),
+    }
 
 
 def _run_in_subprocess(notebook: Path, out_dir: Path, force: bool) -> dict | None:
     """:func:`run_notebook` in a fresh process (for ``--jobs``); its CPU time is that process's."""
-    cmd = [sys.executable, "-m", "retarget_lib.notebook.runner", "--out", str(out_dir), "--jobs", "1",
-           "--no-timings", str(notebook)] + (["--force"] if force else [])
+    cmd = [
+        sys.executable,
+        "-m",
+        "retarget_lib.notebook.runner",
+        "--out",
+        str(out_dir),
+        "--jobs",
+        "1",
+        "--no-timings",
+        str(notebook),
+    ] + (["--force"] if force else [])
     proc = subprocess.run(cmd, capture_output=True, text=True)
     if proc.returncode != 0:
         raise RuntimeError(f"{notebook.name} failed:\n{proc.stdout[-4000:]}\n{proc.stderr[-4000:]}")
     for line in proc.stdout.splitlines():
         if line.startswith(_TIMING_PREFIX):
-            return json.loads(line[len(_TIMING_PREFIX):])
+            return json.loads(line[len(_TIMING_PREFIX) :])
     return None
 
 
@@ -116,7 +139,9 @@ def longest_first(notebooks: list[Path], out_dir: Path) -> list[Path]:
     return sorted(notebooks, key=lambda nb: -known.get(nb.name, float("inf")))
 
 
-def workshop_notebooks(notebooks_dir: Path = REPO_ROOT / "notebooks") -> tuple[list[Path], list[tuple[str, str]]]:
+def workshop_notebooks(
+    notebooks_dir: Path = REPO_ROOT / "notebooks",
+) -> tuple[list[Path], list[tuple[str, str]]]:
     """The notebooks ``make workshop`` executes, and the ones it leaves out with the reason."""
     from .book import load_learning_path
 
@@ -131,8 +156,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("notebooks", nargs="*", type=Path)
     parser.add_argument("--out", type=Path, default=REPO_ROOT / "build" / "notebooks")
     parser.add_argument("--force", action="store_true")
-    parser.add_argument("--workshop", action="store_true",
-                        help="execute the notebooks marked `workshop: yes` in notebooks/learning_path.yaml")
+    parser.add_argument(
+        "--workshop",
+        action="store_true",
+        help="execute the notebooks marked `workshop: yes` in notebooks/learning_path.yaml",
+    )
     parser.add_argument("--jobs", type=int, default=1, help="notebooks executed at the same time")
     parser.add_argument("--no-timings", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
@@ -142,8 +170,10 @@ def main(argv: list[str] | None = None) -> int:
         run, left_out = workshop_notebooks()
         notebooks += [nb for nb in run if nb not in notebooks]
         for name, why in left_out:
-            print(f"{name}: NOT executed in the workshop run ({why}); the book shows its committed outputs",
-                  flush=True)
+            print(
+                f"{name}: NOT executed in the workshop run ({why}); the book shows its committed outputs",
+                flush=True,
+            )
     if not notebooks:
         parser.error("no notebooks given (and no --workshop)")
 
@@ -155,8 +185,11 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{nb.name}: up to date -> {args.out / nb.name}", flush=True)
             return
         timings[nb.name] = timing
-        print(f"{nb.name}: executed in {timing['seconds']:.0f} s ({timing['cpu_seconds']:.0f} CPU s)"
-              f" -> {args.out / nb.name}", flush=True)
+        print(
+            f"{nb.name}: executed in {timing['seconds']:.0f} s ({timing['cpu_seconds']:.0f} CPU s)"
+            f" -> {args.out / nb.name}",
+            flush=True,
+        )
         if args.no_timings:
             print(_TIMING_PREFIX + json.dumps(timing), flush=True)
 
@@ -166,16 +199,21 @@ def main(argv: list[str] | None = None) -> int:
                 report(nb, run_notebook(nb, args.out, force=args.force))
         else:
             with concurrent.futures.ThreadPoolExecutor(args.jobs) as pool:
-                futures = {pool.submit(_run_in_subprocess, nb, args.out, args.force): nb
-                           for nb in longest_first(notebooks, args.out)}
+                futures = {
+                    pool.submit(_run_in_subprocess, nb, args.out, args.force): nb
+                    for nb in longest_first(notebooks, args.out)
+                }
                 for fut in concurrent.futures.as_completed(futures):
                     report(futures[fut], fut.result())
     finally:
         if timings and not args.no_timings:
             record_timings(args.out, timings)
     if len(notebooks) > 1:
-        print(f"runner: {len(notebooks)} notebooks in {time.perf_counter() - t0:.0f} s wall, "
-              f"{_cpu_seconds() - c0:.0f} CPU s (kernels included), {args.jobs} at a time", flush=True)
+        print(
+            f"runner: {len(notebooks)} notebooks in {time.perf_counter() - t0:.0f} s wall, "
+            f"{_cpu_seconds() - c0:.0f} CPU s (kernels included), {args.jobs} at a time",
+            flush=True,
+        )
     return 0
 
 

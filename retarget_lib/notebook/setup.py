@@ -49,13 +49,19 @@ def setup_notebook(seed: int = 0, threads: int | None = None) -> NotebookContext
         torch.set_num_threads(threads)
     os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
     viz.configure_offscreen()
-    matplotlib.rcParams.update({"figure.dpi": 80, "savefig.dpi": 80, "figure.figsize": (7.0, 3.5),
-                                "axes.grid": True, "grid.alpha": 0.3})
+    matplotlib.rcParams.update(
+        {
+            "figure.dpi": 80,
+            "savefig.dpi": 80,
+            "figure.figsize": (7.0, 3.5),
+            "axes.grid": True,
+            "grid.alpha": 0.3,
+        }
+    )
     pd.set_option("display.precision", 3)
     pd.set_option("display.max_rows", 60)
     np.set_printoptions(precision=4, suppress=True)
     torch.set_printoptions(precision=4, sci_mode=False)
     figures = REPO_ROOT / "build" / "figures"
     figures.mkdir(parents=True, exist_ok=True)
-    return NotebookContext(seed, active_profile(), np.random.default_rng(seed),
-                           figures)
+    return NotebookContext(seed, active_profile(), np.random.default_rng(seed), figures)

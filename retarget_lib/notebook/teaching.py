@@ -40,7 +40,9 @@ def _matches(value, expected, rtol: float, atol: float) -> bool:
     if isinstance(expected, (bool, np.bool_)):
         return isinstance(value, (bool, np.bool_)) and bool(value) == bool(expected)
     if isinstance(expected, str) or expected is None:
-        return isinstance(value, str) and value == expected if expected is not None else value is None
+        return (
+            isinstance(value, str) and value == expected if expected is not None else value is None
+        )
     if isinstance(value, (str, bool, np.bool_)) or value is None:
         return False
     try:
@@ -64,8 +66,15 @@ def _short(value) -> str:
     return text if len(text) <= 200 else text[:197] + "..."
 
 
-def check_answer(exercise: str, answer, expected, solution=NO_ANSWER, hint: str = "", rtol: float = 0.0,
-                 atol: float = 1e-6) -> bool:
+def check_answer(
+    exercise: str,
+    answer,
+    expected,
+    solution=NO_ANSWER,
+    hint: str = "",
+    rtol: float = 0.0,
+    atol: float = 1e-6,
+) -> bool:
     """Check the student's answer to an exercise against a value computed independently.
 
     The student cell ends with ``answer = None`` until the student computes ``answer``; the
@@ -92,15 +101,23 @@ def check_answer(exercise: str, answer, expected, solution=NO_ANSWER, hint: str 
     tolerance = f" (rtol={rtol}, atol={atol})" if not isinstance(expected, (str, bool)) else ""
     if answer is NO_ANSWER:
         if solution is NO_ANSWER:
-            raise AssertionError(f"exercise {exercise}: no answer and no reference solution to show")
+            raise AssertionError(
+                f"exercise {exercise}: no answer and no reference solution to show"
+            )
         if not _matches(solution, expected, rtol, atol):
-            raise AssertionError(f"exercise {exercise}: the reference solution gives {_short(solution)}, expected "
-                                 f"{_short(expected)}{tolerance}")
-        print(f"exercise {exercise}: no answer yet; the reference solution (the hidden cell) gives "
-              f"{_short(solution)}, as expected. Write yours in the cell above and run both.")
+            raise AssertionError(
+                f"exercise {exercise}: the reference solution gives {_short(solution)}, expected "
+                f"{_short(expected)}{tolerance}"
+            )
+        print(
+            f"exercise {exercise}: no answer yet; the reference solution (the hidden cell) gives "
+            f"{_short(solution)}, as expected. Write yours in the cell above and run both."
+        )
         return True
     if not _matches(answer, expected, rtol, atol):
-        raise AssertionError(f"exercise {exercise}: your answer {_short(answer)} is not the expected "
-                             f"{_short(expected)}{tolerance}" + (f". Hint: {hint}" if hint else ""))
+        raise AssertionError(
+            f"exercise {exercise}: your answer {_short(answer)} is not the expected "
+            f"{_short(expected)}{tolerance}" + (f". Hint: {hint}" if hint else "")
+        )
     print(f"exercise {exercise}: correct")
     return True

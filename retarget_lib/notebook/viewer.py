@@ -47,8 +47,13 @@ def viewer_models(folder: Path) -> dict[str, Path]:
     folder.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory() as tmp:
         source = Path(tmp) / f"jumps_{FRAMES}.bvh"
-        save_bvh(load_bvh(cmu_clip_path(CLIP)).slice(0, FRAMES).normalize_root(), source)  # starts at the origin
-        return {m: retarget_file(source, CHARACTER, m, folder / f"{CHARACTER}_{m}.glb") for m in VIEWER_METHODS}
+        save_bvh(
+            load_bvh(cmu_clip_path(CLIP)).slice(0, FRAMES).normalize_root(), source
+        )  # starts at the origin
+        return {
+            m: retarget_file(source, CHARACTER, m, folder / f"{CHARACTER}_{m}.glb")
+            for m in VIEWER_METHODS
+        }
 
 
 def _page(models: dict[str, Path]) -> str:
@@ -56,10 +61,13 @@ def _page(models: dict[str, Path]) -> str:
         f'<figure><model-viewer id="{html.escape(m)}" data-glb="{html.escape(p.stem)}" camera-controls autoplay '
         f'shadow-intensity="1" exposure="1" camera-orbit="90deg 80deg 5.5m" camera-target="0m 0.9m 0.6m" '
         f'alt="{html.escape(m)} result"></model-viewer>'
-        f'<figcaption><b>{html.escape(m)}</b>: {html.escape(VIEWER_METHODS[m])} '
+        f"<figcaption><b>{html.escape(m)}</b>: {html.escape(VIEWER_METHODS[m])} "
         f'(<a href="_static/models/{html.escape(p.name)}">{html.escape(p.name)}</a>)</figcaption></figure>'
-        for m, p in models.items())
-    scripts = "\n".join(f'<script src="_static/models/{html.escape(p.name)}.js"></script>' for p in models.values())
+        for m, p in models.items()
+    )
+    scripts = "\n".join(
+        f'<script src="_static/models/{html.escape(p.name)}.js"></script>' for p in models.values()
+    )
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8">
 <meta name="viewport" content="width=device-width, initial-scale=1.0">
@@ -119,7 +127,9 @@ def write_viewer(out: Path, models: dict[str, Path] | None = None) -> Path:
             shutil.copy2(path, static / "models" / path.name)
         data = base64.b64encode((static / "models" / path.name).read_bytes()).decode("ascii")
         with atomic_write(static / "models" / f"{path.name}.js", "w") as f:
-            f.write(f'(window.RETARGET_GLB = window.RETARGET_GLB || {{}})["{path.stem}"] = "{data}";\n')
+            f.write(
+                f'(window.RETARGET_GLB = window.RETARGET_GLB || {{}})["{path.stem}"] = "{data}";\n'
+            )
     page = out / VIEWER_PAGE
     with atomic_write(page, "w") as f:
         f.write(_page({m: static / "models" / p.name for m, p in models.items()}))

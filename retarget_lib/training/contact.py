@@ -49,19 +49,23 @@ from ..data.mixamo_splits import mixamo_contact_training_set
 from ..data.synthetic.dataset import dataset_path, fingerprint_of, load_synthetic
 from ..data.synthetic.mixamo_convention import data_path as mixamo_convention_path
 from ..data.synthetic.mixamo_convention import load_mixamo_convention, mixamo_convention_split
+from ..devices import autocast
 from ..geometry.contacts import vertex_correspondence
 from ..geometry.penetration import InterpenetrationEnergy
-from ..losses.contact import ContactEnergyWeights, foot_contact_energy, self_contact_energy, skeleton_energy
+from ..losses.contact import (
+    ContactEnergyWeights,
+    foot_contact_energy,
+    self_contact_energy,
+    skeleton_energy,
+)
 from ..methods.contact import ContactClip, contact_clip, eweak_rotations, model_from_config
 from ..models.georet import ResidualBase, batch_meshes, pose_outputs
-from ..devices import autocast
 from .distributed import SINGLE, Distributed, prepare_module
 from .loop import TrainTask, load_checkpoint, seed_everything
 
 Tensor = torch.Tensor
 
-__all__ = ["ContactTraining", "LOG_TERMS", "training_clips",
-           "energy_weights", "export_model"]
+__all__ = ["ContactTraining", "LOG_TERMS", "training_clips", "energy_weights", "export_model"]
 
 #: the terms logged per step (always all of them, 0 when a row switches one off)
 LOG_TERMS: tuple[str, ...] = ("weak", "ee", "foot", "j2j", "int", "total")
@@ -93,10 +97,15 @@ def training_clips(config: dict) -> tuple[list[ContactClip], dict[str, Character
         names = list(data["train_characters"])
         unknown = [n for n in names if n not in ds.characters]
         if unknown:
-            raise ValueError(f"data.train_characters: unknown characters {unknown}; known: {sorted(ds.characters)}")
+            raise ValueError(
+                f"data.train_characters: unknown characters {unknown}; known: {sorted(ds.characters)}"
+            )
         key = fingerprint_of(dataset_path())[:12]
-        clips += [contact_clip(c.motion, ds.characters[c.performer], f"{key}_{c.name}")
-                  for c in ds.clips if c.performer in names and int(c.name.rsplit("_", 1)[1]) < held_out]
+        clips += [
+            contact_clip(c.motion, ds.characters[c.performer], f"{key}_{c.name}")
+            for c in ds.clips
+            if c.performer in names and int(c.name.rsplit("_", 1)[1]) < held_out
+        ]
         targets.update({n: ds.characters[n] for n in names})
     if "mixamo-convention" in parts:
         mc, split = load_mixamo_convention(), mixamo_convention_split()
@@ -105,10 +114,16 @@ def training_clips(config: dict) -> tuple[list[ContactClip], dict[str, Character
         for k, m in enumerate(motions):
             performer = split.train_characters[k % len(split.train_characters)]
             name = f"{m.family}_{m.seed:03d}"
-            clips.append(contact_clip(mc.clips[name][performer], mc.characters[performer], f"{key}_{performer}_{name}"))
+            clips.append(
+                contact_clip(
+                    mc.clips[name][performer], mc.characters[performer], f"{key}_{performer}_{name}"
+                )
+            )
         targets.update({n: mc.characters[n] for n in split.train_characters})
     if not clips:
-        raise ValueError("no training clip: no clip of the training characters below data.held_out_seed")
+        raise ValueError(
+            "no training clip: no clip of the training characters below data.held_out_seed"
+        )
     return clips, targets
 
 
@@ -118,14 +133,21 @@ def energy_weights(config: dict) -> ContactEnergyWeights:
     e = dict(config["energy"])
     row = e.pop("row")
     base = ContactEnergyWeights.row(row)
-    return replace(base, **{k: (float(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else v)
-                            for k, v in e.items()})
+    return replace(
+        base,
+        **{
+            k: (float(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else v)
+            for k, v in e.items()
+        },
+    )
 
 
 class _Target:
     """A training character's constant tensors (on ``device``), its Eint and foot ground heights."""
 
-    def __init__(self, character: Character, geodesic_weights: bool, need_int: bool, device: torch.device):
+    def __init__(
+        self, character: Character, geodesic_weights: bool, need_int: bool, device: torch.device
+    ):
         self.character = character
         f32 = dict(dtype=torch.float32, device=device)
         self.offsets = torch.as_tensor(character.skeleton.offsets, **f32)
@@ -134,8 +156,11 @@ class _Target:
         self.vertices = torch.as_tensor(character.rest_vertices, **f32)
         self.weights = torch.as_tensor(character.weights, **f32)
         self.ground = torch.as_tensor(foot_rest_heights(character.skeleton), **f32)
-        self.eint = (InterpenetrationEnergy(character.faces, character.rest_vertices, geodesic_weights)
-                     if need_int else None)
+        self.eint = (
+            InterpenetrationEnergy(character.faces, character.rest_vertices, geodesic_weights)
+            if need_int
+            else None
+        )
 
 
 class ContactTraining:
@@ -153,9 +178,15 @@ class ContactTraining:
             keeps this rank's shard (:mod:`~retarget_lib.training.distributed`).
     """
 
-    def __init__(self, config: dict, clips: list[ContactClip] | None = None,
-                 targets: dict[str, Character] | None = None, device: torch.device | None = None,
-                 amp: bool = False, layout: Distributed = SINGLE):
+    def __init__(
+        self,
+        config: dict,
+        clips: list[ContactClip] | None = None,
+        targets: dict[str, Character] | None = None,
+        device: torch.device | None = None,
+        amp: bool = False,
+        layout: Distributed = SINGLE,
+    ):
         self.config = config
         self.device, self.amp, self.layout = device or torch.device("cpu"), amp, layout
         self.rows = layout.shard(int(config["train"]["batch"]))
@@ -167,8 +198,10 @@ class ContactTraining:
         if not self.clips:
             raise ValueError(f"no clip has the {self.window} frames of data.window")
         self.weights = energy_weights(config)
-        self.targets = [_Target(c, self.weights.geodesic_weights, self.weights.use_int, self.device)
-                        for c in targets.values()]
+        self.targets = [
+            _Target(c, self.weights.geodesic_weights, self.weights.use_int, self.device)
+            for c in targets.values()
+        ]
         self._correspondence: dict[tuple[str, str], np.ndarray] = {}
         self._aligned: dict[tuple[str, str], Tensor] = {}
         seed_everything(int(config["seed"]))  # the initial weights depend on the config's seed only
@@ -177,8 +210,9 @@ class ContactTraining:
         if bool(t.get("compile", False)):
             model.compile_decoder()
         self.model = prepare_module(model, self.device, layout)
-        self.optimizer = torch.optim.Adam(self.model.parameters(), lr=float(t["lr"]), betas=tuple(t["betas"]),
-                                          eps=1e-8)
+        self.optimizer = torch.optim.Adam(
+            self.model.parameters(), lr=float(t["lr"]), betas=tuple(t["betas"]), eps=1e-8
+        )
         self.steps, self.epochs = int(t["steps"]), int(t["epochs"])
         self.batch, self.lr, self.decay = int(t["batch"]), float(t["lr"]), float(t["lr_decay"])
 
@@ -198,8 +232,9 @@ class ContactTraining:
             return clip.quantities.rotations
         key = (clip.name, target.character.name)
         if key not in self._aligned:
-            self._aligned[key] = eweak_rotations(self.model, clip.motion.rotations, clip.motion.skeleton,
-                                                 target.character.skeleton)
+            self._aligned[key] = eweak_rotations(
+                self.model, clip.motion.rotations, clip.motion.skeleton, target.character.skeleton
+            )
         return self._aligned[key]
 
     def epoch(self, step: int) -> int:
@@ -218,50 +253,84 @@ class ContactTraining:
             draws.append((clip, start, target, np.random.randint(self.window)))
         return draws[self.rows]
 
-    def energies(self, draws: list[tuple[ContactClip, int, _Target, int]], weights: ContactEnergyWeights,
-                 ) -> dict[str, Tensor]:
+    def energies(
+        self,
+        draws: list[tuple[ContactClip, int, _Target, int]],
+        weights: ContactEnergyWeights,
+    ) -> dict[str, Tensor]:
         """Weighted ``Efull`` terms of one batch (each ``(B,)``), :data:`LOG_TERMS` keys."""
         win, dev = slice(0, self.window), self.device
         sl = [slice(s, s + self.window) for _, s, _, _ in draws]
         features = torch.stack([c.features[s] for (c, *_), s in zip(draws, sl)]).to(dev)
         src = MotionQuantities(
-            torch.stack([self.eweak_rotations(c, t)[s] for (c, _, t, _), s in zip(draws, sl)]).to(dev),
+            torch.stack([self.eweak_rotations(c, t)[s] for (c, _, t, _), s in zip(draws, sl)]).to(
+                dev
+            ),
             torch.stack([c.quantities.root_velocity[s] for (c, *_), s in zip(draws, sl)]).to(dev),
             torch.stack([c.quantities.positions[s] for (c, *_), s in zip(draws, sl)]).to(dev),
-            torch.tensor([c.quantities.height for c, *_ in draws], device=dev))
+            torch.tensor([c.quantities.height for c, *_ in draws], device=dev),
+        )
         targets = [t for _, _, t, _ in draws]
         offsets = torch.stack([t.offsets for t in targets])
         heights = torch.tensor([t.height for t in targets], device=dev)
-        ratios = torch.tensor([leg_ratio(c.motion.skeleton, t.character.skeleton) for c, _, t, _ in draws],
-                              device=dev)
+        ratios = torch.tensor(
+            [leg_ratio(c.motion.skeleton, t.character.skeleton) for c, _, t, _ in draws], device=dev
+        )
         verts, skin = batch_meshes([t.vertices for t in targets], [t.weights for t in targets])
         with autocast(dev, self.amp):
-            out = self.model(features, offsets, verts, skin, heights,
-                             ResidualBase(src.rotations, src.root_velocity * ratios[:, None, None]))
+            out = self.model(
+                features,
+                offsets,
+                verts,
+                skin,
+                heights,
+                ResidualBase(src.rotations, src.root_velocity * ratios[:, None, None]),
+            )
         start = ratios[:, None] * src.positions[:, 0, 0]
         posed = pose_outputs(out.rotations, out.root_velocity, offsets, start=start)
         output = MotionQuantities(out.rotations, out.root_velocity, posed.positions, heights)
         terms = skeleton_energy(output, src, ratios, weights)
         zeros = heights.new_zeros(len(draws))
-        foot = torch.stack([foot_contact_energy(posed.positions[b, win], torch.as_tensor(c.foot_contacts[s], device=dev),
-                                                t.ground, t.height)
-                            for b, ((c, _, t, _), s) in enumerate(zip(draws, sl))])
+        foot = torch.stack(
+            [
+                foot_contact_energy(
+                    posed.positions[b, win],
+                    torch.as_tensor(c.foot_contacts[s], device=dev),
+                    t.ground,
+                    t.height,
+                )
+                for b, ((c, _, t, _), s) in enumerate(zip(draws, sl))
+            ]
+        )
         terms["foot"] = weights.foot_weight * weights.in_units("foot", foot)
         j2j, eint = [], []
         for b, (clip, s, t, f) in enumerate(draws):
             need_pairs = weights.use_j2j and len(clip.self_contacts)
             if not (need_pairs or weights.use_int):
                 break
-            mesh = linear_blend_skinning(t.vertices, t.weights, t.rest_joints, posed.global_rotations[b, f],
-                                         posed.positions[b, f])
+            mesh = linear_blend_skinning(
+                t.vertices,
+                t.weights,
+                t.rest_joints,
+                posed.global_rotations[b, f],
+                posed.positions[b, f],
+            )
             pairs = clip.self_contacts.at(s + f) if need_pairs else np.zeros((0, 2), np.int64)
             if len(pairs):
                 pairs = self.correspondence(clip.character, t)[pairs]
                 pairs = pairs[pairs[:, 0] != pairs[:, 1]]
-            j2j.append(self_contact_energy(mesh, torch.as_tensor(pairs, device=dev)) if len(pairs) else zeros[0])
+            j2j.append(
+                self_contact_energy(mesh, torch.as_tensor(pairs, device=dev))
+                if len(pairs)
+                else zeros[0]
+            )
             eint.append(t.eint(mesh) if t.eint is not None else zeros[0])
-        terms["j2j"] = (weights.j2j_weight * weights.in_units("j2j", torch.stack(j2j))) if j2j else zeros
-        terms["int"] = (weights.int_weight * weights.in_units("int", torch.stack(eint))) if eint else zeros
+        terms["j2j"] = (
+            (weights.j2j_weight * weights.in_units("j2j", torch.stack(j2j))) if j2j else zeros
+        )
+        terms["int"] = (
+            (weights.int_weight * weights.in_units("int", torch.stack(eint))) if eint else zeros
+        )
         terms["total"] = terms["weak"] + terms["ee"] + terms["foot"] + terms["j2j"] + terms["int"]
         return {k: terms[k] for k in LOG_TERMS}
 
@@ -270,7 +339,7 @@ class ContactTraining:
         returns the mean of each :data:`LOG_TERMS` term."""
         epoch = self.epoch(index)
         for group in self.optimizer.param_groups:
-            group["lr"] = self.lr * self.decay ** epoch
+            group["lr"] = self.lr * self.decay**epoch
         weights = self.weights.with_foot_ramp(epoch, self.epochs)
         draws = self._sample()
         with self.layout.rank_random(int(self.config["seed"]), index, self.device):
@@ -291,7 +360,9 @@ def export_model(checkpoint: str | Path, out: str | Path) -> Path:
     the shipped results are allowed to move.
     """
     state = load_checkpoint(checkpoint)
-    slim = {"step": state["step"], "config": state["config"], "modules": {"model": state["modules"]["model"]}}
+    slim = {
+        "step": state["step"],
+        "config": state["config"],
+        "modules": {"model": state["modules"]["model"]},
+    }
     return save_state(slim, out)
-
-

@@ -43,7 +43,6 @@ from __future__ import annotations
 import contextlib
 import os
 from dataclasses import dataclass
-from typing import ContextManager
 
 import numpy as np
 import torch
@@ -52,8 +51,15 @@ from torch import nn
 
 from ..errors import DeviceError
 
-__all__ = ["Distributed", "SINGLE", "from_environment", "init_process_group", "shutdown", "GlobalBatchNorm",
-           "prepare_module"]
+__all__ = [
+    "Distributed",
+    "SINGLE",
+    "from_environment",
+    "init_process_group",
+    "shutdown",
+    "GlobalBatchNorm",
+    "prepare_module",
+]
 
 
 @dataclass(frozen=True)
@@ -87,17 +93,23 @@ class Distributed:
             DeviceError: ``batch`` is not divisible by the world size.
         """
         if batch % self.world_size:
-            raise DeviceError(f"train.batch = {batch} is not divisible by the {self.world_size} processes; "
-                              "choose a global batch that is a multiple of the number of processes")
+            raise DeviceError(
+                f"train.batch = {batch} is not divisible by the {self.world_size} processes; "
+                "choose a global batch that is a multiple of the number of processes"
+            )
         size = batch // self.world_size
         return slice(self.rank * size, (self.rank + 1) * size)
 
-    def rank_random(self, seed: int, step: int, device: torch.device) -> ContextManager:
+    def rank_random(
+        self, seed: int, step: int, device: torch.device
+    ) -> contextlib.AbstractContextManager:
         """A context whose torch RNG is seeded by ``(seed, rank, step)`` and restored after it
         (nothing with a single process: its one stream is used as before)."""
         if not self.enabled:
             return contextlib.nullcontext()
-        return _seeded_fork(int(np.random.SeedSequence([seed, self.rank, step]).generate_state(1)[0]), device)
+        return _seeded_fork(
+            int(np.random.SeedSequence([seed, self.rank, step]).generate_state(1)[0]), device
+        )
 
     def average_gradients(self, *modules: nn.Module) -> None:
         """All-reduce the gradients of ``modules`` and divide by the world size (in place)."""
@@ -111,7 +123,7 @@ class Distributed:
         flat /= self.world_size
         offset = 0
         for g in grads:
-            g.copy_(flat[offset:offset + g.numel()].view_as(g))
+            g.copy_(flat[offset : offset + g.numel()].view_as(g))
             offset += g.numel()
 
     def mean(self, values: dict[str, float]) -> dict[str, float]:
@@ -152,9 +164,13 @@ def from_environment() -> Distributed:
         rank = int(os.environ.get("RANK", "0"))
         local = int(os.environ.get("LOCAL_RANK", str(rank)))
     except ValueError:
-        raise DeviceError("RANK, WORLD_SIZE and LOCAL_RANK must be integers (set by torchrun)") from None
+        raise DeviceError(
+            "RANK, WORLD_SIZE and LOCAL_RANK must be integers (set by torchrun)"
+        ) from None
     if world < 1 or not 0 <= rank < world or local < 0:
-        raise DeviceError(f"RANK={rank} WORLD_SIZE={world} LOCAL_RANK={local}: need 0 <= RANK < WORLD_SIZE")
+        raise DeviceError(
+            f"RANK={rank} WORLD_SIZE={world} LOCAL_RANK={local}: need 0 <= RANK < WORLD_SIZE"
+        )
     return Distributed(rank, world, local)
 
 
@@ -165,8 +181,9 @@ def init_process_group(layout: Distributed, device: torch.device) -> None:
         return
     if device.type == "cuda":
         torch.cuda.set_device(device)
-    dist.init_process_group("nccl" if device.type == "cuda" else "gloo", rank=layout.rank,
-                            world_size=layout.world_size)
+    dist.init_process_group(
+        "nccl" if device.type == "cuda" else "gloo", rank=layout.rank, world_size=layout.world_size
+    )
 
 
 def shutdown() -> None:
@@ -196,9 +213,15 @@ class GlobalBatchNorm(nn.BatchNorm1d):
         if self.track_running_stats:
             with torch.no_grad():
                 self.num_batches_tracked += 1
-                m = self.momentum if self.momentum is not None else 1.0 / float(self.num_batches_tracked)
+                m = (
+                    self.momentum
+                    if self.momentum is not None
+                    else 1.0 / float(self.num_batches_tracked)
+                )
                 self.running_mean.mul_(1 - m).add_(mean.detach(), alpha=m)
-                self.running_var.mul_(1 - m).add_(var.detach() * count / (count - 1).clamp_min(1), alpha=m)
+                self.running_var.mul_(1 - m).add_(
+                    var.detach() * count / (count - 1).clamp_min(1), alpha=m
+                )
         out = centred / torch.sqrt(var.view(view) + self.eps)
         out = out * self.weight.view(view) + self.bias.view(view) if self.affine else out
         return out.to(dtype)
@@ -209,8 +232,13 @@ def _global_batchnorm(module: nn.Module) -> nn.Module:
     same parameters and buffers."""
     for name, child in module.named_children():
         if type(child) is nn.BatchNorm1d:
-            new = GlobalBatchNorm(child.num_features, child.eps, child.momentum, child.affine,
-                                  child.track_running_stats)
+            new = GlobalBatchNorm(
+                child.num_features,
+                child.eps,
+                child.momentum,
+                child.affine,
+                child.track_running_stats,
+            )
             new.load_state_dict(child.state_dict())
             setattr(module, name, new)
         else:

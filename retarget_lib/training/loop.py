@@ -21,9 +21,9 @@ import csv
 import math
 import random
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 import torch
@@ -63,15 +63,25 @@ class TrainTask:
 def _rng_state() -> dict:
     """The three global RNG states as tensors and plain values (they load with ``weights_only``)."""
     name, keys, pos, has_gauss, cached = np.random.get_state()
-    return {"torch": torch.get_rng_state(),
-            "numpy": (name, torch.from_numpy(keys.astype(np.int64)), int(pos), int(has_gauss), float(cached)),
-            "python": random.getstate()}
+    return {
+        "torch": torch.get_rng_state(),
+        "numpy": (
+            name,
+            torch.from_numpy(keys.astype(np.int64)),
+            int(pos),
+            int(has_gauss),
+            float(cached),
+        ),
+        "python": random.getstate(),
+    }
 
 
 def _set_rng_state(state: dict) -> None:
     torch.set_rng_state(state["torch"])
     name, keys, pos, has_gauss, cached = state["numpy"]
-    np.random.set_state((name, np.asarray(keys, dtype=np.int64).astype(np.uint32), pos, has_gauss, cached))
+    np.random.set_state(
+        (name, np.asarray(keys, dtype=np.int64).astype(np.uint32), pos, has_gauss, cached)
+    )
     random.setstate(state["python"])
 
 
@@ -108,8 +118,10 @@ def _check_finite(losses: dict[str, float], step: int, run_dir: Path) -> None:
     if bad:
         last = run_dir / "last.pt"
         where = f"; the last good checkpoint is {last}" if last.exists() else ""
-        raise NonFiniteLossError(f"loss term(s) {bad} became non-finite at step {step}{where}. "
-                                 "Lower the learning rate or check the input data for NaNs.")
+        raise NonFiniteLossError(
+            f"loss term(s) {bad} became non-finite at step {step}{where}. "
+            "Lower the learning rate or check the input data for NaNs."
+        )
 
 
 def _truncate_log(path: Path, upto: int) -> None:
@@ -123,8 +135,16 @@ def _truncate_log(path: Path, upto: int) -> None:
         csv.writer(f).writerows(keep)
 
 
-def fit(task: TrainTask, config: dict, run_dir: str | Path, steps: int, checkpoint_every: int = 100,
-        resume: bool = False, progress: bool = True, layout: Distributed = SINGLE) -> Path:
+def fit(
+    task: TrainTask,
+    config: dict,
+    run_dir: str | Path,
+    steps: int,
+    checkpoint_every: int = 100,
+    resume: bool = False,
+    progress: bool = True,
+    layout: Distributed = SINGLE,
+) -> Path:
     """Run ``steps`` optimisation steps of ``task``; return the final checkpoint's path.
 
     Args:
@@ -163,7 +183,13 @@ def fit(task: TrainTask, config: dict, run_dir: str | Path, steps: int, checkpoi
         m.train()
     writer, fh, header = None, None, None
     t0 = time.perf_counter()
-    bar = tqdm(range(start, steps), initial=start, total=steps, disable=not (progress and main), desc=config.get("name", "train"))
+    bar = tqdm(
+        range(start, steps),
+        initial=start,
+        total=steps,
+        disable=not (progress and main),
+        desc=config.get("name", "train"),
+    )
     try:
         for i in bar:
             losses = layout.mean(task.step(i))
@@ -177,7 +203,9 @@ def fit(task: TrainTask, config: dict, run_dir: str | Path, steps: int, checkpoi
                 writer = csv.writer(fh)
                 if new:
                     writer.writerow(header)
-            writer.writerow([i, f"{time.perf_counter() - t0:.3f}"] + [f"{losses[k]:.6g}" for k in header[2:]])
+            writer.writerow(
+                [i, f"{time.perf_counter() - t0:.3f}"] + [f"{losses[k]:.6g}" for k in header[2:]]
+            )
             if progress:
                 bar.set_postfix({k: f"{v:.3g}" for k, v in list(losses.items())[:3]})
             if (i + 1) % checkpoint_every == 0 or i + 1 == steps:

@@ -10,8 +10,9 @@ arguments.
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from pathlib import Path
-from typing import NamedTuple, Sequence
+from typing import NamedTuple
 
 from ..config import load_config
 from ..devices import resolve_device
@@ -33,10 +34,17 @@ class TrainResult(NamedTuple):
     exported: Path | None
 
 
-def train_config(config_path: str | os.PathLike, overrides: Sequence[str] = (), profile: str | None = None,
-                 out: str | os.PathLike | None = None, resume: bool = False,
-                 export: str | os.PathLike | None = None, device: str = "auto", amp: bool = False,
-                 progress: bool = False) -> TrainResult:
+def train_config(
+    config_path: str | os.PathLike,
+    overrides: Sequence[str] = (),
+    profile: str | None = None,
+    out: str | os.PathLike | None = None,
+    resume: bool = False,
+    export: str | os.PathLike | None = None,
+    device: str = "auto",
+    amp: bool = False,
+    progress: bool = False,
+) -> TrainResult:
     """Train the row of ``config_path`` (see the module docstring).
 
     Args:
@@ -66,14 +74,27 @@ def train_config(config_path: str | os.PathLike, overrides: Sequence[str] = (), 
     distributed.init_process_group(layout, place)
     try:
         if config.get("method") == "contact":
-            from .contact import ContactTraining as Training, export_model as export_fn
+            from .contact import ContactTraining as Training
+            from .contact import export_model as export_fn
         else:
-            from .tdcn import RetargetTraining as Training, export_generator as export_fn
+            from .tdcn import RetargetTraining as Training
+            from .tdcn import export_generator as export_fn
         run = Training(config, device=place, amp=amp, layout=layout)
-        final = fit(run.task(), config, out, int(config["train"]["steps"]),
-                    checkpoint_every=int(config["train"]["checkpoint_every"]), resume=resume, progress=progress,
-                    layout=layout)
-        exported = export_fn(final, export) if export and layout.is_main else (Path(export) if export else None)
+        final = fit(
+            run.task(),
+            config,
+            out,
+            int(config["train"]["steps"]),
+            checkpoint_every=int(config["train"]["checkpoint_every"]),
+            resume=resume,
+            progress=progress,
+            layout=layout,
+        )
+        exported = (
+            export_fn(final, export)
+            if export and layout.is_main
+            else (Path(export) if export else None)
+        )
         layout.barrier()
     finally:
         distributed.shutdown()

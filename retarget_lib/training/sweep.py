@@ -24,9 +24,9 @@ from __future__ import annotations
 
 import json
 import os
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Sequence
 
 import submitit
 
@@ -34,8 +34,17 @@ from ..data.manifest import table_checkpoints
 from ..errors import RetargetInputError
 from ..files import REPO_ROOT, atomic_write
 
-__all__ = ["TABLES", "SweepError", "RowStatus", "table_rows", "TrainJob", "submit", "wait", "sweep_status",
-           "finished_rows"]
+__all__ = [
+    "TABLES",
+    "SweepError",
+    "RowStatus",
+    "table_rows",
+    "TrainJob",
+    "submit",
+    "wait",
+    "sweep_status",
+    "finished_rows",
+]
 
 #: ``--table`` names
 TABLES: tuple[str, ...] = ("tdcn", "contact")
@@ -57,7 +66,9 @@ def table_rows(table: str, rows: Sequence[str] | None = None) -> dict[str, Path]
     every = {row: REPO_ROOT / entry.config for row, entry in table_checkpoints(table).items()}
     unknown = [r for r in rows or () if r not in every]
     if unknown:
-        raise SweepError(f"--rows {', '.join(unknown)}: not rows of table {table}; rows: {', '.join(every)}")
+        raise SweepError(
+            f"--rows {', '.join(unknown)}: not rows of table {table}; rows: {', '.join(every)}"
+        )
     return {r: every[r] for r in (rows or every)}
 
 
@@ -68,32 +79,68 @@ class TrainJob(submitit.helpers.Checkpointable):
     inherited ``checkpoint()``, which resubmits the same call — it resumes from ``last.pt``.
     """
 
-    def __call__(self, config: str, out: str, overrides: Sequence[str], profile: str | None, device: str,
-                 amp: bool) -> str:
+    def __call__(
+        self,
+        config: str,
+        out: str,
+        overrides: Sequence[str],
+        profile: str | None,
+        device: str,
+        amp: bool,
+    ) -> str:
         from .run import train_config
 
-        if submitit.JobEnvironment().num_tasks > 1:  # one rank per task, as torchrun would start them
+        if (
+            submitit.JobEnvironment().num_tasks > 1
+        ):  # one rank per task, as torchrun would start them
             submitit.helpers.TorchDistributedEnvironment().export(overwrite=True)
-        return str(train_config(config, overrides, profile, out, resume=True, device=device, amp=amp).final)
+        return str(
+            train_config(config, overrides, profile, out, resume=True, device=device, amp=amp).final
+        )
 
 
-def _executor(out: Path, cluster: str, gpus_per_row: int, timeout_min: int, partition: str | None,
-              parallel: int | None, table: str) -> submitit.AutoExecutor:
-    executor = submitit.AutoExecutor(folder=out / "jobs", cluster=None if cluster == "auto" else cluster)
-    params = dict(name=f"retarget-{table}", timeout_min=int(timeout_min), tasks_per_node=max(gpus_per_row, 1),
-                  nodes=1)
+def _executor(
+    out: Path,
+    cluster: str,
+    gpus_per_row: int,
+    timeout_min: int,
+    partition: str | None,
+    parallel: int | None,
+    table: str,
+) -> submitit.AutoExecutor:
+    executor = submitit.AutoExecutor(
+        folder=out / "jobs", cluster=None if cluster == "auto" else cluster
+    )
+    params = dict(
+        name=f"retarget-{table}",
+        timeout_min=int(timeout_min),
+        tasks_per_node=max(gpus_per_row, 1),
+        nodes=1,
+    )
     if executor.cluster == "slurm":
-        params.update(gpus_per_node=gpus_per_row, cpus_per_task=4, slurm_array_parallelism=parallel or 64)
+        params.update(
+            gpus_per_node=gpus_per_row, cpus_per_task=4, slurm_array_parallelism=parallel or 64
+        )
         if partition:
             params["slurm_partition"] = partition
     executor.update_parameters(**params)
     return executor
 
 
-def submit(table: str, out: str | os.PathLike, overrides: Sequence[str] = (), profile: str | None = None,
-           rows: Sequence[str] | None = None, cluster: str = "auto", device: str = "auto", amp: bool = False,
-           gpus_per_row: int = 0, timeout_min: int = 24 * 60, partition: str | None = None,
-           parallel: int | None = None) -> dict:
+def submit(
+    table: str,
+    out: str | os.PathLike,
+    overrides: Sequence[str] = (),
+    profile: str | None = None,
+    rows: Sequence[str] | None = None,
+    cluster: str = "auto",
+    device: str = "auto",
+    amp: bool = False,
+    gpus_per_row: int = 0,
+    timeout_min: int = 24 * 60,
+    partition: str | None = None,
+    parallel: int | None = None,
+) -> dict:
     """Submit one training job per row of ``table`` that has no ``final.pt`` yet in ``out``.
 
     Args:
@@ -126,9 +173,15 @@ def submit(table: str, out: str | os.PathLike, overrides: Sequence[str] = (), pr
     if pending:
         executor = _executor(out, cluster, gpus_per_row, timeout_min, partition, parallel, table)
         n = len(pending)
-        submitted = executor.map_array(TrainJob(), [str(c) for c in pending.values()],
-                                       [str(out / _folder(r)) for r in pending], [list(overrides)] * n,
-                                       [profile] * n, [device] * n, [amp] * n)
+        submitted = executor.map_array(
+            TrainJob(),
+            [str(c) for c in pending.values()],
+            [str(out / _folder(r)) for r in pending],
+            [list(overrides)] * n,
+            [profile] * n,
+            [device] * n,
+            [amp] * n,
+        )
         jobs = dict(zip(pending, submitted))
         state["cluster"] = executor.cluster
     state.update(profile=profile, overrides=list(overrides))
@@ -205,8 +258,15 @@ def sweep_status(out: str | os.PathLike) -> list[RowStatus]:
         log = run / "losses.csv"
         step = max(sum(1 for _ in open(log)) - 1, 0) if log.exists() else 0
         failure = _failure(out, job_id) if job_id else ""
-        kind = ("done" if (run / "final.pt").exists() else "failed" if failure
-                else "running" if log.exists() else "pending")
+        kind = (
+            "done"
+            if (run / "final.pt").exists()
+            else "failed"
+            if failure
+            else "running"
+            if log.exists()
+            else "pending"
+        )
         statuses.append(RowStatus(row, kind, step, job_id, failure))
     return statuses
 
@@ -218,5 +278,8 @@ def finished_rows(out: str | os.PathLike) -> dict[str, Path]:
         SweepError: ``out`` is not a sweep folder.
     """
     out = Path(out).resolve()
-    return {s.row: out / _read_state(out)["rows"][s.row]["out"] / "final.pt"
-            for s in sweep_status(out) if s.state == "done"}
+    return {
+        s.row: out / _read_state(out)["rows"][s.row]["out"] / "final.pt"
+        for s in sweep_status(out)
+        if s.state == "done"
+    }

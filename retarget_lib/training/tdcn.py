@@ -79,15 +79,34 @@ import torch
 from ..core.measures import nkn_height
 from ..data.checkpoints import save_state
 from ..data.manifest import mixamo_local_dir
-from ..losses import (MotionTensors, PositionScale, TDCNLossWeights, adversarial_loss, adversarial_loss_discriminator,
-                      adversarial_loss_generator, bone_direction_loss, check_finite, cycle_loss, height_loss,
-                      orientation_loss, regularization_loss, sigmoid_ce_discriminator_loss,
-                      sigmoid_ce_generator_loss, total_generator_loss, twist_loss)
+from ..devices import autocast
+from ..losses import (
+    MotionTensors,
+    PositionScale,
+    TDCNLossWeights,
+    adversarial_loss,
+    adversarial_loss_discriminator,
+    adversarial_loss_generator,
+    bone_direction_loss,
+    check_finite,
+    cycle_loss,
+    height_loss,
+    orientation_loss,
+    regularization_loss,
+    sigmoid_ce_discriminator_loss,
+    sigmoid_ce_generator_loss,
+    total_generator_loss,
+    twist_loss,
+)
 from ..methods.tdcn import model_config
 from ..models import build_model, normalize_quaternions, resolve_config
-from ..models.features import (generator_features, nkn_source_features, residual_generator_features,
-                               root_velocities, source_local_positions)
-from ..devices import autocast
+from ..models.features import (
+    generator_features,
+    nkn_source_features,
+    residual_generator_features,
+    root_velocities,
+    source_local_positions,
+)
 from .distributed import SINGLE, Distributed, prepare_module
 from .loop import TrainTask, load_checkpoint, seed_everything
 from .tdcn_data import TrainingBatch, TrainingClips, WindowSampler, training_clips
@@ -97,8 +116,10 @@ Tensor = torch.Tensor
 __all__ = ["RetargetTraining", "export_generator", "learning_rate", "loss_weights"]
 
 #: (generator loss on scores, discriminator loss on (real, fake) scores) per ``loss.gan``
-_GANS = {"lsgan": (adversarial_loss_generator, adversarial_loss_discriminator),
-         "sigmoid_ce": (sigmoid_ce_generator_loss, sigmoid_ce_discriminator_loss)}
+_GANS = {
+    "lsgan": (adversarial_loss_generator, adversarial_loss_discriminator),
+    "sigmoid_ce": (sigmoid_ce_generator_loss, sigmoid_ce_discriminator_loss),
+}
 
 #: how many windows the optional input normaliser is fitted on
 _NORMALIZER_WINDOWS = 256
@@ -116,7 +137,9 @@ HALF_PRECISION_KINDS = ("tdcn",)
 def loss_weights(config: dict) -> TDCNLossWeights:
     """:class:`~retarget_lib.losses.TDCNLossWeights` from the ``loss`` section (``lambda_*`` keys)."""
     loss = config["loss"]
-    return TDCNLossWeights(**{f.name: float(loss[f.name]) for f in fields(TDCNLossWeights) if f.name in loss})
+    return TDCNLossWeights(
+        **{f.name: float(loss[f.name]) for f in fields(TDCNLossWeights) if f.name in loss}
+    )
 
 
 def _check_row(resolved: dict, config: dict, weights: TDCNLossWeights) -> None:
@@ -127,9 +150,13 @@ def _check_row(resolved: dict, config: dict, weights: TDCNLossWeights) -> None:
         problems.append("data.scale_range must be null (unbalanced data)")
     if resolved.get("loss") == "no_height" and weights.lambda_h != 0:
         problems.append("loss.lambda_h must be 0 (no height loss)")
-    if resolved["kind"] == "nkn" and bool(resolved.get("height_loss", False)) != (weights.lambda_h != 0):
-        problems.append(f"loss.lambda_h must be {'> 0' if resolved.get('height_loss') else '0'} "
-                        "for this NKN variant")
+    if resolved["kind"] == "nkn" and bool(resolved.get("height_loss", False)) != (
+        weights.lambda_h != 0
+    ):
+        problems.append(
+            f"loss.lambda_h must be {'> 0' if resolved.get('height_loss') else '0'} "
+            "for this NKN variant"
+        )
     if config["loss"]["gan"] not in _GANS:
         problems.append(f"loss.gan must be one of {list(_GANS)}")
     if problems:
@@ -185,8 +212,14 @@ class RetargetTraining:
         weights: the :class:`~retarget_lib.losses.TDCNLossWeights` of Eq. 6.
     """
 
-    def __init__(self, config: dict, clips: TrainingClips | None = None, device: torch.device | None = None,
-                 amp: bool = False, layout: Distributed = SINGLE):
+    def __init__(
+        self,
+        config: dict,
+        clips: TrainingClips | None = None,
+        device: torch.device | None = None,
+        amp: bool = False,
+        layout: Distributed = SINGLE,
+    ):
         self.config = config
         self.device, self.amp, self.layout = device or torch.device("cpu"), amp, layout
         self.rows = layout.shard(int(config["train"]["batch"]))
@@ -197,16 +230,27 @@ class RetargetTraining:
         self.weights = loss_weights(config)
         _check_row(self.resolved, config, self.weights)
         loss, data, train = config["loss"], config["data"], config["train"]
-        self.gan, self.alpha_deg, self.batch = loss["gan"], float(loss["twist_alpha_deg"]), int(train["batch"])
+        self.gan, self.alpha_deg, self.batch = (
+            loss["gan"],
+            float(loss["twist_alpha_deg"]),
+            int(train["batch"]),
+        )
         self.twist_exclude_root = bool(loss.get("twist_exclude_root", False))
         self.reduction = loss.get("reduction", "mean")
         if clips is None:
             source = data.get("source", "synthetic")
             root = str(mixamo_local_dir()) if "mixamo-local" in source.split("+") else None
             clips = training_clips(bool(data.get("mirror", False)), source, root)
-        self.sampler = WindowSampler(clips, data["window"], data["same_fraction"], data["scale_range"],
-                                     data["scale_targets"], bool(data.get("random_yaw", False)),
-                                     float(data.get("rest_jitter_deg", 0.0)), float(data.get("rest_arm_drop_deg", 0.0)))
+        self.sampler = WindowSampler(
+            clips,
+            data["window"],
+            data["same_fraction"],
+            data["scale_range"],
+            data["scale_targets"],
+            bool(data.get("random_yaw", False)),
+            float(data.get("rest_jitter_deg", 0.0)),
+            float(data.get("rest_arm_drop_deg", 0.0)),
+        )
         if self.resolved["normalize_inputs"]:
             self._fit_normalizer()
         self.position_scale = self._fit_position_scale() if loss.get("standardize", False) else None
@@ -222,16 +266,23 @@ class RetargetTraining:
 
     def task(self) -> TrainTask:
         """The :class:`~retarget_lib.training.loop.TrainTask` for :func:`~retarget_lib.training.loop.fit`."""
-        return TrainTask({"generator": self.generator, "discriminator": self.discriminator},
-                         {"generator": self.opt_g, "discriminator": self.opt_d}, self.step)
+        return TrainTask(
+            {"generator": self.generator, "discriminator": self.discriminator},
+            {"generator": self.opt_g, "discriminator": self.opt_d},
+            self.step,
+        )
 
     @torch.no_grad()
     def _fit_normalizer(self) -> None:
         """Fit the generator's input normaliser on source windows (own RNG: global state untouched)."""
-        b = self.sampler.sample(_NORMALIZER_WINDOWS, torch.Generator().manual_seed(int(self.config["seed"])))
+        b = self.sampler.sample(
+            _NORMALIZER_WINDOWS, torch.Generator().manual_seed(int(self.config["seed"]))
+        )
         p = source_local_positions(b.rotations, b.offsets_source)
         if self.resolved["kind"] == "tdcn":
-            features = residual_generator_features if self.generator.residual else generator_features
+            features = (
+                residual_generator_features if self.generator.residual else generator_features
+            )
             x = features(b.rotations, b.root_positions, b.offsets_source, b.offsets_target, p)
         else:
             h = nkn_height(b.offsets_source) if self.generator.normalize_root else None
@@ -242,8 +293,12 @@ class RetargetTraining:
     def _fit_position_scale(self) -> PositionScale:
         """The z-scores of ``loss.standardize`` (:class:`~retarget_lib.losses.tdcn.PositionScale`),
         fitted on source windows drawn with their own RNG (global state untouched)."""
-        b = self.sampler.sample(_NORMALIZER_WINDOWS, torch.Generator().manual_seed(int(self.config["seed"]) + 1))
-        return PositionScale.fit(source_local_positions(b.rotations, b.offsets_source), b.root_positions)
+        b = self.sampler.sample(
+            _NORMALIZER_WINDOWS, torch.Generator().manual_seed(int(self.config["seed"]) + 1)
+        )
+        return PositionScale.fit(
+            source_local_positions(b.rotations, b.offsets_source), b.root_positions
+        )
 
     def _retarget(self, q: Tensor, r: Tensor, p: Tensor, off_src: Tensor, off_tgt: Tensor):
         """``G(x, s̄_tgt)`` (Eqs. 4-5) → (raw output, unit q̂ ``(B,W,J,4)``, ``p̂ = f_FK(q̂, s̄_tgt)``)."""
@@ -261,10 +316,17 @@ class RetargetTraining:
             ``(terms, x̂B)``: scalar tensors ``Lc, Lt, Lh, La, Lr, Lo`` (unweighted), and the
             retargeted motion (``p (B,W,J,3)``, raw ``q (B,W,J,4)``, ``r (B,W,3)``).
         """
-        q_a, r_a, off_a, off_b = batch.rotations, batch.root_positions, batch.offsets_source, batch.offsets_target
+        q_a, r_a, off_a, off_b = (
+            batch.rotations,
+            batch.root_positions,
+            batch.offsets_source,
+            batch.offsets_target,
+        )
         p_a = source_local_positions(q_a, off_a)
-        out_b, q_b_unit, p_b = self._retarget(q_a, r_a, p_a, off_a, off_b)                    # Eq. 4
-        out_a, _, p_a_hat = self._retarget(q_b_unit, out_b.root_positions, p_b, off_b, off_a)  # Eq. 5
+        out_b, q_b_unit, p_b = self._retarget(q_a, r_a, p_a, off_a, off_b)  # Eq. 4
+        out_a, _, p_a_hat = self._retarget(
+            q_b_unit, out_b.root_positions, p_b, off_b, off_a
+        )  # Eq. 5
         x_a = MotionTensors(p_a, q_a, r_a)
         x_b_hat = MotionTensors(p_b, out_b.rotations, out_b.root_positions)
         if out_b.root_velocities is None:
@@ -277,11 +339,26 @@ class RetargetTraining:
         z = self.position_scale.apply if self.position_scale is not None else (lambda x: x)
         terms = {
             "Lc": cycle_loss(z(x_a), z(x_a_hat), red),
-            "Lt": twist_loss(out_b.rotations, out_a.rotations, self.alpha_deg, exclude_root=self.twist_exclude_root,
-                             reduction=red),
-            "Lh": height_loss(p_a, p_b, root_a, root_b, nkn_height(off_a), nkn_height(off_b),
-                              self.weights.lambda_g, red),
-            "La": adversarial_loss(h_fake, z(x_a), z(x_b_hat), batch.same_character, gan=self.gan, reduction=red),
+            "Lt": twist_loss(
+                out_b.rotations,
+                out_a.rotations,
+                self.alpha_deg,
+                exclude_root=self.twist_exclude_root,
+                reduction=red,
+            ),
+            "Lh": height_loss(
+                p_a,
+                p_b,
+                root_a,
+                root_b,
+                nkn_height(off_a),
+                nkn_height(off_b),
+                self.weights.lambda_g,
+                red,
+            ),
+            "La": adversarial_loss(
+                h_fake, z(x_a), z(x_b_hat), batch.same_character, gan=self.gan, reduction=red
+            ),
             "Lr": regularization_loss(out_b.rotations, out_a.rotations, red),
             "Lo": orientation_loss(q_a[:, :, 0], out_b.rotations[:, :, 0], red),
             "Ld": bone_direction_loss(p_a, p_b, self.generator.parents, red),
@@ -328,7 +405,9 @@ class RetargetTraining:
         for opt in (self.opt_g, self.opt_d):
             for group in opt.param_groups:
                 group["lr"] = lr
-        batch = TrainingBatch(*(t[self.rows].to(self.device) for t in self.sampler.sample(self.batch)))
+        batch = TrainingBatch(
+            *(t[self.rows].to(self.device) for t in self.sampler.sample(self.batch))
+        )
         with self.layout.rank_random(int(self.config["seed"]), index, self.device):
             self.discriminator.requires_grad_(False)  # La's gradient reaches G only
             try:
@@ -366,7 +445,10 @@ def export_generator(checkpoint: str | Path, out: str | Path) -> Path:
         ``out``.
     """
     state = load_checkpoint(checkpoint)
-    slim = {"step": state["step"], "config": state["config"],
-            "modules": {"generator": state["modules"]["generator"]}}
+    slim = {
+        "step": state["step"],
+        "config": state["config"],
+        "modules": {"generator": state["modules"]["generator"]},
+    }
     kind = resolve_config(model_config(state["config"]))["kind"]
     return save_state(slim, out, half=kind in HALF_PRECISION_KINDS)

@@ -39,9 +39,10 @@ checkpoints, so a resumed run draws exactly the batches of an uninterrupted one.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import Mapping, NamedTuple, Sequence
+from typing import NamedTuple
 
 import torch
 
@@ -90,15 +91,21 @@ class TrainingClips:
         Raises:
             ValueError: no clip is long enough.
         """
-        starts = [torch.arange(int(a), max(int(a), int(b) - window + 1))  # none in a clip shorter than a window
-                  for a, b in zip(self.clip_bounds[:-1], self.clip_bounds[1:])]
+        starts = [
+            torch.arange(
+                int(a), max(int(a), int(b) - window + 1)
+            )  # none in a clip shorter than a window
+            for a, b in zip(self.clip_bounds[:-1], self.clip_bounds[1:])
+        ]
         starts = torch.cat(starts)
         if starts.numel() == 0:
             raise ValueError(f"no training clip has {window} frames")
         return starts
 
 
-def stack_clips(skeletons: Mapping[str, Skeleton], clips: Sequence[tuple[Motion, Mapping[str, Motion]]]) -> TrainingClips:
+def stack_clips(
+    skeletons: Mapping[str, Skeleton], clips: Sequence[tuple[Motion, Mapping[str, Motion]]]
+) -> TrainingClips:
     """Every character performing every clip, concatenated along time (:class:`TrainingClips`).
 
     Args:
@@ -111,12 +118,26 @@ def stack_clips(skeletons: Mapping[str, Skeleton], clips: Sequence[tuple[Motion,
     lengths = torch.tensor([0] + [ref.num_frames for ref, _ in clips])
     rotations, roots = [], []
     for name, skeleton in skeletons.items():
-        versions = [own[name] if name in own else retarget_ground_truth(ref, skeleton) for ref, own in clips]
-        rotations.append(torch.cat([torch.as_tensor(m.rotations, dtype=torch.float32) for m in versions]))
-        roots.append(torch.cat([torch.as_tensor(m.root_positions, dtype=torch.float32) for m in versions]))
-    offsets = torch.stack([torch.as_tensor(s.offsets, dtype=torch.float32) for s in skeletons.values()])
-    return TrainingClips(tuple(skeletons), tuple(ref.name for ref, _ in clips), lengths.cumsum(0),
-                         offsets, torch.stack(rotations), torch.stack(roots))
+        versions = [
+            own[name] if name in own else retarget_ground_truth(ref, skeleton) for ref, own in clips
+        ]
+        rotations.append(
+            torch.cat([torch.as_tensor(m.rotations, dtype=torch.float32) for m in versions])
+        )
+        roots.append(
+            torch.cat([torch.as_tensor(m.root_positions, dtype=torch.float32) for m in versions])
+        )
+    offsets = torch.stack(
+        [torch.as_tensor(s.offsets, dtype=torch.float32) for s in skeletons.values()]
+    )
+    return TrainingClips(
+        tuple(skeletons),
+        tuple(ref.name for ref, _ in clips),
+        lengths.cumsum(0),
+        offsets,
+        torch.stack(rotations),
+        torch.stack(roots),
+    )
 
 
 def _synthetic_clips() -> tuple[dict[str, Skeleton], list[tuple[Motion, dict]]]:
@@ -140,7 +161,9 @@ def _mixamo_convention_clips() -> tuple[dict[str, Skeleton], list[tuple[Motion, 
 
 
 @lru_cache(maxsize=2)
-def training_clips(mirror: bool = False, source: str = "synthetic", mixamo_root: str | None = None) -> TrainingClips:
+def training_clips(
+    mirror: bool = False, source: str = "synthetic", mixamo_root: str | None = None
+) -> TrainingClips:
     """The training characters × training clips of ``source``, built once per process.
 
     Args:
@@ -166,7 +189,10 @@ def training_clips(mirror: bool = False, source: str = "synthetic", mixamo_root:
     parts = source.split("+")
     if "mixamo-local" in parts:
         skeletons, clips = mixamo_training_set(mixamo_root)
-    for part, load in (("mixamo-convention", _mixamo_convention_clips), ("synthetic", _synthetic_clips)):
+    for part, load in (
+        ("mixamo-convention", _mixamo_convention_clips),
+        ("synthetic", _synthetic_clips),
+    ):
         if part in parts:
             more_skeletons, more_clips = load()
             skeletons, clips = {**skeletons, **more_skeletons}, clips + more_clips
@@ -232,16 +258,26 @@ class WindowSampler:
             (``data/real_characters/proportions.csv``), the synthetic characters at most 50°.
     """
 
-    def __init__(self, clips: TrainingClips, window: int = 81, same_fraction: float = 0.5,
-                 scale_range: tuple[float, float] | None = (0.5, 1.5), scale_targets: bool = True,
-                 random_yaw: bool = False, rest_jitter_deg: float = 0.0, rest_arm_drop_deg: float = 0.0):
+    def __init__(
+        self,
+        clips: TrainingClips,
+        window: int = 81,
+        same_fraction: float = 0.5,
+        scale_range: tuple[float, float] | None = (0.5, 1.5),
+        scale_targets: bool = True,
+        random_yaw: bool = False,
+        rest_jitter_deg: float = 0.0,
+        rest_arm_drop_deg: float = 0.0,
+    ):
         if len(clips.characters) < 2:
             raise ValueError("need at least two training characters")
         if not 0.0 <= same_fraction <= 1.0:
             raise ValueError(f"same_fraction must be in [0, 1], got {same_fraction}")
         low, high = (1.0, 1.0) if scale_range is None else map(float, scale_range)
         if not 0.0 < low <= high:
-            raise ValueError(f"scale_range must be null or [low, high] with 0 < low <= high, got {scale_range}")
+            raise ValueError(
+                f"scale_range must be null or [low, high] with 0 < low <= high, got {scale_range}"
+            )
         self.clips, self.window, self.same_fraction = clips, int(window), float(same_fraction)
         self.scale_low, self.scale_high, self.scale_targets = low, high, bool(scale_targets)
         self.random_yaw = bool(random_yaw)
@@ -254,9 +290,13 @@ class WindowSampler:
         self.starts = clips.window_starts(self.window)
 
     def _scales(self, batch: int, generator: torch.Generator | None) -> Tensor:
-        return self.scale_low + (self.scale_high - self.scale_low) * torch.rand(batch, generator=generator)
+        return self.scale_low + (self.scale_high - self.scale_low) * torch.rand(
+            batch, generator=generator
+        )
 
-    def _windows(self, character: Tensor, scale: Tensor, generator: torch.Generator | None) -> tuple[Tensor, Tensor]:
+    def _windows(
+        self, character: Tensor, scale: Tensor, generator: torch.Generator | None
+    ) -> tuple[Tensor, Tensor]:
         """Random windows of ``character``'s clips: ``(q (B,W,J,4), centred scaled r (B,W,3))``."""
         start = self.starts[torch.randint(len(self.starts), (len(character),), generator=generator)]
         frames = start[:, None] + torch.arange(self.window)
@@ -278,7 +318,9 @@ class WindowSampler:
         n = len(self.clips.characters)
         source = torch.randint(n, (batch,), generator=generator)
         same = torch.rand(batch, generator=generator) < self.same_fraction
-        target = torch.where(same, source, (source + torch.randint(1, n, (batch,), generator=generator)) % n)
+        target = torch.where(
+            same, source, (source + torch.randint(1, n, (batch,), generator=generator)) % n
+        )
         scale_a = self._scales(batch, generator)
         other = self._scales(batch, generator) if self.scale_targets else torch.ones(batch)
         scale_b = torch.where(same, scale_a, other)
@@ -289,17 +331,30 @@ class WindowSampler:
         if self.rest_jitter_deg > 0 or self.rest_arm_drop_deg > 0:
             turn_a, turn_b = (self._rest_turns(o, generator) for o in (off_a, off_b))
             turn_b = torch.where(same[:, None, None], turn_a, turn_b)
-            (q_a, off_a), (q_real, off_b) = change_rest_pose(q_a, off_a, turn_a), change_rest_pose(q_real, off_b, turn_b)
-        return TrainingBatch(q_a, r_a, off_a, off_b, same, q_real, r_real, source, target, scale_a, scale_b)
+            (q_a, off_a), (q_real, off_b) = (
+                change_rest_pose(q_a, off_a, turn_a),
+                change_rest_pose(q_real, off_b, turn_b),
+            )
+        return TrainingBatch(
+            q_a, r_a, off_a, off_b, same, q_real, r_real, source, target, scale_a, scale_b
+        )
 
     def _rest_turns(self, offsets: Tensor, generator: torch.Generator | None) -> Tensor:
         """``(B, J, 4)``: random rest-pose turns for half the samples, identity for the others."""
         turns = random_rest_rotations(offsets, self.rest_jitter_deg, generator)
         if self.rest_arm_drop_deg > 0:
-            drop = torch.rand(len(offsets), generator=generator) * math.radians(self.rest_arm_drop_deg)
-            for arm, side in ((J["LeftArm"], -1.0), (J["RightArm"], 1.0)):  # the left arm points +X: about -Z
-                lower = quat_from_axis_angle(torch.stack([torch.zeros_like(drop), torch.zeros_like(drop),
-                                                          side * drop], dim=-1))
+            drop = torch.rand(len(offsets), generator=generator) * math.radians(
+                self.rest_arm_drop_deg
+            )
+            for arm, side in (
+                (J["LeftArm"], -1.0),
+                (J["RightArm"], 1.0),
+            ):  # the left arm points +X: about -Z
+                lower = quat_from_axis_angle(
+                    torch.stack(
+                        [torch.zeros_like(drop), torch.zeros_like(drop), side * drop], dim=-1
+                    )
+                )
                 turns[:, arm] = quat_mul(lower, turns[:, arm])
         keep = torch.rand(len(offsets), generator=generator) < 0.5
         return torch.where(keep[:, None, None], torch.tensor([1.0, 0.0, 0.0, 0.0]), turns)

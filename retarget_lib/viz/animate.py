@@ -4,8 +4,8 @@ MP4 with imageio."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 import imageio.v3 as iio
 import numpy as np
@@ -18,9 +18,14 @@ from .plotter import SceneRenderer, frame_and_title
 from .scene import Scene
 
 
-def render_frames(frames: Sequence[Sequence[Scene]], view="front_side", window_size=(480, 300),
-                  titles: Sequence[str] | None = None, side_by_side: bool = False,
-                  stand: bool = True) -> list[np.ndarray]:
+def render_frames(
+    frames: Sequence[Sequence[Scene]],
+    view="front_side",
+    window_size=(480, 300),
+    titles: Sequence[str] | None = None,
+    side_by_side: bool = False,
+    stand: bool = True,
+) -> list[np.ndarray]:
     """Render a sequence of frames, each a list of scenes with the same structure.
 
     The camera is fitted once to everything drawn over the whole clip (the characters fill the
@@ -45,8 +50,10 @@ def render_frames(frames: Sequence[Sequence[Scene]], view="front_side", window_s
         n = len(frames[0])
         # one shift per scene for the whole clip, from the scenes' extents over all frames
         ext = [np.concatenate([f[i].points() for f in frames]) for i in range(n)]
-        boxes = [Scene(positions=np.stack([e.min(0), e.max(0)]), parents=(-1, 0), joint_names=["", ""])
-                 for e in ext]
+        boxes = [
+            Scene(positions=np.stack([e.min(0), e.max(0)]), parents=(-1, 0), joint_names=["", ""])
+            for e in ext
+        ]
         # gap from the characters' own size (not the clip box, which grows with walking distance),
         # widened for long labels so neighbouring titles do not run into each other
         longest = max((len(str(t)) for t in titles or ()), default=0)
@@ -55,7 +62,9 @@ def render_frames(frames: Sequence[Sequence[Scene]], view="front_side", window_s
         shifts = [p.positions[0] - b.positions[0] for p, b in zip(placed, boxes)]
         if stand:
             for k, (e, s0) in enumerate(zip(ext, frames[0])):
-                lift = JOINT_RADIUS * size if s0.vertices is None and s0.positions is not None else 0.0
+                lift = (
+                    JOINT_RADIUS * size if s0.vertices is None and s0.positions is not None else 0.0
+                )
                 shifts[k] = shifts[k] + [0.0, lift - e[:, 1].min(), 0.0]
         frames = [[s.translated(d) for s, d in zip(f, shifts)] for f in frames]
     allpts = np.concatenate([s.points() for f in frames for s in f])
@@ -91,14 +100,26 @@ def render_frames(frames: Sequence[Sequence[Scene]], view="front_side", window_s
 
 def _write_gif(images: Sequence[np.ndarray], path: Path, fps: float, colors: int) -> None:
     strip = Image.fromarray(np.concatenate(list(images[:: max(1, len(images) // 8)]), axis=0))
-    palette = strip.quantize(colors=colors, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE)
-    frames = [Image.fromarray(im).quantize(palette=palette, dither=Image.Dither.NONE) for im in images]
-    frames[0].save(path, save_all=True, append_images=frames[1:], duration=int(round(1000 / fps)),
-                   loop=0, optimize=True, disposal=1)
+    palette = strip.quantize(
+        colors=colors, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE
+    )
+    frames = [
+        Image.fromarray(im).quantize(palette=palette, dither=Image.Dither.NONE) for im in images
+    ]
+    frames[0].save(
+        path,
+        save_all=True,
+        append_images=frames[1:],
+        duration=int(round(1000 / fps)),
+        loop=0,
+        optimize=True,
+        disposal=1,
+    )
 
 
-def write_animation(images: Sequence[np.ndarray], path: str | Path, fps: float = 10.0,
-                    max_kb: float | None = None) -> Path:
+def write_animation(
+    images: Sequence[np.ndarray], path: str | Path, fps: float = 10.0, max_kb: float | None = None
+) -> Path:
     """Write frames as ``.gif`` (looping, one palette shared by all frames) or ``.mp4``.
 
     Args:
@@ -128,15 +149,27 @@ def write_animation(images: Sequence[np.ndarray], path: str | Path, fps: float =
     return path
 
 
-def animate(frames: Sequence[Sequence[Scene]], path: str | Path, fps: float = 10.0, max_kb: float | None = None,
-            **kw) -> Path:
+def animate(
+    frames: Sequence[Sequence[Scene]],
+    path: str | Path,
+    fps: float = 10.0,
+    max_kb: float | None = None,
+    **kw,
+) -> Path:
     """Render scene frames (:func:`render_frames`, same keywords) and write them
     (:func:`write_animation`, with its GIF size budget ``max_kb``)."""
     return write_animation(render_frames(frames, **kw), path, fps, max_kb)
 
 
-def animate_motion(positions: np.ndarray | Sequence[np.ndarray], parents: Sequence[int], path: str | Path,
-                   fps: float = 10.0, every: int = 3, titles: Sequence[str] | None = None, **kw) -> Path:
+def animate_motion(
+    positions: np.ndarray | Sequence[np.ndarray],
+    parents: Sequence[int],
+    path: str | Path,
+    fps: float = 10.0,
+    every: int = 3,
+    titles: Sequence[str] | None = None,
+    **kw,
+) -> Path:
     """Animate one or several skeletons side by side.
 
     Args:
@@ -147,13 +180,26 @@ def animate_motion(positions: np.ndarray | Sequence[np.ndarray], parents: Sequen
         every: frame step.
         titles: one label per skeleton.
     """
-    seq = [np.asarray(positions)] if isinstance(positions, np.ndarray) else [np.asarray(p) for p in positions]
-    frames = [[Scene(positions=p[t], parents=parents) for p in seq] for t in range(0, len(seq[0]), every)]
+    seq = (
+        [np.asarray(positions)]
+        if isinstance(positions, np.ndarray)
+        else [np.asarray(p) for p in positions]
+    )
+    frames = [
+        [Scene(positions=p[t], parents=parents) for p in seq] for t in range(0, len(seq[0]), every)
+    ]
     return animate(frames, path, fps, titles=titles, side_by_side=len(seq) > 1, **kw)
 
 
-def animate_mesh(vertices: np.ndarray | Sequence[np.ndarray], faces, path: str | Path, fps: float = 10.0,
-                 every: int = 3, titles: Sequence[str] | None = None, **kw) -> Path:
+def animate_mesh(
+    vertices: np.ndarray | Sequence[np.ndarray],
+    faces,
+    path: str | Path,
+    fps: float = 10.0,
+    every: int = 3,
+    titles: Sequence[str] | None = None,
+    **kw,
+) -> Path:
     """Animate one or several skinned meshes side by side.
 
     Args:
@@ -162,7 +208,14 @@ def animate_mesh(vertices: np.ndarray | Sequence[np.ndarray], faces, path: str |
         path: ``.gif`` or ``.mp4``.
         fps: playback rate; every: frame step; titles: one label per mesh.
     """
-    seq = [np.asarray(vertices)] if isinstance(vertices, np.ndarray) else [np.asarray(v) for v in vertices]
+    seq = (
+        [np.asarray(vertices)]
+        if isinstance(vertices, np.ndarray)
+        else [np.asarray(v) for v in vertices]
+    )
     fl = [faces] * len(seq) if isinstance(faces, np.ndarray) else list(faces)
-    frames = [[Scene(vertices=v[t], faces=f) for v, f in zip(seq, fl)] for t in range(0, len(seq[0]), every)]
+    frames = [
+        [Scene(vertices=v[t], faces=f) for v, f in zip(seq, fl)]
+        for t in range(0, len(seq[0]), every)
+    ]
     return animate(frames, path, fps, titles=titles, side_by_side=len(seq) > 1, **kw)

@@ -12,7 +12,10 @@ __all__ = ["VIEWS", "fit_camera", "hull_points"]
 
 #: camera presets: name -> (azimuth from +Z towards +X, elevation), degrees
 VIEWS: dict[str, tuple[float, float]] = {
-    "front": (0.0, 8.0), "front_side": (30.0, 14.0), "side": (-90.0, 6.0), "top": (0.0, 90.0),
+    "front": (0.0, 8.0),
+    "front_side": (30.0, 14.0),
+    "side": (-90.0, 6.0),
+    "top": (0.0, 90.0),
     "back": (180.0, 10.0),
 }
 
@@ -22,7 +25,11 @@ def _view_axes(view) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     az, el = VIEWS[view] if isinstance(view, str) else view
     az, el = np.radians(az), np.radians(el)
     back = np.array([np.sin(az) * np.cos(el), np.sin(el), np.cos(az) * np.cos(el)])
-    up = np.array([0.0, 1.0, 0.0]) if abs(np.degrees(el)) < 80 else np.array([-np.sin(az), 0, -np.cos(az)])
+    up = (
+        np.array([0.0, 1.0, 0.0])
+        if abs(np.degrees(el)) < 80
+        else np.array([-np.sin(az), 0, -np.cos(az)])
+    )
     right = np.cross(-back, up)
     right /= np.linalg.norm(right)
     return back, np.cross(right, -back), right
@@ -43,8 +50,15 @@ def hull_points(points: np.ndarray) -> np.ndarray:
         return points
 
 
-def fit_camera(points: np.ndarray, view, window_size: tuple[int, int], parallel: bool = False,
-               view_angle: float = 30.0, margin: float = 0.04, top_px: float = 0.0) -> dict:
+def fit_camera(
+    points: np.ndarray,
+    view,
+    window_size: tuple[int, int],
+    parallel: bool = False,
+    view_angle: float = 30.0,
+    margin: float = 0.04,
+    top_px: float = 0.0,
+) -> dict:
     """Camera that shows all ``points`` as large as the canvas allows.
 
     The points' projection fills the window up to ``margin`` (a fraction of the window's smaller
@@ -83,7 +97,11 @@ def fit_camera(points: np.ndarray, view, window_size: tuple[int, int], parallel:
         rel = pts - f
         a, b = rel @ right, rel @ up
         scale = max(np.ptp(a) / (aspect * wt), np.ptp(b) / ht, 1e-3)
-        f = f + right * (0.5 * (a.max() + a.min()) - tx * scale * aspect) + up * (0.5 * (b.max() + b.min()) - ty * scale)
+        f = (
+            f
+            + right * (0.5 * (a.max() + a.min()) - tx * scale * aspect)
+            + up * (0.5 * (b.max() + b.min()) - ty * scale)
+        )
         dist = float(((pts - f) @ back).max()) + size
         return dict(position=f + back * dist, focal_point=f, up=up, scale=scale, dist=dist)
     dist = 1.2 * size / tv

@@ -4,7 +4,7 @@ categorical colours, and a fixed table of up to 24 distinct categorical colours.
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -25,12 +25,21 @@ def _strip(fig) -> np.ndarray:
 def _beside(image: np.ndarray, strip: np.ndarray) -> np.ndarray:
     """``image`` with ``strip`` pasted on its right (white-padded to the same height)."""
     h = max(image.shape[0], strip.shape[0])
-    pad = lambda im: np.concatenate([im, np.full((h - im.shape[0], im.shape[1], 3), 255, np.uint8)], 0)
+
+    def pad(im):
+        return np.concatenate([im, np.full((h - im.shape[0], im.shape[1], 3), 255, np.uint8)], 0)
+
     return np.concatenate([pad(np.asarray(image, np.uint8)), pad(strip)], axis=1)
 
 
-def add_colorbar(image: np.ndarray, cmap, clim: tuple[float, float], label: str, width_px: int = 110,
-                 extend: str = "neither") -> np.ndarray:
+def add_colorbar(
+    image: np.ndarray,
+    cmap,
+    clim: tuple[float, float],
+    label: str,
+    width_px: int = 110,
+    extend: str = "neither",
+) -> np.ndarray:
     """A render with a vertical colorbar on its right (for meshes coloured by ``scalars``).
 
     Args:
@@ -54,8 +63,14 @@ def add_colorbar(image: np.ndarray, cmap, clim: tuple[float, float], label: str,
     return _beside(image, _strip(fig))
 
 
-def add_legend(image: np.ndarray, labels: Sequence[str], colors: Sequence, title: str | None = None,
-               ncol: int = 1, width_px: int = 150) -> np.ndarray:
+def add_legend(
+    image: np.ndarray,
+    labels: Sequence[str],
+    colors: Sequence,
+    title: str | None = None,
+    ncol: int = 1,
+    width_px: int = 150,
+) -> np.ndarray:
     """A render with a legend of coloured patches on its right (for categorical colours).
 
     Args:
@@ -72,9 +87,20 @@ def add_legend(image: np.ndarray, labels: Sequence[str], colors: Sequence, title
     h = image.shape[0]
     dpi = 100
     fig = plt.figure(figsize=(width_px / dpi, h / dpi), dpi=dpi)
-    fig.legend([Patch(color=c) for c in colors], labels, loc="center left", bbox_to_anchor=(0.0, 0.5),
-               ncol=ncol, fontsize=9, title=title, title_fontsize=9, frameon=False, handlelength=1.0,
-               columnspacing=0.8, labelspacing=0.25)
+    fig.legend(
+        [Patch(color=c) for c in colors],
+        labels,
+        loc="center left",
+        bbox_to_anchor=(0.0, 0.5),
+        ncol=ncol,
+        fontsize=9,
+        title=title,
+        title_fontsize=9,
+        frameon=False,
+        handlelength=1.0,
+        columnspacing=0.8,
+        labelspacing=0.25,
+    )
     return _beside(image, _strip(fig))
 
 

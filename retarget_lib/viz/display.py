@@ -21,7 +21,10 @@ def png_bytes(image: np.ndarray, max_kb: float = MAX_KB) -> bytes:
     """
     im = Image.fromarray(np.asarray(image, dtype=np.uint8))
     while True:
-        for candidate in (im, im.quantize(colors=256, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE)):
+        for candidate in (
+            im,
+            im.quantize(colors=256, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE),
+        ):
             buf = io.BytesIO()
             candidate.save(buf, format="PNG", optimize=True)
             if buf.tell() <= max_kb * 1024:

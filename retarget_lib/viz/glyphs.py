@@ -31,8 +31,11 @@ def _joint_colors(scene: Scene) -> np.ndarray:
     if names is not None:
         for j, nm in enumerate(names):
             low = str(nm).lower().split(":")[-1]
-            side[j] = 1 if low.startswith(("left", "l_")) or "left" in low else (
-                2 if low.startswith(("right", "r_")) or "right" in low else 0)
+            side[j] = (
+                1
+                if low.startswith(("left", "l_")) or "left" in low
+                else (2 if low.startswith(("right", "r_")) or "right" in low else 0)
+            )
     if scene.color is None:
         table = np.stack([as_rgb(CENTER_COLOR), as_rgb(LEFT_COLOR), as_rgb(RIGHT_COLOR)])
     else:
@@ -45,8 +48,14 @@ def _joint_colors(scene: Scene) -> np.ndarray:
 def _sphere_template(theta: int = 14, phi: int = 10) -> tuple[np.ndarray, np.ndarray]:
     th = np.linspace(0, 2 * np.pi, theta, endpoint=False)
     ph = np.linspace(0, np.pi, phi + 1)[1:-1]
-    ring = np.stack([np.outer(np.sin(ph), np.cos(th)), np.repeat(np.cos(ph)[:, None], theta, 1),
-                     np.outer(np.sin(ph), np.sin(th))], -1).reshape(-1, 3)
+    ring = np.stack(
+        [
+            np.outer(np.sin(ph), np.cos(th)),
+            np.repeat(np.cos(ph)[:, None], theta, 1),
+            np.outer(np.sin(ph), np.sin(th)),
+        ],
+        -1,
+    ).reshape(-1, 3)
     pts = np.concatenate([[[0, 1, 0]], ring, [[0, -1, 0]]])
     faces = []
     k = np.arange(theta)
@@ -75,10 +84,15 @@ class Glyphs:
         if scene.positions is not None:
             n = len(scene.positions)
             jc = _joint_colors(scene)
-            self.bones = np.array([(p, j) for j, p in enumerate(scene.parents) if p >= 0], int).reshape(-1, 2)
+            self.bones = np.array(
+                [(p, j) for j, p in enumerate(scene.parents) if p >= 0], int
+            ).reshape(-1, 2)
             self.jrad = np.full(n, radius)
-            names = list(scene.joint_names) if scene.joint_names is not None else (
-                ["Head" if j == 5 else "" for j in range(n)] if n == 22 else [])
+            names = (
+                list(scene.joint_names)
+                if scene.joint_names is not None
+                else (["Head" if j == 5 else "" for j in range(n)] if n == 22 else [])
+            )
             self.head = names.index("Head") if "Head" in names else None
             if self.head is not None:
                 self.jrad[self.head] = 3.4 * radius
@@ -88,8 +102,12 @@ class Glyphs:
             base = n * self.ns
             k = np.arange(tube_sides)
             k2 = (k + 1) % tube_sides
-            tube = np.concatenate([np.stack([k, k2, tube_sides + k2], 1),
-                                   np.stack([k, tube_sides + k2, tube_sides + k], 1)])
+            tube = np.concatenate(
+                [
+                    np.stack([k, k2, tube_sides + k2], 1),
+                    np.stack([k, tube_sides + k2, tube_sides + k], 1),
+                ]
+            )
             for b in range(len(self.bones)):
                 faces.append(tube + base + b * 2 * tube_sides)
             colors.append(np.repeat(jc[self.bones[:, 1]], 2 * tube_sides, 0))

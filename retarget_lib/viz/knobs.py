@@ -12,7 +12,7 @@ from __future__ import annotations
 import base64
 import html
 import uuid
-from typing import Callable, Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -41,7 +41,9 @@ class Knob:
         default: index of the value shown first and in the PNG fallback.
     """
 
-    def __init__(self, name: str, values: Sequence, images: Sequence[np.ndarray], default: int, max_kb: float):
+    def __init__(
+        self, name: str, values: Sequence, images: Sequence[np.ndarray], default: int, max_kb: float
+    ):
         self.name, self.values, self.default = name, list(values), int(default)
         self.pngs = [png_bytes(im, max_kb) for im in images]
 
@@ -52,21 +54,27 @@ class Knob:
         labels = [html.escape(f"{self.name} = {v}") for v in self.values]
         js_srcs = "[" + ",".join(f'"{s}"' for s in srcs) + "]"
         js_labels = "[" + ",".join(f'"{s}"' for s in labels) + "]"
-        return (f'<div id="{uid}"><label><input type="range" min="0" max="{len(srcs) - 1}" step="1" '
-                f'value="{self.default}" style="width:60%" '
-                f'oninput="var k=window[\'{uid}\'];this.parentNode.parentNode.querySelector(\'img\').src=k.s[this.value];'
-                f'this.parentNode.querySelector(\'span\').textContent=k.l[this.value];"> '
-                f'<span>{labels[self.default]}</span></label><br>'
-                f'<img src="{srcs[self.default]}" alt="{labels[self.default]}">'
-                f'<script>window["{uid}"]={{s:{js_srcs},l:{js_labels}}};</script></div>')
+        return (
+            f'<div id="{uid}"><label><input type="range" min="0" max="{len(srcs) - 1}" step="1" '
+            f'value="{self.default}" style="width:60%" '
+            f"oninput=\"var k=window['{uid}'];this.parentNode.parentNode.querySelector('img').src=k.s[this.value];"
+            f"this.parentNode.querySelector('span').textContent=k.l[this.value];\"> "
+            f"<span>{labels[self.default]}</span></label><br>"
+            f'<img src="{srcs[self.default]}" alt="{labels[self.default]}">'
+            f'<script>window["{uid}"]={{s:{js_srcs},l:{js_labels}}};</script></div>'
+        )
 
     def _repr_mimebundle_(self, include=None, exclude=None):
-        return {"text/html": self.html(), "image/png": self.pngs[self.default],
-                "text/plain": f"<knob {self.name}: {len(self.values)} values>"}
+        return {
+            "text/html": self.html(),
+            "image/png": self.pngs[self.default],
+            "text/plain": f"<knob {self.name}: {len(self.values)} values>",
+        }
 
 
-def knob(draw: Callable[[object], object], name: str, values: Sequence, default=None,
-         max_kb: float = 40) -> Knob:
+def knob(
+    draw: Callable[[object], object], name: str, values: Sequence, default=None, max_kb: float = 40
+) -> Knob:
     """Draw ``draw(v)`` for every ``v`` in ``values`` and show them behind a slider.
 
     Args:

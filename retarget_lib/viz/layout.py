@@ -5,7 +5,7 @@ box that holds them and where each title goes.
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -15,7 +15,9 @@ from .scene import Scene
 __all__ = ["layout_row", "scene_bounds", "stand_on_floor", "title_anchor"]
 
 
-def scene_bounds(scenes: Sequence[Scene], size: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+def scene_bounds(
+    scenes: Sequence[Scene], size: float | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """``(lo (3,), hi (3,))`` box of the scenes' points; with ``size``, padded for the joint
     spheres and (on skeletons with a ``Head`` joint) the skull drawn above the head joint."""
     pts = np.concatenate([s.points() for s in scenes])

@@ -13,7 +13,7 @@ to HTML show the PNG. ``mode="static"`` forces the still image and scrubber (no 
 
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
 
 import ipywidgets as widgets
 import numpy as np
@@ -47,9 +47,17 @@ class Player:
 
     PERFORMER = "performer"
 
-    def __init__(self, motions: Mapping, characters: Mapping | None = None, mode: str = "auto",
-                 window_size=(480, 320), view="front_side", transfer=None, offline_frames: int = 6,
-                 offline_max_kb: float = 30):
+    def __init__(
+        self,
+        motions: Mapping,
+        characters: Mapping | None = None,
+        mode: str = "auto",
+        window_size=(480, 320),
+        view="front_side",
+        transfer=None,
+        offline_frames: int = 6,
+        offline_max_kb: float = 30,
+    ):
         if not motions:
             raise ValueError("Player needs at least one motion")
         if mode not in ("auto", "widget", "static"):
@@ -84,11 +92,18 @@ class Player:
         character = self.character if character is None else character
         m = self.shown_motion(name, character)
         frame = int(np.clip(frame, 0, m.num_frames - 1))
-        ch = self.characters.get(m.meta.get("performer", "") if character == self.PERFORMER else character)
+        ch = self.characters.get(
+            m.meta.get("performer", "") if character == self.PERFORMER else character
+        )
         if ch is not None and ch.skeleton.offsets.shape == m.skeleton.offsets.shape:
-            return Scene(vertices=ch.skinned(m.rotations[frame], m.root_positions[frame]), faces=ch.faces)
-        return Scene(positions=m.global_positions()[frame], parents=m.skeleton.parents,
-                     joint_names=m.skeleton.joint_names)
+            return Scene(
+                vertices=ch.skinned(m.rotations[frame], m.root_positions[frame]), faces=ch.faces
+            )
+        return Scene(
+            positions=m.global_positions()[frame],
+            parents=m.skeleton.parents,
+            joint_names=m.skeleton.joint_names,
+        )
 
     def render(self, name: str | None = None, frame: int | None = None) -> np.ndarray:
         """``(H, W, 3)`` uint8 picture of ``name`` at ``frame`` (defaults: the current ones)."""
@@ -117,8 +132,13 @@ class Player:
         frames = np.linspace(0, n - 1, max(self.offline_frames, 1)).round().astype(int).tolist()
         frames = sorted(set(frames) | {int(np.clip(self.frame, 0, n - 1))})
         images = [self.render(frame=f) for f in frames]
-        return Knob(f"{self.name} on {self.character}, frame", frames, images,
-                    frames.index(int(np.clip(self.frame, 0, n - 1))), self.offline_max_kb)
+        return Knob(
+            f"{self.name} on {self.character}, frame",
+            frames,
+            images,
+            frames.index(int(np.clip(self.frame, 0, n - 1))),
+            self.offline_max_kb,
+        )
 
     def close(self) -> None:
         if self._renderer is not None:
@@ -129,18 +149,35 @@ class Player:
     def _build_widget(self):
         m = self.motions[self.name]
         self.image = widgets.Image(format="png", value=png_bytes(self.render()))
-        self.slider = widgets.IntSlider(value=self.frame, min=0, max=m.num_frames - 1, description="frame",
-                                        continuous_update=True)
-        self.play = widgets.Play(value=self.frame, min=0, max=m.num_frames - 1, interval=int(1000 / m.fps))
+        self.slider = widgets.IntSlider(
+            value=self.frame,
+            min=0,
+            max=m.num_frames - 1,
+            description="frame",
+            continuous_update=True,
+        )
+        self.play = widgets.Play(
+            value=self.frame, min=0, max=m.num_frames - 1, interval=int(1000 / m.fps)
+        )
         widgets.jslink((self.play, "value"), (self.slider, "value"))
-        self.picker = widgets.Dropdown(options=list(self.motions), value=self.name, description="motion")
-        self.character_picker = widgets.Dropdown(options=[self.PERFORMER] + list(self.characters),
-                                                 value=self.PERFORMER, description="character")
+        self.picker = widgets.Dropdown(
+            options=list(self.motions), value=self.name, description="motion"
+        )
+        self.character_picker = widgets.Dropdown(
+            options=[self.PERFORMER] + list(self.characters),
+            value=self.PERFORMER,
+            description="character",
+        )
         self.slider.observe(self._on_frame, names="value")
         self.picker.observe(self._on_pick, names="value")
         self.character_picker.observe(self._on_character, names="value")
-        return widgets.VBox([widgets.HBox([self.picker, self.character_picker]),
-                             widgets.HBox([self.play, self.slider]), self.image])
+        return widgets.VBox(
+            [
+                widgets.HBox([self.picker, self.character_picker]),
+                widgets.HBox([self.play, self.slider]),
+                self.image,
+            ]
+        )
 
     def _on_frame(self, change) -> None:
         self.frame = int(change["new"])
@@ -163,8 +200,11 @@ class Player:
         still = png_bytes(self.render())
         text = f"Player: {self.name} on {self.character}, frame {self.frame} ({len(self.motions)} motions)"
         offline = self.scrubber()
-        bundle = {} if self.widget is None else dict(
-            self.widget._repr_mimebundle_(include=include, exclude=exclude) or {})
+        bundle = (
+            {}
+            if self.widget is None
+            else dict(self.widget._repr_mimebundle_(include=include, exclude=exclude) or {})
+        )
         if offline is not None:
             bundle["text/html"] = offline.html()
         bundle["image/png"] = still

@@ -3,7 +3,7 @@ lightweight stick figure for when 3-D rendering is not wanted."""
 
 from __future__ import annotations
 
-from typing import Mapping, Sequence
+from collections.abc import Mapping, Sequence
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -12,7 +12,9 @@ from ..core.skeleton import CANONICAL22
 from .scene import CENTER_COLOR, LEFT_COLOR, RIGHT_COLOR
 
 
-def plot_root_trajectories(trajectories: Mapping[str, np.ndarray], ax=None, mark_start: bool = True):
+def plot_root_trajectories(
+    trajectories: Mapping[str, np.ndarray], ax=None, mark_start: bool = True
+):
     """Top view (x-z plane) of root trajectories, equal aspect, like TDCN's Fig. 5b.
 
     Args:
@@ -55,7 +57,9 @@ def plot_timeline(tracks: Mapping[str, np.ndarray], fps: float = 30.0, ax=None):
     for row, name in enumerate(names):
         v = np.asarray(tracks[name], dtype=float)
         t = np.arange(len(v) + 1) / fps
-        ax.pcolormesh(t, [row - 0.4, row + 0.4], v[None, :], cmap="Blues", vmin=0, vmax=1, shading="flat")
+        ax.pcolormesh(
+            t, [row - 0.4, row + 0.4], v[None, :], cmap="Blues", vmin=0, vmax=1, shading="flat"
+        )
     ax.set_yticks(range(len(names)), names)
     ax.set_ylim(-0.6, len(names) - 0.4)
     ax.set_xlabel("time (s)")
@@ -63,8 +67,13 @@ def plot_timeline(tracks: Mapping[str, np.ndarray], fps: float = 30.0, ax=None):
     return ax
 
 
-def plot_skeleton_mpl(positions: np.ndarray, parents: Sequence[int], ax=None, view: str = "front",
-                      joint_names: Sequence[str] | None = None):
+def plot_skeleton_mpl(
+    positions: np.ndarray,
+    parents: Sequence[int],
+    ax=None,
+    view: str = "front",
+    joint_names: Sequence[str] | None = None,
+):
     """A 2-D stick figure (front: x-y, side: z-y, top: x-z) with left/right colours.
 
     Args:
@@ -86,7 +95,13 @@ def plot_skeleton_mpl(positions: np.ndarray, parents: Sequence[int], ax=None, vi
     for j, par in enumerate(parents):
         if par < 0:
             continue
-        c = LEFT_COLOR if "Left" in names[j] else RIGHT_COLOR if "Right" in names[j] else CENTER_COLOR
+        c = (
+            LEFT_COLOR
+            if "Left" in names[j]
+            else RIGHT_COLOR
+            if "Right" in names[j]
+            else CENTER_COLOR
+        )
         ax.plot(p[[par, j], 0], p[[par, j], 1], "-o", color=c, ms=3, lw=2)
     ax.set_aspect("equal")
     ax.set_xlabel("xyz"[axes[0]])
@@ -114,10 +129,19 @@ def plain_log_ticks(axis, subs: Sequence[float] | None = None) -> None:
     axis.set_minor_formatter(NullFormatter())
 
 
-def plot_grouped_barh(values, ax=None, log: bool = False, xlabel: str = "", title: str = "",
-                      colors: Sequence | None = None, reference: float | None = None,
-                      reference_label: str | None = None, legend: bool = True, fontsize: float = 10,
-                      base: float | None = None):
+def plot_grouped_barh(
+    values,
+    ax=None,
+    log: bool = False,
+    xlabel: str = "",
+    title: str = "",
+    colors: Sequence | None = None,
+    reference: float | None = None,
+    reference_label: str | None = None,
+    legend: bool = True,
+    fontsize: float = 10,
+    base: float | None = None,
+):
     """Horizontal grouped bars: one group per row of ``values`` (top to bottom, labels read
     horizontally), one colour per column, named in a legend.
 
@@ -165,11 +189,26 @@ def plot_grouped_barh(values, ax=None, log: bool = False, xlabel: str = "", titl
         offset = (k - (n_cols - 1) / 2) * height
         v = frame[column].to_numpy()
         drawn = np.isfinite(v) & ((v > 0) if log else True)
-        handles.append(ax.barh(y[drawn] + offset, v[drawn] - start, height, left=start,
-                               color=colors[k % len(colors)], label=str(column)))
+        handles.append(
+            ax.barh(
+                y[drawn] + offset,
+                v[drawn] - start,
+                height,
+                left=start,
+                color=colors[k % len(colors)],
+                label=str(column),
+            )
+        )
         for row in np.flatnonzero(np.isfinite(v) & ~drawn):  # zero or negative on a log axis
-            ax.text(floor, y[row] + offset, " 0", va="center", ha="left", fontsize=fontsize - 1,
-                    color=colors[k % len(colors)])
+            ax.text(
+                floor,
+                y[row] + offset,
+                " 0",
+                va="center",
+                ha="left",
+                fontsize=fontsize - 1,
+                color=colors[k % len(colors)],
+            )
     if reference is not None:
         line = ax.axvline(reference, color="k", lw=1, ls=":", label=reference_label)
         if reference_label:

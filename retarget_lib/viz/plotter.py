@@ -11,7 +11,8 @@ arrays. The floor sits at the lowest drawn point, so feet touch it.
 from __future__ import annotations
 
 import os
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 from matplotlib import colormaps
@@ -28,7 +29,9 @@ _SHADOW = "#c9c9c9"
 _state: dict[str, Any] = {"configured": False}
 
 
-def configure_offscreen(window_size: tuple[int, int] = (640, 400), anti_aliasing: str | None = "msaa"):
+def configure_offscreen(
+    window_size: tuple[int, int] = (640, 400), anti_aliasing: str | None = "msaa"
+):
     """Set up PyVista for headless rendering; safe to call many times.
 
     Sets ``VTK_DEFAULT_OPENGL_WINDOW=vtkEGLRenderWindow`` (unless already set) before any plotter
@@ -59,6 +62,7 @@ def configure_offscreen(window_size: tuple[int, int] = (640, 400), anti_aliasing
         _state["configured"] = True
     return pv
 
+
 def _polydata(points: np.ndarray, faces: np.ndarray):
     import pyvista as pv  # optional extra: pyvista (see configure_offscreen)
 
@@ -88,7 +92,9 @@ def _checkerboard(x0: float, x1: float, z0: float, z1: float, step: float, y: fl
     import pyvista as pv  # optional extra: pyvista (see configure_offscreen)
 
     plane = pv.PolyData(pts, quads.ravel())
-    par = (np.floor(xs[i.ravel()] / step + 0.5) + np.floor(zs[k.ravel()] / step + 0.5)).astype(int) % 2
+    par = (np.floor(xs[i.ravel()] / step + 0.5) + np.floor(zs[k.ravel()] / step + 0.5)).astype(
+        int
+    ) % 2
     cols = np.stack([as_rgb(_GROUND[0]), as_rgb(_GROUND[1])])[par]
     plane.cell_data["rgb"] = (cols * 255).astype(np.uint8)
     return plane
@@ -115,8 +121,15 @@ class SceneRenderer:
         font_size: title size in points.
     """
 
-    def __init__(self, window_size=(640, 400), view="front_side", parallel=False, ground=True,
-                 shadow=True, font_size=12):
+    def __init__(
+        self,
+        window_size=(640, 400),
+        view="front_side",
+        parallel=False,
+        ground=True,
+        shadow=True,
+        font_size=12,
+    ):
         pv = configure_offscreen()
         self.pl = pv.Plotter(off_screen=True, window_size=list(window_size))
         self.window_size, self.view, self.parallel = tuple(window_size), view, parallel
@@ -133,16 +146,23 @@ class SceneRenderer:
     # -------------------------------------------------------------------------- building
     @staticmethod
     def _structure(scenes: Sequence[Scene]):
-        return tuple((None if s.positions is None else tuple(s.parents),
-                      None if s.vertices is None else (len(s.vertices), len(s.faces)),
-                      s.scalars is not None, s.vertex_colors is not None, s.highlight_faces is not None,
-                      None if s.point_pairs is None else np.shape(s.point_pairs)) for s in scenes)
+        return tuple(
+            (
+                None if s.positions is None else tuple(s.parents),
+                None if s.vertices is None else (len(s.vertices), len(s.faces)),
+                s.scalars is not None,
+                s.vertex_colors is not None,
+                s.highlight_faces is not None,
+                None if s.point_pairs is None else np.shape(s.point_pairs),
+            )
+            for s in scenes
+        )
 
     def _build(self, scenes: Sequence[Scene], size: float) -> None:
         self.pl.clear_actors()
         self._items, self._floor = [], None
         radius = JOINT_RADIUS * size
-        for i, s in enumerate(scenes):
+        for _i, s in enumerate(scenes):
             g = Glyphs(s, radius)
             it: dict[str, Any] = {"geom": g}
             if s.positions is not None:
@@ -151,23 +171,45 @@ class SceneRenderer:
                 m.point_data["Normals"] = nrm
                 m.point_data.active_normals_name = "Normals"
                 m.point_data["rgb"] = g.colors
-                self.pl.add_mesh(m, render=False, scalars="rgb", rgb=True, specular=0.3, specular_power=20,
-                                 smooth_shading=False, show_scalar_bar=False)
+                self.pl.add_mesh(
+                    m,
+                    render=False,
+                    scalars="rgb",
+                    rgb=True,
+                    specular=0.3,
+                    specular_power=20,
+                    smooth_shading=False,
+                    show_scalar_bar=False,
+                )
                 it["skel"] = m
             if s.vertices is not None:
                 m = _polydata(s.vertices, s.faces)
                 m.point_data["Normals"] = vertex_normals(s.vertices, s.faces)
                 m.point_data.active_normals_name = "Normals"
-                op = s.mesh_opacity if s.mesh_opacity is not None else (0.45 if s.positions is not None else 1.0)
-                kw = dict(opacity=op, specular=0.15, smooth_shading=s.smooth_shading, show_scalar_bar=False)
+                op = (
+                    s.mesh_opacity
+                    if s.mesh_opacity is not None
+                    else (0.45 if s.positions is not None else 1.0)
+                )
+                kw = dict(
+                    opacity=op,
+                    specular=0.15,
+                    smooth_shading=s.smooth_shading,
+                    show_scalar_bar=False,
+                )
                 if s.vertex_colors is not None:
                     rgb = np.asarray(s.vertex_colors, dtype=np.float64).reshape(-1, 3)
                     m.point_data["rgb"] = (np.clip(rgb, 0, 1) * 255).astype(np.uint8)
                     self.pl.add_mesh(m, render=False, scalars="rgb", rgb=True, **kw)
                 elif s.scalars is not None:
                     m.point_data["values"] = np.asarray(s.scalars, dtype=np.float64).reshape(-1)
-                    clim = s.clim or (float(np.nanmin(s.scalars)), float(np.nanmax(s.scalars)) + 1e-12)
-                    self.pl.add_mesh(m, render=False, scalars="values", cmap=s.cmap, clim=clim, **kw)
+                    clim = s.clim or (
+                        float(np.nanmin(s.scalars)),
+                        float(np.nanmax(s.scalars)) + 1e-12,
+                    )
+                    self.pl.add_mesh(
+                        m, render=False, scalars="values", cmap=s.cmap, clim=clim, **kw
+                    )
                 else:
                     self.pl.add_mesh(m, render=False, color=s.mesh_color, **kw)
                 it["mesh"] = m
@@ -176,13 +218,21 @@ class SceneRenderer:
                     hf = np.flatnonzero(hf) if hf.dtype == bool else hf.astype(int)
                     it["hl_faces"] = s.faces[hf]
                     hm = _polydata(self._lifted(s.vertices, m, size), s.faces[hf])
-                    self.pl.add_mesh(hm, render=False, color=s.highlight_color, lighting=True, show_scalar_bar=False)
+                    self.pl.add_mesh(
+                        hm,
+                        render=False,
+                        color=s.highlight_color,
+                        lighting=True,
+                        show_scalar_bar=False,
+                    )
                     it["hl"] = hm
             if s.point_pairs is not None:
                 it["pairs_n"] = len(s.point_pairs)
                 pm = self._pairs_mesh(s, size)
                 if pm is not None:
-                    self.pl.add_mesh(pm[0], render=False, scalars="rgb", rgb=True, show_scalar_bar=False)
+                    self.pl.add_mesh(
+                        pm[0], render=False, scalars="rgb", rgb=True, show_scalar_bar=False
+                    )
                     it["pairs"], it["pair_geom"] = pm
             if self.shadow and (s.positions is not None or s.vertices is not None):
                 parts = [it[k].points for k in ("skel", "mesh") if k in it]
@@ -190,7 +240,9 @@ class SceneRenderer:
                 if "mesh" in it:
                     fl.append(s.faces + (len(parts[0]) if "skel" in it else 0))
                 sh = _polydata(self._flat(np.concatenate(parts)), np.concatenate(fl))
-                self.pl.add_mesh(sh, render=False, color=_SHADOW, lighting=False, show_scalar_bar=False)
+                self.pl.add_mesh(
+                    sh, render=False, color=_SHADOW, lighting=False, show_scalar_bar=False
+                )
                 it["shadow"] = sh
             self._items.append(it)
 
@@ -205,7 +257,12 @@ class SceneRenderer:
     def drawn_points(self) -> np.ndarray:
         """``(N, 3)`` every point currently drawn (joint spheres, bone tubes, meshes, contact pairs),
         without floor and shadows."""
-        parts = [np.asarray(it[k].points) for it in self._items for k in ("skel", "mesh", "pairs") if k in it]
+        parts = [
+            np.asarray(it[k].points)
+            for it in self._items
+            for k in ("skel", "mesh", "pairs")
+            if k in it
+        ]
         return np.concatenate(parts) if parts else np.zeros((1, 3))
 
     def _pairs_mesh(self, s: Scene, size: float):
@@ -213,13 +270,17 @@ class SceneRenderer:
         pp = np.asarray(s.point_pairs)
         if len(pp) == 0:
             return None
-        ends = (s.vertices[pp.astype(int)] if pp.ndim == 2 else pp.astype(np.float64)).reshape(-1, 3)
+        ends = (s.vertices[pp.astype(int)] if pp.ndim == 2 else pp.astype(np.float64)).reshape(
+            -1, 3
+        )
         n = len(ends) // 2
         parents = [(-1 if j % 2 == 0 else j - 1) for j in range(2 * n)]
         radius = s.pair_radius if s.pair_radius is not None else 0.012 * size
         g = Glyphs(Scene(positions=ends, parents=parents, joint_names=[""] * (2 * n)), radius)
         cols = colormaps["tab10"](np.arange(n) % 10)[:, :3]
-        rgb = np.concatenate([np.repeat(np.repeat(cols, 2, 0), g.ns, 0), np.repeat(cols, 2 * g.sides, 0)])
+        rgb = np.concatenate(
+            [np.repeat(np.repeat(cols, 2, 0), g.ns, 0), np.repeat(cols, 2 * g.sides, 0)]
+        )
         pts, nrm = g.skeleton(ends)
         m = _polydata(pts, g.faces)
         m.point_data["Normals"] = nrm
@@ -240,7 +301,15 @@ class SceneRenderer:
         if self._floor is not None:
             self.pl.remove_actor("floor", render=False)
         plane = _checkerboard(x0, x1, z0, z1, step, self.floor_y)
-        self.pl.add_mesh(plane, render=False, scalars="rgb", rgb=True, lighting=False, name="floor", show_scalar_bar=False)
+        self.pl.add_mesh(
+            plane,
+            render=False,
+            scalars="rgb",
+            rgb=True,
+            lighting=False,
+            name="floor",
+            show_scalar_bar=False,
+        )
         self._floor = key
 
     # ---------------------------------------------------------------------------- public
@@ -277,8 +346,16 @@ class SceneRenderer:
             if "shadow" in it:
                 _set_points(it["shadow"], self._flat(np.concatenate(parts)))
 
-    def frame(self, lo, hi, size: float, points: np.ndarray | None = None, floor: float | None = None,
-              top_px: float = 0.0, margin: float = 0.04) -> None:
+    def frame(
+        self,
+        lo,
+        hi,
+        size: float,
+        points: np.ndarray | None = None,
+        floor: float | None = None,
+        top_px: float = 0.0,
+        margin: float = 0.04,
+    ) -> None:
         """Place the floor and point the camera so the drawn subject fills the window.
 
         Args:
@@ -300,7 +377,9 @@ class SceneRenderer:
                 sh.GetPoints().Modified()
                 sh.Modified()
         self._set_floor(lo, hi, size)
-        cam = fit_camera(pts, self.view, self.window_size, self.parallel, margin=margin, top_px=top_px)
+        cam = fit_camera(
+            pts, self.view, self.window_size, self.parallel, margin=margin, top_px=top_px
+        )
         c = self.pl.camera
         c.position, c.focal_point, c.up = cam["position"], cam["focal_point"], cam["up"]
         c.view_angle = 30.0
@@ -334,14 +413,18 @@ class SceneRenderer:
             self.pl.remove_actor(t, render=False)
         self._texts = []
         w, h = self.window_size
-        items = sorted((self.to_display(a)[0], self.to_display(a)[1], str(t))
-                       for t, a in zip(titles, anchors) if t)
+        items = sorted(
+            (self.to_display(a)[0], self.to_display(a)[1], str(t))
+            for t, a in zip(titles, anchors)
+            if t
+        )
         if not items:
             return 0
         actors = []
         for x, y, text in items:
-            actor = self.pl.add_text(text, position=(x, y), font_size=self.font_size, color="black",
-                                     render=False)
+            actor = self.pl.add_text(
+                text, position=(x, y), font_size=self.font_size, color="black", render=False
+            )
             actor.GetTextProperty().SetJustificationToCentered()
             actors.append(actor)
 
@@ -351,8 +434,13 @@ class SceneRenderer:
             return bb[1] - bb[0]
 
         widths = [width(ac) for ac in actors]
-        scale = min([1.0] + [max(xb - xa, 1.0) / (0.5 * (wa + wb) + 8) for (xa, _, _), (xb, _, _), wa, wb
-                             in zip(items, items[1:], widths, widths[1:])])
+        scale = min(
+            [1.0]
+            + [
+                max(xb - xa, 1.0) / (0.5 * (wa + wb) + 8)
+                for (xa, _, _), (xb, _, _), wa, wb in zip(items, items[1:], widths, widths[1:])
+            ]
+        )
         base = actors[0].GetTextProperty().GetFontSize()  # pyvista's units: 2x font_size
         fs = max(8, int(round(base * max(scale, 0.65))))
         # a label wider than the window shrinks until it fits (never cut off at the edges)
@@ -367,7 +455,7 @@ class SceneRenderer:
             x = float(np.clip(x, half, w - half))
             free = [k for k, edge in enumerate(right) if x - 0.5 * tw > edge + max(8.0, 0.5 * line)]
             row = free[0] if free else (len(right) if len(right) < 3 else int(np.argmin(right)))
-            right[row:row + 1] = [x + 0.5 * tw]
+            right[row : row + 1] = [x + 0.5 * tw]
             placed.append((x, y, row))
         top = h - (1.2 + max(row for _, _, row in placed)) * line  # highest base line
         for (x, y, row), actor in zip(placed, actors):
@@ -381,8 +469,16 @@ class SceneRenderer:
         return np.ascontiguousarray(self.pl.screenshot(return_img=True)[..., :3])
 
 
-def frame_and_title(r: "SceneRenderer", lo, hi, size: float, titles: Sequence[str], anchors,
-                    points: np.ndarray | None = None, floor: float | None = None) -> None:
+def frame_and_title(
+    r: SceneRenderer,
+    lo,
+    hi,
+    size: float,
+    titles: Sequence[str],
+    anchors,
+    points: np.ndarray | None = None,
+    floor: float | None = None,
+) -> None:
     """Fit the camera to the drawn subject, leaving a top band for the titles (re-fitted once if
     the labels need more than one line)."""
     rows = 1 if any(titles) else 0

@@ -9,8 +9,8 @@ to what is drawn (:mod:`retarget_lib.viz.camera`). Animations are :mod:`retarget
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 import numpy as np
 from PIL import Image
@@ -20,13 +20,27 @@ from .layout import layout_row, scene_bounds, stand_on_floor, title_anchor
 from .plotter import SceneRenderer, frame_and_title
 from .scene import MESH_COLOR, PALETTE, Scene, as_scene
 
-__all__ = ["render_filmstrip", "render_mesh", "render_scenes", "render_side_by_side", "render_skeleton",
-           "save_png"]
+__all__ = [
+    "render_filmstrip",
+    "render_mesh",
+    "render_scenes",
+    "render_side_by_side",
+    "render_skeleton",
+    "save_png",
+]
 
 
-def render_scenes(scenes: Sequence[Scene], titles: Sequence[str] | None = None, view="front_side",
-                  window_size=(640, 400), parallel: bool = False, ground: bool = True,
-                  shadow: bool = True, font_size: int = 12, floor: float | None = None) -> np.ndarray:
+def render_scenes(
+    scenes: Sequence[Scene],
+    titles: Sequence[str] | None = None,
+    view="front_side",
+    window_size=(640, 400),
+    parallel: bool = False,
+    ground: bool = True,
+    shadow: bool = True,
+    font_size: int = 12,
+    floor: float | None = None,
+) -> np.ndarray:
     """Render scenes already placed in world space (no re-layout) into one image.
 
     The camera is fitted to the drawn geometry (the subject fills the canvas up to a small
@@ -48,16 +62,26 @@ def render_scenes(scenes: Sequence[Scene], titles: Sequence[str] | None = None, 
         r.update(scenes, size)
         lo, hi = scene_bounds(scenes, size)
         titles = [s.title for s in scenes] if titles is None else titles
-        frame_and_title(r, lo, hi, size, titles, [title_anchor(s, size) for s in scenes], floor=floor)
+        frame_and_title(
+            r, lo, hi, size, titles, [title_anchor(s, size) for s in scenes], floor=floor
+        )
         return r.screenshot()
     finally:
         r.close()
 
 
-def render_skeleton(positions, parents: Sequence[int], joint_names: Sequence[str] | None = None,
-                    colors: Sequence | None = None, view="front_side", window_size=(640, 400),
-                    title: str | None = None, parallel: bool = False, ground: bool = True,
-                    shadow: bool = True) -> np.ndarray:
+def render_skeleton(
+    positions,
+    parents: Sequence[int],
+    joint_names: Sequence[str] | None = None,
+    colors: Sequence | None = None,
+    view="front_side",
+    window_size=(640, 400),
+    title: str | None = None,
+    parallel: bool = False,
+    ground: bool = True,
+    shadow: bool = True,
+) -> np.ndarray:
     """Render one or several overlaid skeleton poses (spheres at joints, tubes for bones).
 
     One pose gets side colours (left +X blue, right red, centre grey); several poses are overlaid
@@ -75,20 +99,40 @@ def render_skeleton(positions, parents: Sequence[int], joint_names: Sequence[str
     Returns:
         ``(H, W, 3)`` uint8 image.
     """
-    arr = [np.asarray(positions, float)] if np.ndim(positions) == 2 else [np.asarray(p, float) for p in positions]
+    arr = (
+        [np.asarray(positions, float)]
+        if np.ndim(positions) == 2
+        else [np.asarray(p, float) for p in positions]
+    )
     if colors is None:
         colors = [None] if len(arr) == 1 else [PALETTE[i % len(PALETTE)] for i in range(len(arr))]
-    scenes = [Scene(positions=p, parents=parents, joint_names=joint_names, color=c)
-              for p, c in zip(arr, colors)]
+    scenes = [
+        Scene(positions=p, parents=parents, joint_names=joint_names, color=c)
+        for p, c in zip(arr, colors)
+    ]
     titles = [title or ""] + [""] * (len(scenes) - 1)
     return render_scenes(scenes, titles, view, window_size, parallel, ground, shadow)
 
 
-def render_mesh(vertices, faces, scalars=None, highlight_faces=None, point_pairs=None,
-                skeleton: tuple | None = None, cmap: str = "viridis", clim=None, color=MESH_COLOR,
-                opacity: float | None = None, view="front_side", window_size=(640, 400),
-                title: str | None = None, ground: bool = True, shadow: bool = True,
-                vertex_colors=None, pair_radius: float | None = None) -> np.ndarray:
+def render_mesh(
+    vertices,
+    faces,
+    scalars=None,
+    highlight_faces=None,
+    point_pairs=None,
+    skeleton: tuple | None = None,
+    cmap: str = "viridis",
+    clim=None,
+    color=MESH_COLOR,
+    opacity: float | None = None,
+    view="front_side",
+    window_size=(640, 400),
+    title: str | None = None,
+    ground: bool = True,
+    shadow: bool = True,
+    vertex_colors=None,
+    pair_radius: float | None = None,
+) -> np.ndarray:
     """Render a triangle mesh, optionally coloured per vertex, with highlighted faces, contact
     pairs and a skeleton overlay.
 
@@ -109,17 +153,38 @@ def render_mesh(vertices, faces, scalars=None, highlight_faces=None, point_pairs
     Returns:
         ``(H, W, 3)`` uint8 image.
     """
-    sk = dict(zip(("positions", "parents", "joint_names"), skeleton)) if skeleton is not None else {}
-    s = Scene(vertices=vertices, faces=faces, scalars=scalars, highlight_faces=highlight_faces,
-              point_pairs=point_pairs, cmap=cmap, clim=clim, mesh_color=color, mesh_opacity=opacity,
-              vertex_colors=vertex_colors, pair_radius=pair_radius, **sk)
+    sk = (
+        dict(zip(("positions", "parents", "joint_names"), skeleton)) if skeleton is not None else {}
+    )
+    s = Scene(
+        vertices=vertices,
+        faces=faces,
+        scalars=scalars,
+        highlight_faces=highlight_faces,
+        point_pairs=point_pairs,
+        cmap=cmap,
+        clim=clim,
+        mesh_color=color,
+        mesh_opacity=opacity,
+        vertex_colors=vertex_colors,
+        pair_radius=pair_radius,
+        **sk,
+    )
     return render_scenes([s], [title or ""], view, window_size, ground=ground, shadow=shadow)
 
 
-def render_side_by_side(scenes: Sequence, titles: Sequence[str] | None = None, parents=None,
-                        view="front", window_size=None, ncols: int | None = None,
-                        parallel: bool = False, gap: float | None = None, font_size: int = 12,
-                        stand: bool = True) -> np.ndarray:
+def render_side_by_side(
+    scenes: Sequence,
+    titles: Sequence[str] | None = None,
+    parents=None,
+    view="front",
+    window_size=None,
+    ncols: int | None = None,
+    parallel: bool = False,
+    gap: float | None = None,
+    font_size: int = 12,
+    stand: bool = True,
+) -> np.ndarray:
     """Several characters next to each other (a lineup or a source / retargeted / truth comparison).
 
     Each scene is stood on the floor (its lowest point at ``y = 0``, unless ``stand=False``) and
@@ -164,10 +229,14 @@ def render_side_by_side(scenes: Sequence, titles: Sequence[str] | None = None, p
         for r, row, p in zip(renderers, rows, placed):
             if any(titles[i] for i in row):
                 r.frame(lo, hi, size, points=points, floor=floor, top_px=r.title_band(1))
-                band = max(band, r.set_titles([titles[i] for i in row], [title_anchor(s, size) for s in p]))
+                band = max(
+                    band, r.set_titles([titles[i] for i in row], [title_anchor(s, size) for s in p])
+                )
         images = []
         for r, row, p in zip(renderers, rows, placed):
-            r.frame(lo, hi, size, points=points, floor=floor, top_px=r.title_band(band) if band else 0.0)
+            r.frame(
+                lo, hi, size, points=points, floor=floor, top_px=r.title_band(band) if band else 0.0
+            )
             if band:
                 r.set_titles([titles[i] for i in row], [title_anchor(s, size) for s in p])
             images.append(r.screenshot())
@@ -177,8 +246,14 @@ def render_side_by_side(scenes: Sequence, titles: Sequence[str] | None = None, p
     return np.concatenate(images, axis=0)
 
 
-def render_filmstrip(positions: np.ndarray, parents: Sequence[int], frames: Sequence[int],
-                     fps: float | None = None, titles: Sequence[str] | None = None, **kw) -> np.ndarray:
+def render_filmstrip(
+    positions: np.ndarray,
+    parents: Sequence[int],
+    frames: Sequence[int],
+    fps: float | None = None,
+    titles: Sequence[str] | None = None,
+    **kw,
+) -> np.ndarray:
     """Poses of one clip side by side, each moved so its root stands at ``x = z = 0`` first.
 
     Args:
@@ -196,7 +271,9 @@ def render_filmstrip(positions: np.ndarray, parents: Sequence[int], frames: Sequ
     poses = [positions[f] - positions[f, 0] * np.array([1.0, 0.0, 1.0]) for f in frames]
     if titles is None and fps is not None:
         titles = [f"{f / fps:.1f} s" for f in frames]
-    return render_side_by_side([Scene(positions=p, parents=parents) for p in poses], titles=titles, **kw)
+    return render_side_by_side(
+        [Scene(positions=p, parents=parents) for p in poses], titles=titles, **kw
+    )
 
 
 def save_png(image: np.ndarray, path, max_kb: float | None = 150) -> Path:
@@ -213,5 +290,7 @@ def save_png(image: np.ndarray, path, max_kb: float | None = 150) -> Path:
     im = Image.fromarray(np.asarray(image, dtype=np.uint8))
     im.save(path, optimize=True)
     if max_kb is not None and path.stat().st_size > max_kb * 1024:
-        im.quantize(colors=256, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE).save(path, optimize=True)
+        im.quantize(colors=256, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE).save(
+            path, optimize=True
+        )
     return path

@@ -6,13 +6,23 @@ World conventions are the library's: +Y up, characters face +Z, a character's le
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 from matplotlib.colors import to_rgb
 
-__all__ = ["CENTER_COLOR", "LEFT_COLOR", "MESH_COLOR", "PALETTE", "RIGHT_COLOR", "Scene", "as_rgb", "as_scene"]
+__all__ = [
+    "CENTER_COLOR",
+    "LEFT_COLOR",
+    "MESH_COLOR",
+    "PALETTE",
+    "RIGHT_COLOR",
+    "Scene",
+    "as_rgb",
+    "as_scene",
+]
 
 LEFT_COLOR, RIGHT_COLOR, CENTER_COLOR = "#2f6fbf", "#d1495b", "#4d4d4d"
 #: one tint per character when several are drawn (source / retargeted / ground truth, ...)
@@ -75,8 +85,10 @@ class Scene:
         if self.positions is not None:
             self.positions = np.asarray(self.positions, dtype=np.float64).reshape(-1, 3)
             if self.parents is None or len(self.parents) != len(self.positions):
-                raise ValueError(f"Scene: {len(self.positions)} joints need as many parents, "
-                                 f"got {None if self.parents is None else len(self.parents)}")
+                raise ValueError(
+                    f"Scene: {len(self.positions)} joints need as many parents, "
+                    f"got {None if self.parents is None else len(self.parents)}"
+                )
         if self.vertices is not None:
             self.vertices = np.asarray(self.vertices, dtype=np.float64).reshape(-1, 3)
             if self.faces is None:
@@ -92,13 +104,17 @@ class Scene:
         """Characteristic size in metres (the largest extent of the points, at least 0.1)."""
         return max(float(np.ptp(self.points(), axis=0).max()), 0.1)
 
-    def translated(self, offset) -> "Scene":
+    def translated(self, offset) -> Scene:
         off = np.asarray(offset, dtype=np.float64)
         pp = self.point_pairs
         if pp is not None and np.asarray(pp).ndim == 3:
             pp = np.asarray(pp, dtype=np.float64) + off
-        return replace(self, positions=None if self.positions is None else self.positions + off,
-                       vertices=None if self.vertices is None else self.vertices + off, point_pairs=pp)
+        return replace(
+            self,
+            positions=None if self.positions is None else self.positions + off,
+            vertices=None if self.vertices is None else self.vertices + off,
+            point_pairs=pp,
+        )
 
 
 def as_scene(obj, parents: Sequence[int] | None = None, **kw) -> Scene:
@@ -108,6 +124,10 @@ def as_scene(obj, parents: Sequence[int] | None = None, **kw) -> Scene:
     if isinstance(obj, tuple) and len(obj) == 2 and not np.isscalar(obj[1]):
         return Scene(positions=obj[0], parents=obj[1], **kw)
     if hasattr(obj, "global_positions") and hasattr(obj, "skeleton"):
-        return Scene(positions=obj.global_positions()[0], parents=obj.skeleton.parents,
-                     joint_names=obj.skeleton.joint_names, **kw)
+        return Scene(
+            positions=obj.global_positions()[0],
+            parents=obj.skeleton.parents,
+            joint_names=obj.skeleton.joint_names,
+            **kw,
+        )
     return Scene(positions=obj, parents=parents, **kw)

@@ -47,8 +47,10 @@ CMU_SHA256: dict[str, str] = {
 SYSTEM_DIR = Path("/usr/share/assimp/models/BVH")
 PACKAGE = "assimp-testmodels"
 _MEMBER_DIR = "usr/share/assimp/models/BVH"  # inside the .deb
-_INSTALL_HINT = (f"install the Debian package with `sudo apt-get install {PACKAGE}` "
-                 "(after `sudo apt-get update`), then try again")
+_INSTALL_HINT = (
+    f"install the Debian package with `sudo apt-get install {PACKAGE}` "
+    "(after `sudo apt-get update`), then try again"
+)
 
 
 def cmu_clip_path(name: str, fetch: bool = True) -> Path:
@@ -74,8 +76,10 @@ def cmu_clip_path(name: str, fetch: bool = True) -> Path:
         path = cache_dir("assimp-testmodels", _MEMBER_DIR) / name
         if not path.is_file():
             if not fetch:
-                raise DataError(f"{name} is in neither {SYSTEM_DIR} nor {path.parent}: "
-                                f"run `retarget data build`, or {_INSTALL_HINT}")
+                raise DataError(
+                    f"{name} is in neither {SYSTEM_DIR} nor {path.parent}: "
+                    f"run `retarget data build`, or {_INSTALL_HINT}"
+                )
             _fetch_package()
     check_sha256(path, CMU_SHA256[name])
     return path
@@ -83,8 +87,10 @@ def cmu_clip_path(name: str, fetch: bool = True) -> Path:
 
 def _run(cmd: list[str], cwd: Path) -> None:
     if shutil.which(cmd[0]) is None:
-        raise DataError(f"the CMU clips are not installed and `{cmd[0]}` is not available to fetch "
-                        f"them: {_INSTALL_HINT}")
+        raise DataError(
+            f"the CMU clips are not installed and `{cmd[0]}` is not available to fetch "
+            f"them: {_INSTALL_HINT}"
+        )
     proc = subprocess.run(cmd, cwd=cwd, capture_output=True, text=True)
     if proc.returncode != 0:
         raise DataError(f"`{' '.join(cmd)}` failed ({proc.stderr.strip()[-500:]}); {_INSTALL_HINT}")
@@ -118,20 +124,25 @@ def _fetch_package() -> None:
             raise DataError(f"cannot unpack {deb}: `dpkg-deb` is not available; {_INSTALL_HINT}")
         # `dpkg-deb --fsys-tarfile` streams the package's file tree; only the BVH folder is kept
         # (8 MB instead of the package's 75 MB).
-        proc = subprocess.Popen(["dpkg-deb", "--fsys-tarfile", str(deb)], stdout=subprocess.PIPE,
-                                stderr=subprocess.PIPE)
+        proc = subprocess.Popen(
+            ["dpkg-deb", "--fsys-tarfile", str(deb)], stdout=subprocess.PIPE, stderr=subprocess.PIPE
+        )
         with tarfile.open(fileobj=proc.stdout, mode="r|") as tar:
             for member in tar:
                 if member.isfile() and member.name.lstrip("./").startswith(_MEMBER_DIR + "/"):
                     tar.extract(member, tmp, filter="data")
         err = proc.stderr.read().decode(errors="replace")
         if proc.wait() != 0:
-            raise DataError(f"`dpkg-deb --fsys-tarfile {deb}` failed ({err.strip()[-500:]}); "
-                            f"delete it and try again, or {_INSTALL_HINT}")
+            raise DataError(
+                f"`dpkg-deb --fsys-tarfile {deb}` failed ({err.strip()[-500:]}); "
+                f"delete it and try again, or {_INSTALL_HINT}"
+            )
         src = tmp / _MEMBER_DIR
         missing = [n for n in CMU_CLIPS if not (src / n).is_file()]
         if missing:
-            raise DataError(f"{deb} does not contain {missing} under /{_MEMBER_DIR}; {_INSTALL_HINT}")
+            raise DataError(
+                f"{deb} does not contain {missing} under /{_MEMBER_DIR}; {_INSTALL_HINT}"
+            )
         dest = root / _MEMBER_DIR
         dest.mkdir(parents=True, exist_ok=True)
         for f in src.iterdir():
@@ -140,8 +151,9 @@ def _fetch_package() -> None:
         shutil.rmtree(tmp, ignore_errors=True)
 
 
-def load_cmu_clip(name: str, fps: float | None = 30, canonical: bool = True,
-                  normalize: bool = True) -> Motion:
+def load_cmu_clip(
+    name: str, fps: float | None = 30, canonical: bool = True, normalize: bool = True
+) -> Motion:
     """Load one clip, ready for the notebooks.
 
     Args:

@@ -76,10 +76,20 @@ def load_mannequin(verify: bool = True) -> Character:
     if verify:
         check_sha256(path, MANNEQUIN_SHA256)
     with np.load(path, allow_pickle=False) as data:
-        arrays = {k: data[k] for k in ("parents", "local_offsets", "rest_local_rotations",
-                                       "skin_source_joint_positions", "vertices", "faces",
-                                       "skin_joint_indices", "skin_weights",
-                                       "skin_rigid_joint_indices")}
+        arrays = {
+            k: data[k]
+            for k in (
+                "parents",
+                "local_offsets",
+                "rest_local_rotations",
+                "skin_source_joint_positions",
+                "vertices",
+                "faces",
+                "skin_joint_indices",
+                "skin_weights",
+                "skin_rigid_joint_indices",
+            )
+        }
     parents = arrays["parents"].astype(int)
     bind = arrays["skin_source_joint_positions"].astype(np.float64)
     _check_bind_pose(parents, arrays["local_offsets"], arrays["rest_local_rotations"], bind)
@@ -90,20 +100,28 @@ def load_mannequin(verify: bool = True) -> Character:
     bind[:, 1] -= floor
     # canonical joint c comes from SMPL-X body joint order[c]
     order = list(SMPLX_TO_CANONICAL)
-    if [order.index(parents[order[c]]) if c else -1 for c in range(22)] != list(CANONICAL22_PARENTS):
+    if [order.index(parents[order[c]]) if c else -1 for c in range(22)] != list(
+        CANONICAL22_PARENTS
+    ):
         raise DataError(f"{path}: the first 22 joints are not the SMPL-X body tree")
     rest = bind[order]
     offsets = rest.copy()
     offsets[1:] -= rest[list(CANONICAL22_PARENTS[1:])]
     _check_orientation(rest, path)
-    return Character("mannequin-x", canonical22_skeleton(offsets), vertices,
-                     arrays["faces"].astype(np.int64), weights[:, order], bulk=1.0,
-                     style=dict(rest_pose="T-pose", source="mannequin-x 0.3.0 wooden.npz",
-                                license="Apache-2.0"))
+    return Character(
+        "mannequin-x",
+        canonical22_skeleton(offsets),
+        vertices,
+        arrays["faces"].astype(np.int64),
+        weights[:, order],
+        bulk=1.0,
+        style=dict(rest_pose="T-pose", source="mannequin-x 0.3.0 wooden.npz", license="Apache-2.0"),
+    )
 
 
-def _check_bind_pose(parents: np.ndarray, local_offsets: np.ndarray, rest_rotations: np.ndarray,
-                     bind: np.ndarray) -> None:
+def _check_bind_pose(
+    parents: np.ndarray, local_offsets: np.ndarray, rest_rotations: np.ndarray, bind: np.ndarray
+) -> None:
     """Bake the rest rotations into world-axis offsets and check that forward kinematics of them
     equals the skin's bind joints up to one translation (1 mm)."""
     glob = np.zeros_like(rest_rotations, dtype=np.float64)
@@ -116,8 +134,10 @@ def _check_bind_pose(parents: np.ndarray, local_offsets: np.ndarray, rest_rotati
             pos[j] = pos[p] + glob[p] @ local_offsets[j]
     shift = bind - pos
     if np.abs(shift - shift[0]).max() > 1e-3:
-        raise DataError("mannequin-x: the skeleton (local_offsets, rest_local_rotations) does not "
-                        "match skin_source_joint_positions; unsupported asset version")
+        raise DataError(
+            "mannequin-x: the skeleton (local_offsets, rest_local_rotations) does not "
+            "match skin_source_joint_positions; unsupported asset version"
+        )
 
 
 def _package_weights(arrays: dict) -> np.ndarray:
@@ -160,8 +180,10 @@ def _fold_weights(weights: np.ndarray, parents: np.ndarray) -> np.ndarray:
 def _check_orientation(rest: np.ndarray, path: Path) -> None:
     """The library's frame: head above hips (+Y up), toes ahead of ankles (+Z), left at +X."""
     j = {n: i for i, n in enumerate(CANONICAL22)}
-    ok = (rest[j["Head"], 1] > rest[j["Hips"], 1]
-          and rest[j["LeftToeBase"], 2] > rest[j["LeftFoot"], 2]
-          and rest[j["LeftUpLeg"], 0] > rest[j["RightUpLeg"], 0])
+    ok = (
+        rest[j["Head"], 1] > rest[j["Hips"], 1]
+        and rest[j["LeftToeBase"], 2] > rest[j["LeftFoot"], 2]
+        and rest[j["LeftUpLeg"], 0] > rest[j["RightUpLeg"], 0]
+    )
     if not ok:
         raise DataError(f"{path}: unexpected axes (need +Y up, facing +Z, left at +X)")

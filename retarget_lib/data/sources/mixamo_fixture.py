@@ -41,9 +41,19 @@ from ..synthetic.characters import make_character
 from ..synthetic.motions import body_radii_from_mesh, make_motion
 from .mixamo_local import SHAPE_FILE
 
-__all__ = ["FINGERS", "FIXTURE_CAST", "FIXTURE_MOTIONS", "FixtureMotion", "CLIP_FORMATS", "MESH_FORMATS",
-           "mixamo_skeleton", "extend_motion_to_mixamo", "mixamo_rig", "write_mixamo_character",
-           "write_mixamo_fixture"]
+__all__ = [
+    "FINGERS",
+    "FIXTURE_CAST",
+    "FIXTURE_MOTIONS",
+    "FixtureMotion",
+    "CLIP_FORMATS",
+    "MESH_FORMATS",
+    "mixamo_skeleton",
+    "extend_motion_to_mixamo",
+    "mixamo_rig",
+    "write_mixamo_character",
+    "write_mixamo_fixture",
+]
 
 #: how :func:`write_mixamo_character` writes clips: BVH, FBX (with the skin), GLB without a skin,
 #: GLB with the skin
@@ -56,7 +66,12 @@ FINGERS = ("Thumb", "Index", "Middle", "Ring", "Pinky")
 
 #: Mixamo name -> synthetic character. Kaya (skinny) and Warrok (bulky) are training characters of
 #: TDCN and contact targets; Claire is an unseen TDCN source; Y Bot is the contact source.
-FIXTURE_CAST: dict[str, str] = {"Y Bot": "milo", "Kaya": "cleo", "Warrok W Kurniawan": "otto", "Claire": "juno"}
+FIXTURE_CAST: dict[str, str] = {
+    "Y Bot": "milo",
+    "Kaya": "cleo",
+    "Warrok W Kurniawan": "otto",
+    "Claire": "juno",
+}
 
 
 class FixtureMotion(NamedTuple):
@@ -111,7 +126,11 @@ def mixamo_skeleton(skeleton: Skeleton, prefix: str = "mixamorig:") -> tuple[Ske
     # Blender export order is depth-first, but any parent-before-child order is valid BVH.
     head = CANONICAL22.index("Head")
     neck_len = np.linalg.norm(skeleton.offsets[head])
-    names.append("HeadTop_End"), parents.append(head), offsets.append(np.array([0.0, 1.8 * neck_len, 0.0]))
+    (
+        names.append("HeadTop_End"),
+        parents.append(head),
+        offsets.append(np.array([0.0, 1.8 * neck_len, 0.0])),
+    )
     for side in ("Left", "Right"):
         toe = CANONICAL22.index(f"{side}ToeBase")
         names.append(f"{side}Toe_End"), parents.append(toe)
@@ -127,13 +146,17 @@ def mixamo_skeleton(skeleton: Skeleton, prefix: str = "mixamorig:") -> tuple[Ske
             for i in range(1, 5):
                 names.append(f"{side}Hand{finger}{i}")
                 parents.append(parent)
-                offsets.append(along * (2.0 * seg if i == 1 else seg) + (sideways * spread if i == 1 else 0.0))
+                offsets.append(
+                    along * (2.0 * seg if i == 1 else seg) + (sideways * spread if i == 1 else 0.0)
+                )
                 parent = len(names) - 1
     sk = Skeleton([prefix + n for n in names], parents, np.array(offsets))
     return sk, list(range(22))
 
 
-def extend_motion_to_mixamo(motion: Motion, prefix: str = "mixamorig:", curl: float = 0.4) -> Motion:
+def extend_motion_to_mixamo(
+    motion: Motion, prefix: str = "mixamorig:", curl: float = 0.4
+) -> Motion:
     """Put a canonical-22 motion on :func:`mixamo_skeleton`; fingers curl and uncurl over time.
 
     Args:
@@ -145,14 +168,18 @@ def extend_motion_to_mixamo(motion: Motion, prefix: str = "mixamorig:", curl: fl
     T, n = motion.num_frames, sk.num_joints
     angles = np.zeros((T, n, 3))
     phase = np.sin(np.linspace(0.0, 2.0 * np.pi, T))[:, None]
-    finger_joints = [j for j, name in enumerate(sk.joint_names) if "Hand" in name and name[-1].isdigit()]
+    finger_joints = [
+        j for j, name in enumerate(sk.joint_names) if "Hand" in name and name[-1].isdigit()
+    ]
     angles[:, finger_joints, 2] = curl * (0.5 + 0.5 * phase)
     rot = quat_from_axis_angle(torch.from_numpy(angles)).numpy()
     rot[:, kept] = motion.rotations
     return Motion(sk, rot, motion.root_positions.copy(), motion.fps, name=motion.name)
 
 
-def mixamo_rig(character: Character, prefix: str = "mixamorig:", skeleton: Skeleton | None = None) -> Rig:
+def mixamo_rig(
+    character: Character, prefix: str = "mixamorig:", skeleton: Skeleton | None = None
+) -> Rig:
     """A canonical-22 character on Mixamo's full joint set (:func:`mixamo_skeleton`: fingers, end
     joints, prefix), as in a Mixamo FBX; the extra joints carry no skinning weight.
 
@@ -164,12 +191,22 @@ def mixamo_rig(character: Character, prefix: str = "mixamorig:", skeleton: Skele
     sk, kept = mixamo_skeleton(skeleton if skeleton is not None else character.skeleton, prefix)
     weights = np.zeros((len(character.rest_vertices), sk.num_joints))
     weights[:, kept] = character.weights
-    return Rig(character.name, sk, character.rest_vertices, character.faces, weights, {j: j for j in kept})
+    return Rig(
+        character.name, sk, character.rest_vertices, character.faces, weights, {j: j for j in kept}
+    )
 
 
-def write_mixamo_character(root: str | Path, character: Character, motions: list[Motion], name: str | None = None,
-                           prefix: str = "mixamorig:", unit: str = "cm", fps: float | None = None,
-                           clip_format: str = "bvh", mesh: str = "shape") -> Path:
+def write_mixamo_character(
+    root: str | Path,
+    character: Character,
+    motions: list[Motion],
+    name: str | None = None,
+    prefix: str = "mixamorig:",
+    unit: str = "cm",
+    fps: float | None = None,
+    clip_format: str = "bvh",
+    mesh: str = "shape",
+) -> Path:
     """Write ``<root>/<name>/shape.npz`` and one BVH per motion, Mixamo style (or the other formats
     of a download: ``clip_format``, ``mesh``).
 
@@ -194,8 +231,10 @@ def write_mixamo_character(root: str | Path, character: Character, motions: list
         the character's folder.
     """
     if clip_format not in CLIP_FORMATS or mesh not in MESH_FORMATS:
-        raise ValueError(f"clip_format must be one of {CLIP_FORMATS} and mesh one of {MESH_FORMATS}, "
-                         f"got {clip_format!r}, {mesh!r}")
+        raise ValueError(
+            f"clip_format must be one of {CLIP_FORMATS} and mesh one of {MESH_FORMATS}, "
+            f"got {clip_format!r}, {mesh!r}"
+        )
     name = name or character.name
     folder = Path(root) / name
     folder.mkdir(parents=True, exist_ok=True)
@@ -211,8 +250,12 @@ def write_mixamo_character(root: str | Path, character: Character, motions: list
         if clip_format == "bvh":
             save_bvh(full, folder / f"{m.name}.bvh", unit=unit)
         elif clip_format == "fbx":
-            save_fbx(mixamo_rig(character, prefix, skeleton=m.skeleton), folder / f"{m.name}.fbx", full,
-                     unit_scale_factor=1.0)
+            save_fbx(
+                mixamo_rig(character, prefix, skeleton=m.skeleton),
+                folder / f"{m.name}.fbx",
+                full,
+                unit_scale_factor=1.0,
+            )
         else:
             rig = mixamo_rig(character, prefix, skeleton=m.skeleton)
             save_glb(rig, folder / f"{m.name}.glb", full, skin=clip_format == "glb-skinned")
@@ -244,11 +287,25 @@ def write_mixamo_fixture(root: str | Path, clip_format: str = "bvh", mesh: str =
             if mixamo_name not in m.performers:
                 continue
             frames = m.frames - FIXTURE_SHORTER.get((mixamo_name, m.name), 0)
-            clip = make_motion(m.family, character.skeleton, m.seed, duration=(m.frames + 1) / 30.0,
-                               body_radii=radii).slice(0, frames)
+            clip = make_motion(
+                m.family,
+                character.skeleton,
+                m.seed,
+                duration=(m.frames + 1) / 30.0,
+                body_radii=radii,
+            ).slice(0, frames)
             clip.name = m.name
             rest_scale = FIXTURE_REST_SCALE.get((mixamo_name, m.name), 1.0)
-            clips.append(clip.with_skeleton(canonical22_skeleton(clip.skeleton.offsets * rest_scale)))
-        write_mixamo_character(root, character, clips, name=mixamo_name, fps=FIXTURE_FPS.get(mixamo_name),
-                               clip_format=clip_format, mesh=mesh)
+            clips.append(
+                clip.with_skeleton(canonical22_skeleton(clip.skeleton.offsets * rest_scale))
+            )
+        write_mixamo_character(
+            root,
+            character,
+            clips,
+            name=mixamo_name,
+            fps=FIXTURE_FPS.get(mixamo_name),
+            clip_format=clip_format,
+            mesh=mesh,
+        )
     return root

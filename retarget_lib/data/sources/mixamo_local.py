@@ -66,9 +66,20 @@ from ...io.gltf import NoSkinError, load_gltf_animation, load_gltf_rig
 from ...io.joint_maps import to_canonical22
 from ...io.shape import load_shape_npz
 
-__all__ = ["SHAPE_FILE", "SPLITS_FILE", "CLIP_SUFFIXES", "CHARACTER_FILE_STEMS", "MixamoCharacterFolder",
-           "DeclaredSplit", "scan_mixamo_folder", "read_splits_file", "load_mixamo_motion", "load_mixamo_rig",
-           "MixamoFolder", "load_mixamo_folder"]
+__all__ = [
+    "SHAPE_FILE",
+    "SPLITS_FILE",
+    "CLIP_SUFFIXES",
+    "CHARACTER_FILE_STEMS",
+    "MixamoCharacterFolder",
+    "DeclaredSplit",
+    "scan_mixamo_folder",
+    "read_splits_file",
+    "load_mixamo_motion",
+    "load_mixamo_rig",
+    "MixamoFolder",
+    "load_mixamo_folder",
+]
 
 SHAPE_FILE = "shape.npz"
 SPLITS_FILE = "splits.yaml"
@@ -90,17 +101,26 @@ def _motion_in_metres(motion: Motion) -> Motion:
     :data:`_CM_ABOVE_HEIGHT` units."""
     if motion.skeleton.height() <= _CM_ABOVE_HEIGHT:
         return motion
-    return motion.copy(skeleton=canonical22_skeleton(motion.skeleton.offsets * 0.01),
-                       root_positions=motion.root_positions * 0.01, meta={**motion.meta, "unit": "cm"})
+    return motion.copy(
+        skeleton=canonical22_skeleton(motion.skeleton.offsets * 0.01),
+        root_positions=motion.root_positions * 0.01,
+        meta={**motion.meta, "unit": "cm"},
+    )
 
 
 def _character_in_metres(character: Character) -> Character:
     """:func:`_motion_in_metres` for a character (skeleton and mesh)."""
     if character.skeleton.height() <= _CM_ABOVE_HEIGHT:
         return character
-    return Character(character.name, canonical22_skeleton(character.skeleton.offsets * 0.01),
-                     character.rest_vertices * 0.01, character.faces, character.weights, character.bulk,
-                     {**character.style, "unit_scale": 0.01})
+    return Character(
+        character.name,
+        canonical22_skeleton(character.skeleton.offsets * 0.01),
+        character.rest_vertices * 0.01,
+        character.faces,
+        character.weights,
+        character.bulk,
+        {**character.style, "unit_scale": 0.01},
+    )
 
 
 def _key(stem: str) -> str:
@@ -138,32 +158,49 @@ def scan_mixamo_folder(root: str | Path) -> list[MixamoCharacterFolder]:
     """
     root = Path(root)
     if not root.is_dir():
-        raise DataError(f"mixamo-local folder {root} does not exist; set RETARGET_MIXAMO "
-                        "(layout: <Character>/<Motion>.bvh|.fbx|.glb + <Character>/shape.npz or <Character>.fbx|.glb)")
+        raise DataError(
+            f"mixamo-local folder {root} does not exist; set RETARGET_MIXAMO "
+            "(layout: <Character>/<Motion>.bvh|.fbx|.glb + <Character>/shape.npz or <Character>.fbx|.glb)"
+        )
     found = []
     for folder in sorted(p for p in root.iterdir() if p.is_dir()):
-        files = sorted(p for p in folder.iterdir()
-                       if p.is_file() and not p.name.startswith(".") and p.suffix.lower() in CLIP_SUFFIXES)
+        files = sorted(
+            p
+            for p in folder.iterdir()
+            if p.is_file() and not p.name.startswith(".") and p.suffix.lower() in CLIP_SUFFIXES
+        )
         names = {_key(folder.name), *CHARACTER_FILE_STEMS}
-        character_files = [p for p in files if p.suffix.lower() in _SKINNED_SUFFIXES and _key(p.stem) in names]
+        character_files = [
+            p for p in files if p.suffix.lower() in _SKINNED_SUFFIXES and _key(p.stem) in names
+        ]
         if len(character_files) > 1:
-            raise MixamoFolderError(f"{folder}: {len(character_files)} character files "
-                                    f"({', '.join(p.name for p in character_files)}); keep one")
+            raise MixamoFolderError(
+                f"{folder}: {len(character_files)} character files "
+                f"({', '.join(p.name for p in character_files)}); keep one"
+            )
         motions: dict[str, Path] = {}
         for p in files:
             if p in character_files:
                 continue
             if p.stem in motions:
-                raise MixamoFolderError(f"{p}: motion {p.stem!r} is also in {motions[p.stem].name}; keep one file "
-                                        "per motion")
+                raise MixamoFolderError(
+                    f"{p}: motion {p.stem!r} is also in {motions[p.stem].name}; keep one file "
+                    "per motion"
+                )
             motions[p.stem] = p
         shape = folder / SHAPE_FILE
         if not motions and not character_files and not shape.exists():
             continue
         dae = sorted(folder.glob("*.dae"))
-        found.append(MixamoCharacterFolder(folder.name, shape if shape.exists() else None, motions,
-                                           dae[0] if dae else None,
-                                           character_files[0] if character_files else None))
+        found.append(
+            MixamoCharacterFolder(
+                folder.name,
+                shape if shape.exists() else None,
+                motions,
+                dae[0] if dae else None,
+                character_files[0] if character_files else None,
+            )
+        )
     if not any(c.motions for c in found):
         raise DataError(f"no <Character>/<Motion>.bvh|.fbx|.glb|.gltf found under {root}")
     return found
@@ -186,7 +223,9 @@ class DeclaredSplit:
     seen_characters: tuple[str, ...] | None
 
 
-def read_splits_file(root: str | Path, characters: list[MixamoCharacterFolder]) -> DeclaredSplit | None:
+def read_splits_file(
+    root: str | Path, characters: list[MixamoCharacterFolder]
+) -> DeclaredSplit | None:
     """Read and validate ``<root>/splits.yaml`` against the scanned folder (module docstring).
 
     Args:
@@ -209,16 +248,22 @@ def read_splits_file(root: str | Path, characters: list[MixamoCharacterFolder]) 
     except yaml.YAMLError as e:
         mark = getattr(e, "problem_mark", None)
         where = f" (line {mark.line + 1})" if mark is not None else ""
-        raise MixamoFolderError(f"{path}: not valid YAML{where}: {getattr(e, 'problem', None) or e}") from None
+        raise MixamoFolderError(
+            f"{path}: not valid YAML{where}: {getattr(e, 'problem', None) or e}"
+        ) from None
     except (OSError, UnicodeDecodeError) as e:
         raise MixamoFolderError(f"{path}: cannot be read: {e}") from None
     data = {} if data is None else data
     if not isinstance(data, dict):
-        raise MixamoFolderError(f"{path}: must be a mapping with keys among {', '.join(_SPLIT_KEYS)}; "
-                                f"got a {type(data).__name__}")
+        raise MixamoFolderError(
+            f"{path}: must be a mapping with keys among {', '.join(_SPLIT_KEYS)}; "
+            f"got a {type(data).__name__}"
+        )
     unknown = [str(k) for k in data if k not in _SPLIT_KEYS]
     if unknown:
-        raise MixamoFolderError(f"{path}: unknown keys {unknown}; allowed: {', '.join(_SPLIT_KEYS)}")
+        raise MixamoFolderError(
+            f"{path}: unknown keys {unknown}; allowed: {', '.join(_SPLIT_KEYS)}"
+        )
     motions = sorted({m for c in characters for m in c.motions})
     names = sorted(c.name for c in characters)
     lists = {}
@@ -228,21 +273,38 @@ def read_splits_file(root: str | Path, characters: list[MixamoCharacterFolder]) 
         twice = sorted({v for v in value if value.count(v) > 1})
         if twice:
             raise MixamoFolderError(f"{path}: {key} lists {twice} more than once")
-        known, what = (motions, "motions (file stems)") if key.endswith("motions") else (names, "characters (folders)")
+        known, what = (
+            (motions, "motions (file stems)")
+            if key.endswith("motions")
+            else (names, "characters (folders)")
+        )
         strangers = [v for v in value if v not in known]
         if strangers:
-            raise MixamoFolderError(f"{path}: {key} names {strangers}, which are not {what} of {Path(root)}; "
-                                    f"it has {known}")
+            raise MixamoFolderError(
+                f"{path}: {key} names {strangers}, which are not {what} of {Path(root)}; "
+                f"it has {known}"
+            )
         lists[key] = value
     for kind in ("motions", "characters"):
         if f"seen_{kind}" in lists and f"unseen_{kind}" in lists:
-            raise MixamoFolderError(f"{path}: give seen_{kind} or unseen_{kind}, not both (the other is the rest "
-                                    f"of the folder's {kind})")
-    unseen = (frozenset(lists["unseen_motions"]) if "unseen_motions" in lists
-              else frozenset(motions) - set(lists["seen_motions"]) if "seen_motions" in lists else None)
-    seen = (tuple(lists["seen_characters"]) if "seen_characters" in lists
-            else tuple(n for n in names if n not in lists["unseen_characters"]) if "unseen_characters" in lists
-            else None)
+            raise MixamoFolderError(
+                f"{path}: give seen_{kind} or unseen_{kind}, not both (the other is the rest "
+                f"of the folder's {kind})"
+            )
+    unseen = (
+        frozenset(lists["unseen_motions"])
+        if "unseen_motions" in lists
+        else frozenset(motions) - set(lists["seen_motions"])
+        if "seen_motions" in lists
+        else None
+    )
+    seen = (
+        tuple(lists["seen_characters"])
+        if "seen_characters" in lists
+        else tuple(n for n in names if n not in lists["unseen_characters"])
+        if "unseen_characters" in lists
+        else None
+    )
     return DeclaredSplit(path, unseen, seen)
 
 
@@ -311,8 +373,9 @@ class MixamoFolder:
     characters: list[MixamoCharacterFolder]
     clips: dict[tuple[str, str], Motion]
     splits: DeclaredSplit | None = None
-    _meshes: dict[str, tuple[Path | None, Character | None]] = field(default_factory=dict, repr=False,
-                                                                    compare=False)
+    _meshes: dict[str, tuple[Path | None, Character | None]] = field(
+        default_factory=dict, repr=False, compare=False
+    )
 
     def performers(self) -> dict[str, set[str]]:
         """``motion -> {characters that perform it}``, motions sorted by name."""
@@ -364,7 +427,9 @@ class MixamoFolder:
     def fingerprint(self, character: str, motion: str) -> str:
         """16 hex digits of the sha256 of a clip's file and its character's mesh file (cache keys)."""
         mesh = self.mesh_file(character)
-        parts = [sha256_file(self.clip_path(character, motion))] + ([sha256_file(mesh)] if mesh is not None else [])
+        parts = [sha256_file(self.clip_path(character, motion))] + (
+            [sha256_file(mesh)] if mesh is not None else []
+        )
         return hashlib.sha256("".join(parts).encode()).hexdigest()[:16]
 
     def character(self, name: str) -> Character | None:
@@ -390,6 +455,9 @@ def load_mixamo_folder(root: str | Path) -> MixamoFolder:
     """
     characters = scan_mixamo_folder(root)
     splits = read_splits_file(root, characters)
-    clips = {(c.name, motion): load_mixamo_motion(path, fps=None)
-             for c in characters for motion, path in c.motions.items()}
+    clips = {
+        (c.name, motion): load_mixamo_motion(path, fps=None)
+        for c in characters
+        for motion, path in c.motions.items()
+    }
     return MixamoFolder(Path(root), characters, clips, splits)

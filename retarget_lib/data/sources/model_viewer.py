@@ -51,8 +51,10 @@ def model_viewer_path(fetch: bool = False) -> Path:
     path = cache_dir("model-viewer") / Path(entry["member"]).name
     if not path.exists():
         if not fetch:
-            raise DataError(f"{SOURCE_ID}: {path} is missing; run `retarget data build` (downloads "
-                            f"{entry['url']})")
+            raise DataError(
+                f"{SOURCE_ID}: {path} is missing; run `retarget data build` (downloads "
+                f"{entry['url']})"
+            )
         tarball = _download(entry["url"], MAX_TARBALL_BYTES)
         tar_path = cache_dir("model-viewer") / Path(entry["url"]).name
         with atomic_write(tar_path) as f:
@@ -66,5 +68,7 @@ def model_viewer_path(fetch: bool = False) -> Path:
                 f.write(member.read())
         tar_path.unlink()
     if sha256_file(path) != entry["member_sha256"]:
-        raise DataError(f"{SOURCE_ID}: {path} fails its checksum; delete it and run `retarget data build`")
+        raise DataError(
+            f"{SOURCE_ID}: {path} fails its checksum; delete it and run `retarget data build`"
+        )
     return path

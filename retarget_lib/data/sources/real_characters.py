@@ -26,8 +26,17 @@ from ...core.skeleton import J, Skeleton
 from ...files import REPO_ROOT, DataError, sha256_file
 from ..manifest import source
 
-__all__ = ["SOURCE_ID", "REAL_DIR", "real_character_names", "real_character_entry", "real_character_path",
-           "joint_map_path", "load_real_character", "measure_proportions", "PROPORTION_COLUMNS"]
+__all__ = [
+    "SOURCE_ID",
+    "REAL_DIR",
+    "real_character_names",
+    "real_character_entry",
+    "real_character_path",
+    "joint_map_path",
+    "load_real_character",
+    "measure_proportions",
+    "PROPORTION_COLUMNS",
+]
 
 SOURCE_ID = "real-characters"
 #: where the files are, relative to the repository root
@@ -60,10 +69,14 @@ def real_character_path(name: str, verify: bool = True) -> Path:
     entry = real_character_entry(name)
     path = REAL_DIR / f"{name}.glb"
     if not path.is_file():
-        raise DataError(f"{SOURCE_ID}: {path} is missing (it is part of the repository: restore it with git)")
+        raise DataError(
+            f"{SOURCE_ID}: {path} is missing (it is part of the repository: restore it with git)"
+        )
     if verify and sha256_file(path) != entry["sha256"]:
-        raise DataError(f"{SOURCE_ID}: {path} does not match its sha256 in data_manifest.yaml; restore it with "
-                        "git, or rebuild it with tools/real_characters.py and record the new sha256")
+        raise DataError(
+            f"{SOURCE_ID}: {path} does not match its sha256 in data_manifest.yaml; restore it with "
+            "git, or rebuild it with tools/real_characters.py and record the new sha256"
+        )
     return path
 
 
@@ -91,9 +104,26 @@ def load_real_character(name: str, verify: bool = True) -> Rig:
 
 
 #: the columns of ``proportions.csv`` (lengths are fractions of ``height_m``)
-PROPORTION_COLUMNS = ("character", "convention", "height_m", "mesh_height_m", "leg", "thigh", "shin", "foot",
-                      "arm", "upper_arm", "forearm", "spine", "neck_head", "shoulder", "shoulder_width",
-                      "hip_width", "arm_angle_deg", "rest_pose")
+PROPORTION_COLUMNS = (
+    "character",
+    "convention",
+    "height_m",
+    "mesh_height_m",
+    "leg",
+    "thigh",
+    "shin",
+    "foot",
+    "arm",
+    "upper_arm",
+    "forearm",
+    "spine",
+    "neck_head",
+    "shoulder",
+    "shoulder_width",
+    "hip_width",
+    "arm_angle_deg",
+    "rest_pose",
+)
 
 
 def skeleton_proportions(skeleton: Skeleton) -> dict[str, float | str]:
@@ -122,19 +152,31 @@ def skeleton_proportions(skeleton: Skeleton) -> dict[str, float | str]:
     angle = float(np.degrees(np.arcsin(np.clip(-arm_vec[1] / np.linalg.norm(arm_vec), -1, 1))))
     return {
         "height_m": h,
-        "leg": (thigh + shin) / h, "thigh": thigh / h, "shin": shin / h, "foot": d("LeftFoot", "LeftToeBase") / h,
-        "arm": (upper + fore) / h, "upper_arm": upper / h, "forearm": fore / h, "spine": spine / h,
-        "neck_head": d("Neck", "Head") / h, "shoulder": (d("Spine2", "LeftShoulder") + d("LeftShoulder", "LeftArm")) / h,
-        "shoulder_width": d("LeftArm", "RightArm") / h, "hip_width": d("LeftUpLeg", "RightUpLeg") / h,
-        "arm_angle_deg": angle, "rest_pose": "T" if angle < 20 else "A" if angle < 60 else "arms down",
+        "leg": (thigh + shin) / h,
+        "thigh": thigh / h,
+        "shin": shin / h,
+        "foot": d("LeftFoot", "LeftToeBase") / h,
+        "arm": (upper + fore) / h,
+        "upper_arm": upper / h,
+        "forearm": fore / h,
+        "spine": spine / h,
+        "neck_head": d("Neck", "Head") / h,
+        "shoulder": (d("Spine2", "LeftShoulder") + d("LeftShoulder", "LeftArm")) / h,
+        "shoulder_width": d("LeftArm", "RightArm") / h,
+        "hip_width": d("LeftUpLeg", "RightUpLeg") / h,
+        "arm_angle_deg": angle,
+        "rest_pose": "T" if angle < 20 else "A" if angle < 60 else "arms down",
     }
 
 
 def measure_proportions(character: Character) -> dict[str, float | str]:
     """:func:`skeleton_proportions` of the character's skeleton, with ``mesh_height_m``, the rest
     mesh's extent along +Y (:func:`~retarget_lib.core.measures.mesh_standing_height`)."""
-    return {"height_m": character.skeleton.height(), "mesh_height_m": mesh_standing_height(character.rest_vertices),
-            **skeleton_proportions(character.skeleton)}
+    return {
+        "height_m": character.skeleton.height(),
+        "mesh_height_m": mesh_standing_height(character.rest_vertices),
+        **skeleton_proportions(character.skeleton),
+    }
 
 
 def check() -> tuple[bool, str]:

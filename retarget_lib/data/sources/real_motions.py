@@ -19,7 +19,14 @@ from ...io.bvh import load_bvh
 from ...io.joint_maps import to_canonical22
 from ..manifest import source
 
-__all__ = ["SOURCE_ID", "MOTIONS_DIR", "real_motion_names", "real_motion_path", "load_real_motion", "check"]
+__all__ = [
+    "SOURCE_ID",
+    "MOTIONS_DIR",
+    "real_motion_names",
+    "real_motion_path",
+    "load_real_motion",
+    "check",
+]
 
 SOURCE_ID = "real-motions"
 #: where the files are
@@ -47,10 +54,14 @@ def real_motion_path(name: str) -> Path:
     missing or changed)."""
     entry, path = _entry(name), MOTIONS_DIR / f"{name}.bvh"
     if not path.is_file():
-        raise DataError(f"{SOURCE_ID}: {path} is missing (it is part of the repository: restore it with git)")
+        raise DataError(
+            f"{SOURCE_ID}: {path} is missing (it is part of the repository: restore it with git)"
+        )
     if sha256_file(path) != entry["sha256"]:
-        raise DataError(f"{SOURCE_ID}: {path} does not match its sha256 in data_manifest.yaml; restore it with git, "
-                        "or rebuild it with tools/real_motions.py and record the new sha256")
+        raise DataError(
+            f"{SOURCE_ID}: {path} does not match its sha256 in data_manifest.yaml; restore it with git, "
+            "or rebuild it with tools/real_motions.py and record the new sha256"
+        )
     return path
 
 
@@ -84,4 +95,8 @@ def check() -> tuple[bool, str]:
             real_motion_path(name)
         except DataError as e:
             bad.append(str(e))
-    return (False, "; ".join(bad)) if bad else (True, f"{len(real_motion_names())} clip(s) in {MOTIONS_DIR}")
+    return (
+        (False, "; ".join(bad))
+        if bad
+        else (True, f"{len(real_motion_names())} clip(s) in {MOTIONS_DIR}")
+    )

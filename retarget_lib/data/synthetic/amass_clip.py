@@ -25,8 +25,13 @@ AMASS_CLIP_BETAS = np.array([0.8, -0.6, 0.3, 0.0, 0.1, 0.0, 0.0, 0.0, 0.0, 0.0])
 AMASS_CLIP_PATH = REPO_ROOT / "tests" / "data" / "amass_walk.npz"
 
 
-def make_amass_clip(path: str | os.PathLike, family: str = "walk", seed: int = 0, duration: float = 4.0,
-                    betas: np.ndarray = AMASS_CLIP_BETAS) -> None:
+def make_amass_clip(
+    path: str | os.PathLike,
+    family: str = "walk",
+    seed: int = 0,
+    duration: float = 4.0,
+    betas: np.ndarray = AMASS_CLIP_BETAS,
+) -> None:
     """Write a synthetic ``family`` clip performed by the SMPL-X body ``betas`` as an AMASS ``.npz``.
 
     Args:

@@ -86,7 +86,9 @@ def build_config() -> dict:
     return dict(source("synthetic")["build"])
 
 
-def generate(seed: int, clips_per_family: int, characters: list[Character] | None = None) -> SyntheticDataset:
+def generate(
+    seed: int, clips_per_family: int, characters: list[Character] | None = None
+) -> SyntheticDataset:
     """Build the dataset in memory (deterministic in ``seed``).
 
     Args:
@@ -95,7 +97,9 @@ def generate(seed: int, clips_per_family: int, characters: list[Character] | Non
         characters: the characters (default: every named character).
     """
     characters = characters or [make_character(n) for n in CHARACTER_NAMES]
-    radii = {c.name: body_radii_from_mesh(c.skeleton, c.rest_vertices, c.weights) for c in characters}
+    radii = {
+        c.name: body_radii_from_mesh(c.skeleton, c.rest_vertices, c.weights) for c in characters
+    }
     clips = []
     for fi, family in enumerate(MOTION_FAMILIES):
         for k in range(clips_per_family):
@@ -103,10 +107,17 @@ def generate(seed: int, clips_per_family: int, characters: list[Character] | Non
             clip_seed = seed * 1000 + k
             m = make_motion(family, performer.skeleton, clip_seed, body_radii=radii[performer.name])
             m.name = f"{family}_{k:03d}"
-            clips.append(SyntheticClip(m, family, clip_seed, performer.name,
-                                       np.asarray(m.meta["foot_contacts"], dtype=bool),
-                                       np.asarray(m.meta["joint_contacts"], dtype=bool),
-                                       [HandContact(*h) for h in m.meta.get("hand_contacts", [])]))
+            clips.append(
+                SyntheticClip(
+                    m,
+                    family,
+                    clip_seed,
+                    performer.name,
+                    np.asarray(m.meta["foot_contacts"], dtype=bool),
+                    np.asarray(m.meta["joint_contacts"], dtype=bool),
+                    [HandContact(*h) for h in m.meta.get("hand_contacts", [])],
+                )
+            )
     return SyntheticDataset({c.name: c for c in characters}, clips)
 
 
@@ -119,16 +130,24 @@ def save_dataset(ds: SyntheticDataset, path: Path) -> None:
         arrays[f"char/{name}/vertices"] = c.rest_vertices.astype(np.float32)
         arrays[f"char/{name}/faces"] = c.faces.astype(np.int32)
         arrays[f"char/{name}/weights"] = c.weights.astype(np.float32)
-        index["characters"].append({"name": name, "bulk": float(c.bulk), "style": _jsonable(c.style)})
+        index["characters"].append(
+            {"name": name, "bulk": float(c.bulk), "style": _jsonable(c.style)}
+        )
     for i, clip in enumerate(ds.clips):
         arrays[f"clip/{i}/rotations"] = clip.motion.rotations.astype(np.float32)
         arrays[f"clip/{i}/root"] = clip.motion.root_positions.astype(np.float32)
         arrays[f"clip/{i}/offsets"] = clip.motion.skeleton.offsets
         arrays[f"clip/{i}/foot_contacts"] = clip.foot_contacts
         arrays[f"clip/{i}/joint_contacts"] = clip.joint_contacts
-        index["clips"].append({"name": clip.name, "family": clip.family, "seed": clip.seed,
-                               "performer": clip.performer,
-                               "hand_contacts": [list(map(_jsonable, h)) for h in clip.hand_contacts]})
+        index["clips"].append(
+            {
+                "name": clip.name,
+                "family": clip.family,
+                "seed": clip.seed,
+                "performer": clip.performer,
+                "hand_contacts": [list(map(_jsonable, h)) for h in clip.hand_contacts],
+            }
+        )
     arrays["index"] = np.array(json.dumps(index))
     with atomic_write(path) as f:
         np.savez_compressed(f, **arrays)
@@ -151,24 +170,44 @@ def read_dataset(path: Path) -> SyntheticDataset:
     with np.load(path, allow_pickle=False) as z:
         index = json.loads(str(z["index"]))
         if index.get("version") != FORMAT_VERSION:
-            raise DataError(f"{path} has format {index.get('version')}, expected {FORMAT_VERSION}; "
-                            "run `retarget data build --force`")
+            raise DataError(
+                f"{path} has format {index.get('version')}, expected {FORMAT_VERSION}; "
+                "run `retarget data build --force`"
+            )
         chars = {}
         for entry in index["characters"]:
             n = entry["name"]
-            chars[n] = Character(n, canonical22_skeleton(z[f"char/{n}/offsets"]),
-                                 z[f"char/{n}/vertices"].astype(np.float64), z[f"char/{n}/faces"].astype(np.int64),
-                                 z[f"char/{n}/weights"].astype(np.float64), entry["bulk"], entry["style"])
+            chars[n] = Character(
+                n,
+                canonical22_skeleton(z[f"char/{n}/offsets"]),
+                z[f"char/{n}/vertices"].astype(np.float64),
+                z[f"char/{n}/faces"].astype(np.int64),
+                z[f"char/{n}/weights"].astype(np.float64),
+                entry["bulk"],
+                entry["style"],
+            )
         clips = []
         for i, entry in enumerate(index["clips"]):
             fc, jc = z[f"clip/{i}/foot_contacts"], z[f"clip/{i}/joint_contacts"]
             hc = [HandContact(*h) for h in entry["hand_contacts"]]
-            m = Motion(canonical22_skeleton(z[f"clip/{i}/offsets"]), z[f"clip/{i}/rotations"].astype(np.float64),
-                       z[f"clip/{i}/root"].astype(np.float64), FPS, name=entry["name"],
-                       meta={"family": entry["family"], "performer": entry["performer"],
-                             "foot_contacts": fc, "joint_contacts": jc, "hand_contacts": hc})
+            m = Motion(
+                canonical22_skeleton(z[f"clip/{i}/offsets"]),
+                z[f"clip/{i}/rotations"].astype(np.float64),
+                z[f"clip/{i}/root"].astype(np.float64),
+                FPS,
+                name=entry["name"],
+                meta={
+                    "family": entry["family"],
+                    "performer": entry["performer"],
+                    "foot_contacts": fc,
+                    "joint_contacts": jc,
+                    "hand_contacts": hc,
+                },
+            )
             m.rotations /= np.linalg.norm(m.rotations, axis=-1, keepdims=True)
-            clips.append(SyntheticClip(m, entry["family"], entry["seed"], entry["performer"], fc, jc, hc))
+            clips.append(
+                SyntheticClip(m, entry["family"], entry["seed"], entry["performer"], fc, jc, hc)
+            )
     return SyntheticDataset(chars, clips)
 
 
@@ -201,5 +240,3 @@ def load_synthetic() -> SyntheticDataset:
     if not path.exists():
         raise DataError(f"synthetic dataset not built ({path}); run `retarget data build`")
     return read_dataset(path)
-
-

@@ -46,7 +46,9 @@ class _RoundCone:
     def sdf(self, p):
         ab = self.b - self.a
         t = np.clip((p - self.a) @ ab / max(ab @ ab, 1e-12), 0.0, 1.0)
-        return np.linalg.norm(p - self.a - t[:, None] * ab, axis=1) - (self.ra + t * (self.rb - self.ra))
+        return np.linalg.norm(p - self.a - t[:, None] * ab, axis=1) - (
+            self.ra + t * (self.rb - self.ra)
+        )
 
     def bounds(self):
         r = max(self.ra, self.rb)
@@ -158,17 +160,27 @@ def _torso_parts(spec: CharacterSpec, pos: np.ndarray, s: float) -> list[list[_P
     """A loft of elliptic (side, front) cross-sections through crotch, Hips, Spine, Spine1,
     Spine2 and Neck, plus an optional belly."""
     b, chest, hip_x = spec.bulk, spec.chest, REFERENCE_LENGTHS["hip_x"] * spec.hips
-    chain = [("Hips", pos[J["Hips"]] - np.array([0.0, 0.075, 0.0]) * s, (hip_x + 0.05, 0.1)),
-             ("Hips", pos[J["Hips"]], (hip_x + 0.06, 0.105)),
-             ("Spine", pos[J["Spine"]], (0.135, 0.095)),
-             ("Spine1", pos[J["Spine1"]], (0.14 * chest**0.5, 0.1 * chest)),
-             ("Spine2", pos[J["Spine2"]], ((0.135 + 0.02 * spec.shoulders) * chest**0.5, 0.105 * chest)),
-             ("Neck", pos[J["Neck"]], ((0.075 + 0.025 * spec.shoulders) * chest**0.5, 0.07 * chest))]
+    chain = [
+        ("Hips", pos[J["Hips"]] - np.array([0.0, 0.075, 0.0]) * s, (hip_x + 0.05, 0.1)),
+        ("Hips", pos[J["Hips"]], (hip_x + 0.06, 0.105)),
+        ("Spine", pos[J["Spine"]], (0.135, 0.095)),
+        ("Spine1", pos[J["Spine1"]], (0.14 * chest**0.5, 0.1 * chest)),
+        ("Spine2", pos[J["Spine2"]], ((0.135 + 0.02 * spec.shoulders) * chest**0.5, 0.105 * chest)),
+        ("Neck", pos[J["Neck"]], ((0.075 + 0.025 * spec.shoulders) * chest**0.5, 0.07 * chest)),
+    ]
     # end caps: crotch and shoulder-line roundness; short inner caps just close the kinks
     caps = [0.09 * b * s] + [0.02 * s] * (2 * len(chain) - 4) + [0.035 * b * s]
-    loft = [_EllipticCone(J[owner], p0, p1, np.array(r0) * b * s, np.array(r1) * b * s,
-                          (caps[2 * k], caps[2 * k + 1]))
-            for k, ((owner, p0, r0), (_, p1, r1)) in enumerate(zip(chain[:-1], chain[1:]))]
+    loft = [
+        _EllipticCone(
+            J[owner],
+            p0,
+            p1,
+            np.array(r0) * b * s,
+            np.array(r1) * b * s,
+            (caps[2 * k], caps[2 * k + 1]),
+        )
+        for k, ((owner, p0, r0), (_, p1, r1)) in enumerate(zip(chain[:-1], chain[1:]))
+    ]
     parts = [loft]
     if spec.belly > 0:
         size = (0.08 + 0.04 * spec.belly) * b * s
@@ -181,11 +193,20 @@ def _head_parts(spec: CharacterSpec, pos: np.ndarray, s: float) -> list[list[_Pr
     """Neck (tapered capsule) and head (ellipsoid above the Head joint, facing +Z)."""
     b, h = spec.bulk, spec.head * s
     head_up = _unit(pos[J["Head"]] - pos[J["Neck"]])
-    neck = _RoundCone(J["Neck"], pos[J["Neck"]] - 0.02 * s * head_up, pos[J["Head"]],
-                      0.065 * b**0.6 * s, 0.047 * b**0.5 * s)
+    neck = _RoundCone(
+        J["Neck"],
+        pos[J["Neck"]] - 0.02 * s * head_up,
+        pos[J["Head"]],
+        0.065 * b**0.6 * s,
+        0.047 * b**0.5 * s,
+    )
     axes = _frame(np.array([0.0, 0.0, 1.0]), head_up)
-    head = _Ellipsoid(J["Head"], pos[J["Head"]] + (0.085 * head_up + 0.015 * axes[2]) * h, axes,
-                      np.array([0.082, 0.108, 0.098]) * h)
+    head = _Ellipsoid(
+        J["Head"],
+        pos[J["Head"]] + (0.085 * head_up + 0.015 * axes[2]) * h,
+        axes,
+        np.array([0.082, 0.108, 0.098]) * h,
+    )
     return [[neck], [head]]
 
 
@@ -193,10 +214,16 @@ def _arm_parts(spec: CharacterSpec, pos: np.ndarray, s: float, side: str) -> lis
     """Clavicle, upper arm and forearm (one chain), then palm, fingers and thumb."""
     j = {n: J[side + n] for n in ("Shoulder", "Arm", "ForeArm", "Hand")}
     r = spec.bulk * spec.limbs * s
-    chain = [_RoundCone(j["Shoulder"], pos[j["Shoulder"]], pos[j["Arm"]], 0.05 * spec.bulk * s, 0.056 * r),
-             _RoundCone(j["Arm"], pos[j["Arm"]], pos[j["ForeArm"]], 0.05 * r, 0.037 * r),
-             _RoundCone(j["ForeArm"], pos[j["ForeArm"]], pos[j["Hand"]], 0.037 * r, 0.028 * r)]
-    hand = _hand(j["Hand"], pos[j["Hand"]], _unit(pos[j["Hand"]] - pos[j["ForeArm"]]), spec.hand * s)
+    chain = [
+        _RoundCone(
+            j["Shoulder"], pos[j["Shoulder"]], pos[j["Arm"]], 0.05 * spec.bulk * s, 0.056 * r
+        ),
+        _RoundCone(j["Arm"], pos[j["Arm"]], pos[j["ForeArm"]], 0.05 * r, 0.037 * r),
+        _RoundCone(j["ForeArm"], pos[j["ForeArm"]], pos[j["Hand"]], 0.037 * r, 0.028 * r),
+    ]
+    hand = _hand(
+        j["Hand"], pos[j["Hand"]], _unit(pos[j["Hand"]] - pos[j["ForeArm"]]), spec.hand * s
+    )
     return [chain] + [[p] for p in hand]
 
 
@@ -204,9 +231,15 @@ def _leg_parts(spec: CharacterSpec, pos: np.ndarray, s: float, side: str) -> lis
     """Thigh and shin (one chain), then the foot and toe blocks."""
     j = {n: J[side + n] for n in ("UpLeg", "Leg", "Foot", "ToeBase")}
     girth = spec.bulk * spec.limbs
-    chain = [_RoundCone(j["UpLeg"], pos[j["UpLeg"]], pos[j["Leg"]], 0.082 * girth * s, 0.052 * girth * s),
-             _RoundCone(j["Leg"], pos[j["Leg"]], pos[j["Foot"]], 0.052 * girth * s, 0.036 * girth * s)]
-    foot = _foot(j["Foot"], j["ToeBase"], pos[j["Foot"]], pos[j["ToeBase"]], spec.foot * s, girth**0.5)
+    chain = [
+        _RoundCone(
+            j["UpLeg"], pos[j["UpLeg"]], pos[j["Leg"]], 0.082 * girth * s, 0.052 * girth * s
+        ),
+        _RoundCone(j["Leg"], pos[j["Leg"]], pos[j["Foot"]], 0.052 * girth * s, 0.036 * girth * s),
+    ]
+    foot = _foot(
+        j["Foot"], j["ToeBase"], pos[j["Foot"]], pos[j["ToeBase"]], spec.foot * s, girth**0.5
+    )
     return [chain, foot]
 
 
@@ -215,18 +248,30 @@ def _hand(owner: int, wrist: np.ndarray, direction: np.ndarray, size: float) -> 
     when the arm is horizontal."""
     axes = _frame(direction, np.array([0.0, 1.0, 0.0]))  # rows (side = ±Z, normal, along arm)
     side = axes[0] * np.sign(axes[0][2])  # the thumb side: front (+Z)
-    palm = _RoundBox(owner, wrist + direction * 0.05 * size, axes,
-                     np.array([0.045, 0.018, 0.055]) * size, 0.014 * size)
-    fingers = _RoundBox(owner, wrist + direction * 0.135 * size, axes,
-                        np.array([0.041, 0.013, 0.045]) * size, 0.011 * size)
+    palm = _RoundBox(
+        owner,
+        wrist + direction * 0.05 * size,
+        axes,
+        np.array([0.045, 0.018, 0.055]) * size,
+        0.014 * size,
+    )
+    fingers = _RoundBox(
+        owner,
+        wrist + direction * 0.135 * size,
+        axes,
+        np.array([0.041, 0.013, 0.045]) * size,
+        0.011 * size,
+    )
     base = wrist + direction * 0.03 * size + side * 0.03 * size
-    thumb = _RoundCone(owner, base, base + (0.04 * direction + 0.045 * side) * size,
-                       0.015 * size, 0.012 * size)
+    thumb = _RoundCone(
+        owner, base, base + (0.04 * direction + 0.045 * side) * size, 0.015 * size, 0.012 * size
+    )
     return [palm, fingers, thumb]
 
 
-def _foot(foot: int, toe: int, ankle: np.ndarray, ball: np.ndarray, size: float,
-          girth: float) -> list[_Primitive]:
+def _foot(
+    foot: int, toe: int, ankle: np.ndarray, ball: np.ndarray, size: float, girth: float
+) -> list[_Primitive]:
     """Heel-to-ball block (owned by the ankle joint) and a toe block, flat soles."""
     fwd = ball - ankle
     fwd[1] = 0.0
@@ -238,12 +283,18 @@ def _foot(foot: int, toe: int, ankle: np.ndarray, ball: np.ndarray, size: float,
     center = 0.5 * (heel + ball)
     center[1] = 0.5 * (sole + top)
     half_len = 0.5 * np.linalg.norm((ball - heel)[[0, 2]]) + 0.01 * size
-    foot_box = _RoundBox(foot, center, axes,
-                         np.array([0.043 * girth * size, 0.5 * (top - sole), half_len]), 0.02 * size)
+    foot_box = _RoundBox(
+        foot,
+        center,
+        axes,
+        np.array([0.043 * girth * size, 0.5 * (top - sole), half_len]),
+        0.02 * size,
+    )
     toe_center = ball + fwd * 0.035 * size
     toe_center[1] = sole + 0.02 * size
-    toe_box = _RoundBox(toe, toe_center, axes, np.array([0.042 * girth, 0.02, 0.04]) * size,
-                        0.015 * size)
+    toe_box = _RoundBox(
+        toe, toe_center, axes, np.array([0.042 * girth, 0.02, 0.04]) * size, 0.015 * size
+    )
     return [foot_box, toe_box]
 
 
@@ -253,8 +304,9 @@ def _smooth_min(a: np.ndarray, b: np.ndarray, k: float) -> np.ndarray:
     return np.minimum(a, b) - 0.25 * k * h * h
 
 
-def _sample_sdf(parts: list[list[_Primitive]], spacing: float,
-                blend: float) -> tuple[np.ndarray, np.ndarray]:
+def _sample_sdf(
+    parts: list[list[_Primitive]], spacing: float, blend: float
+) -> tuple[np.ndarray, np.ndarray]:
     """The body's signed distance on a regular grid: plain union within each part, smooth union
     (width ``blend``) across parts.
 
@@ -267,7 +319,9 @@ def _sample_sdf(parts: list[list[_Primitive]], spacing: float,
     """
     margin = blend + 2 * spacing
     boxes = [[p.bounds() for p in part] for part in parts]
-    boxes = [(np.min([b[0] for b in bx], axis=0), np.max([b[1] for b in bx], axis=0)) for bx in boxes]
+    boxes = [
+        (np.min([b[0] for b in bx], axis=0), np.max([b[1] for b in bx], axis=0)) for bx in boxes
+    ]
     lo = np.min([bx[0] for bx in boxes], axis=0) - margin
     hi = np.max([bx[1] for bx in boxes], axis=0) + margin
     shape = np.ceil((hi - lo) / spacing).astype(int) + 1
@@ -287,8 +341,9 @@ def _sample_sdf(parts: list[list[_Primitive]], spacing: float,
 _SURFACE_CLEARANCE = 0.02
 
 
-def extract_mesh(parts: list[list[_Primitive]], spacing: float, blend: float,
-                 target_vertices: int) -> tuple[np.ndarray, np.ndarray]:
+def extract_mesh(
+    parts: list[list[_Primitive]], spacing: float, blend: float, target_vertices: int
+) -> tuple[np.ndarray, np.ndarray]:
     """Marching cubes of the smooth union, largest component, decimated to ~``target_vertices``.
 
     Returns:
@@ -313,7 +368,9 @@ def extract_mesh(parts: list[list[_Primitive]], spacing: float, blend: float,
     return np.asarray(mesh.vertices), np.asarray(mesh.faces, dtype=np.int64)
 
 
-def skin_weights(vertices: np.ndarray, prims: list[_Primitive], tau: float, top: int = 4) -> np.ndarray:
+def skin_weights(
+    vertices: np.ndarray, prims: list[_Primitive], tau: float, top: int = 4
+) -> np.ndarray:
     """Skinning weights from the body's own parts.
 
     ``w_j ∝ exp(-d_j / tau)`` with ``d_j`` the signed distance of the vertex to joint ``j``'s

@@ -61,9 +61,17 @@ PROFILES = ("varied-rest", "mixamo-convention")
 N_CHARACTERS = 14
 #: the real rigs the ranges were measured on: the first real-character set (the goblin and the
 #: cowboy, added later, stay outside the training ranges: a test of generalisation)
-RANGE_SOURCES: tuple[str, ...] = ("makehuman_game_engine", "makehuman_rigify", "makehuman_default", "makehuman_cmu_mb",
-                                  "bcn_epileptic", "mrfixit", "cryptovoxels", "quaternius_female_dress",
-                                  "quaternius_male_casual")
+RANGE_SOURCES: tuple[str, ...] = (
+    "makehuman_game_engine",
+    "makehuman_rigify",
+    "makehuman_default",
+    "makehuman_cmu_mb",
+    "bcn_epileptic",
+    "mrfixit",
+    "cryptovoxels",
+    "quaternius_female_dress",
+    "quaternius_male_casual",
+)
 #: fractions of the skeleton height ``H`` measured on :data:`RANGE_SOURCES` (``data/real_characters/
 #: proportions.csv``, min and max over their rows; ``tests/test_mixamo_convention.py`` re-reads it)
 REAL_RIG_RANGES: dict[str, tuple[float, float]] = {
@@ -110,16 +118,24 @@ def mixamo_convention_spec(index: int) -> CharacterSpec:
     """
     rng = np.random.default_rng([index, 20_21])
     for _ in range(10_000):
-        factors = {n: float(np.clip(rng.lognormal(0.0, 0.13), 0.65, 1.45)) for n in CharacterSpec.FACTORS}
+        factors = {
+            n: float(np.clip(rng.lognormal(0.0, 0.13), 0.65, 1.45)) for n in CharacterSpec.FACTORS
+        }
         bulk = float(rng.uniform(0.75, 1.45))
         spec = CharacterSpec(
-            f"tp{index + 1:02d}", height=float(rng.uniform(1.3, 1.95)), **factors, bulk=bulk,
-            belly=float(rng.uniform(0.0, 0.8)) if bulk > 1.15 else 0.0, chest=float(rng.uniform(0.9, 1.3)),
+            f"tp{index + 1:02d}",
+            height=float(rng.uniform(1.3, 1.95)),
+            **factors,
+            bulk=bulk,
+            belly=float(rng.uniform(0.0, 0.8)) if bulk > 1.15 else 0.0,
+            chest=float(rng.uniform(0.9, 1.3)),
             limbs=float(rng.uniform(0.9, 1.2)),
         )
         if _within_real_ranges(spec):
             return spec
-    raise RuntimeError(f"no character within the real rigs' ranges after 10000 draws (index {index})")
+    raise RuntimeError(
+        f"no character within the real rigs' ranges after 10000 draws (index {index})"
+    )
 
 
 @dataclass
@@ -140,7 +156,9 @@ def _clip_ids() -> list[tuple[str, int]]:
     return [(family, k) for family in MOTION_FAMILIES for k in range(per_family)]
 
 
-def generate(count: int = N_CHARACTERS, clip_ids: list[tuple[str, int]] | None = None) -> MixamoConventionData:
+def generate(
+    count: int = N_CHARACTERS, clip_ids: list[tuple[str, int]] | None = None
+) -> MixamoConventionData:
     """Build the profile in memory (deterministic).
 
     Args:
@@ -152,7 +170,10 @@ def generate(count: int = N_CHARACTERS, clip_ids: list[tuple[str, int]] | None =
         c = build_character(mixamo_convention_spec(i))
         c.style = dict(c.style, source="synthetic-mixamo-convention")
         characters[c.name] = c
-    radii = {n: body_radii_from_mesh(c.skeleton, c.rest_vertices, c.weights) for n, c in characters.items()}
+    radii = {
+        n: body_radii_from_mesh(c.skeleton, c.rest_vertices, c.weights)
+        for n, c in characters.items()
+    }
     clips: dict[str, dict[str, Motion]] = {}
     for family, k in clip_ids or _clip_ids():
         name = f"{family}_{k:03d}"
@@ -172,19 +193,31 @@ def data_path() -> Path:
 def save(data: MixamoConventionData, path: Path) -> None:
     """Write the profile as one ``.npz`` (atomically)."""
     arrays: dict[str, np.ndarray] = {}
-    index: dict = {"version": FORMAT_VERSION, "specs": _specs_key(), "characters": [], "clips": list(data.clips)}
+    index: dict = {
+        "version": FORMAT_VERSION,
+        "specs": _specs_key(),
+        "characters": [],
+        "clips": list(data.clips),
+    }
     for name, c in data.characters.items():
         arrays[f"char/{name}/offsets"] = c.skeleton.offsets
         arrays[f"char/{name}/vertices"] = c.rest_vertices.astype(np.float32)
         arrays[f"char/{name}/faces"] = c.faces.astype(np.int32)
         arrays[f"char/{name}/weights"] = c.weights.astype(np.float32)
-        index["characters"].append({"name": name, "bulk": float(c.bulk),
-                                    "style": json.loads(json.dumps(c.style, default=float))})
+        index["characters"].append(
+            {
+                "name": name,
+                "bulk": float(c.bulk),
+                "style": json.loads(json.dumps(c.style, default=float)),
+            }
+        )
     for clip, versions in data.clips.items():
         for name, m in versions.items():
             arrays[f"clip/{clip}/{name}/rotations"] = m.rotations.astype(np.float32)
             arrays[f"clip/{clip}/{name}/root"] = m.root_positions.astype(np.float32)
-            arrays[f"clip/{clip}/{name}/foot_contacts"] = np.asarray(m.meta["foot_contacts"], dtype=bool)
+            arrays[f"clip/{clip}/{name}/foot_contacts"] = np.asarray(
+                m.meta["foot_contacts"], dtype=bool
+            )
     arrays["index"] = np.array(json.dumps(index))
     with atomic_write(path) as f:
         np.savez_compressed(f, **arrays)
@@ -195,14 +228,22 @@ def read(path: Path) -> MixamoConventionData:
     with np.load(path, allow_pickle=False) as z:
         index = json.loads(str(z["index"]))
         if index.get("version") != FORMAT_VERSION:
-            raise DataError(f"{path} has format {index.get('version')}, expected {FORMAT_VERSION}; delete it "
-                            "to rebuild")
+            raise DataError(
+                f"{path} has format {index.get('version')}, expected {FORMAT_VERSION}; delete it "
+                "to rebuild"
+            )
         chars = {}
         for entry in index["characters"]:
             n = entry["name"]
-            chars[n] = Character(n, canonical22_skeleton(z[f"char/{n}/offsets"]),
-                                 z[f"char/{n}/vertices"].astype(np.float64), z[f"char/{n}/faces"].astype(np.int64),
-                                 z[f"char/{n}/weights"].astype(np.float64), entry["bulk"], entry["style"])
+            chars[n] = Character(
+                n,
+                canonical22_skeleton(z[f"char/{n}/offsets"]),
+                z[f"char/{n}/vertices"].astype(np.float64),
+                z[f"char/{n}/faces"].astype(np.int64),
+                z[f"char/{n}/weights"].astype(np.float64),
+                entry["bulk"],
+                entry["style"],
+            )
         clips: dict[str, dict[str, Motion]] = {}
         for clip in index["clips"]:
             family = clip.rsplit("_", 1)[0]
@@ -210,9 +251,18 @@ def read(path: Path) -> MixamoConventionData:
             for n, c in chars.items():
                 q = z[f"clip/{clip}/{n}/rotations"].astype(np.float64)
                 q /= np.linalg.norm(q, axis=-1, keepdims=True)
-                clips[clip][n] = Motion(c.skeleton.copy(), q, z[f"clip/{clip}/{n}/root"].astype(np.float64), FPS,
-                                        name=clip, meta={"family": family, "performer": n,
-                                                         "foot_contacts": z[f"clip/{clip}/{n}/foot_contacts"]})
+                clips[clip][n] = Motion(
+                    c.skeleton.copy(),
+                    q,
+                    z[f"clip/{clip}/{n}/root"].astype(np.float64),
+                    FPS,
+                    name=clip,
+                    meta={
+                        "family": family,
+                        "performer": n,
+                        "foot_contacts": z[f"clip/{clip}/{n}/foot_contacts"],
+                    },
+                )
     return MixamoConventionData(chars, clips)
 
 
@@ -226,7 +276,10 @@ def build_mixamo_convention(force: bool = False) -> Path:
     path = data_path()
     if path.exists() and not force and _built_key(path) == _specs_key():
         return path
-    print("building the Mixamo-convention synthetic profile (once, about 3 minutes) ...", file=sys.stderr)
+    print(
+        "building the Mixamo-convention synthetic profile (once, about 3 minutes) ...",
+        file=sys.stderr,
+    )
     save(generate(), path)
     load_mixamo_convention.cache_clear()
     return path

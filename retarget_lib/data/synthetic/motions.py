@@ -18,14 +18,22 @@ stays planted while its heel lifts), and ``hand_contacts``: a list of :class:`Ha
 
 from __future__ import annotations
 
-from typing import Callable, Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
 from ...core.motion import Motion
 from ...core.skeleton import Skeleton
 from ...core.transfer import canonical_rest_skeleton
-from .authoring import FPS, HandContact, Plan, Rig, assemble, body_radii_from_mesh, default_body_radii
+from .authoring import (
+    FPS,
+    HandContact,
+    Plan,
+    Rig,
+    assemble,
+    body_radii_from_mesh,
+    default_body_radii,
+)
 from .families.fighting import kick, punch, squat
 from .families.gestures import clap, hands_on_hips, pray, touch_head, wave
 from .families.locomotion import jump, run, turn, walk
@@ -43,26 +51,59 @@ __all__ = [
 ]
 
 MOTION_FAMILIES: tuple[str, ...] = (
-    "walk", "run", "jump", "turn", "wave", "clap", "hands_on_hips", "pray", "touch_head",
-    "punch", "kick", "squat",
+    "walk",
+    "run",
+    "jump",
+    "turn",
+    "wave",
+    "clap",
+    "hands_on_hips",
+    "pray",
+    "touch_head",
+    "punch",
+    "kick",
+    "squat",
 )
 #: seconds: the duration of a clip is drawn uniformly from its family's range (all within 2-40 s)
 DURATION_RANGES: dict[str, tuple[float, float]] = {
-    "walk": (4.0, 20.0), "run": (4.0, 16.0), "jump": (3.0, 14.0), "turn": (3.0, 14.0),
-    "wave": (3.0, 12.0), "clap": (2.0, 10.0), "hands_on_hips": (3.0, 14.0), "pray": (3.0, 12.0),
-    "touch_head": (3.0, 12.0), "punch": (3.0, 16.0), "kick": (3.0, 16.0), "squat": (4.0, 40.0),
+    "walk": (4.0, 20.0),
+    "run": (4.0, 16.0),
+    "jump": (3.0, 14.0),
+    "turn": (3.0, 14.0),
+    "wave": (3.0, 12.0),
+    "clap": (2.0, 10.0),
+    "hands_on_hips": (3.0, 14.0),
+    "pray": (3.0, 12.0),
+    "touch_head": (3.0, 12.0),
+    "punch": (3.0, 16.0),
+    "kick": (3.0, 16.0),
+    "squat": (4.0, 40.0),
 }
 
 # ----------------------------------------------------------------------------- public API
 _FAMILY_FUNCS: dict[str, Callable[[Rig, np.random.Generator, np.ndarray], Plan]] = {
-    "walk": walk, "run": run, "jump": jump, "turn": turn, "wave": wave, "clap": clap,
-    "hands_on_hips": hands_on_hips, "pray": pray, "touch_head": touch_head, "punch": punch,
-    "kick": kick, "squat": squat,
+    "walk": walk,
+    "run": run,
+    "jump": jump,
+    "turn": turn,
+    "wave": wave,
+    "clap": clap,
+    "hands_on_hips": hands_on_hips,
+    "pray": pray,
+    "touch_head": touch_head,
+    "punch": punch,
+    "kick": kick,
+    "squat": squat,
 }
 
 
-def make_motion(family: str, skeleton: Skeleton, seed: int, duration: float | None = None,
-                body_radii: dict[str, float] | None = None) -> Motion:
+def make_motion(
+    family: str,
+    skeleton: Skeleton,
+    seed: int,
+    duration: float | None = None,
+    body_radii: dict[str, float] | None = None,
+) -> Motion:
     """One synthetic clip of ``family`` performed by ``skeleton``.
 
     Args:
@@ -89,9 +130,13 @@ def make_motion(family: str, skeleton: Skeleton, seed: int, duration: float | No
     return assemble(rig, plan, f"{family}_{seed:03d}", {"family": family, "seed": int(seed)})
 
 
-def motion_library(skeleton: Skeleton, seeds_per_family: int = 2, seed: int = 0,
-                   families: Sequence[str] = MOTION_FAMILIES,
-                   body_radii: dict[str, float] | None = None) -> list[Motion]:
+def motion_library(
+    skeleton: Skeleton,
+    seeds_per_family: int = 2,
+    seed: int = 0,
+    families: Sequence[str] = MOTION_FAMILIES,
+    body_radii: dict[str, float] | None = None,
+) -> list[Motion]:
     """Clips ``seed, seed + 1, ..., seed + seeds_per_family - 1`` of every family.
 
     Args:
@@ -104,5 +149,8 @@ def motion_library(skeleton: Skeleton, seeds_per_family: int = 2, seed: int = 0,
     Returns:
         ``len(families) * seeds_per_family`` motions, family-major.
     """
-    return [make_motion(f, skeleton, seed + k, body_radii=body_radii)
-            for f in families for k in range(seeds_per_family)]
+    return [
+        make_motion(f, skeleton, seed + k, body_radii=body_radii)
+        for f in families
+        for k in range(seeds_per_family)
+    ]

@@ -15,7 +15,13 @@ import numpy as np
 
 from ...core.skeleton import J, canonical22_skeleton
 
-__all__ = ["REFERENCE_LENGTHS", "REFERENCE_OFFSETS", "CharacterSpec", "height_scale", "unscaled_offsets"]
+__all__ = [
+    "REFERENCE_LENGTHS",
+    "REFERENCE_OFFSETS",
+    "CharacterSpec",
+    "height_scale",
+    "unscaled_offsets",
+]
 
 
 @dataclass(frozen=True)
@@ -72,21 +78,48 @@ class CharacterSpec:
     limbs: float = 1.0
 
     #: the fields that are segment length / size factors
-    FACTORS = ("torso", "neck", "head", "thigh", "shin", "foot", "hips", "shoulders", "upper_arm",
-               "forearm", "hand")
+    FACTORS = (
+        "torso",
+        "neck",
+        "head",
+        "thigh",
+        "shin",
+        "foot",
+        "hips",
+        "shoulders",
+        "upper_arm",
+        "forearm",
+        "hand",
+    )
 
 
 #: reference segment lengths (metres, before scaling), giving NKN H = 1.559 m
-REFERENCE_LENGTHS = dict(spine=0.10, spine1=0.12, spine2=0.12, neck_base=0.16, neck=0.10, thigh=0.42,
-                         shin=0.40, toe_drop=0.05, toe_fwd=0.13, hip_x=0.09, hip_drop=0.07,
-                         clavicle_x=0.045, arm=0.11, upper_arm=0.27, forearm=0.25, ankle_height=0.08)
+REFERENCE_LENGTHS = dict(
+    spine=0.10,
+    spine1=0.12,
+    spine2=0.12,
+    neck_base=0.16,
+    neck=0.10,
+    thigh=0.42,
+    shin=0.40,
+    toe_drop=0.05,
+    toe_fwd=0.13,
+    hip_x=0.09,
+    hip_drop=0.07,
+    clavicle_x=0.045,
+    arm=0.11,
+    upper_arm=0.27,
+    forearm=0.25,
+    ankle_height=0.08,
+)
 
 
 def _rot_x(v: np.ndarray, deg: float) -> np.ndarray:
     """Rotate ``v`` about +X by ``deg`` (positive tips +Y towards +Z)."""
     a = math.radians(deg)
-    return np.array([v[0], v[1] * math.cos(a) - v[2] * math.sin(a),
-                     v[1] * math.sin(a) + v[2] * math.cos(a)])
+    return np.array(
+        [v[0], v[1] * math.cos(a) - v[2] * math.sin(a), v[1] * math.sin(a) + v[2] * math.cos(a)]
+    )
 
 
 def _mirror(v: np.ndarray) -> np.ndarray:
@@ -98,17 +131,22 @@ def unscaled_offsets(spec: CharacterSpec) -> np.ndarray:
     r = REFERENCE_LENGTHS
     off = np.zeros((22, 3))
     up = np.array([0.0, 1.0, 0.0])
-    chain = (("Spine", r["spine"] * spec.torso), ("Spine1", r["spine1"] * spec.torso),
-             ("Spine2", r["spine2"] * spec.torso), ("Neck", r["neck_base"] * spec.torso),
-             ("Head", r["neck"] * spec.neck))
+    chain = (
+        ("Spine", r["spine"] * spec.torso),
+        ("Spine1", r["spine1"] * spec.torso),
+        ("Spine2", r["spine2"] * spec.torso),
+        ("Neck", r["neck_base"] * spec.torso),
+        ("Head", r["neck"] * spec.neck),
+    )
     for k, (name, length) in enumerate(chain, start=1):  # uniform bend along the chain
         off[J[name]] = _rot_x(up * length, spec.spine_curve * k / len(chain))
     knee = math.radians(spec.knee_bend)
     thigh = r["thigh"] * spec.thigh * np.array([0.0, -math.cos(knee), math.sin(knee)])
     shin = r["shin"] * spec.shin * np.array([0.0, -math.cos(knee), -math.sin(knee)])
     out = math.radians(spec.feet_out)
-    toe = spec.foot * np.array([r["toe_fwd"] * math.sin(out), -r["toe_drop"],
-                                r["toe_fwd"] * math.cos(out)])
+    toe = spec.foot * np.array(
+        [r["toe_fwd"] * math.sin(out), -r["toe_drop"], r["toe_fwd"] * math.cos(out)]
+    )
     a, f = math.radians(spec.arm_angle), math.radians(spec.arm_forward)
     arm_dir = np.array([math.cos(a) * math.cos(f), -math.sin(a), math.cos(a) * math.sin(f)])
     a_clav = 0.25 * a  # the clavicle follows the arm a little
@@ -116,8 +154,11 @@ def unscaled_offsets(spec: CharacterSpec) -> np.ndarray:
     shoulder = 0.7 * off[J["Neck"]] + np.array([r["clavicle_x"] * spec.shoulders, 0.0, 0.0])
     left = {
         "UpLeg": np.array([r["hip_x"] * spec.hips, -r["hip_drop"], 0.0]),
-        "Leg": thigh, "Foot": shin, "ToeBase": toe,
-        "Shoulder": shoulder, "Arm": clav_dir * r["arm"] * spec.shoulders,
+        "Leg": thigh,
+        "Foot": shin,
+        "ToeBase": toe,
+        "Shoulder": shoulder,
+        "Arm": clav_dir * r["arm"] * spec.shoulders,
         "ForeArm": arm_dir * r["upper_arm"] * spec.upper_arm,
         "Hand": arm_dir * r["forearm"] * spec.forearm,
     }

@@ -7,11 +7,31 @@ Lt, Lh, Ld, Lr, Lo (with the notation, paper → here); :mod:`.adversarial` — 
 sigmoid cross-entropy; :mod:`.total` — Eq. 6's weights and weighted total.
 """
 
-from .adversarial import (adversarial_loss, adversarial_loss_discriminator, adversarial_loss_generator,
-                          sigmoid_ce_discriminator_loss, sigmoid_ce_generator_loss)
-from .tensors import MotionTensors, NonFiniteLossError, PositionScale, check_finite, per_sample, smooth_l1
-from .terms import (bone_direction_loss, cycle_loss, height_loss, orientation_loss, reconstruction_loss,
-                    regularization_loss, twist_loss, twist_penalty)
+from .adversarial import (
+    adversarial_loss,
+    adversarial_loss_discriminator,
+    adversarial_loss_generator,
+    sigmoid_ce_discriminator_loss,
+    sigmoid_ce_generator_loss,
+)
+from .tensors import (
+    MotionTensors,
+    NonFiniteLossError,
+    PositionScale,
+    check_finite,
+    per_sample,
+    smooth_l1,
+)
+from .terms import (
+    bone_direction_loss,
+    cycle_loss,
+    height_loss,
+    orientation_loss,
+    reconstruction_loss,
+    regularization_loss,
+    twist_loss,
+    twist_penalty,
+)
 from .total import TERM_WEIGHTS, TDCNLossWeights, total_generator_loss
 
 __all__ = [

@@ -19,8 +19,13 @@ from .terms import reconstruction_loss
 
 Tensor = torch.Tensor
 
-__all__ = ["adversarial_loss", "adversarial_loss_discriminator", "adversarial_loss_generator",
-           "sigmoid_ce_discriminator_loss", "sigmoid_ce_generator_loss"]
+__all__ = [
+    "adversarial_loss",
+    "adversarial_loss_discriminator",
+    "adversarial_loss_generator",
+    "sigmoid_ce_discriminator_loss",
+    "sigmoid_ce_generator_loss",
+]
 
 
 # --------------------------------------------------------------------------------------------
@@ -46,8 +51,9 @@ def adversarial_loss_generator(h_fake: Tensor, reduction: Reduction = "mean") ->
     return reduce_elements((h_fake - 1.0) ** 2, reduction)
 
 
-def adversarial_loss_discriminator(h_real: Tensor, h_fake: Tensor,
-                                   fake_mask: Tensor | None = None) -> Tensor:
+def adversarial_loss_discriminator(
+    h_real: Tensor, h_fake: Tensor, fake_mask: Tensor | None = None
+) -> Tensor:
     """Discriminator side of Eq. 21 (LSGAN, real → 1, fake → 0): ``(h_real − 1)² + h_fake²``.
 
     See :func:`adversarial_loss_generator` for how this maps onto the printed equation. No 1/2
@@ -65,7 +71,7 @@ def adversarial_loss_discriminator(h_real: Tensor, h_fake: Tensor,
             no sample is selected the fake term is 0.
     """
     real = ((h_real - 1.0) ** 2).mean()
-    fake = h_fake ** 2
+    fake = h_fake**2
     if fake_mask is None:
         return real + fake.mean()
     per_sample = reduce_elements(fake, "per_sample")
@@ -73,9 +79,14 @@ def adversarial_loss_discriminator(h_real: Tensor, h_fake: Tensor,
     return real + (per_sample * w).sum() / w.sum().clamp_min(1.0)
 
 
-def adversarial_loss(h_fake: Tensor, x_a: MotionTensors, x_b_hat: MotionTensors,
-                     same_character: Tensor, gan: Literal["lsgan", "sigmoid_ce"] = "lsgan",
-                     reduction: Reduction = "mean") -> Tensor:
+def adversarial_loss(
+    h_fake: Tensor,
+    x_a: MotionTensors,
+    x_b_hat: MotionTensors,
+    same_character: Tensor,
+    gan: Literal["lsgan", "sigmoid_ce"] = "lsgan",
+    reduction: Reduction = "mean",
+) -> Tensor:
     """Generator's ``La`` with Eq. 21's two cases chosen per sample, averaged over the batch.
 
     For sample ``i``: ``‖x^A − x̂^B‖²`` (:func:`reconstruction_loss`) if ``same_character[i]``

@@ -32,8 +32,18 @@ import torch
 Tensor = torch.Tensor
 Reduction = Literal["mean", "per_sample", "frame_sum", "per_sample_frame_sum"]
 
-__all__ = ["MotionTensors", "NonFiniteLossError", "PositionScale", "Reduction", "check_finite", "check_last_dim",
-           "motion_mse", "per_sample", "reduce_elements", "smooth_l1"]
+__all__ = [
+    "MotionTensors",
+    "NonFiniteLossError",
+    "PositionScale",
+    "Reduction",
+    "check_finite",
+    "check_last_dim",
+    "motion_mse",
+    "per_sample",
+    "reduce_elements",
+    "smooth_l1",
+]
 
 
 class MotionTensors(NamedTuple):
@@ -69,17 +79,23 @@ class PositionScale(NamedTuple):
     r_std: Tensor
 
     @classmethod
-    def fit(cls, p: Tensor, r: Tensor, min_std: float = 0.01) -> "PositionScale":
+    def fit(cls, p: Tensor, r: Tensor, min_std: float = 0.01) -> PositionScale:
         """Fit on ``p (B, T, J, 3)`` and ``r (B, T, 3)``; ``min_std`` in metres (1 cm)."""
         check_last_dim("p", p, 3, 4)
         check_last_dim("r", r, 3, 3)
         p_flat, r_flat = p.reshape(-1, *p.shape[2:]), r.reshape(-1, 3)
-        return cls(p_flat.mean(0), p_flat.std(0).clamp_min(min_std),
-                   r_flat.mean(0), r_flat.std(0).clamp_min(min_std))
+        return cls(
+            p_flat.mean(0),
+            p_flat.std(0).clamp_min(min_std),
+            r_flat.mean(0),
+            r_flat.std(0).clamp_min(min_std),
+        )
 
     def apply(self, x: MotionTensors) -> MotionTensors:
         """``x`` with ``p`` and ``r`` standardised (``q`` unchanged)."""
-        return MotionTensors((x.p - self.p_mean) / self.p_std, x.q, (x.r - self.r_mean) / self.r_std)
+        return MotionTensors(
+            (x.p - self.p_mean) / self.p_std, x.q, (x.r - self.r_mean) / self.r_std
+        )
 
 
 class NonFiniteLossError(FloatingPointError):
@@ -107,7 +123,8 @@ def check_finite(name: str, tensor: Tensor) -> Tensor:
         n_nan = int(torch.isnan(t).sum())
         n_inf = int(torch.isinf(t).sum())
         raise NonFiniteLossError(
-            f"loss term {name!r} is not finite: {n_nan} NaN, {n_inf} inf of {t.numel()} values")
+            f"loss term {name!r} is not finite: {n_nan} NaN, {n_inf} inf of {t.numel()} values"
+        )
     return tensor
 
 
@@ -125,10 +142,16 @@ def reduce_elements(x: Tensor, reduction: Reduction) -> Tensor:
     if reduction == "per_sample":
         return x.reshape(x.shape[0], -1).mean(dim=1)
     if reduction in ("frame_sum", "per_sample_frame_sum"):
-        per_frame = x.reshape(x.shape[0], x.shape[1], -1).sum(-1) if x.dim() > 2 else x.reshape(x.shape[0], -1)
+        per_frame = (
+            x.reshape(x.shape[0], x.shape[1], -1).sum(-1)
+            if x.dim() > 2
+            else x.reshape(x.shape[0], -1)
+        )
         return per_frame.mean() if reduction == "frame_sum" else per_frame.mean(dim=1)
-    raise ValueError("reduction must be 'mean', 'per_sample', 'frame_sum' or 'per_sample_frame_sum', "
-                     f"got {reduction!r}")
+    raise ValueError(
+        "reduction must be 'mean', 'per_sample', 'frame_sum' or 'per_sample_frame_sum', "
+        f"got {reduction!r}"
+    )
 
 
 def per_sample(reduction: Reduction) -> Reduction:
@@ -157,5 +180,8 @@ def motion_mse(x: MotionTensors, y: MotionTensors, reduction: Reduction) -> Tens
     for name, a, b in (("p", x.p, y.p), ("q", x.q, y.q), ("r", x.r, y.r)):
         if a.shape != b.shape:
             raise ValueError(f"{name}: shapes differ, {tuple(a.shape)} vs {tuple(b.shape)}")
-    return (reduce_elements((x.p - y.p) ** 2, reduction) + reduce_elements((x.q - y.q) ** 2, reduction)
-            + reduce_elements((x.r - y.r) ** 2, reduction))
+    return (
+        reduce_elements((x.p - y.p) ** 2, reduction)
+        + reduce_elements((x.q - y.q) ** 2, reduction)
+        + reduce_elements((x.r - y.r) ** 2, reduction)
+    )

@@ -32,18 +32,34 @@ the same maths as :func:`height_loss` — pass NKN's per-frame root offsets
 from __future__ import annotations
 
 import math
-from typing import Literal, Sequence
+from collections.abc import Sequence
+from typing import Literal
 
 import torch
 
 from ...core.quantities import normalized_joint_displacements, normalized_root_distances
 from ...core.rotations import quat_angle
-from .tensors import MotionTensors, Reduction, check_last_dim, motion_mse, reduce_elements, smooth_l1
+from .tensors import (
+    MotionTensors,
+    Reduction,
+    check_last_dim,
+    motion_mse,
+    reduce_elements,
+    smooth_l1,
+)
 
 Tensor = torch.Tensor
 
-__all__ = ["bone_direction_loss", "cycle_loss", "height_loss", "orientation_loss", "reconstruction_loss",
-           "regularization_loss", "twist_loss", "twist_penalty"]
+__all__ = [
+    "bone_direction_loss",
+    "cycle_loss",
+    "height_loss",
+    "orientation_loss",
+    "reconstruction_loss",
+    "regularization_loss",
+    "twist_loss",
+    "twist_penalty",
+]
 
 
 # --------------------------------------------------------------------------------------------
@@ -71,8 +87,9 @@ def cycle_loss(x_a: MotionTensors, x_a_hat: MotionTensors, reduction: Reduction 
     return motion_mse(x_a, x_a_hat, reduction)
 
 
-def reconstruction_loss(x_a: MotionTensors, x_b_hat: MotionTensors,
-                        reduction: Reduction = "mean") -> Tensor:
+def reconstruction_loss(
+    x_a: MotionTensors, x_b_hat: MotionTensors, reduction: Reduction = "mean"
+) -> Tensor:
     """``‖x^A − x̂^B‖²₂`` — Eq. 21's second case, used in place of the GAN term when ``A = B``.
 
     When the sampled target is the source itself, the right answer is known (``x̂^B = x^A``), so
@@ -91,7 +108,9 @@ def reconstruction_loss(x_a: MotionTensors, x_b_hat: MotionTensors,
 # --------------------------------------------------------------------------------------------
 
 
-def _sum_over_rotations(per_element, q_b_hat: Tensor, q_a_hat: Tensor | None, reduction: Reduction) -> Tensor:
+def _sum_over_rotations(
+    per_element, q_b_hat: Tensor, q_a_hat: Tensor | None, reduction: Reduction
+) -> Tensor:
     """``reduce(per_element(q̂B)) + reduce(per_element(q̂A))`` (Eqs. 8 and 22 sum one term per
     rotation set); ``q_a_hat=None`` omits the second. Both are ``(B, T, J, 4)``."""
     total = 0.0
@@ -103,8 +122,9 @@ def _sum_over_rotations(per_element, q_b_hat: Tensor, q_a_hat: Tensor | None, re
     return total
 
 
-def twist_penalty(q: Tensor, alpha_deg: float = 100.0,
-                  reading: Literal["intended", "literal"] = "intended") -> Tensor:
+def twist_penalty(
+    q: Tensor, alpha_deg: float = 100.0, reading: Literal["intended", "literal"] = "intended"
+) -> Tensor:
     """Element-wise joint-twist penalty of Eq. 8 (before reduction), for plots.
 
     Args:
@@ -123,9 +143,14 @@ def twist_penalty(q: Tensor, alpha_deg: float = 100.0,
     raise ValueError(f"reading must be 'intended' or 'literal', got {reading!r}")
 
 
-def twist_loss(q_b_hat: Tensor, q_a_hat: Tensor | None = None, alpha_deg: float = 100.0,
-               reading: Literal["intended", "literal"] = "intended", exclude_root: bool = False,
-               reduction: Reduction = "mean") -> Tensor:
+def twist_loss(
+    q_b_hat: Tensor,
+    q_a_hat: Tensor | None = None,
+    alpha_deg: float = 100.0,
+    reading: Literal["intended", "literal"] = "intended",
+    exclude_root: bool = False,
+    reduction: Reduction = "mean",
+) -> Tensor:
     """Joint-twist loss ``Lt`` (Eq. 8): penalise joint rotation angles beyond α.
 
     ``Lt = ‖max(0, E(q̂^B) − α)‖²₂ + ‖max(0, E(q̂^A) − α)‖²₂`` with ``E`` the rotation angle
@@ -153,6 +178,7 @@ def twist_loss(q_b_hat: Tensor, q_a_hat: Tensor | None = None, alpha_deg: float 
         exclude_root: skip joint 0 (the root's orientation is the heading, not a twist).
         reduction: ``"mean"`` → scalar; ``"per_sample"`` → ``(B,)``.
     """
+
     def penalty(q: Tensor) -> Tensor:
         return twist_penalty(q[:, :, 1:] if exclude_root else q, alpha_deg, reading)
 
@@ -164,8 +190,16 @@ def twist_loss(q_b_hat: Tensor, q_a_hat: Tensor | None = None, alpha_deg: float 
 # --------------------------------------------------------------------------------------------
 
 
-def height_loss(p_a: Tensor, p_b_hat: Tensor, r_a: Tensor, r_b_hat: Tensor, h_a, h_b,
-                lambda_g: float = 5.0, reduction: Reduction = "mean") -> Tensor:
+def height_loss(
+    p_a: Tensor,
+    p_b_hat: Tensor,
+    r_a: Tensor,
+    r_b_hat: Tensor,
+    h_a,
+    h_b,
+    lambda_g: float = 5.0,
+    reduction: Reduction = "mean",
+) -> Tensor:
     """Height loss ``Lh`` (Eqs. 9-17): B's motion should be A's, scaled by the height ratio.
 
     ``Lh = smoothL1(l^A_{2:T} − l̂^B_{2:T}) + λg · smoothL1(m^A_{2:T} − m̂^B_{2:T})`` with
@@ -198,8 +232,10 @@ def height_loss(p_a: Tensor, p_b_hat: Tensor, r_a: Tensor, r_b_hat: Tensor, h_a,
         reduction: ``"mean"`` → scalar; ``"per_sample"`` → ``(B,)``.
     """
     if p_a.shape != p_b_hat.shape or r_a.shape != r_b_hat.shape:
-        raise ValueError(f"shape mismatch: p {tuple(p_a.shape)} vs {tuple(p_b_hat.shape)}, "
-                         f"r {tuple(r_a.shape)} vs {tuple(r_b_hat.shape)}")
+        raise ValueError(
+            f"shape mismatch: p {tuple(p_a.shape)} vs {tuple(p_b_hat.shape)}, "
+            f"r {tuple(r_a.shape)} vs {tuple(r_b_hat.shape)}"
+        )
     l_a = normalized_joint_displacements(p_a, h_a)
     l_b = normalized_joint_displacements(p_b_hat, h_b)
     m_a = normalized_root_distances(r_a, h_a)[:, 1:]
@@ -207,8 +243,9 @@ def height_loss(p_a: Tensor, p_b_hat: Tensor, r_a: Tensor, r_b_hat: Tensor, h_a,
     return smooth_l1(l_a - l_b, reduction) + lambda_g * smooth_l1(m_a - m_b, reduction)
 
 
-def bone_direction_loss(p_a: Tensor, p_b_hat: Tensor, parents: Sequence[int],
-                        reduction: Reduction = "mean") -> Tensor:
+def bone_direction_loss(
+    p_a: Tensor, p_b_hat: Tensor, parents: Sequence[int], reduction: Reduction = "mean"
+) -> Tensor:
     """Bone-direction term ``Ld = mean_j ‖u^B_j − u^A_j‖²`` — not in the TDCN paper (weight 0 there).
 
     ``u_j = (p_j − p_parent(j)) / ‖p_j − p_parent(j)‖`` is the world direction of the bone that ends
@@ -243,8 +280,9 @@ def bone_direction_loss(p_a: Tensor, p_b_hat: Tensor, parents: Sequence[int],
 # --------------------------------------------------------------------------------------------
 
 
-def regularization_loss(q_b_hat: Tensor, q_a_hat: Tensor | None = None,
-                        reduction: Reduction = "mean") -> Tensor:
+def regularization_loss(
+    q_b_hat: Tensor, q_a_hat: Tensor | None = None, reduction: Reduction = "mean"
+) -> Tensor:
     """Quaternion-norm regulariser ``Lr = (1 − ‖q̂^B‖)² + (1 − ‖q̂^A‖)²`` (Eq. 22, after Pavllo 2018).
 
     Apply to the network's **raw** quaternions, before normalisation (normalised ones cost 0).
@@ -256,8 +294,9 @@ def regularization_loss(q_b_hat: Tensor, q_a_hat: Tensor | None = None,
         q_a_hat: ``(B, T, J, 4)`` raw ``q̂^A``, or ``None`` to omit.
         reduction: ``"mean"`` → scalar; ``"per_sample"`` → ``(B,)``.
     """
-    return _sum_over_rotations(lambda q: (1.0 - torch.linalg.vector_norm(q, dim=-1)) ** 2,
-                               q_b_hat, q_a_hat, reduction)
+    return _sum_over_rotations(
+        lambda q: (1.0 - torch.linalg.vector_norm(q, dim=-1)) ** 2, q_b_hat, q_a_hat, reduction
+    )
 
 
 def orientation_loss(theta_a: Tensor, theta_b_hat: Tensor, reduction: Reduction = "mean") -> Tensor:

@@ -3,8 +3,8 @@ total, each term checked finite."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Mapping
 
 import torch
 
@@ -38,14 +38,19 @@ class TDCNLossWeights:
 
 #: term name (as in Eq. 6, also the CSV column) -> its weight's field in :class:`TDCNLossWeights`
 TERM_WEIGHTS: dict[str, str] = {
-    "Lc": "lambda_c", "Lt": "lambda_t", "Lh": "lambda_h",
-    "La": "lambda_a", "Lr": "lambda_r", "Lo": "lambda_o", "Ld": "lambda_d",
+    "Lc": "lambda_c",
+    "Lt": "lambda_t",
+    "Lh": "lambda_h",
+    "La": "lambda_a",
+    "Lr": "lambda_r",
+    "Lo": "lambda_o",
+    "Ld": "lambda_d",
 }
 
 
-def total_generator_loss(terms: Mapping[str, Tensor],
-                         weights: TDCNLossWeights | None = None,
-                         check: bool = True) -> tuple[Tensor, dict[str, float]]:
+def total_generator_loss(
+    terms: Mapping[str, Tensor], weights: TDCNLossWeights | None = None, check: bool = True
+) -> tuple[Tensor, dict[str, float]]:
     """Generator side of Eq. 6: ``Lc + λt Lt + λh Lh + λa La + λr Lr + λo Lo``.
 
     Args:

@@ -9,5 +9,15 @@ from .optimise import EsoResult, encoder_space_optimization, eso_throughput
 from .source import EsoSource, eso_source
 from .step import COMPILE_FROM_FRAMES, use_compiled
 
-__all__ = ["COMPILE_FROM_FRAMES", "EsoResult", "EsoSource", "TERMS", "encoder_space_optimization", "eso_source",
-           "eso_throughput", "reachable_pairs", "reached_joints", "use_compiled"]
+__all__ = [
+    "COMPILE_FROM_FRAMES",
+    "EsoResult",
+    "EsoSource",
+    "TERMS",
+    "encoder_space_optimization",
+    "eso_source",
+    "eso_throughput",
+    "reachable_pairs",
+    "reached_joints",
+    "use_compiled",
+]

@@ -17,15 +17,34 @@ from ...core.skeleton import J
 from ...core.skinning import linear_blend_skinning
 from ...geometry.penetration import PADDING_PAIR, InterpenetrationEnergy, PairPlan
 from ...losses.contact import ContactEnergyWeights
-from ...models.georet import DecoderGates, DecoderState, GeometryConditionedRNN, ResidualBase, TargetContext
+from ...models.georet import (
+    DecoderGates,
+    DecoderState,
+    GeometryConditionedRNN,
+    ResidualBase,
+    TargetContext,
+)
 
 Tensor = torch.Tensor
 
-__all__ = ["Constants", "DETECTION_WORKERS", "Frame", "FrameInputs", "J_COUNT", "Pose", "Problem",
-           "contact_pairs_at", "decode", "reachable_pairs", "reached_joints", "skinned"]
+__all__ = [
+    "Constants",
+    "DETECTION_WORKERS",
+    "Frame",
+    "FrameInputs",
+    "J_COUNT",
+    "Pose",
+    "Problem",
+    "contact_pairs_at",
+    "decode",
+    "reachable_pairs",
+    "reached_joints",
+    "skinned",
+]
 
 HAND_JOINTS: tuple[int, ...] = (J["LeftHand"], J["RightHand"])
 J_COUNT = len(J)
+
 
 def reachable_pairs(pairs: np.ndarray, vertices: Tensor, reach: float) -> np.ndarray:
     """The contact pairs within ``reach`` metres in ``vertices`` (App. B.1's 15 cm rule).
@@ -64,7 +83,9 @@ class Pose(NamedTuple):
     rotations: Tensor  # (1, 22, 4)
     state: DecoderState  # after frame t: its root_position is r_t, its root_velocity o_t
     positions: Tensor  # (1, 22, 3) global
-    vertices: Tensor | None  # (1, U, 3): the U vertices skinned (FrameInputs.rest_vertices posed), or None
+    vertices: (
+        Tensor | None
+    )  # (1, U, 3): the U vertices skinned (FrameInputs.rest_vertices posed), or None
 
 
 def skinned(pose: Pose) -> Tensor:
@@ -108,6 +129,7 @@ class FrameInputs(NamedTuple):
     src_prev_velocity: Tensor  # (1, 3) o^A_(t−1)
     foot_contacts: Tensor  # (1, 2, 4) float
 
+
 #: threads detecting colliding triangles (ESO's own steps run on one thread)
 DETECTION_WORKERS = min(2, os.cpu_count() or 1)
 
@@ -116,27 +138,46 @@ DETECTION_WORKERS = min(2, os.cpu_count() or 1)
 _COMPILED_MIN = 2
 
 
-def decode(model: GeometryConditionedRNN, constants: Constants, state: DecoderState, gates: DecoderGates,
-           base: ResidualBase | None, h_enc: Tensor, o_prev: Tensor, rest_vertices: Tensor,
-           skin_weights: Tensor) -> Pose:
+def decode(
+    model: GeometryConditionedRNN,
+    constants: Constants,
+    state: DecoderState,
+    gates: DecoderGates,
+    base: ResidualBase | None,
+    h_enc: Tensor,
+    o_prev: Tensor,
+    rest_vertices: Tensor,
+    skin_weights: Tensor,
+) -> Pose:
     """Decode frame ``t`` from ``h^enc_t`` with ``o_(t−1)`` swapped into ``state`` (``gates``: its
     :meth:`~GeometryConditionedRNN.decoder_gates`), then FK and the LBS of the given ``(U, 3)``
     rest vertices (none when ``U = 0``)."""
-    rot, _, new_state = model.decode_step(h_enc, state._replace(root_velocity=o_prev), constants.context, base,
-                                          gates)
+    rot, _, new_state = model.decode_step(
+        h_enc, state._replace(root_velocity=o_prev), constants.context, base, gates
+    )
     pos = new_state.local_positions + new_state.root_position[:, None]  # Eq. 18
     verts = None
     if rest_vertices.shape[0]:
-        verts = linear_blend_skinning(rest_vertices, skin_weights, constants.rest_joints,
-                                      new_state.global_rotations, pos)
+        verts = linear_blend_skinning(
+            rest_vertices, skin_weights, constants.rest_joints, new_state.global_rotations, pos
+        )
     return Pose(rot, new_state, pos, verts)
 
 
 class Frame:
     """The fixed data of one frame's ESO problem: its state, contacts, held joints, colliding pairs."""
 
-    def __init__(self, t: int, problem: "Problem", constants: Constants, state: DecoderState,
-                 h_enc: Tensor, previous: "Pose | None", redetect_every: int, padded: bool):
+    def __init__(
+        self,
+        t: int,
+        problem: Problem,
+        constants: Constants,
+        state: DecoderState,
+        h_enc: Tensor,
+        previous: Pose | None,
+        redetect_every: int,
+        padded: bool,
+    ):
         p = problem
         self.t, self.problem = t, p
         self.state = state
@@ -144,8 +185,17 @@ class Frame:
         self.redetect_every, self.padded = redetect_every, padded
         with torch.no_grad():
             self.gates = p.model.decoder_gates(state, constants.context)
-            self.initial = decode(p.model, constants, state, self.gates, self.base, h_enc, state.root_velocity,
-                                  p.rest_vertices, p.skin_weights_t)
+            self.initial = decode(
+                p.model,
+                constants,
+                state,
+                self.gates,
+                self.base,
+                h_enc,
+                state.root_velocity,
+                p.rest_vertices,
+                p.skin_weights_t,
+            )
         self.previous = (previous or self.initial).positions  # (1, 22, 3); frame t's own at t = 0
         pairs = p.contacts_at(t) if p.weights.j2j_weight > 0 else np.zeros((0, 2), np.int64)
         self.pairs = reachable_pairs(pairs, skinned(self.initial), p.reach) if len(pairs) else pairs
@@ -186,7 +236,9 @@ class Frame:
             pairs = np.concatenate([pairs, np.tile([[0, min(1, nv - 1)]], (extra, 1))])
             mask = np.concatenate([mask, np.zeros(extra)])
             if uses_int:  # the plan's padding faces: their vertices must be among the U read
-                collisions = np.concatenate([collisions, np.tile([PADDING_PAIR], (_COMPILED_MIN, 1))])
+                collisions = np.concatenate(
+                    [collisions, np.tile([PADDING_PAIR], (_COMPILED_MIN, 1))]
+                )
         ids = self.mesh_vertices(pairs, collisions if uses_int else collisions[:0])
         where = np.full(nv, -1, np.int64)
         where[ids] = np.arange(len(ids))
@@ -195,17 +247,34 @@ class Frame:
         hold[list(self.reached)] = 1.0
         eint = None
         if uses_int:
-            eint = p.eint().plan([self.collisions], vertex_index=where,
-                                           min_pairs=_COMPILED_MIN if self.padded else 0, device=device)
+            eint = p.eint().plan(
+                [self.collisions],
+                vertex_index=where,
+                min_pairs=_COMPILED_MIN if self.padded else 0,
+                device=device,
+            )
         src, t = p.source, self.t
         contact = torch.as_tensor(p.foot_contacts[t], device=device).to(dtype)
-        return _fresh(FrameInputs(
-            self.state, self.gates, self.base, p.rest_vertices[index], p.skin_weights_t[index],
-            torch.as_tensor(where[pairs], device=device), torch.as_tensor(mask, dtype=dtype, device=device),
-            skinned(self.initial)[index], hold, self.initial.positions[0], eint, self.previous,
-            torch.stack((src.positions[max(t - 1, 0)], src.positions[t]))[None], src.rotations[t][None],
-            src.root_velocity[t - 1][None] if t > 0 else src.root_velocity.new_zeros(1, 3),
-            torch.stack((contact, contact))[None]))
+        return _fresh(
+            FrameInputs(
+                self.state,
+                self.gates,
+                self.base,
+                p.rest_vertices[index],
+                p.skin_weights_t[index],
+                torch.as_tensor(where[pairs], device=device),
+                torch.as_tensor(mask, dtype=dtype, device=device),
+                skinned(self.initial)[index],
+                hold,
+                self.initial.positions[0],
+                eint,
+                self.previous,
+                torch.stack((src.positions[max(t - 1, 0)], src.positions[t]))[None],
+                src.rotations[t][None],
+                src.root_velocity[t - 1][None] if t > 0 else src.root_velocity.new_zeros(1, 3),
+                torch.stack((contact, contact))[None],
+            )
+        )
 
 
 def _fresh(inputs: Any) -> Any:
@@ -222,12 +291,27 @@ class Problem:
     """Constants shared by every frame: the model, target, source and settings (on the model's
     device)."""
 
-    def __init__(self, model: GeometryConditionedRNN, target: Any, source: MotionQuantities, leg_ratio: float,
-                 foot_contacts: np.ndarray, contacts: Any, interpenetration: InterpenetrationEnergy | None,
-                 weights: ContactEnergyWeights, reach: float, blend: float):
+    def __init__(
+        self,
+        model: GeometryConditionedRNN,
+        target: Any,
+        source: MotionQuantities,
+        leg_ratio: float,
+        foot_contacts: np.ndarray,
+        contacts: Any,
+        interpenetration: InterpenetrationEnergy | None,
+        weights: ContactEnergyWeights,
+        reach: float,
+        blend: float,
+    ):
         weight = model.rotation_head.weight
         as_model = lambda a: torch.as_tensor(a, dtype=weight.dtype, device=weight.device)  # noqa: E731
-        self.model, self.weights, self.reach, self.blend = model, weights, float(reach), float(blend)
+        self.model, self.weights, self.reach, self.blend = (
+            model,
+            weights,
+            float(reach),
+            float(blend),
+        )
         self.offsets = as_model(target.skeleton.offsets)
         self.rest_joints = as_model(target.skeleton.rest_positions())
         self.rest_vertices = as_model(np.asarray(target.rest_vertices))
@@ -235,11 +319,17 @@ class Problem:
         self.skin_weights_t = as_model(self.skin_weights)
         self.height = float(target.height)
         self.ground_heights = as_model(foot_rest_heights(target.skeleton))
-        self.source = MotionQuantities(as_model(source.rotations), as_model(source.root_velocity),
-                                       as_model(source.positions), float(source.height))
+        self.source = MotionQuantities(
+            as_model(source.rotations),
+            as_model(source.root_velocity),
+            as_model(source.positions),
+            float(source.height),
+        )
         self.leg_ratio = float(leg_ratio)
         #: what a residual network corrects (Eweak's targets θ^A, o^(A→B)); ignored by the paper's network
-        self.base = ResidualBase(self.source.rotations[None], self.leg_ratio * self.source.root_velocity[None])
+        self.base = ResidualBase(
+            self.source.rotations[None], self.leg_ratio * self.source.root_velocity[None]
+        )
         self.foot_contacts = np.asarray(foot_contacts, dtype=bool)
         self.contacts = contacts
         self.interpenetration = interpenetration
@@ -247,8 +337,14 @@ class Problem:
 
     def constants(self, context: TargetContext) -> Constants:
         scalar = lambda x: torch.tensor(x, dtype=self.offsets.dtype, device=self.offsets.device)  # noqa: E731
-        return Constants(context, self.rest_joints, self.ground_heights, scalar(self.height),
-                         scalar(self.source.height), scalar(self.leg_ratio))
+        return Constants(
+            context,
+            self.rest_joints,
+            self.ground_heights,
+            scalar(self.height),
+            scalar(self.source.height),
+            scalar(self.leg_ratio),
+        )
 
     def contacts_at(self, t: int) -> np.ndarray:
         return contact_pairs_at(self.contacts, t)

@@ -56,7 +56,8 @@ their tensors are one frame each.
 from __future__ import annotations
 
 import time
-from typing import Any, Callable, NamedTuple
+from collections.abc import Callable
+from typing import Any, NamedTuple
 
 import numpy as np
 import torch
@@ -112,22 +113,42 @@ class EsoResult(NamedTuple):
 def _check_inputs(features: Tensor, source: MotionQuantities, foot_contacts: np.ndarray) -> int:
     t = features.shape[1]
     if features.dim() != 3 or features.shape[0] != 1:
-        raise ValueError(f"source_features must be (T, 267) or (1, T, 267), got {tuple(features.shape)}")
-    if source.rotations.shape[0] != t or source.positions.shape[0] != t or source.root_velocity.shape[0] != t:
-        raise ValueError(f"source quantities must have T = {t} frames, got {tuple(source.rotations.shape)}")
+        raise ValueError(
+            f"source_features must be (T, 267) or (1, T, 267), got {tuple(features.shape)}"
+        )
+    if (
+        source.rotations.shape[0] != t
+        or source.positions.shape[0] != t
+        or source.root_velocity.shape[0] != t
+    ):
+        raise ValueError(
+            f"source quantities must have T = {t} frames, got {tuple(source.rotations.shape)}"
+        )
     if np.shape(foot_contacts) != (t, 4):
         raise ValueError(f"foot_contacts must be ({t}, 4), got {np.shape(foot_contacts)}")
     return t
 
 
-def encoder_space_optimization(model: GeometryConditionedRNN, source_features: Tensor, target: Any,
-                               source: MotionQuantities, foot_contacts: np.ndarray, leg_ratio: float,
-                               contacts: Any = None, interpenetration: InterpenetrationEnergy | None = None,
-                               weights: ContactEnergyWeights | None = None, iterations: int = 30,
-                               lr: float = 0.01, reach: float = 0.15, blend: float = 0.3,
-                               start: Tensor | None = None, redetect_every: int = 0,
-                               num_threads: int | None = 1, keep_iterates: bool = False,
-                               compile: bool = False) -> EsoResult:
+def encoder_space_optimization(
+    model: GeometryConditionedRNN,
+    source_features: Tensor,
+    target: Any,
+    source: MotionQuantities,
+    foot_contacts: np.ndarray,
+    leg_ratio: float,
+    contacts: Any = None,
+    interpenetration: InterpenetrationEnergy | None = None,
+    weights: ContactEnergyWeights | None = None,
+    iterations: int = 30,
+    lr: float = 0.01,
+    reach: float = 0.15,
+    blend: float = 0.3,
+    start: Tensor | None = None,
+    redetect_every: int = 0,
+    num_threads: int | None = 1,
+    keep_iterates: bool = False,
+    compile: bool = False,
+) -> EsoResult:
     """Retarget with the RNN and refine every frame by ESO (Sec. 3.3, Eqs. 10-11, App. B.1).
 
     Args:
@@ -174,9 +195,21 @@ def encoder_space_optimization(model: GeometryConditionedRNN, source_features: T
     features = source_features[None] if source_features.dim() == 2 else source_features
     num_frames = _check_inputs(features, source, foot_contacts)
     if iterations < 0 or redetect_every < 0:
-        raise ValueError(f"iterations and redetect_every must be >= 0, got {iterations}, {redetect_every}")
-    problem = Problem(model, target, source, leg_ratio, foot_contacts, contacts, interpenetration, weights,
-                      reach, blend)
+        raise ValueError(
+            f"iterations and redetect_every must be >= 0, got {iterations}, {redetect_every}"
+        )
+    problem = Problem(
+        model,
+        target,
+        source,
+        leg_ratio,
+        foot_contacts,
+        contacts,
+        interpenetration,
+        weights,
+        reach,
+        blend,
+    )
     if start is None:
         start = problem.leg_ratio * problem.source.positions[0, 0]
     step = compiled_step() if compile else adam_step
@@ -191,16 +224,28 @@ def encoder_space_optimization(model: GeometryConditionedRNN, source_features: T
     try:
         with torch.no_grad():
             h_enc = model.encode(features.to(problem.offsets.device, problem.offsets.dtype))[0]
-            context = model.target_context(problem.offsets, problem.rest_vertices[None],
-                                           problem.skin_weights_t[None], problem.height)
+            context = model.target_context(
+                problem.offsets,
+                problem.rest_vertices[None],
+                problem.skin_weights_t[None],
+                problem.height,
+            )
         constants = problem.constants(context)
         state = model.initial_state(context, start)
         log = _Log(num_frames, iterations, keep_iterates)
         frames: list[Pose] = []
         for t in range(num_frames):
-            frame = Frame(t, problem, constants, state, h_enc[t:t + 1], frames[-1] if frames else None,
-                          redetect_every, padded=compile)
-            pose = _optimise_frame(frame, constants, h_enc[t:t + 1], iterations, lr, log, step)
+            frame = Frame(
+                t,
+                problem,
+                constants,
+                state,
+                h_enc[t : t + 1],
+                frames[-1] if frames else None,
+                redetect_every,
+                padded=compile,
+            )
+            pose = _optimise_frame(frame, constants, h_enc[t : t + 1], iterations, lr, log, step)
             frames.append(pose)
             state = pose.state
     finally:
@@ -208,17 +253,25 @@ def encoder_space_optimization(model: GeometryConditionedRNN, source_features: T
         model.train(was_training)
         for p, flag in zip(model.parameters(), grad_flags):
             p.requires_grad_(flag)
-    return EsoResult(torch.cat([f.rotations for f in frames]).cpu(),
-                     torch.cat([f.state.root_position for f in frames]).cpu(),
-                     torch.cat([f.positions for f in frames]).cpu(), log.values[..., -1],
-                     {k: log.values[..., i] for i, k in enumerate(TERMS)},
-                     torch.as_tensor(log.active), torch.as_tensor(log.collisions), time.perf_counter() - began,
-                     log.rotations, log.roots)
+    return EsoResult(
+        torch.cat([f.rotations for f in frames]).cpu(),
+        torch.cat([f.state.root_position for f in frames]).cpu(),
+        torch.cat([f.positions for f in frames]).cpu(),
+        log.values[..., -1],
+        {k: log.values[..., i] for i, k in enumerate(TERMS)},
+        torch.as_tensor(log.active),
+        torch.as_tensor(log.collisions),
+        time.perf_counter() - began,
+        log.rotations,
+        log.roots,
+    )
 
 
 class _Log:
     def __init__(self, frames: int, iterations: int, keep_iterates: bool = False):
-        self.values = torch.zeros(frames, iterations + 1, len(TERMS) + 1)  # the terms, then the total
+        self.values = torch.zeros(
+            frames, iterations + 1, len(TERMS) + 1
+        )  # the terms, then the total
         self.active = [0] * frames
         self.collisions = [0] * frames
         self.rotations = torch.zeros(frames, iterations + 1, J_COUNT, 4) if keep_iterates else None
@@ -231,35 +284,64 @@ class _Log:
             self.roots[t, n] = pose.state.root_position[0].detach().cpu()
 
 
-def _optimise_frame(frame: Frame, constants: Constants, h_enc: Tensor, iterations: int, lr: float, log: _Log,
-                    step: Callable[..., tuple[tuple[Tensor, Tensor], AdamState, Tensor, Pose]]) -> Pose:
+def _optimise_frame(
+    frame: Frame,
+    constants: Constants,
+    h_enc: Tensor,
+    iterations: int,
+    lr: float,
+    log: _Log,
+    step: Callable[..., tuple[tuple[Tensor, Tensor], AdamState, Tensor, Pose]],
+) -> Pose:
     """Steps 3-4 of the module docstring for one frame (steps 1-2: :class:`Frame`); returns the
     kept pose (its state carried on). ``step``: :func:`adam_step`, compiled or not."""
     p, t = frame.problem, frame.t
     variables = (h_enc.clone(), frame.state.root_velocity.clone())
-    adam, rate = AdamState.start(variables), torch.tensor(lr, dtype=h_enc.dtype, device=h_enc.device)
+    adam, rate = (
+        AdamState.start(variables),
+        torch.tensor(lr, dtype=h_enc.dtype, device=h_enc.device),
+    )
     log.active[t], log.collisions[t] = len(frame.pairs), len(frame.collisions)
     inputs = frame.inputs()
     redetect = frame.redetect_every if frame.uses_int else 0
     for n in range(iterations):
         if redetect and n and n % redetect == 0:
             with torch.no_grad():
-                current = decode(p.model, constants, frame.state, frame.gates, frame.base, *variables,
-                                 p.rest_vertices, p.skin_weights_t)
+                current = decode(
+                    p.model,
+                    constants,
+                    frame.state,
+                    frame.gates,
+                    frame.base,
+                    *variables,
+                    p.rest_vertices,
+                    p.skin_weights_t,
+                )
             frame.detect(skinned(current))
             inputs = frame.inputs()
-        variables, adam, values, pose = step(p.model, p.weights, p.blend, p.cone, constants, inputs, variables,
-                                             adam, rate)
+        variables, adam, values, pose = step(
+            p.model, p.weights, p.blend, p.cone, constants, inputs, variables, adam, rate
+        )
         log.record(t, n, values, pose)
     # the same step again for the terms at the final values (its update unused): one compiled graph
-    _, _, values, final = step(p.model, p.weights, p.blend, p.cone, constants, inputs, variables, adam, rate)
+    _, _, values, final = step(
+        p.model, p.weights, p.blend, p.cone, constants, inputs, variables, adam, rate
+    )
     log.record(t, iterations, values, final)
     return Pose(final.rotations, final.state, final.positions, None)
 
 
-def eso_throughput(model: GeometryConditionedRNN, motion: Motion, target: Any, frames: int = 10,
-                   iterations: int = 30, interpenetration: InterpenetrationEnergy | None = None,
-                   contacts: Any = None, redetect_every: int = 0, compile: bool = False) -> dict[str, float]:
+def eso_throughput(
+    model: GeometryConditionedRNN,
+    motion: Motion,
+    target: Any,
+    frames: int = 10,
+    iterations: int = 30,
+    interpenetration: InterpenetrationEnergy | None = None,
+    contacts: Any = None,
+    redetect_every: int = 0,
+    compile: bool = False,
+) -> dict[str, float]:
     """Frames per second of :func:`encoder_space_optimization` on the first ``frames`` of a clip.
 
     Args:
@@ -281,16 +363,44 @@ def eso_throughput(model: GeometryConditionedRNN, motion: Motion, target: Any, f
     """
     if motion.num_frames < frames:
         raise ValueError(f"the motion has {motion.num_frames} frames, fewer than {frames}")
-    clip = motion.copy(rotations=motion.rotations[:frames], root_positions=motion.root_positions[:frames])
+    clip = motion.copy(
+        rotations=motion.rotations[:frames], root_positions=motion.root_positions[:frames]
+    )
     src = eso_source(clip, target, rest_aligned=model.residual)  # as the contact method prepares it
-    warm_up = src.quantities._replace(**{k: v[:1] for k, v in src.quantities._asdict().items() if k != "height"})
+    warm_up = src.quantities._replace(
+        **{k: v[:1] for k, v in src.quantities._asdict().items() if k != "height"}
+    )
     # first-call costs (lazy imports in torch.optim; the compilation) not timed
-    encoder_space_optimization(model, src.features[:, :1], target, warm_up, src.foot_contacts[:1], src.leg_ratio,
-                               contacts=[contact_pairs_at(contacts, 0)],
-                               interpenetration=interpenetration, iterations=2, compile=compile)
-    result = encoder_space_optimization(model, src.features, target, src.quantities, src.foot_contacts,
-                                        src.leg_ratio, contacts=contacts, interpenetration=interpenetration,
-                                        iterations=iterations, redetect_every=redetect_every, compile=compile)
-    return {"frames": float(frames), "iterations": float(iterations), "vertices": float(len(target.rest_vertices)),
-            "seconds": result.seconds, "frames_per_second": result.frames_per_second,
-            "colliding_pairs": float(result.colliding_pairs.float().mean())}
+    encoder_space_optimization(
+        model,
+        src.features[:, :1],
+        target,
+        warm_up,
+        src.foot_contacts[:1],
+        src.leg_ratio,
+        contacts=[contact_pairs_at(contacts, 0)],
+        interpenetration=interpenetration,
+        iterations=2,
+        compile=compile,
+    )
+    result = encoder_space_optimization(
+        model,
+        src.features,
+        target,
+        src.quantities,
+        src.foot_contacts,
+        src.leg_ratio,
+        contacts=contacts,
+        interpenetration=interpenetration,
+        iterations=iterations,
+        redetect_every=redetect_every,
+        compile=compile,
+    )
+    return {
+        "frames": float(frames),
+        "iterations": float(iterations),
+        "vertices": float(len(target.rest_vertices)),
+        "seconds": result.seconds,
+        "frames_per_second": result.frames_per_second,
+        "colliding_pairs": float(result.colliding_pairs.float().mean()),
+    }

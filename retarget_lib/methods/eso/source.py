@@ -10,7 +10,8 @@ import torch
 
 from ...core.measures import estimated_standing_height
 from ...core.motion import Motion
-from ...core.quantities import MotionQuantities, leg_ratio as skeleton_leg_ratio, motion_quantities
+from ...core.quantities import MotionQuantities, motion_quantities
+from ...core.quantities import leg_ratio as skeleton_leg_ratio
 from ...core.transfer import transfer_rotations
 from ...geometry.contacts import detect_foot_contacts
 from ...models.georet import motion_features
@@ -36,8 +37,9 @@ class EsoSource(NamedTuple):
     foot_contacts: np.ndarray
 
 
-def eso_source(motion: Motion, target: Any, foot_contacts: np.ndarray | None = None,
-               rest_aligned: bool = False) -> EsoSource:
+def eso_source(
+    motion: Motion, target: Any, foot_contacts: np.ndarray | None = None, rest_aligned: bool = False
+) -> EsoSource:
     """Prepare a canonical-22 source motion for :func:`encoder_space_optimization` on ``target``.
 
     Args:
@@ -57,8 +59,15 @@ def eso_source(motion: Motion, target: Any, foot_contacts: np.ndarray | None = N
         aligned = transfer_rotations(motion.rotations, motion.skeleton, target.skeleton)
         quantities = quantities._replace(rotations=torch.as_tensor(aligned, dtype=torch.float32))
     if foot_contacts is None:
-        foot_contacts = detect_foot_contacts(quantities.positions.double().numpy(), motion.skeleton,
-                                             estimated_standing_height(motion.skeleton))
+        foot_contacts = detect_foot_contacts(
+            quantities.positions.double().numpy(),
+            motion.skeleton,
+            estimated_standing_height(motion.skeleton),
+        )
     features = motion_features(rot[None], root[None], off, motion.skeleton.parents, height)
-    return EsoSource(features, quantities, skeleton_leg_ratio(motion.skeleton, target.skeleton),
-                     np.asarray(foot_contacts, dtype=bool))
+    return EsoSource(
+        features,
+        quantities,
+        skeleton_leg_ratio(motion.skeleton, target.skeleton),
+        np.asarray(foot_contacts, dtype=bool),
+    )

@@ -7,7 +7,8 @@ from __future__ import annotations
 import functools
 import shutil
 import warnings
-from typing import Callable, NamedTuple
+from collections.abc import Callable
+from typing import NamedTuple
 
 import torch
 
@@ -19,7 +20,15 @@ from .frame import Constants, FrameInputs, Pose
 
 Tensor = torch.Tensor
 
-__all__ = ["ADAM_BETAS", "ADAM_EPS", "AdamState", "COMPILE_FROM_FRAMES", "adam_step", "compiled_step", "use_compiled"]
+__all__ = [
+    "ADAM_BETAS",
+    "ADAM_EPS",
+    "AdamState",
+    "COMPILE_FROM_FRAMES",
+    "adam_step",
+    "compiled_step",
+    "use_compiled",
+]
 
 #: from this many frames, :func:`use_compiled` compiles ESO's step by default: the one-off
 #: compilation (about 2 minutes the first time on a machine, 19 s from inductor's disk cache after)
@@ -33,10 +42,15 @@ def use_compiled(frames: int, compile: bool | None = None) -> bool:
     (``None``) when the clip has :data:`COMPILE_FROM_FRAMES` frames or this process has compiled
     it already. Never without a C++ compiler (inductor's requirement; a warning says so once).
     """
-    wanted = compile if compile is not None else (
-        frames >= COMPILE_FROM_FRAMES or _compiled_in_process())
+    wanted = (
+        compile
+        if compile is not None
+        else (frames >= COMPILE_FROM_FRAMES or _compiled_in_process())
+    )
     if wanted and not _have_compiler():
-        warnings.warn("no C++ compiler (g++, c++ or clang++) on PATH: ESO runs uncompiled", stacklevel=2)
+        warnings.warn(
+            "no C++ compiler (g++, c++ or clang++) on PATH: ESO runs uncompiled", stacklevel=2
+        )
         return False
     return wanted
 
@@ -70,14 +84,22 @@ class AdamState(NamedTuple):
     steps: Tensor
 
     @classmethod
-    def start(cls, variables: tuple[Tensor, Tensor]) -> "AdamState":
+    def start(cls, variables: tuple[Tensor, Tensor]) -> AdamState:
         zeros = tuple(torch.zeros_like(v) for v in variables)
         return cls(zeros, zeros, variables[0].new_zeros(()))  # type: ignore[arg-type]
 
 
-def adam_step(model: GeometryConditionedRNN, weights: ContactEnergyWeights, blend: float, cone: dict[str, float],
-              constants: Constants, frame: FrameInputs, variables: tuple[Tensor, Tensor], adam: AdamState,
-              lr: Tensor) -> tuple[tuple[Tensor, Tensor], AdamState, Tensor, Pose]:
+def adam_step(
+    model: GeometryConditionedRNN,
+    weights: ContactEnergyWeights,
+    blend: float,
+    cone: dict[str, float],
+    constants: Constants,
+    frame: FrameInputs,
+    variables: tuple[Tensor, Tensor],
+    adam: AdamState,
+    lr: Tensor,
+) -> tuple[tuple[Tensor, Tensor], AdamState, Tensor, Pose]:
     """One ESO step: ``Efull(t)`` at ``variables = (h^enc_t, o_(t−1))`` (:func:`frame_terms`), its
     gradient (``torch.func.grad``) and Adam's update (Kingma & Ba 2015, the arithmetic of
     ``torch.optim.Adam``: ``m ← β1 m + (1 − β1) g``, ``v ← β2 v + (1 − β2) g²``,
@@ -90,13 +112,17 @@ def adam_step(model: GeometryConditionedRNN, weights: ContactEnergyWeights, blen
         ``(the updated variables, Adam's state, the terms and total at the given variables,
         the pose decoded from them)``.
     """
-    def energy(h_enc: Tensor, o_prev: Tensor) -> tuple[Tensor, tuple[Tensor, Tensor, DecoderState, Tensor]]:
+
+    def energy(
+        h_enc: Tensor, o_prev: Tensor
+    ) -> tuple[Tensor, tuple[Tensor, Tensor, DecoderState, Tensor]]:
         values, pose = frame_terms(model, weights, blend, cone, constants, frame, h_enc, o_prev)
         return values[-1], (values, pose.rotations, pose.state, pose.positions)  # tensors only
 
     if torch.compiler.is_compiling():  # functorch's transform is what a compiled graph can trace
-        grads, (values, rotations, state, positions) = torch.func.grad(energy, argnums=(0, 1),
-                                                                       has_aux=True)(*variables)
+        grads, (values, rotations, state, positions) = torch.func.grad(
+            energy, argnums=(0, 1), has_aux=True
+        )(*variables)
     else:  # eager, autograd's engine costs less per operation than the transform's wrappers
         with torch.enable_grad():
             leaves = tuple(v.detach().requires_grad_(True) for v in variables)
@@ -106,10 +132,12 @@ def adam_step(model: GeometryConditionedRNN, weights: ContactEnergyWeights, blen
         state = DecoderState(*(x.detach() for x in state))
     pose = Pose(rotations, state, positions, None)
     (beta1, beta2), count = ADAM_BETAS, adam.steps + 1
-    step = lr / (1 - beta1 ** count)
-    root_correction = (1 - beta2 ** count).sqrt()
+    step = lr / (1 - beta1**count)
+    root_correction = (1 - beta2**count).sqrt()
     first = tuple(m + (1 - beta1) * (g - m) for m, g in zip(adam.first, grads))
     second = tuple(beta2 * v + (1 - beta2) * g * g for v, g in zip(adam.second, grads))
-    moved = tuple(x - step * m / (v.sqrt() / root_correction + ADAM_EPS)
-                  for x, m, v in zip(variables, first, second))
+    moved = tuple(
+        x - step * m / (v.sqrt() / root_correction + ADAM_EPS)
+        for x, m, v in zip(variables, first, second)
+    )
     return moved, AdamState(first, second, count), values, pose  # type: ignore[arg-type]

@@ -26,9 +26,31 @@ its box or the canvas, overlapping text); the tests require it to be empty for e
 """
 
 from .canvas import layout_problems
-from .networks import dilation_offsets, georet_diagram, nkn_diagram, patch_discriminator_diagram, tdcn_generator_diagram
-from .pipelines import DATAFLOW_METHODS, dataflow_stages, eso_loop_diagram, method_dataflow_diagram, resolve_stage
+from .networks import (
+    dilation_offsets,
+    georet_diagram,
+    nkn_diagram,
+    patch_discriminator_diagram,
+    tdcn_generator_diagram,
+)
+from .pipelines import (
+    DATAFLOW_METHODS,
+    dataflow_stages,
+    eso_loop_diagram,
+    method_dataflow_diagram,
+    resolve_stage,
+)
 
-__all__ = ["tdcn_generator_diagram", "patch_discriminator_diagram", "nkn_diagram", "georet_diagram",
-           "eso_loop_diagram", "method_dataflow_diagram", "DATAFLOW_METHODS", "dataflow_stages", "dilation_offsets",
-           "layout_problems", "resolve_stage"]
+__all__ = [
+    "tdcn_generator_diagram",
+    "patch_discriminator_diagram",
+    "nkn_diagram",
+    "georet_diagram",
+    "eso_loop_diagram",
+    "method_dataflow_diagram",
+    "DATAFLOW_METHODS",
+    "dataflow_stages",
+    "dilation_offsets",
+    "layout_problems",
+    "resolve_stage",
+]

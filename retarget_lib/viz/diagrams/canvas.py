@@ -6,7 +6,8 @@ hard to read (text under 9 pt, outside its box or the canvas, overlapping text).
 from __future__ import annotations
 
 import io
-from typing import NamedTuple, Sequence
+from collections.abc import Sequence
+from typing import NamedTuple
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -21,8 +22,17 @@ MIN_FONT = 9.0
 FONT = 9.5
 _MONO = "DejaVu Sans Mono"
 #: fill colours by role
-COLORS = {"io": "#eeeeee", "data": "#e3ecf7", "conv": "#fbe7a1", "rnn": "#d9ead3", "head": "#cfe8f3",
-          "fk": "#f4d6e4", "opt": "#fdd9b5", "out": "#e6dcf2", "energy": "#f8cecc"}
+COLORS = {
+    "io": "#eeeeee",
+    "data": "#e3ecf7",
+    "conv": "#fbe7a1",
+    "rnn": "#d9ead3",
+    "head": "#cfe8f3",
+    "fk": "#f4d6e4",
+    "opt": "#fdd9b5",
+    "out": "#e6dcf2",
+    "energy": "#f8cecc",
+}
 _EDGE = "#555555"
 
 
@@ -79,42 +89,127 @@ class Canvas:
         if title:
             self.text(width / 2, height - 0.2, title, size=11, weight="bold")
 
-    def text(self, x: float, y: float, s: str, size: float = FONT, mono: bool = False, ha: str = "center",
-             va: str = "center", **kw) -> Text:
-        return self.ax.text(x, y, s, fontsize=size, family=_MONO if mono else None, ha=ha, va=va, **kw)
+    def text(
+        self,
+        x: float,
+        y: float,
+        s: str,
+        size: float = FONT,
+        mono: bool = False,
+        ha: str = "center",
+        va: str = "center",
+        **kw,
+    ) -> Text:
+        return self.ax.text(
+            x, y, s, fontsize=size, family=_MONO if mono else None, ha=ha, va=va, **kw
+        )
 
-    def box(self, x: float, y: float, w: float, h: float, title: str, detail: str | None = None,
-            role: str = "data", size: float = FONT, mono_detail: bool = False, bold: bool = False,
-            edge: str = _EDGE, lw: float = 1.0) -> Box:
+    def box(
+        self,
+        x: float,
+        y: float,
+        w: float,
+        h: float,
+        title: str,
+        detail: str | None = None,
+        role: str = "data",
+        size: float = FONT,
+        mono_detail: bool = False,
+        bold: bool = False,
+        edge: str = _EDGE,
+        lw: float = 1.0,
+    ) -> Box:
         """A rounded box with a title line and an optional detail line below it."""
-        patch = FancyBboxPatch((x, y), w, h, boxstyle="round,pad=0,rounding_size=0.06", fc=COLORS.get(role, role),
-                               ec=edge, lw=lw, zorder=2)
+        patch = FancyBboxPatch(
+            (x, y),
+            w,
+            h,
+            boxstyle="round,pad=0,rounding_size=0.06",
+            fc=COLORS.get(role, role),
+            ec=edge,
+            lw=lw,
+            zorder=2,
+        )
         self.ax.add_patch(patch)
         texts = []
         if detail is None:
-            texts.append(self.text(x + w / 2, y + h / 2, title, size=size, zorder=3,
-                                   weight="bold" if bold else None))
+            texts.append(
+                self.text(
+                    x + w / 2,
+                    y + h / 2,
+                    title,
+                    size=size,
+                    zorder=3,
+                    weight="bold" if bold else None,
+                )
+            )
         else:
-            texts.append(self.text(x + w / 2, y + 0.68 * h, title, size=size, zorder=3,
-                                   weight="bold" if bold else None))
-            texts.append(self.text(x + w / 2, y + 0.3 * h, detail, size=MIN_FONT, mono=mono_detail, zorder=3,
-                                   color="#333333"))
+            texts.append(
+                self.text(
+                    x + w / 2,
+                    y + 0.68 * h,
+                    title,
+                    size=size,
+                    zorder=3,
+                    weight="bold" if bold else None,
+                )
+            )
+            texts.append(
+                self.text(
+                    x + w / 2,
+                    y + 0.3 * h,
+                    detail,
+                    size=MIN_FONT,
+                    mono=mono_detail,
+                    zorder=3,
+                    color="#333333",
+                )
+            )
         self.fig._diagram_boxes.append((patch, texts))
         return Box(x, y, w, h)
 
-    def arrow(self, start: Sequence[float], end: Sequence[float], color: str = "#333333", lw: float = 1.3,
-              rad: float = 0.0, style: str = "-|>", ls: str = "-", connection: str | None = None) -> None:
+    def arrow(
+        self,
+        start: Sequence[float],
+        end: Sequence[float],
+        color: str = "#333333",
+        lw: float = 1.3,
+        rad: float = 0.0,
+        style: str = "-|>",
+        ls: str = "-",
+        connection: str | None = None,
+    ) -> None:
         cs = connection or f"arc3,rad={rad}"
-        self.ax.add_patch(FancyArrowPatch(tuple(start), tuple(end), arrowstyle=style, mutation_scale=12,
-                                          color=color, lw=lw, ls=ls, connectionstyle=cs, zorder=1,
-                                          shrinkA=1, shrinkB=1))
+        self.ax.add_patch(
+            FancyArrowPatch(
+                tuple(start),
+                tuple(end),
+                arrowstyle=style,
+                mutation_scale=12,
+                color=color,
+                lw=lw,
+                ls=ls,
+                connectionstyle=cs,
+                zorder=1,
+                shrinkA=1,
+                shrinkB=1,
+            )
+        )
 
-    def polyline_arrow(self, points: Sequence[Sequence[float]], color: str = "#333333", lw: float = 1.3,
-                       ls: str = "-") -> None:
+    def polyline_arrow(
+        self,
+        points: Sequence[Sequence[float]],
+        color: str = "#333333",
+        lw: float = 1.3,
+        ls: str = "-",
+    ) -> None:
         """Straight segments through ``points`` with an arrow head on the last one."""
         pts = np.asarray(points, dtype=float)
-        self.ax.plot(pts[:-1, 0], pts[:-1, 1], color=color, lw=lw, ls=ls, zorder=1, solid_capstyle="butt")
+        self.ax.plot(
+            pts[:-1, 0], pts[:-1, 1], color=color, lw=lw, ls=ls, zorder=1, solid_capstyle="butt"
+        )
         self.arrow(pts[-2], pts[-1], color=color, lw=lw, ls=ls)
+
 
 # ------------------------------------------------------------------------------------------ checks
 def layout_problems(fig: Figure) -> list[str]:
@@ -133,8 +228,11 @@ def layout_problems(fig: Figure) -> list[str]:
     fig.canvas.draw()
     renderer = fig.canvas.get_renderer()
     canvas = fig.bbox
-    texts = [t for t in fig.findobj(Text) if t.get_visible() and t.get_text().strip()
-             and t.get_window_extent(renderer).width > 0]
+    texts = [
+        t
+        for t in fig.findobj(Text)
+        if t.get_visible() and t.get_text().strip() and t.get_window_extent(renderer).width > 0
+    ]
     problems = []
     extents = []
     for t in texts:
@@ -142,7 +240,12 @@ def layout_problems(fig: Figure) -> list[str]:
         extents.append(box)
         if t.get_fontsize() < MIN_FONT - 1e-6:
             problems.append(f"{t.get_text()!r}: {t.get_fontsize():.1f} pt < {MIN_FONT} pt")
-        if box.x0 < canvas.x0 - 1 or box.x1 > canvas.x1 + 1 or box.y0 < canvas.y0 - 1 or box.y1 > canvas.y1 + 1:
+        if (
+            box.x0 < canvas.x0 - 1
+            or box.x1 > canvas.x1 + 1
+            or box.y0 < canvas.y0 - 1
+            or box.y1 > canvas.y1 + 1
+        ):
             problems.append(f"{t.get_text()!r}: outside the figure")
     for patch, owned in getattr(fig, "_diagram_boxes", []):
         pb = patch.get_window_extent(renderer)

@@ -5,8 +5,8 @@ arms solved with two-bone IK, the root lowered where a leg cannot reach, and the
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 import numpy as np
 import torch
@@ -60,8 +60,12 @@ class HandGoal:
 
 def palm_targets(center: Callable[[_Body], np.ndarray], gap: np.ndarray):
     """Targets for the two hands ``gap/2`` either side of ``center`` along the chest's left axis."""
+
     def make(sign):
-        return lambda body: center(body) + sign * 0.5 * gap[:, None] * body.axes[:, J["Spine2"], :, 0]
+        return lambda body: (
+            center(body) + sign * 0.5 * gap[:, None] * body.axes[:, J["Spine2"], :, 0]
+        )
+
     return make(1.0), make(-1.0)
 
 
@@ -85,8 +89,9 @@ def fk(rig: Rig, q: np.ndarray, root: np.ndarray) -> np.ndarray:
     return forward_kinematics(q, rig.skeleton.offsets, rig.skeleton.parents, root).positions
 
 
-def _lower_root_to_reach(rig: Rig, q: np.ndarray, root: np.ndarray,
-                         ankle: np.ndarray) -> np.ndarray:
+def _lower_root_to_reach(
+    rig: Rig, q: np.ndarray, root: np.ndarray, ankle: np.ndarray
+) -> np.ndarray:
     """Root trajectory lowered (smoothly) wherever a hip cannot reach its ankle target."""
     root = root.copy()
     for _ in range(3):
@@ -107,7 +112,9 @@ def _lift_toes_above_floor(rig: Rig, feet: Feet) -> None:
     """Raise swinging feet (in place) wherever a pitched toe joint would dip under its rest height
     (the sole under the floor)."""
     for f in (0, 1):
-        toe_y = feet.ankle[:, f, 1] + rotate_vector(torch.from_numpy(feet.rot[:, f]), rig.toe[f])[:, 1]
+        toe_y = (
+            feet.ankle[:, f, 1] + rotate_vector(torch.from_numpy(feet.rot[:, f]), rig.toe[f])[:, 1]
+        )
         feet.ankle[:, f, 1] -= np.minimum(toe_y - rig.toe_h[f], 0.0)
 
 
@@ -121,8 +128,9 @@ def assemble(rig: Rig, plan: Plan, name: str, meta: dict) -> Motion:
     qt = torch.from_numpy(q)
     root_t = torch.from_numpy(root)
     for f, limb in enumerate(("left_leg", "right_leg")):
-        ankle, knee, foot = (torch.from_numpy(x[:, f]) for x in (plan.feet.ankle, plan.feet.knee,
-                                                                 plan.feet.rot))
+        ankle, knee, foot = (
+            torch.from_numpy(x[:, f]) for x in (plan.feet.ankle, plan.feet.knee, plan.feet.rot)
+        )
         qt = two_bone_ik(qt, off, sk.parents, root_t, limb_chain(sk, limb), ankle, knee, foot)
     if plan.hands:
         ref_offsets = torch.from_numpy(rig.ref.offsets)
@@ -131,14 +139,20 @@ def assemble(rig: Rig, plan: Plan, name: str, meta: dict) -> Motion:
         body = _Body(pos, axes.numpy())
         for goal in plan.hands:
             qt = _reach(rig, qt, root_t, body, goal)
-    meta = dict(meta, style=plan.style, body_radii=dict(rig.radii),
-                foot_contacts=plan.feet.contacts[:, :2] & plan.feet.contacts[:, 2:],
-                joint_contacts=plan.feet.contacts.copy(), hand_contacts=list(plan.hand_contacts))
+    meta = dict(
+        meta,
+        style=plan.style,
+        body_radii=dict(rig.radii),
+        foot_contacts=plan.feet.contacts[:, :2] & plan.feet.contacts[:, 2:],
+        joint_contacts=plan.feet.contacts.copy(),
+        hand_contacts=list(plan.hand_contacts),
+    )
     return Motion(sk.copy(), qt.numpy(), root, FPS, name=name, meta=meta)
 
 
-def _reach(rig: Rig, q: torch.Tensor, root: torch.Tensor, body: _Body,
-           goal: HandGoal) -> torch.Tensor:
+def _reach(
+    rig: Rig, q: torch.Tensor, root: torch.Tensor, body: _Body, goal: HandGoal
+) -> torch.Tensor:
     """Solve one arm towards its goal, blended by the goal's weight (elbow plane blended too)."""
     sk = rig.skeleton
     chain = limb_chain(sk, ("left_arm", "right_arm")[goal.side])
@@ -149,13 +163,21 @@ def _reach(rig: Rig, q: torch.Tensor, root: torch.Tensor, body: _Body,
     pole_world = np.einsum("tij,j->ti", body.axes[:, J["Spine2"]], goal.pole)
     bend = elbow - upper
     pole = (1 - w) * bend / np.linalg.norm(bend, axis=-1, keepdims=True) + w * pole_world
-    q = two_bone_ik(q, torch.from_numpy(sk.offsets), sk.parents, root, chain,
-                    torch.from_numpy(target), torch.from_numpy(pole))
+    q = two_bone_ik(
+        q,
+        torch.from_numpy(sk.offsets),
+        sk.parents,
+        root,
+        chain,
+        torch.from_numpy(target),
+        torch.from_numpy(pole),
+    )
     return q if goal.palm is None else _orient_palm(rig, q, body, goal, chain)
 
 
-def _orient_palm(rig: Rig, q: torch.Tensor, body: _Body, goal: HandGoal,
-                 chain: tuple[int, int, int]) -> torch.Tensor:
+def _orient_palm(
+    rig: Rig, q: torch.Tensor, body: _Body, goal: HandGoal, chain: tuple[int, int, int]
+) -> torch.Tensor:
     """Turn the hand so that its palm faces ``goal.palm[0]`` with the fingers along
     ``goal.palm[1]`` (blended by the goal's weight).
 

@@ -13,7 +13,6 @@ from ....core.measures import foot_rest_heights
 from ....core.skeleton import J, Skeleton
 from ....core.transfer import canonical_rest_skeleton
 
-
 FPS = 30.0
 
 SIDES = (("Left", 1.0), ("Right", -1.0))  # name prefix, sign of the character's left (+X)
@@ -46,12 +45,17 @@ def default_body_radii(skeleton: Skeleton) -> dict[str, float]:
     s = skeleton.height() / 1.75
     rest = skeleton.rest_positions()
     hip_half = 0.5 * abs(rest[J["LeftUpLeg"], 0] - rest[J["RightUpLeg"], 0])
-    return {"hip": float(max(1.6 * hip_half, 0.12 * s)), "torso": 0.11 * s, "head": 0.1 * s,
-            "hand": 0.008 * s}
+    return {
+        "hip": float(max(1.6 * hip_half, 0.12 * s)),
+        "torso": 0.11 * s,
+        "head": 0.1 * s,
+        "hand": 0.008 * s,
+    }
 
 
-def body_radii_from_mesh(skeleton: Skeleton, rest_vertices: np.ndarray,
-                         weights: np.ndarray) -> dict[str, float]:
+def body_radii_from_mesh(
+    skeleton: Skeleton, rest_vertices: np.ndarray, weights: np.ndarray
+) -> dict[str, float]:
     """Body-size hint measured on a skinned rest mesh (same keys as :func:`default_body_radii`).
 
     Each part is measured on the vertices whose strongest skinning weight is that part's joints:

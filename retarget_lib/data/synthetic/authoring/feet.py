@@ -4,8 +4,8 @@ clip."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 import torch
@@ -45,7 +45,9 @@ class Feet:
 
 def foot_rot(yaw: np.ndarray, pitch_deg: np.ndarray) -> torch.Tensor:
     """``(N, 4)`` global foot rotation: heading ``yaw`` (rad), then ``pitch`` toe-down (deg)."""
-    return quat_mul(axis_rotation(1, np.degrees(yaw), len(yaw)), axis_rotation(0, pitch_deg, len(yaw)))
+    return quat_mul(
+        axis_rotation(1, np.degrees(yaw), len(yaw)), axis_rotation(0, pitch_deg, len(yaw))
+    )
 
 
 def _bump(u: np.ndarray, center: float, half: float) -> np.ndarray:
@@ -53,8 +55,13 @@ def _bump(u: np.ndarray, center: float, half: float) -> np.ndarray:
     return np.sin(np.pi * np.clip((u - center + half) / (2 * half), 0.0, 1.0)) ** 2
 
 
-def plan_feet(rig: Rig, t: np.ndarray, plants: Sequence[Sequence[Plant]], lift: float,
-               land_pitch: float = 10.0) -> Feet:
+def plan_feet(
+    rig: Rig,
+    t: np.ndarray,
+    plants: Sequence[Sequence[Plant]],
+    lift: float,
+    land_pitch: float = 10.0,
+) -> Feet:
     """Ankle targets, foot rotations and contact labels from footstep plans.
 
     Args:
@@ -95,8 +102,18 @@ def rotate_vector(q: torch.Tensor, v: np.ndarray) -> np.ndarray:
     return quat_rotate(q, torch.from_numpy(np.broadcast_to(v, q.shape[:-1] + (3,)).copy())).numpy()
 
 
-def _swing(rig: Rig, t: np.ndarray, f: int, a: Plant, b: Plant, lift: float, land_pitch: float,
-           ankle: np.ndarray, yaw: np.ndarray, pitch: np.ndarray) -> None:
+def _swing(
+    rig: Rig,
+    t: np.ndarray,
+    f: int,
+    a: Plant,
+    b: Plant,
+    lift: float,
+    land_pitch: float,
+    ankle: np.ndarray,
+    yaw: np.ndarray,
+    pitch: np.ndarray,
+) -> None:
     """Fill the swing of foot ``f`` from plant ``a`` to plant ``b`` in place."""
     m = (t > a.t1) & (t < b.t0)
     if not m.any():
@@ -108,22 +125,33 @@ def _swing(rig: Rig, t: np.ndarray, f: int, a: Plant, b: Plant, lift: float, lan
     start = np.array([a.xz[0], rig.ankle_h[f], a.xz[1]])
     if a.pivot > 0:  # the swing starts where the heel-raised foot left off
         toe_pos = start + rotate_vector(foot_rot(np.array([a.yaw]), np.zeros(1)), toe)[0]
-        start = toe_pos - rotate_vector(foot_rot(np.array([a.yaw]), np.array([start_pitch])), toe)[0]
+        start = (
+            toe_pos - rotate_vector(foot_rot(np.array([a.yaw]), np.array([start_pitch])), toe)[0]
+        )
     end = np.array([b.xz[0], rig.ankle_h[f], b.xz[1]])
     dyaw = (b.yaw - a.yaw + np.pi) % (2 * np.pi) - np.pi
     yaw[m, f] = a.yaw + dyaw * s
     pitch[m, f] = start_pitch * (1 - minjerk(u / 0.45)) - land_pitch * _bump(u, 0.8, 0.2)
     pos = start + (end - start) * s[:, None]
     dist = np.linalg.norm(end[[0, 2]] - start[[0, 2]])
-    pos[:, 1] += min(lift, 0.5 * lift + dist) * np.sin(np.pi * u ** 0.8) ** 2  # early peak, soft ends
+    pos[:, 1] += min(lift, 0.5 * lift + dist) * np.sin(np.pi * u**0.8) ** 2  # early peak, soft ends
     ankle[m, f] = pos
 
 
 def still_plants(rig: Rig, duration: float, width: float, toe_out: float) -> list[list[Plant]]:
     """Both feet planted for the whole clip, ``width`` x hip width apart, toes out ``toe_out``
     degrees."""
-    return [[Plant(0.0, duration + 1.0, np.array([sign * width * rig.hip_w, 0.0]),
-                    sign * np.radians(toe_out))] for _, sign in SIDES]
+    return [
+        [
+            Plant(
+                0.0,
+                duration + 1.0,
+                np.array([sign * width * rig.hip_w, 0.0]),
+                sign * np.radians(toe_out),
+            )
+        ]
+        for _, sign in SIDES
+    ]
 
 
 def yaw_xz(yaw: float, xz: np.ndarray) -> np.ndarray:

@@ -57,13 +57,25 @@ class Pose:
         for name, w in (("Neck", 0.4), ("Head", 0.6)):
             self.set(name, _yxz(w * yaw, w * nod, -w * tilt, T=self.T))
 
-    def arm(self, side: str, sign: float, down=80.0, fwd=0.0, elbow=15.0, twist=0.0,
-            shrug=0.0, reach=0.0) -> None:
+    def arm(
+        self,
+        side: str,
+        sign: float,
+        down=80.0,
+        fwd=0.0,
+        elbow=15.0,
+        twist=0.0,
+        shrug=0.0,
+        reach=0.0,
+    ) -> None:
         """One arm: lowered by ``down`` from the T-pose, swung ``fwd``, ``elbow`` flexion,
         clavicle raised by ``shrug`` and pushed forward by ``reach`` (all degrees)."""
         T = self.T
         shrug, reach = np.asarray(shrug, float), np.asarray(reach, float)
-        self.set(f"{side}Shoulder", quat_mul(axis_rotation(2, sign * shrug, T), axis_rotation(1, -sign * reach, T)))
+        self.set(
+            f"{side}Shoulder",
+            quat_mul(axis_rotation(2, sign * shrug, T), axis_rotation(1, -sign * reach, T)),
+        )
         lower = quat_mul(axis_rotation(2, -sign * np.asarray(down), T), axis_rotation(0, twist, T))
         self.set(f"{side}Arm", quat_mul(axis_rotation(0, -np.asarray(fwd), T), lower))
         self.set(f"{side}ForeArm", axis_rotation(1, -sign * np.asarray(elbow), T))

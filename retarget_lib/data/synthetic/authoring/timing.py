@@ -3,7 +3,7 @@ keyframe interpolation, smooth noise, event times."""
 
 from __future__ import annotations
 
-from typing import Callable, Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -11,7 +11,7 @@ import numpy as np
 def minjerk(u: np.ndarray) -> np.ndarray:
     """Minimum-jerk ease ``10u^3 - 15u^4 + 6u^5`` on ``[0, 1]`` (clipped outside)."""
     u = np.clip(u, 0.0, 1.0)
-    return u ** 3 * (10 - 15 * u + 6 * u * u)
+    return u**3 * (10 - 15 * u + 6 * u * u)
 
 
 def ramp(t: np.ndarray, t0: float, t1: float) -> np.ndarray:
@@ -19,8 +19,9 @@ def ramp(t: np.ndarray, t0: float, t1: float) -> np.ndarray:
     return minjerk((t - t0) / max(t1 - t0, 1e-6))
 
 
-def window(t: np.ndarray, t0: float, t1: float, rise: float,
-            fall: float | None = None) -> np.ndarray:
+def window(
+    t: np.ndarray, t0: float, t1: float, rise: float, fall: float | None = None
+) -> np.ndarray:
     """Eased to 1 over ``[t0, t0 + rise]``, held, eased back to 0 over ``[t1 - fall, t1]``."""
     fall = rise if fall is None else fall
     return ramp(t, t0, t0 + rise) * (1.0 - ramp(t, t1 - fall, t1))
@@ -53,9 +54,14 @@ def noise(rng: np.random.Generator, t: np.ndarray, amp: float, fmax: float = 0.5
     return amp * (w[:, None] * np.sin(2 * np.pi * f[:, None] * t + ph[:, None])).sum(0) / w.sum()
 
 
-def event_times(rng: np.random.Generator, duration: float, length: Callable[[], float],
-            pause: tuple[float, float], start: tuple[float, float] = (0.4, 1.0),
-            tail: float = 0.6) -> list[tuple[float, float]]:
+def event_times(
+    rng: np.random.Generator,
+    duration: float,
+    length: Callable[[], float],
+    pause: tuple[float, float],
+    start: tuple[float, float] = (0.4, 1.0),
+    tail: float = 0.6,
+) -> list[tuple[float, float]]:
     """Random ``(start, end)`` times of repeated actions separated by pauses, all inside the clip.
 
     At least one event is returned (shortened to fit if needed).
@@ -74,10 +80,15 @@ def event_times(rng: np.random.Generator, duration: float, length: Callable[[], 
     return out
 
 
-def hermite(t: np.ndarray, t0: float, t1: float, y0: float, y1: float, v0: float,
-             v1: float) -> np.ndarray:
+def hermite(
+    t: np.ndarray, t0: float, t1: float, y0: float, y1: float, v0: float, v1: float
+) -> np.ndarray:
     """Cubic Hermite segment from ``(t0, y0, v0)`` to ``(t1, y1, v1)`` evaluated at ``t``."""
     h = t1 - t0
     u = np.clip((t - t0) / h, 0.0, 1.0)
-    return ((2 * u ** 3 - 3 * u ** 2 + 1) * y0 + (u ** 3 - 2 * u ** 2 + u) * h * v0
-            + (-2 * u ** 3 + 3 * u ** 2) * y1 + (u ** 3 - u ** 2) * h * v1)
+    return (
+        (2 * u**3 - 3 * u**2 + 1) * y0
+        + (u**3 - 2 * u**2 + u) * h * v0
+        + (-2 * u**3 + 3 * u**2) * y1
+        + (u**3 - u**2) * h * v1
+    )

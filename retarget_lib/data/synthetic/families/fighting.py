@@ -8,13 +8,13 @@ import numpy as np
 from ....core.skeleton import J
 from ....core.transfer import transfer_rotations
 from ..authoring import (
-    fk,
     SIDES,
     HandGoal,
     Plan,
     Plant,
     Rig,
     event_times,
+    fk,
     foot_rot,
     keyframes,
     noise,
@@ -32,8 +32,9 @@ def _fighting_stance(rig: Rig, rng: np.random.Generator, t: np.ndarray, lead: in
 
     Returns ``(pose, plants, style, ready)`` where ``ready`` eases from 0 to 1 into the stance.
     """
-    pose, plants, style = standing(rig, rng, t, width=rng.uniform(1.1, 1.5),
-                                   knee=rng.uniform(0.93, 0.96))
+    pose, plants, style = standing(
+        rig, rng, t, width=rng.uniform(1.1, 1.5), knee=rng.uniform(0.93, 0.96)
+    )
     rear = 1 - lead
     t_go = rng.uniform(0.3, 0.6)
     ready = ramp(t, t_go, t_go + 0.7)
@@ -41,8 +42,10 @@ def _fighting_stance(rig: Rig, rng: np.random.Generator, t: np.ndarray, lead: in
     sign = SIDES[rear][1]
     old = plants[rear][0]
     back = old.xz + np.array([sign * 0.2 * rig.hip_w, -stagger])
-    plants[rear] = [Plant(0.0, t_go, old.xz, old.yaw),
-                    Plant(t_go + 0.4, t[-1] + 1.0, back, old.yaw + sign * np.radians(30))]
+    plants[rear] = [
+        Plant(0.0, t_go, old.xz, old.yaw),
+        Plant(t_go + 0.4, t[-1] + 1.0, back, old.yaw + sign * np.radians(30)),
+    ]
     turn = -SIDES[lead][1] * rng.uniform(15, 30)  # body turned towards the rear side
     pose.root[:, 2] -= 0.45 * stagger * ready
     bounce = 0.012 * rig.stand * np.sin(2 * np.pi * rng.uniform(1.5, 2.5) * t) * ready
@@ -101,8 +104,9 @@ def kick(rig: Rig, rng: np.random.Generator, t: np.ndarray) -> Plan:
         old = plants[f][-1]
         old.t1 = a
         plants[f].append(Plant(b, t[-1] + 1.0, old.xz, old.yaw))
-        lean -= rng.uniform(8, 18) * keyframes(t, a + (b - a) * np.array([0, 0.35, 0.5, 1]),
-                                               [0, 0.3, 1, 0])
+        lean -= rng.uniform(8, 18) * keyframes(
+            t, a + (b - a) * np.array([0, 0.35, 0.5, 1]), [0, 0.3, 1, 0]
+        )
     pose.pelvis(style["turn"] * ready, 3.0 * ready + 0.5 * lean, 0.0)
     pose.spine(5.0 * ready + 0.5 * lean, -0.6 * style["turn"] * ready, 0.0)
     pose.head(6.0 * ready - 0.6 * lean, -0.4 * style["turn"] * ready, 0.0)
@@ -121,14 +125,19 @@ def kick(rig: Rig, rng: np.random.Generator, t: np.ndarray) -> Plan:
         l2 = np.linalg.norm(rig.skeleton.offsets[J[f"{name}Foot"]])
         e = np.radians(elev)
         start = feet.ankle[np.flatnonzero(m)[0], f] - hips[np.flatnonzero(m)[0], J[f"{name}UpLeg"]]
-        keys = [start, 0.75 * l1 * fwd - 0.6 * l2 * up + 0.3 * l1 * up,
-                0.96 * (l1 + l2) * (np.cos(e) * fwd + np.sin(e) * up),
-                0.75 * l1 * fwd - 0.6 * l2 * up + 0.3 * l1 * up, start]
+        keys = [
+            start,
+            0.75 * l1 * fwd - 0.6 * l2 * up + 0.3 * l1 * up,
+            0.96 * (l1 + l2) * (np.cos(e) * fwd + np.sin(e) * up),
+            0.75 * l1 * fwd - 0.6 * l2 * up + 0.3 * l1 * up,
+            start,
+        ]
         rel = keyframes(t[m], a + (b - a) * np.array([0.0, 0.35, 0.5, 0.68, 1.0]), keys)
         feet.ankle[m, f] = hip + rel
         feet.ankle[m, f, 1] = np.maximum(feet.ankle[m, f, 1], rig.ankle_h[f])
-        pitch = keyframes(t[m], a + (b - a) * np.array([0.0, 0.35, 0.5, 0.68, 1.0]),
-                          [0, 20, 40, 20, 0])
+        pitch = keyframes(
+            t[m], a + (b - a) * np.array([0.0, 0.35, 0.5, 0.68, 1.0]), [0, 20, 40, 20, 0]
+        )
         yaw = plants[f][-1].yaw * (1 - np.sin(np.pi * (t[m] - a) / (b - a)))  # toes to the target
         feet.rot[m, f] = foot_rot(yaw, pitch).numpy()
         feet.knee[m, f] = (fwd + up) / np.sqrt(2.0)  # knee up and forward
@@ -138,8 +147,9 @@ def kick(rig: Rig, rng: np.random.Generator, t: np.ndarray) -> Plan:
 
 def squat(rig: Rig, rng: np.random.Generator, t: np.ndarray) -> Plan:
     """Repeated squats, feet wide and turned out, hips back, arms forward for balance."""
-    pose, plants, style = standing(rig, rng, t, width=rng.uniform(1.3, 1.9),
-                                   toe_out=rng.uniform(12, 28))
+    pose, plants, style = standing(
+        rig, rng, t, width=rng.uniform(1.3, 1.9), toe_out=rng.uniform(12, 28)
+    )
     depth = np.zeros_like(t)
     events = event_times(rng, t[-1], lambda: rng.uniform(2.2, 4.0), (0.4, 1.8))
     for a, b in events:

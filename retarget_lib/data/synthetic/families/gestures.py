@@ -40,10 +40,15 @@ def wave(rig: Rig, rng: np.random.Generator, t: np.ndarray) -> Plan:
     height, out = rng.uniform(0.45, 0.65) * rig.arm_reach, rng.uniform(0.3, 0.45) * rig.arm_reach
     wagging = _gesture_weight(t, [(a + 0.4, b - 0.3) for a, b in events], 0.3)
     wag = amp * np.sin(2 * np.pi * freq * t) * wagging
-    offset = np.stack((sign * out + wag, np.full_like(t, height),
-                       np.full_like(t, 0.25 * rig.arm_reach)), -1)
-    goal = HandGoal(side, lambda body: body.at(f"{name}Arm", offset, "Spine2"), weight,
-                     np.array([sign * 0.6, -0.75, -0.1]))
+    offset = np.stack(
+        (sign * out + wag, np.full_like(t, height), np.full_like(t, 0.25 * rig.arm_reach)), -1
+    )
+    goal = HandGoal(
+        side,
+        lambda body: body.at(f"{name}Arm", offset, "Spine2"),
+        weight,
+        np.array([sign * 0.6, -0.75, -0.1]),
+    )
     pose.head(noise(rng, t, 3.0), sign * 8.0 * weight + noise(rng, t, 5.0), sign * 4.0 * weight)
     style.update(hand=name, freq=freq, waves=len(events))
     return Plan(pose, plan_feet(rig, t, plants, 0.0), [goal], style=style)
@@ -69,15 +74,21 @@ def clap(rig: Rig, rng: np.random.Generator, t: np.ndarray) -> Plan:
         contact[np.flatnonzero(m)[phase < touch]] = True
     drop = rng.uniform(-0.05, 0.1) * s
     depth = min(r["torso"] + rng.uniform(0.15, 0.25) * s, rig.front_reach(drop, closed))
-    center = lambda body: body.at("Spine2", (0.0, -drop, depth))
+
+    def center(body):
+        return body.at("Spine2", (0.0, -drop, depth))
+
     left, right = palm_targets(center, gap)
-    hands = [HandGoal(0, left, weight, np.array([0.55, -0.75, -0.3]),
-                       ((-1, 0, 0), (0, 0.5, 0.85))),
-             HandGoal(1, right, weight, np.array([-0.55, -0.75, -0.3]),
-                       ((1, 0, 0), (0, 0.5, 0.85)))]
+    hands = [
+        HandGoal(0, left, weight, np.array([0.55, -0.75, -0.3]), ((-1, 0, 0), (0, 0.5, 0.85))),
+        HandGoal(1, right, weight, np.array([-0.55, -0.75, -0.3]), ((1, 0, 0), (0, 0.5, 0.85))),
+    ]
     pose.head(6.0 * weight + noise(rng, t, 3.0), noise(rng, t, 6.0), 0.0)
-    contacts = [HandContact(a, b, h, p) for a, b in contact_runs(contact & (weight > 1 - 1e-9))
-                for h, p in (("LeftHand", "RightHand"), ("RightHand", "LeftHand"))]
+    contacts = [
+        HandContact(a, b, h, p)
+        for a, b in contact_runs(contact & (weight > 1 - 1e-9))
+        for h, p in (("LeftHand", "RightHand"), ("RightHand", "LeftHand"))
+    ]
     style.update(freq=freq, rounds=len(events))
     return Plan(pose, plan_feet(rig, t, plants, 0.0), hands, contacts, style)
 
@@ -93,12 +104,16 @@ def pray(rig: Rig, rng: np.random.Generator, t: np.ndarray) -> Plan:
     pose.head(0.6 * bow + 8.0 * weight + noise(rng, t, 2.0), noise(rng, t, 3.0), 0.0)
     drop = rng.uniform(-0.02, 0.08) * s
     depth = min(r["torso"] + rng.uniform(0.09, 0.15) * s, rig.front_reach(drop, 2 * r["hand"]))
-    left, right = palm_targets(lambda body: body.at("Spine2", (0.0, -drop, depth)),
-                                np.full_like(t, 2 * r["hand"]))
-    hands = [HandGoal(0, left, weight, np.array([0.6, -0.8, -0.1]), ((-1, 0, 0), (0, 1, 0.35))),
-             HandGoal(1, right, weight, np.array([-0.6, -0.8, -0.1]), ((1, 0, 0), (0, 1, 0.35)))]
-    contacts = (hold_contacts(weight, "LeftHand", "RightHand")
-                + hold_contacts(weight, "RightHand", "LeftHand"))
+    left, right = palm_targets(
+        lambda body: body.at("Spine2", (0.0, -drop, depth)), np.full_like(t, 2 * r["hand"])
+    )
+    hands = [
+        HandGoal(0, left, weight, np.array([0.6, -0.8, -0.1]), ((-1, 0, 0), (0, 1, 0.35))),
+        HandGoal(1, right, weight, np.array([-0.6, -0.8, -0.1]), ((1, 0, 0), (0, 1, 0.35))),
+    ]
+    contacts = hold_contacts(weight, "LeftHand", "RightHand") + hold_contacts(
+        weight, "RightHand", "LeftHand"
+    )
     style.update(holds=len(events))
     return Plan(pose, plan_feet(rig, t, plants, 0.0), hands, contacts, style)
 
@@ -113,8 +128,15 @@ def hands_on_hips(rig: Rig, rng: np.random.Generator, t: np.ndarray) -> Plan:
     hands, contacts = [], []
     for f, (name, sign) in enumerate(SIDES):
         off = (sign * (r["hip"] + r["hand"]), crest, front)
-        hands.append(HandGoal(f, lambda body, off=off: body.at("Hips", off), weight,
-                               np.array([sign * 0.9, -0.1, -0.45]), ((-sign, 0, 0), (0, -0.4, 1))))
+        hands.append(
+            HandGoal(
+                f,
+                lambda body, off=off: body.at("Hips", off),
+                weight,
+                np.array([sign * 0.9, -0.1, -0.45]),
+                ((-sign, 0, 0), (0, -0.4, 1)),
+            )
+        )
         contacts += hold_contacts(weight, f"{name}Hand", f"{name}Hip")
     pose.head(noise(rng, t, 5.0), noise(rng, t, 20.0, 0.2), noise(rng, t, 4.0))
     style.update(holds=len(events))
@@ -138,8 +160,15 @@ def touch_head(rig: Rig, rng: np.random.Generator, t: np.ndarray) -> Plan:
         direction /= np.linalg.norm(direction, axis=-1, keepdims=True)
         center = np.array([0.0, 0.9 * r["head"], 0.15 * r["head"]])
         off = center + (r["head"] + r["hand"]) * direction
-        hands.append(HandGoal(f, lambda body, off=off: body.at("Head", off), weight,
-                               np.array([sign * 0.9, 0.2, 0.3]), ((0, -1, 0), (-sign * 0.6, 0, 0.8))))
+        hands.append(
+            HandGoal(
+                f,
+                lambda body, off=off: body.at("Head", off),
+                weight,
+                np.array([sign * 0.9, 0.2, 0.3]),
+                ((0, -1, 0), (-sign * 0.6, 0, 0.8)),
+            )
+        )
         contacts += hold_contacts(weight, f"{name}Hand", "HeadTop")
     pose.head(10.0 * weight + noise(rng, t, 3.0), noise(rng, t, 5.0), 0.0)
     style.update(hands=str(which), touches=len(events))

@@ -57,10 +57,17 @@ def _locomotion(rig: Rig, rng: np.random.Generator, t: np.ndarray, run: bool) ->
     heading -= heading[0]
     vel = speed * go[:, None] * np.stack((np.sin(heading), np.cos(heading)), -1)
     path = np.concatenate((np.zeros((1, 2)), np.cumsum(vel[:-1], 0) / FPS))  # (T, 2) x, z
-    style = {"speed": speed, "cycle": cycle, "step": step, "duty": duty, "path": str(kind),
-             "lead": "left" if lead > 0 else "right", "width": rng.uniform(0.35, 0.8),
-             "toe_out": rng.uniform(3, 12),
-             "arm_swing": rng.uniform(15, 32) * (1.5 if run else 1.0)}
+    style = {
+        "speed": speed,
+        "cycle": cycle,
+        "step": step,
+        "duty": duty,
+        "path": str(kind),
+        "lead": "left" if lead > 0 else "right",
+        "width": rng.uniform(0.35, 0.8),
+        "toe_out": rng.uniform(3, 12),
+        "arm_swing": rng.uniform(15, 32) * (1.5 if run else 1.0),
+    }
     feet, tau0 = _gait_feet(rig, rng, t, path, heading, go, style, run, lead)
     phase = 2 * np.pi * (t - tau0) / cycle  # 0 at the lead foot's mid-stance
     pose = Pose(T)
@@ -73,8 +80,9 @@ def _locomotion(rig: Rig, rng: np.random.Generator, t: np.ndarray, run: bool) ->
     lean = (rng.uniform(6, 12) if run else rng.uniform(1, 5)) * go + 2 * (1 - go)
     pelvis_yaw = lead * rng.uniform(3, 7) * np.sin(phase) * go
     pose.pelvis(np.degrees(heading) + pelvis_yaw, lean * 0.5, -lead * 3.0 * np.cos(phase) * go)
-    pose.spine(lean * 0.5 + noise(rng, t, 1.5), -1.4 * pelvis_yaw + noise(rng, t, 2.0),
-               noise(rng, t, 1.0))
+    pose.spine(
+        lean * 0.5 + noise(rng, t, 1.5), -1.4 * pelvis_yaw + noise(rng, t, 2.0), noise(rng, t, 1.0)
+    )
     pose.head(-0.4 * lean + noise(rng, t, 4.0, 0.3), 0.4 * pelvis_yaw + noise(rng, t, 8.0, 0.15))
     swing = style["arm_swing"] * go
     for side, sign in SIDES:
@@ -85,9 +93,17 @@ def _locomotion(rig: Rig, rng: np.random.Generator, t: np.ndarray, run: bool) ->
     return Plan(pose, feet, style=style)
 
 
-def _gait_feet(rig: Rig, rng: np.random.Generator, t: np.ndarray, path: np.ndarray,
-               heading: np.ndarray, go: np.ndarray, style: dict, run: bool,
-               lead: float) -> tuple[Feet, float]:
+def _gait_feet(
+    rig: Rig,
+    rng: np.random.Generator,
+    t: np.ndarray,
+    path: np.ndarray,
+    heading: np.ndarray,
+    go: np.ndarray,
+    style: dict,
+    run: bool,
+    lead: float,
+) -> tuple[Feet, float]:
     """Footsteps at a fixed cadence, each placed under the root path at its mid-stance time.
 
     The feet start side by side; the stance share (duty) blends from walking (0.62) to the style's
@@ -98,8 +114,10 @@ def _gait_feet(rig: Rig, rng: np.random.Generator, t: np.ndarray, path: np.ndarr
     """
     cycle, dur = style["cycle"], t[-1]
     toe_out = np.radians(style["toe_out"])
-    plants = [[Plant(0.0, 0.0, np.array([sign * 0.9 * rig.hip_w, 0.0]), sign * toe_out)]
-              for _, sign in SIDES]
+    plants = [
+        [Plant(0.0, 0.0, np.array([sign * 0.9 * rig.hip_w, 0.0]), sign * toe_out)]
+        for _, sign in SIDES
+    ]
     tau0 = t[np.argmax(go > 1e-3)] + 0.69 * cycle
     f = 0 if lead > 0 else 1
     for tau in np.arange(tau0, dur - 0.2, 0.5 * cycle):
@@ -114,8 +132,11 @@ def _gait_feet(rig: Rig, rng: np.random.Generator, t: np.ndarray, path: np.ndarr
         if len(plants[f]) == 1:
             plants[f][0].t1 = max(tau - 0.5 * stance - (cycle - stance), 0.2)
         heel = (rng.uniform(25, 35) if run else rng.uniform(12, 22)) * g
-        plants[f].append(Plant(tau - 0.5 * stance, tau + 0.5 * stance, xz, yaw + sign * toe_out,
-                                0.3 * stance, heel))
+        plants[f].append(
+            Plant(
+                tau - 0.5 * stance, tau + 0.5 * stance, xz, yaw + sign * toe_out, 0.3 * stance, heel
+            )
+        )
         f = 1 - f
     for foot in plants:
         foot[-1].t1, foot[-1].pivot = dur + 1.0, 0.0
@@ -144,11 +165,13 @@ def turn(rig: Rig, rng: np.random.Generator, t: np.ndarray) -> Plan:
         return abs(angles[-1]) / rate + 0.6
 
     events = event_times(rng, dur, length, (0.6, 2.0), start=(0.3, 0.8))
-    angles = angles[:len(events)]
+    angles = angles[: len(events)]
     heading = np.zeros(T)
     toe_out = np.radians(style["toe_out"])
-    plants = [[Plant(0.0, 0.0, np.array([sign * style["width"] * rig.hip_w, 0.0]), sign * toe_out)]
-              for _, sign in SIDES]
+    plants = [
+        [Plant(0.0, 0.0, np.array([sign * style["width"] * rig.hip_w, 0.0]), sign * toe_out)]
+        for _, sign in SIDES
+    ]
     total = 0.0
     for (a, b), ang in zip(events, angles):
         heading += ang * ramp(t, a, b - 0.2)
@@ -187,15 +210,23 @@ def jump(rig: Rig, rng: np.random.Generator, t: np.ndarray) -> Plan:
     stand_y = style["knee"] * L
     heading = np.zeros(T)
     arm_fwd, spine_bend, elbow = np.full(T, 4.0), np.zeros(T), np.full(T, 15.0)
-    plants = [[Plant(0.0, 0.0, np.array([sign * style["width"] * rig.hip_w, 0.0]), sign * toe_out)]
-              for _, sign in SIDES]
+    plants = [
+        [Plant(0.0, 0.0, np.array([sign * style["width"] * rig.hip_w, 0.0]), sign * toe_out)]
+        for _, sign in SIDES
+    ]
     jumps = []
 
     def length():
         h = rng.uniform(0.12, 0.35) * L
-        jumps.append({"h": h, "dist": rng.choice([0.0, rng.uniform(0.2, 0.8)]) * L,
-                      "turn": rng.choice([0.0, 0.0, rng.choice([-1, 1]) * rng.uniform(30, 90)]),
-                      "crouch": rng.uniform(0.15, 0.28) * L, "prep": rng.uniform(0.45, 0.7)})
+        jumps.append(
+            {
+                "h": h,
+                "dist": rng.choice([0.0, rng.uniform(0.2, 0.8)]) * L,
+                "turn": rng.choice([0.0, 0.0, rng.choice([-1, 1]) * rng.uniform(30, 90)]),
+                "crouch": rng.uniform(0.15, 0.28) * L,
+                "prep": rng.uniform(0.45, 0.7),
+            }
+        )
         return jumps[-1]["prep"] + 2 * np.sqrt(2 * h / g) + 0.9
 
     events = event_times(rng, dur, length, (0.5, 1.8), start=(0.4, 0.9))
@@ -206,10 +237,12 @@ def jump(rig: Rig, rng: np.random.Generator, t: np.ndarray) -> Plan:
         t_land = t_off + 2 * v / g
         t_absorb, t_up = t_land + 0.25, b
         y_off = stand_y + 0.03 * L
-        seg = [(a, t_low, stand_y, stand_y - jp["crouch"], 0.0, 0.0),
-               (t_low, t_off, stand_y - jp["crouch"], y_off, 0.0, v),
-               (t_land, t_absorb, y_off, stand_y - 0.8 * jp["crouch"], -v, 0.0),
-               (t_absorb, t_up, stand_y - 0.8 * jp["crouch"], stand_y, 0.0, 0.0)]
+        seg = [
+            (a, t_low, stand_y, stand_y - jp["crouch"], 0.0, 0.0),
+            (t_low, t_off, stand_y - jp["crouch"], y_off, 0.0, v),
+            (t_land, t_absorb, y_off, stand_y - 0.8 * jp["crouch"], -v, 0.0),
+            (t_absorb, t_up, stand_y - 0.8 * jp["crouch"], stand_y, 0.0, 0.0),
+        ]
         for s in seg:  # offsets from the idle height, zero at both ends of the jump
             m = (t >= s[0]) & (t < s[1])
             root_y[m] += hermite(t[m], *s) - stand_y
@@ -225,8 +258,9 @@ def jump(rig: Rig, rng: np.random.Generator, t: np.ndarray) -> Plan:
             plants[f][-1].pivot, plants[f][-1].pivot_deg = 0.35 * jp["prep"], rng.uniform(30, 45)
             xz = x1 + yaw_xz(yaw1, np.array([sign * style["width"] * rig.hip_w, 0.0]))
             plants[f].append(Plant(t_land, dur + 1.0, xz, yaw1 + sign * toe_out))
-        arm_fwd += keyframes(t, [a, t_low, t_off, t_land, t_absorb + 0.2, b],
-                             [0, -50, 150, 60, 35, 0])
+        arm_fwd += keyframes(
+            t, [a, t_low, t_off, t_land, t_absorb + 0.2, b], [0, -50, 150, 60, 35, 0]
+        )
         spine_bend += keyframes(t, [a, t_low, t_off, t_land, t_absorb, b], [0, 30, -4, 8, 25, 0])
         elbow += keyframes(t, [a, t_low, t_off, t_land, b], [0, 10, 0, 20, 0])
         x0, yaw0 = x1, yaw1
@@ -239,7 +273,7 @@ def jump(rig: Rig, rng: np.random.Generator, t: np.ndarray) -> Plan:
         down = style["arm_down"] - 0.1 * np.maximum(arm_fwd, 0)
         pose.arm(side, sign, down, arm_fwd + noise(rng, t, 3.0), elbow)
     feet = plan_feet(rig, t, plants, 0.0, land_pitch=-8.0)
-    for jp in jumps[:len(events)]:  # in the air the feet travel with the hips, legs tucked
+    for jp in jumps[: len(events)]:  # in the air the feet travel with the hips, legs tucked
         fl = (t > jp["t_off"]) & (t < jp["t_land"])
         u = (t[fl] - jp["t_off"]) / (jp["t_land"] - jp["t_off"])
         rise = root_y[fl] - jp["y_off"] + 0.25 * jp["h"] * np.sin(np.pi * u)
