@@ -124,3 +124,52 @@ def test_residual_tdcn_on_its_own_skeleton_is_the_identity_for_any_weights():
     assert not torch.allclose(
         quat_to_matrix(q_other), quat_to_matrix(q), atol=1e-2
     )  # another target: a change
+
+
+def test_feet_as_rest_keeps_the_sources_foot_rotations_and_nothing_else_changes():
+    """``feet_as_rest`` (what the ``tdcn`` method asks for): the target's feet and toes turn from
+    their rest exactly as the source's do (``G^B_foot = G^A_foot``: flat where the source's are
+    flat); every other joint is the network's answer as before."""
+    from retarget_lib.core.rotations import quat_to_matrix
+    from retarget_lib.core.transfer import FOOT_JOINTS_AS_REST
+
+    torch.manual_seed(0)
+    gen, _ = build_model({"row": "ours-residual", "profile": "fast"})
+    gen.eval()
+    with torch.no_grad():
+        gen.head.out.weight.normal_(std=0.5)  # alignments far from the identity
+    q = random_quats(1, 30, 22, seed=7).float()
+    r = torch.randn(1, 30, 3)
+    off_a = torch.randn(22, 3) * 0.1
+    off_b = off_a * torch.tensor([1.2, 0.9, 1.0])
+    with torch.no_grad():
+        plain, _ = gen.retarget(q, r, off_a, off_b)
+        flat, _ = gen.retarget(q, r, off_a, off_b, feet_as_rest=True)
+    g_src = forward_kinematics(q, off_a, PARENTS, None).rotations
+    g_plain = forward_kinematics(plain, off_b, PARENTS, None).rotations
+    g_flat = forward_kinematics(flat, off_b, PARENTS, None).rotations
+    feet = list(FOOT_JOINTS_AS_REST)
+    others = [j for j in range(22) if j not in feet]
+    # float32 products of a few unit quaternions: rounding only
+    assert torch.allclose(
+        quat_to_matrix(g_flat[..., feet, :]), quat_to_matrix(g_src[..., feet, :]), atol=1e-4
+    )
+    assert not torch.allclose(
+        quat_to_matrix(g_plain[..., feet, :]), quat_to_matrix(g_src[..., feet, :]), atol=1e-2
+    )
+    assert torch.allclose(
+        quat_to_matrix(flat[..., others, :]), quat_to_matrix(plain[..., others, :]), atol=1e-5
+    )
+
+
+def test_keep_feet_as_rest_sets_only_the_feet_and_toes():
+    from retarget_lib.core.skeleton import J
+    from retarget_lib.core.transfer import keep_feet_as_rest
+
+    c = random_quats(3, 22, seed=3)
+    out = keep_feet_as_rest(c)
+    feet = [J[n] for n in ("LeftFoot", "RightFoot", "LeftToeBase", "RightToeBase")]
+    assert torch.equal(out[:, feet], torch.tensor([1.0, 0, 0, 0], dtype=c.dtype).expand(3, 4, 4))
+    others = [j for j in range(22) if j not in feet]
+    assert torch.equal(out[:, others], c[:, others])
+    assert not torch.equal(c[:, feet], out[:, feet])  # the input is not changed in place

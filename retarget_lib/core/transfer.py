@@ -44,6 +44,8 @@ from .skeleton import (
 __all__ = [
     "PRIMARY_CHILD",
     "ACROSS_PAIR",
+    "FOOT_JOINTS_AS_REST",
+    "keep_feet_as_rest",
     "rest_alignment",
     "transfer_rotations",
     "retarget_ground_truth",
@@ -81,6 +83,37 @@ ACROSS_PAIR: dict[int, tuple[int, int]] = {
     J["Hips"]: (J["LeftUpLeg"], J["RightUpLeg"]),
     J["Spine2"]: (J["LeftShoulder"], J["RightShoulder"]),
 }
+
+
+#: the joints whose rest orientation is "standing flat on the floor" on every character: their
+#: rest alignment is the identity when :func:`keep_feet_as_rest` is asked for
+FOOT_JOINTS_AS_REST: tuple[int, ...] = tuple(
+    J[n] for n in ("LeftFoot", "RightFoot", "LeftToeBase", "RightToeBase")
+)
+
+
+def keep_feet_as_rest(alignment: torch.Tensor) -> torch.Tensor:
+    """Rest alignments with the feet and toes set to the identity (a copy, ``alignment`` unchanged).
+
+    Every character, real or ours, is modelled standing flat-footed: the direction of its
+    ankle->toe bone is where the rigger put two joints on the foot, not a pose. Compensating it
+    (``G^B = G^A C``) tilts the target's foot by the angle between the two characters' foot
+    bones, so where the source stands flat the target's heel or toe leaves the floor. With ``C = 1``
+    the feet copy the source's rotation from its rest (``G^B_foot = G^A_foot``): flat where the
+    source's are flat. Measured on the real-character set (``retarget evaluate --table real``, TDCN
+    default): floating feet 1.73 -> 1.04 % of height, foot-contact mismatch 0.117 -> 0.078,
+    jitter 0.31 -> 0.11 (the tilt the network varied frame to frame); on the varied-rest Table 4,
+    whose synthetic characters splay their feet in the rest pose on purpose, 0.040 -> 0.041.
+
+    Args:
+        alignment: ``(..., 22, 4)`` wxyz rest alignments (:func:`rest_alignment`, or a network's).
+
+    Returns:
+        ``(..., 22, 4)`` with the :data:`FOOT_JOINTS_AS_REST` rows ``(1, 0, 0, 0)``.
+    """
+    out = alignment.clone()
+    out[..., list(FOOT_JOINTS_AS_REST), :] = quat_identity(dtype=out.dtype, device=out.device)
+    return out
 
 
 def _check(skeleton: Skeleton) -> None:
@@ -129,7 +162,9 @@ def rest_alignment(source: Skeleton, target: Skeleton) -> np.ndarray:
     return quat_canonical(out).numpy()
 
 
-def transfer_rotations(rotations: np.ndarray, source: Skeleton, target: Skeleton) -> np.ndarray:
+def transfer_rotations(
+    rotations: np.ndarray, source: Skeleton, target: Skeleton, feet_as_rest: bool = False
+) -> np.ndarray:
     """Local rotations of ``source`` -> local rotations of ``target`` with the same global bone
     directions and twists: ``q^B_j = C_p^-1 q^A_j C_j`` (:func:`rest_alignment`).
 
@@ -137,11 +172,15 @@ def transfer_rotations(rotations: np.ndarray, source: Skeleton, target: Skeleton
         rotations: ``(..., 22, 4)`` local rotations on ``source``, wxyz.
         source: the skeleton ``rotations`` belong to.
         target: the skeleton to express them on.
+        feet_as_rest: leave the feet's rest difference alone (:func:`keep_feet_as_rest`): what
+            the methods do on a user's characters; the synthetic ground truth compensates it.
 
     Returns:
         ``(..., 22, 4)`` local rotations on ``target``, float64.
     """
     c = torch.from_numpy(rest_alignment(source, target))
+    if feet_as_rest:
+        c = keep_feet_as_rest(c)
     q = torch.from_numpy(np.asarray(rotations, dtype=np.float64))
     return quat_canonical(align_local_rotations(q, c, CANONICAL22_PARENTS)).numpy()
 

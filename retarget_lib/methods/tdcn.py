@@ -102,7 +102,8 @@ def retarget_motion_with(
 
     A residual generator (``ours-residual``) has translation-invariant inputs and the source's
     leg-scaled root as its root: it runs on the clip as it is, in one pass (``windowed`` is not
-    needed).
+    needed), with the feet's alignments the identity (flat where the source's are flat,
+    :func:`~retarget_lib.core.transfer.keep_feet_as_rest`).
 
     ``windowed=False`` (the paper, Sec. 3.1): the clip is centred like the training windows
     (:func:`centre_root`) and run through the network in one pass; the removed horizontal shift
@@ -135,7 +136,9 @@ def retarget_motion_with(
         if getattr(
             generator, "residual", False
         ):  # translation-invariant inputs, analytic root: no centring
-            q_b, r_b = (x[0] for x in generator.retarget(q[None], r[None], off_a, off_b))
+            q_b, r_b = (
+                x[0] for x in generator.retarget(q[None], r[None], off_a, off_b, feet_as_rest=True)
+            )
             shift = r.new_zeros(3)
         elif not windowed:
             r, shift = centre_root(r)

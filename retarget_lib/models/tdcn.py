@@ -73,6 +73,7 @@ from ..core.kinematics import align_local_rotations
 from ..core.measures import leg_length
 from ..core.rotations import quat_conjugate, quat_mul, quat_normalize
 from ..core.skeleton import CANONICAL22_PARENTS
+from ..core.transfer import keep_feet_as_rest
 from .features import (
     NUM_JOINTS,
     FeatureNormalizer,
@@ -606,6 +607,7 @@ class TDCNGenerator(nn.Module):
         offsets_tgt: Tensor,
         positions: Tensor | None = None,
         normalizer: nn.Module | None = None,
+        feet_as_rest: bool = False,
     ) -> GeneratorOutput:
         """Retarget with raw outputs, for training (Eqs. 4-5).
 
@@ -616,6 +618,7 @@ class TDCNGenerator(nn.Module):
             offsets_tgt: ``(B, J, 3)`` or ``(J, 3)`` target rest offsets.
             positions: optional precomputed ``(B, T, J, 3)`` source ``p``.
             normalizer: overrides ``self.normalizer``.
+            feet_as_rest: see :meth:`retarget`.
 
         Returns:
             :class:`GeneratorOutput` with raw q̂ ``(B, T, J, 4)``, r̂ ``(B, T, 3)``, no velocities.
@@ -640,6 +643,8 @@ class TDCNGenerator(nn.Module):
         )
         raw, _ = self._run(norm(x), normalize=False)
         align = quat_mul(raw[:b], quat_conjugate(normalize_quaternions(raw[b:])))
+        if feet_as_rest:
+            align = keep_feet_as_rest(align)
         q, r = self.compose_residual(align, rotations, root_positions, offsets_src, offsets_tgt)
         return GeneratorOutput(q, r, None)
 
@@ -698,6 +703,7 @@ class TDCNGenerator(nn.Module):
         offsets_src: Tensor,
         offsets_tgt: Tensor,
         normalizer: nn.Module | None = None,
+        feet_as_rest: bool = False,
     ) -> tuple[Tensor, Tensor]:
         """Features → padding → network → unit quaternions and root positions.
 
@@ -709,11 +715,19 @@ class TDCNGenerator(nn.Module):
             offsets_src: ``(B, J, 3)`` or ``(J, 3)`` source rest offsets.
             offsets_tgt: ``(B, J, 3)`` or ``(J, 3)`` target rest offsets.
             normalizer: overrides ``self.normalizer``.
+            feet_as_rest: residual form only: the feet's alignments are the identity
+                (:func:`~retarget_lib.core.transfer.keep_feet_as_rest`: flat where the source's
+                are flat); the ``tdcn`` method asks for it, training does not.
 
         Returns:
             ``(q̂ (B, T, J, 4) unit, r̂ (B, T, 3))`` for the target skeleton.
         """
         out = self.generate(
-            rotations, root_positions, offsets_src, offsets_tgt, normalizer=normalizer
+            rotations,
+            root_positions,
+            offsets_src,
+            offsets_tgt,
+            normalizer=normalizer,
+            feet_as_rest=feet_as_rest,
         )
         return normalize_quaternions(out.rotations), out.root_positions
