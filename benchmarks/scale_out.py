@@ -42,7 +42,8 @@ BATCH = {"tdcn": 16, "contact": 8}
 
 
 def load() -> str:
-    return "load average %.1f / %.1f / %.1f" % os.getloadavg()
+    one, five, fifteen = os.getloadavg()
+    return f"load average {one:.1f} / {five:.1f} / {fifteen:.1f}"
 
 
 def training(table: str, config_path: Path, profile: str, batch: int):
@@ -76,7 +77,7 @@ def rows_section(quick: bool) -> tuple[list[str], list[str]]:
     ]
     cost = [
         "| table | row | GFLOP/step at batch 16/8 (paper width) | paper batch x steps | PFLOP total | "
-        "projected GPU-h at %.0f TFLOP/s |" % GPU_TFLOPS,
+        f"projected GPU-h at {GPU_TFLOPS:.0f} TFLOP/s |",
         "|---|---|---|---|---|---|",
     ]
     repeat = 2 if quick else 3
@@ -105,7 +106,7 @@ def _median_step(run_dir: Path) -> float:
     with open(run_dir / "losses.csv") as f:
         seconds = [float(r["seconds"]) for r in csv.DictReader(f)]
     return statistics.median(
-        b - a for a, b in zip(seconds[1:], seconds[2:])
+        b - a for a, b in zip(seconds[1:], seconds[2:], strict=False)
     )  # step 0 (warm-up) left out
 
 

@@ -172,6 +172,8 @@ def _data_sources():
 
 
 def _table3_rows():
+    # read where a contact config is validated: a top import would make this bottom module (the
+    # models import it) import the losses above it, and torch with them
     from .losses.contact import TABLE3_ROWS
 
     return TABLE3_ROWS

@@ -42,7 +42,7 @@ def contact_runs(mask):
     """``(start, stop)`` index pairs of the runs of ``True`` in a 1-D bool ``mask``."""
     m = np.concatenate(([False], mask, [False]))
     e = np.flatnonzero(m[1:] != m[:-1])
-    return list(zip(e[::2], e[1::2]))
+    return list(zip(e[::2], e[1::2], strict=False))
 
 
 def assert_same_up_to_floor_shift(actual, expected, atol, max_shift=0.3):

@@ -456,7 +456,7 @@ def test_cmu_fallback_unpacks_the_deb_into_the_cache(tmp_path, monkeypatch):
     if cached:  # reuse a package downloaded before; otherwise this runs `apt-get download`
         shutil.copy(cached[-1], cache_dir("downloads"))
     paths = [cmu.cmu_clip_path(name) for name in cmu.CMU_CLIPS]
-    for name, path in zip(cmu.CMU_CLIPS, paths):
+    for name, path in zip(cmu.CMU_CLIPS, paths, strict=False):
         assert path == tmp_path / "cache/assimp-testmodels/usr/share/assimp/models/BVH" / name
         assert sha256_file(path) == cmu.CMU_SHA256[name]
     assert len(list((tmp_path / "cache/downloads").glob("*.deb"))) == 1

@@ -246,7 +246,7 @@ def test_eso_default_weights_log_every_term_and_keep_the_model():
     )
     assert (result.terms["weak"] > 0).all() and (result.terms["foot"] > 0).any()
     assert model.training and all(p.requires_grad for p in model.parameters())
-    for p, q in zip(model.parameters(), before):
+    for p, q in zip(model.parameters(), before, strict=False):
         torch.testing.assert_close(p, q)
     assert result.frames_per_second > 0
     with pytest.raises(ValueError, match="foot_contacts"):
@@ -461,6 +461,6 @@ def test_an_eso_step_is_torch_adam_on_the_frame_energy(monkeypatch):
         optimiser.zero_grad()
         quadratic(*[None] * 6, *reference)[0][-1].backward()
         optimiser.step()
-        for ours, theirs in zip(variables, reference):
+        for ours, theirs in zip(variables, reference, strict=False):
             torch.testing.assert_close(ours, theirs.detach(), rtol=0, atol=1e-5)
     assert (variables[0] - start[0]).abs().max() > 0.2  # it moved towards the minimum

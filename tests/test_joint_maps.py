@@ -69,7 +69,7 @@ def rig_clip(clip: Motion, mapping: dict) -> Motion:
     offsets = np.array(
         [
             rest[sk.index(n)] - (rest[sk.index(keep[p])] if p >= 0 else 0.0)
-            for n, p in zip(keep, parents)
+            for n, p in zip(keep, parents, strict=False)
         ]
     )
     offsets[0] = sk.offsets[0]
@@ -564,7 +564,7 @@ def test_a_shape_file_of_other_names_takes_a_joint_map(tmp_path, capsys):
     data = dict(np.load(tmp_path / "gus.npz"))
     names = [f"b{k}" for k in range(22)]
     np.savez(tmp_path / "renamed.npz", **dict(data, joint_names=np.array(names)))
-    (tmp_path / "map.yaml").write_text(yaml.safe_dump(dict(zip(CANONICAL22, names))))
+    (tmp_path / "map.yaml").write_text(yaml.safe_dump(dict(zip(CANONICAL22, names, strict=False))))
     mapped = load_target(str(tmp_path / "renamed.npz"), joint_map=tmp_path / "map.yaml")
     np.testing.assert_array_equal(
         mapped.skeleton.offsets, load_target(str(tmp_path / "gus.npz")).skeleton.offsets
@@ -584,7 +584,9 @@ def test_a_shape_file_of_other_names_takes_a_joint_map(tmp_path, capsys):
     assert ast.literal_eval(re.search(r"cannot map joints (\[.*?\])", line).group(1)) == list(
         CANONICAL22
     )
-    (tmp_path / "null.yaml").write_text(yaml.safe_dump(dict(zip(CANONICAL22, names), Spine1=None)))
+    (tmp_path / "null.yaml").write_text(
+        yaml.safe_dump(dict(zip(CANONICAL22, names, strict=False), Spine1=None))
+    )
     assert_cli_error(
         capsys,
         args + ["--joint-map", str(tmp_path / "null.yaml")],

@@ -306,9 +306,9 @@ def test_a_compiled_nkn_decoder_computes_the_eager_outputs_and_gradients():
     # fused kernels sum in another order: float32 rounding, carried through 6 recurrent frames
     torch.testing.assert_close(outs[1].rotations, outs[0].rotations, rtol=1e-4, atol=1e-5)
     torch.testing.assert_close(outs[1].root_positions, outs[0].root_positions, rtol=1e-4, atol=1e-5)
-    for _g, out in zip((eager, compiled), outs):
+    for _g, out in zip((eager, compiled), outs, strict=False):
         (out.rotations.square().sum() + out.root_positions.square().sum()).backward()
-    for (name, a), b in zip(eager.named_parameters(), compiled.parameters()):
+    for (name, a), b in zip(eager.named_parameters(), compiled.parameters(), strict=False):
         torch.testing.assert_close(b.grad, a.grad, rtol=1e-3, atol=1e-5, msg=name)
     assert (
         NKNGenerator(hidden=SMALL, backbone="dense").compile_decoder() is None

@@ -167,7 +167,9 @@ def test_training_steps_are_finite_and_update_both_networks(stem):
         assert all(np.isfinite(v) for v in log.values()), log
     for name, m in (("G", run.generator), ("D", run.discriminator)):
         unchanged = [
-            i for i, (a, b) in enumerate(zip(before[name], m.parameters())) if torch.equal(a, b)
+            i
+            for i, (a, b) in enumerate(zip(before[name], m.parameters(), strict=False))
+            if torch.equal(a, b)
         ]
         assert not unchanged, f"{name} parameters {unchanged} did not change"
         assert all(p.requires_grad for p in m.parameters())
@@ -339,7 +341,7 @@ def test_cli_export_writes_a_slim_generator_that_loads(tmp_path, capsys):
     assert cfg["train"]["steps"] == 2
     stored = torch.load(slim, weights_only=True)["modules"]["generator"]
     assert {v.dtype for v in stored.values() if v.is_floating_point()} == {torch.float16}
-    for a, b in zip(g_full.state_dict().values(), g_slim.state_dict().values()):
+    for a, b in zip(g_full.state_dict().values(), g_slim.state_dict().values(), strict=False):
         # the export stores float16; the loader gives float32 back
         assert b.dtype == a.dtype and torch.equal(
             b, a.half().to(a.dtype) if a.is_floating_point() else a

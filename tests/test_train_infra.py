@@ -77,7 +77,7 @@ def test_interrupted_run_resumes_to_the_same_result(tmp_path):
     fit(
         task, {"seed": 7}, tmp_path / "b", steps=10, checkpoint_every=3, resume=True, progress=False
     )
-    for a, b in zip(straight.parameters(), resumed.parameters()):
+    for a, b in zip(straight.parameters(), resumed.parameters(), strict=False):
         assert torch.equal(a, b)  # the same code in one process, state reloaded from binary: exact
     log_a, log_b = read_log(tmp_path / "a" / "losses.csv"), read_log(tmp_path / "b" / "losses.csv")
     assert [r[0] for r in log_b[1:]] == [str(i) for i in range(10)]

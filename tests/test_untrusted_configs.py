@@ -17,7 +17,8 @@ from retarget_lib.io.rig_maps import load_mapping_file
 
 CONFIGS = REPO_ROOT / "configs"
 BOMB = "a: &a [x, x, x, x, x, x, x, x, x, x]\n" + "".join(
-    f"{b}: &{b} [{', '.join(['*' + a] * 10)}]\n" for a, b in zip("abcdefgh", "bcdefghi")
+    f"{b}: &{b} [{', '.join(['*' + a] * 10)}]\n"
+    for a, b in zip("abcdefgh", "bcdefghi", strict=False)
 )
 
 

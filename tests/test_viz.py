@@ -164,7 +164,7 @@ def test_titles_stay_inside_the_image_and_apart(tpose):
             boxes.append((x - 0.5 * (bb[1] - bb[0]), x + 0.5 * (bb[1] - bb[0]), y))
         assert len(boxes) == 3
         assert all(0 <= lo and hi <= 240 for lo, hi, _ in boxes)
-        for (_, hi_a, ya), (lo_b, _, yb) in zip(boxes, boxes[1:]):
+        for (_, hi_a, ya), (lo_b, _, yb) in zip(boxes, boxes[1:], strict=False):
             assert hi_a <= lo_b or ya != yb  # side by side, or staggered onto another line
     finally:
         r.close()

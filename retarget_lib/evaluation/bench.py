@@ -148,7 +148,7 @@ def plain_dilated_body(in_channels: int, channels: int, dilations=(3, 9, 27)) ->
 
         def forward(self, x):
             h = self.first(x)
-            for block, d in zip(self.blocks, self.pads):
+            for block, d in zip(self.blocks, self.pads, strict=False):
                 h = h[..., d:-d] + block(h)
             return h
 
@@ -171,13 +171,13 @@ def bench_tdcn(quick: bool = False, frames: int = 1000) -> list[BenchRow]:
         body = plain_dilated_body(model.in_channels, width).eval()
         x = torch.randn(1, model.in_channels, frames + 80, generator=gen)
 
-        def full():
+        def full(model=model):  # bound: B023 (called in this iteration)
             qh, rh = model.retarget(q, r, off_a, off_b)
             return forward_kinematics(qh, off_b, CANONICAL22_PARENTS, rh)
 
         with torch.inference_mode():
             t = time_it(full, repeat=3 if quick else 9)
-            ref = time_it(lambda: body(x), repeat=3 if quick else 9)
+            ref = time_it(lambda body=body, x=x: body(x), repeat=3 if quick else 9)
         rows.append(
             BenchRow(
                 f"TDCN inference {frames} frames, {profile} width {width} (incl. features, heads, FK)",
@@ -206,11 +206,11 @@ def bench_training(quick: bool = False, batch: int = 16) -> list[BenchRow]:
             REPO_ROOT / "configs" / f"{config}.yaml", [f"train.batch={batch}"], profile=profile
         )
         run = RetargetTraining(cfg)
-        step = time_it(lambda: run.step(0), repeat=2 if quick else 5, warmup=1)
+        step = time_it(lambda run=run: run.step(0), repeat=2 if quick else 5, warmup=1)
         sample = run.sampler.sample(batch)
         gen = run.generator.train()
 
-        def bare():
+        def bare(gen=gen, sample=sample):  # bound: B023 (called in this iteration)
             out = gen.generate(
                 sample.rotations,
                 sample.root_positions,
@@ -240,7 +240,7 @@ def bench_training(quick: bool = False, batch: int = 16) -> list[BenchRow]:
             profile="fast",
         )
         run = RetargetTraining(cfg)
-        steps[compile] = time_it(lambda: run.step(0), repeat=2 if quick else 5, warmup=1)
+        steps[compile] = time_it(lambda run=run: run.step(0), repeat=2 if quick else 5, warmup=1)
     rows.append(
         BenchRow(
             f"NKN Baseline training step (tdcn_baseline), fast, compiled GRU decoder, batch {batch}: "

@@ -449,7 +449,10 @@ def summary_table(
     for row in dict.fromkeys(list(rows) + list(paper)):
         r = {f"ours {m}": (ours.loc[row, m] if row in ours.index else np.nan) for m in METRICS}
         r.update(
-            {f"paper {m}": v for m, v in zip(CONTACT_PAPER_METRICS, paper.get(row, (np.nan,) * 4))}
+            {
+                f"paper {m}": v
+                for m, v in zip(CONTACT_PAPER_METRICS, paper.get(row, (np.nan,) * 4), strict=False)
+            }
         )
         out.append(pd.Series(r, name=row))
     cols = [

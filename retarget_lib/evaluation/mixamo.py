@@ -188,7 +188,9 @@ def mixamo_tdcn_per_case(methods: Mapping[str, Method], cases: list[EvalCase]) -
     per_case = evaluate_methods(methods, cases, scores=mixamo_scores)
     by_case = {(c.source_name, c.target_name, c.clip): c for c in cases}
     extra = []
-    for src, tgt, motion in zip(per_case["source"], per_case["target"], per_case["clip"]):
+    for src, tgt, motion in zip(
+        per_case["source"], per_case["target"], per_case["clip"], strict=False
+    ):
         c = by_case[src, tgt, motion]
         extra.append(
             {

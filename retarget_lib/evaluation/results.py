@@ -359,7 +359,8 @@ def compare_with_stored(
     )
     out["abs diff"] = (out["now"] - out["stored"]).abs()
     out["tolerance"] = [
-        tolerance(r, m, v) for r, m, v in zip(out[keys[0]], out["metric"], out["stored"])
+        tolerance(r, m, v)
+        for r, m, v in zip(out[keys[0]], out["metric"], out["stored"], strict=False)
     ]
     out["reproduces"] = (out["abs diff"] <= out["tolerance"]) | (
         out["now"].isna() & out["stored"].isna()

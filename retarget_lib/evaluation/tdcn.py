@@ -324,7 +324,7 @@ def table_from_cases(per_case: pd.DataFrame, squared_height: bool = False) -> pd
         row = {f"ours {c}": v for c, v in table4_row(res, squared_height).items()}
         paper = PAPER_TABLE4.get(name) if not squared_height else None
         if paper is not None:
-            row.update({f"paper {c}": v for c, v in zip(TABLE4_COLUMNS, paper)})
+            row.update({f"paper {c}": v for c, v in zip(TABLE4_COLUMNS, paper, strict=False)})
         rows[name] = row
     return pd.DataFrame(rows).T
 

@@ -458,7 +458,7 @@ def detect_self_contacts(
 
     groups = vertex_groups(weights, threshold)
     local_faces = []  # per group, its triangles indexing the group's own vertex list
-    for idx, face_ids in zip(groups, group_faces(faces, groups, len(weights))):
+    for idx, face_ids in zip(groups, group_faces(faces, groups, len(weights)), strict=False):
         local = np.full(len(weights), -1, dtype=np.int64)
         local[idx] = np.arange(len(idx))
         local_faces.append(local[faces[face_ids]])
@@ -489,7 +489,7 @@ def detect_self_contacts(
         if (similarity > cosine or dist[ia[0]] < near) and _meshes_within(
             pa, local_faces[hand], pb, local_faces[other], margin, dist
         ):
-            rows += [(f, a, b, hand, other) for a, b in zip(i, j)]
+            rows += [(f, a, b, hand, other) for a, b in zip(i, j, strict=False)]
     rows = np.asarray(rows, dtype=np.int64).reshape(-1, 5)
     return SelfContacts(len(vertices), rows[:, 0], rows[:, 1:3], rows[:, 3:5])
 

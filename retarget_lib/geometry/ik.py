@@ -371,7 +371,7 @@ def _segments(mask: np.ndarray) -> list[tuple[int, int]]:
     """``[start, stop)`` runs of ``True`` in a 1-D bool array."""
     m = np.concatenate(([False], mask.astype(bool), [False]))
     edges = np.flatnonzero(m[1:] != m[:-1])
-    return list(zip(edges[::2], edges[1::2]))
+    return list(zip(edges[::2], edges[1::2], strict=False))
 
 
 def _falloff(x: np.ndarray) -> np.ndarray:

@@ -618,7 +618,7 @@ def _file_layout(motion: Motion) -> tuple[list[str], list[list[str]]]:
         meta_names is not None
         and meta_channels is not None
         and len(meta_names) == len(names) == len(meta_channels)
-        and all(strip_prefix(f) == n or f == n for f, n in zip(meta_names, names))
+        and all(strip_prefix(f) == n or f == n for f, n in zip(meta_names, names, strict=False))
     )
     if fits:
         file_names = [str(n) for n in meta_names or ()]  # fits: neither is None

@@ -865,7 +865,7 @@ def _vrm_mapping(doc: GLTFDocument, tree: _Skeleton) -> dict[str, str]:
     else:
         return {}
     canon = {joint_key(k): v for k, v in RIG_MAPS["vrm"].items()}
-    name_of = dict(zip(tree.nodes, tree.names))
+    name_of = dict(zip(tree.nodes, tree.names, strict=False))
     return {
         canon[joint_key(b)]: name_of[n]
         for b, n in bones.items()

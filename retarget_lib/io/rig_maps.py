@@ -87,9 +87,9 @@ def _table(
         "{Side}ForeArm",
         "{Side}Hand",
     )
-    canon_of = {c: n for c, n in zip(CANONICAL22[:6], spine) if n is not None} | _sided(
-        dict(zip(limbs, leg + arm))
-    )
+    canon_of = {
+        c: n for c, n in zip(CANONICAL22[:6], spine, strict=False) if n is not None
+    } | _sided(dict(zip(limbs, leg + arm, strict=False)))
     return {v: k for k, v in canon_of.items()}
 
 

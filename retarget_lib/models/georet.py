@@ -179,7 +179,7 @@ def batch_meshes(
         )
     n = max(len(v) for v in vertices)
     out_v, out_w = [], []
-    for v, w in zip(vertices, weights):
+    for v, w in zip(vertices, weights, strict=False):
         v, w = torch.as_tensor(v, dtype=dtype), torch.as_tensor(w, dtype=dtype)
         if len(v) != len(w):
             raise ValueError(f"a mesh has {len(v)} vertices but {len(w)} weight rows")

@@ -26,6 +26,7 @@ from pathlib import Path
 
 from ..config import active_profile
 from ..files import REPO_ROOT, atomic_write
+from .book import load_learning_path
 
 TIMINGS_FILE = "timings.json"
 #: per-notebook seconds of the last measured fresh-clone run (benchmarks/two_commands.py writes it):
@@ -143,8 +144,6 @@ def workshop_notebooks(
     notebooks_dir: Path = REPO_ROOT / "notebooks",
 ) -> tuple[list[Path], list[tuple[str, str]]]:
     """The notebooks ``make workshop`` executes, and the ones it leaves out with the reason."""
-    from .book import load_learning_path
-
     path = load_learning_path(notebooks_dir / "learning_path.yaml")
     run = [notebooks_dir / les.file for les in path.lessons if les.workshop]
     left_out = [(les.file, les.workshop_note) for les in path.lessons if not les.workshop]

@@ -261,13 +261,19 @@ class ContactTraining:
         """Weighted ``Efull`` terms of one batch (each ``(B,)``), :data:`LOG_TERMS` keys."""
         win, dev = slice(0, self.window), self.device
         sl = [slice(s, s + self.window) for _, s, _, _ in draws]
-        features = torch.stack([c.features[s] for (c, *_), s in zip(draws, sl)]).to(dev)
+        features = torch.stack([c.features[s] for (c, *_), s in zip(draws, sl, strict=False)]).to(
+            dev
+        )
         src = MotionQuantities(
-            torch.stack([self.eweak_rotations(c, t)[s] for (c, _, t, _), s in zip(draws, sl)]).to(
-                dev
-            ),
-            torch.stack([c.quantities.root_velocity[s] for (c, *_), s in zip(draws, sl)]).to(dev),
-            torch.stack([c.quantities.positions[s] for (c, *_), s in zip(draws, sl)]).to(dev),
+            torch.stack(
+                [self.eweak_rotations(c, t)[s] for (c, _, t, _), s in zip(draws, sl, strict=False)]
+            ).to(dev),
+            torch.stack(
+                [c.quantities.root_velocity[s] for (c, *_), s in zip(draws, sl, strict=False)]
+            ).to(dev),
+            torch.stack(
+                [c.quantities.positions[s] for (c, *_), s in zip(draws, sl, strict=False)]
+            ).to(dev),
             torch.tensor([c.quantities.height for c, *_ in draws], device=dev),
         )
         targets = [t for _, _, t, _ in draws]
@@ -299,7 +305,7 @@ class ContactTraining:
                     t.ground,
                     t.height,
                 )
-                for b, ((c, _, t, _), s) in enumerate(zip(draws, sl))
+                for b, ((c, _, t, _), s) in enumerate(zip(draws, sl, strict=False))
             ]
         )
         terms["foot"] = weights.foot_weight * weights.in_units("foot", foot)

@@ -132,7 +132,7 @@ class Distributed:
             return values
         t = torch.tensor(list(values.values()), dtype=torch.float64)
         dist.all_reduce(t)
-        return dict(zip(values, (t / self.world_size).tolist()))
+        return dict(zip(values, (t / self.world_size).tolist(), strict=False))
 
     def barrier(self) -> None:
         """Wait for every rank (nothing with one process)."""
@@ -200,6 +200,8 @@ class GlobalBatchNorm(nn.BatchNorm1d):
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         if not (self.training and dist.is_initialized() and dist.get_world_size() > 1):
             return super().forward(x)
+        # only in a multi-process group: torch.distributed.nn is not importable on every torch build
+        # (it needs the distributed package compiled in), and a single process never reaches here
         from torch.distributed.nn.functional import all_reduce
 
         dtype, x = x.dtype, x.float()  # statistics in float32 (under bfloat16 autocast too)

@@ -17,7 +17,10 @@ from typing import NamedTuple
 from ..config import load_config
 from ..devices import resolve_device
 from . import distributed
+from .contact import ContactTraining
+from .contact import export_model as export_contact_model
 from .loop import fit
+from .tdcn import RetargetTraining, export_generator
 
 __all__ = ["TrainResult", "train_config"]
 
@@ -73,12 +76,9 @@ def train_config(
     place = resolve_device(device, layout.local_rank)
     distributed.init_process_group(layout, place)
     try:
-        if config.get("method") == "contact":
-            from .contact import ContactTraining as Training
-            from .contact import export_model as export_fn
-        else:
-            from .tdcn import RetargetTraining as Training
-            from .tdcn import export_generator as export_fn
+        contact = config.get("method") == "contact"
+        Training = ContactTraining if contact else RetargetTraining
+        export_fn = export_contact_model if contact else export_generator
         run = Training(config, device=place, amp=amp, layout=layout)
         final = fit(
             run.task(),

@@ -33,6 +33,7 @@ import submitit
 from ..data.manifest import table_checkpoints
 from ..errors import RetargetInputError
 from ..files import REPO_ROOT, atomic_write
+from .run import train_config
 
 __all__ = [
     "TABLES",
@@ -88,8 +89,6 @@ class TrainJob(submitit.helpers.Checkpointable):
         device: str,
         amp: bool,
     ) -> str:
-        from .run import train_config
-
         if (
             submitit.JobEnvironment().num_tasks > 1
         ):  # one rank per task, as torchrun would start them
@@ -182,7 +181,7 @@ def submit(
             [device] * n,
             [amp] * n,
         )
-        jobs = dict(zip(pending, submitted))
+        jobs = dict(zip(pending, submitted, strict=False))
         state["cluster"] = executor.cluster
     state.update(profile=profile, overrides=list(overrides))
     for r in configs:

@@ -95,7 +95,7 @@ class TrainingClips:
             torch.arange(
                 int(a), max(int(a), int(b) - window + 1)
             )  # none in a clip shorter than a window
-            for a, b in zip(self.clip_bounds[:-1], self.clip_bounds[1:])
+            for a, b in zip(self.clip_bounds[:-1], self.clip_bounds[1:], strict=False)
         ]
         starts = torch.cat(starts)
         if starts.numel() == 0:

@@ -59,14 +59,14 @@ def render_frames(
         longest = max((len(str(t)) for t in titles or ()), default=0)
         gap = size * (0.35 + 0.03 * longest)  # labels that still collide shrink or stagger
         placed = layout_row(boxes, gap)
-        shifts = [p.positions[0] - b.positions[0] for p, b in zip(placed, boxes)]
+        shifts = [p.positions[0] - b.positions[0] for p, b in zip(placed, boxes, strict=False)]
         if stand:
-            for k, (e, s0) in enumerate(zip(ext, frames[0])):
+            for k, (e, s0) in enumerate(zip(ext, frames[0], strict=False)):
                 lift = (
                     JOINT_RADIUS * size if s0.vertices is None and s0.positions is not None else 0.0
                 )
                 shifts[k] = shifts[k] + [0.0, lift - e[:, 1].min(), 0.0]
-        frames = [[s.translated(d) for s, d in zip(f, shifts)] for f in frames]
+        frames = [[s.translated(d) for s, d in zip(f, shifts, strict=False)] for f in frames]
     allpts = np.concatenate([s.points() for f in frames for s in f])
     lo, hi = allpts.min(0), allpts.max(0)
     r = SceneRenderer(window_size, view)
@@ -215,7 +215,7 @@ def animate_mesh(
     )
     fl = [faces] * len(seq) if isinstance(faces, np.ndarray) else list(faces)
     frames = [
-        [Scene(vertices=v[t], faces=f) for v, f in zip(seq, fl)]
+        [Scene(vertices=v[t], faces=f) for v, f in zip(seq, fl, strict=False)]
         for t in range(0, len(seq[0]), every)
     ]
     return animate(frames, path, fps, titles=titles, side_by_side=len(seq) > 1, **kw)

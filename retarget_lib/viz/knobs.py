@@ -14,6 +14,7 @@ import html
 import uuid
 from collections.abc import Callable, Sequence
 
+import matplotlib.pyplot as plt
 import numpy as np
 
 from .display import png_bytes
@@ -23,8 +24,6 @@ __all__ = ["Knob", "knob", "figure_image"]
 
 def figure_image(fig) -> np.ndarray:
     """A matplotlib figure as an ``(H, W, 3)`` uint8 image (the figure is closed)."""
-    import matplotlib.pyplot as plt
-
     fig.canvas.draw()
     image = np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()
     plt.close(fig)

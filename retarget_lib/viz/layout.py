@@ -49,7 +49,7 @@ def layout_row(scenes: Sequence[Scene], gap: float | None = None, extents=None) 
     extents = extents or [(s.points().min(0), s.points().max(0)) for s in scenes]
     gap = gap if gap is not None else 0.35 * float(np.median([s.size() for s in scenes]))
     out, cursor = [], 0.0
-    for s, (lo, hi) in zip(scenes, extents):
+    for s, (lo, hi) in zip(scenes, extents, strict=False):
         width = max(hi[0] - lo[0], 0.2 * s.size())
         dx = cursor + 0.5 * width - 0.5 * (lo[0] + hi[0])
         out.append(s.translated([dx, 0, 0]))

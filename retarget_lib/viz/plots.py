@@ -7,6 +7,8 @@ from collections.abc import Mapping, Sequence
 
 import matplotlib.pyplot as plt
 import numpy as np
+import pandas as pd
+from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
 from ..core.skeleton import CANONICAL22
 from .scene import CENTER_COLOR, LEFT_COLOR, RIGHT_COLOR
@@ -119,8 +121,6 @@ def plain_log_ticks(axis, subs: Sequence[float] | None = None) -> None:
         subs: labelled multiples of each power of ten; default ``(1, 2, 5)`` when the axis spans
             less than about two and a half decades (so it has several labels), else ``(1,)``.
     """
-    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
-
     if subs is None:
         lo, hi = sorted(axis.get_view_interval())
         subs = (1.0, 2.0, 5.0) if lo > 0 and hi / lo < 300 else (1.0,)
@@ -169,8 +169,6 @@ def plot_grouped_barh(
     Returns:
         the Axes.
     """
-    import pandas as pd
-
     frame = pd.DataFrame(values).astype(float)
     if ax is None:
         _, ax = plt.subplots(figsize=(5.0, 0.6 + 0.35 * len(frame) * max(1, frame.shape[1]) ** 0.5))

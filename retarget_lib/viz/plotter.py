@@ -15,6 +15,7 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
+import pyvista as pv
 from matplotlib import colormaps
 
 from ..geometry.normals import vertex_normals
@@ -46,10 +47,6 @@ def configure_offscreen(
         the ``pyvista`` module.
     """
     os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
-    # optional extra: pyvista. Imported where a picture is made, not at the top: VTK costs ~1.3 s,
-    # which the plots and the rest of the library do without
-    import pyvista as pv
-
     pv.OFF_SCREEN = True
     if not _state["configured"] or tuple(pv.global_theme.window_size) != tuple(window_size):
         th = pv.global_theme
@@ -64,8 +61,6 @@ def configure_offscreen(
 
 
 def _polydata(points: np.ndarray, faces: np.ndarray):
-    import pyvista as pv  # optional extra: pyvista (see configure_offscreen)
-
     return pv.PolyData(points.copy(), np.hstack([np.full((len(faces), 1), 3), faces]).ravel())
 
 
@@ -89,8 +84,6 @@ def _checkerboard(x0: float, x1: float, z0: float, z1: float, step: float, y: fl
     i, k = np.meshgrid(np.arange(nx - 1), np.arange(nz - 1), indexing="ij")
     a = (i * nz + k).ravel()
     quads = np.stack([np.full_like(a, 4), a, a + 1, a + nz + 1, a + nz], -1)
-    import pyvista as pv  # optional extra: pyvista (see configure_offscreen)
-
     plane = pv.PolyData(pts, quads.ravel())
     par = (np.floor(xs[i.ravel()] / step + 0.5) + np.floor(zs[k.ravel()] / step + 0.5)).astype(
         int
@@ -321,7 +314,7 @@ class SceneRenderer:
             self._build(scenes, size)
             self._key = key
             return
-        for s, it in zip(scenes, self._items):
+        for s, it in zip(scenes, self._items, strict=False):
             g = it["geom"]
             parts = []
             if "skel" in it:
@@ -415,7 +408,7 @@ class SceneRenderer:
         w, h = self.window_size
         items = sorted(
             (self.to_display(a)[0], self.to_display(a)[1], str(t))
-            for t, a in zip(titles, anchors)
+            for t, a in zip(titles, anchors, strict=False)
             if t
         )
         if not items:
@@ -438,7 +431,9 @@ class SceneRenderer:
             [1.0]
             + [
                 max(xb - xa, 1.0) / (0.5 * (wa + wb) + 8)
-                for (xa, _, _), (xb, _, _), wa, wb in zip(items, items[1:], widths, widths[1:])
+                for (xa, _, _), (xb, _, _), wa, wb in zip(
+                    items, items[1:], widths, widths[1:], strict=False
+                )
             ]
         )
         base = actors[0].GetTextProperty().GetFontSize()  # pyvista's units: 2x font_size
@@ -448,7 +443,7 @@ class SceneRenderer:
         line = 0.95 * fs  # one line of text in pixels (measured: 22 px at size 24)
         right: list[float] = []  # right edge of the last label on each line (base line first)
         placed = []
-        for (x, y, _), actor in zip(items, actors):
+        for (x, y, _), actor in zip(items, actors, strict=False):
             actor.GetTextProperty().SetFontSize(fs)
             tw = width(actor)
             half = 0.55 * tw + 4  # the measured box is a little narrower than the drawn glyphs
@@ -458,7 +453,7 @@ class SceneRenderer:
             right[row : row + 1] = [x + 0.5 * tw]
             placed.append((x, y, row))
         top = h - (1.2 + max(row for _, _, row in placed)) * line  # highest base line
-        for (x, y, row), actor in zip(placed, actors):
+        for (x, y, row), actor in zip(placed, actors, strict=False):
             actor.SetPosition(x, min(y + 4, top) + row * line)
             self._texts.append(actor)
         return 1 + max(row for _, _, row in placed)

@@ -108,7 +108,7 @@ def render_skeleton(
         colors = [None] if len(arr) == 1 else [PALETTE[i % len(PALETTE)] for i in range(len(arr))]
     scenes = [
         Scene(positions=p, parents=parents, joint_names=joint_names, color=c)
-        for p, c in zip(arr, colors)
+        for p, c in zip(arr, colors, strict=False)
     ]
     titles = [title or ""] + [""] * (len(scenes) - 1)
     return render_scenes(scenes, titles, view, window_size, parallel, ground, shadow)
@@ -154,7 +154,9 @@ def render_mesh(
         ``(H, W, 3)`` uint8 image.
     """
     sk = (
-        dict(zip(("positions", "parents", "joint_names"), skeleton)) if skeleton is not None else {}
+        dict(zip(("positions", "parents", "joint_names"), skeleton, strict=False))
+        if skeleton is not None
+        else {}
     )
     s = Scene(
         vertices=vertices,
@@ -219,21 +221,21 @@ def render_side_by_side(
     placed = [layout_row([sc[i] for i in row], gap) for row in rows]
     renderers = [SceneRenderer(window_size, view, parallel, True, True, font_size) for _ in rows]
     try:
-        for r, p in zip(renderers, placed):
+        for r, p in zip(renderers, placed, strict=False):
             r.update(p, size)
         # one camera for all rows (fitted to their overlaid geometry), so sizes stay comparable
         points = np.concatenate([hull_points(r.drawn_points()) for r in renderers])
         floor = 0.0 if stand else None
         lo, hi = scene_bounds([s for p in placed for s in p], size)
         band = 0
-        for r, row, p in zip(renderers, rows, placed):
+        for r, row, p in zip(renderers, rows, placed, strict=False):
             if any(titles[i] for i in row):
                 r.frame(lo, hi, size, points=points, floor=floor, top_px=r.title_band(1))
                 band = max(
                     band, r.set_titles([titles[i] for i in row], [title_anchor(s, size) for s in p])
                 )
         images = []
-        for r, row, p in zip(renderers, rows, placed):
+        for r, row, p in zip(renderers, rows, placed, strict=False):
             r.frame(
                 lo, hi, size, points=points, floor=floor, top_px=r.title_band(band) if band else 0.0
             )

@@ -24,6 +24,7 @@ from ...core.measures import mesh_standing_height
 from ...core.rig import Rig
 from ...core.skeleton import J, Skeleton
 from ...files import REPO_ROOT, DataError, sha256_file
+from ...io.gltf import load_gltf_rig
 from ..manifest import source
 
 __all__ = [
@@ -95,8 +96,6 @@ def load_real_character(name: str, verify: bool = True) -> Rig:
     """A real character as a :class:`~retarget_lib.core.rig.Rig` (its own joints; ``.character()``
     is the canonical-22 character), with ``meta["convention"]`` and ``meta["license"]`` from the
     manifest."""
-    from ...io.gltf import load_gltf_rig
-
     entry = real_character_entry(name)
     rig = load_gltf_rig(real_character_path(name, verify), joint_map_path(name))
     rig.meta.update(convention=entry["convention"], license=entry["license"])

@@ -179,7 +179,7 @@ def _torso_parts(spec: CharacterSpec, pos: np.ndarray, s: float) -> list[list[_P
             np.array(r1) * b * s,
             (caps[2 * k], caps[2 * k + 1]),
         )
-        for k, ((owner, p0, r0), (_, p1, r1)) in enumerate(zip(chain[:-1], chain[1:]))
+        for k, ((owner, p0, r0), (_, p1, r1)) in enumerate(zip(chain[:-1], chain[1:], strict=False))
     ]
     parts = [loft]
     if spec.belly > 0:
@@ -326,7 +326,7 @@ def _sample_sdf(
     hi = np.max([bx[1] for bx in boxes], axis=0) + margin
     shape = np.ceil((hi - lo) / spacing).astype(int) + 1
     values = np.full(shape, margin, dtype=np.float64)
-    for part, (plo, phi) in zip(parts, boxes):
+    for part, (plo, phi) in zip(parts, boxes, strict=False):
         i0 = np.floor((plo - margin - lo) / spacing).astype(int).clip(0)
         i1 = np.minimum(np.ceil((phi + margin - lo) / spacing).astype(int) + 1, shape)
         axes = [lo[d] + spacing * np.arange(i0[d], i1[d]) for d in range(3)]

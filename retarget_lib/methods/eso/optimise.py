@@ -251,7 +251,7 @@ def encoder_space_optimization(
     finally:
         torch.set_num_threads(threads)
         model.train(was_training)
-        for p, flag in zip(model.parameters(), grad_flags):
+        for p, flag in zip(model.parameters(), grad_flags, strict=False):
             p.requires_grad_(flag)
     return EsoResult(
         torch.cat([f.rotations for f in frames]).cpu(),

@@ -134,10 +134,12 @@ def adam_step(
     (beta1, beta2), count = ADAM_BETAS, adam.steps + 1
     step = lr / (1 - beta1**count)
     root_correction = (1 - beta2**count).sqrt()
-    first = tuple(m + (1 - beta1) * (g - m) for m, g in zip(adam.first, grads))
-    second = tuple(beta2 * v + (1 - beta2) * g * g for v, g in zip(adam.second, grads))
+    first = tuple(m + (1 - beta1) * (g - m) for m, g in zip(adam.first, grads, strict=False))
+    second = tuple(
+        beta2 * v + (1 - beta2) * g * g for v, g in zip(adam.second, grads, strict=False)
+    )
     moved = tuple(
         x - step * m / (v.sqrt() / root_correction + ADAM_EPS)
-        for x, m, v in zip(variables, first, second)
+        for x, m, v in zip(variables, first, second, strict=False)
     )
     return moved, AdamState(first, second, count), values, pose  # type: ignore[arg-type]

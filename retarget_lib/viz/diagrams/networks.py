@@ -307,7 +307,7 @@ def patch_discriminator_diagram(
     y_sc = 2.1
     strip(y_sc, 0.22, n_patch, "#fdae6b", start=(rf - 1) // 2)
     colors = ["C3", "C2", "C4"]
-    for c_, s in zip(colors, (0, (clip_frames - rf) // 2, clip_frames - rf)):
+    for c_, s in zip(colors, (0, (clip_frames - rf) // 2, clip_frames - rf), strict=False):
         xa, xb = x0 + s * scale, x0 + (s + rf) * scale
         cv.ax.plot(
             [xa, xa, xb, xb], [y_in - 0.04, y_in - 0.1, y_in - 0.1, y_in - 0.04], color=c_, lw=1.5
@@ -441,7 +441,7 @@ def nkn_diagram(config: Mapping[str, Any] | None = None) -> Figure:
         cv.arrow(b["dec"].top, b["lin"].bottom)
         cv.arrow(b["lin"].top, b["fk"].bottom)
         boxes.append(b)
-    for a, b in zip(boxes, boxes[1:]):
+    for a, b in zip(boxes, boxes[1:], strict=False):
         cv.arrow(a["enc"].at(1, 0.35), b["enc"].at(0, 0.35), color="#2e7d32")
         cv.arrow(a["dec"].at(1, 0.25), b["dec"].at(0, 0.25), color="#2e7d32")
         # feedback: the previous FK output and root offset enter the next decoder step

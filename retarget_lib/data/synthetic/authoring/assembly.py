@@ -72,7 +72,7 @@ def palm_targets(center: Callable[[_Body], np.ndarray], gap: np.ndarray):
 def contact_runs(mask: np.ndarray) -> list[tuple[int, int]]:
     m = np.concatenate(([False], mask, [False]))
     e = np.flatnonzero(m[1:] != m[:-1])
-    return [(int(a), int(b)) for a, b in zip(e[::2], e[1::2])]
+    return [(int(a), int(b)) for a, b in zip(e[::2], e[1::2], strict=False)]
 
 
 # ----------------------------------------------------------------------------- assembling

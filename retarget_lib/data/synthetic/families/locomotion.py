@@ -173,7 +173,7 @@ def turn(rig: Rig, rng: np.random.Generator, t: np.ndarray) -> Plan:
         for _, sign in SIDES
     ]
     total = 0.0
-    for (a, b), ang in zip(events, angles):
+    for (a, b), ang in zip(events, angles, strict=False):
         heading += ang * ramp(t, a, b - 0.2)
         n_steps = int(np.ceil(abs(ang) / 50.0)) + 1
         first = 0 if ang > 0 else 1  # step first with the foot on the turning side
@@ -231,7 +231,7 @@ def jump(rig: Rig, rng: np.random.Generator, t: np.ndarray) -> Plan:
 
     events = event_times(rng, dur, length, (0.5, 1.8), start=(0.4, 0.9))
     x0, yaw0 = np.zeros(2), 0.0
-    for (a, b), jp in zip(events, jumps):
+    for (a, b), jp in zip(events, jumps, strict=False):
         v = np.sqrt(2 * jp["h"] / g) * g
         t_low, t_off = a + 0.6 * jp["prep"], a + jp["prep"]
         t_land = t_off + 2 * v / g
