@@ -8,20 +8,25 @@
                       [--checkpoint ID|PATH] [--fps N] [--force] [--device auto] --out OUT.bvh
     retarget train    --config configs/NAME.yaml [key=value ...] [--profile fast|paper] [--out DIR]
                       [--resume] [--export MODEL.pt] [--device auto|cpu|cuda|mps] [--amp]
-                                         also under ``torchrun --nproc-per-node N -m retarget_lib train …``
-                                         train a TDCN/NKN Table 4 row (retarget_lib.training.tdcn) or,
-                                         for configs/contact_*.yaml, a contact-aware Table 3 row
+                                         also under ``torchrun --nproc-per-node N -m retarget_lib
+                                         train …`` train a TDCN/NKN Table 4 row
+                                         (retarget_lib.training.tdcn) or, for
+                                         configs/contact_*.yaml, a contact-aware Table 3 row
                                          (retarget_lib.training.contact)
-    retarget sweep    --table tdcn|contact --out DIR [key=value ...] [--profile fast|paper] [--rows ROW ...]
-                      [--cluster auto|slurm|local] [--gpus-per-row N] [--timeout-min M] [--partition P]
-                      [--wait] [--status]     one submitit job per table row (retarget_lib.training.sweep)
-    retarget evaluate --all --out DIR    every table with provenance (``make tables``: into results/)
-    retarget evaluate --status           each stored result in results/: provenance, stale or not
-    retarget evaluate --compare DIR      results/ against DIR's per-case files, within the re-run tolerances
-    retarget evaluate --table tdcn|contact|real [--profile fast|paper] [--runs SWEEP_DIR] [--device auto] --out DIR
-                      [--data synthetic|mixamo-local [--mixamo DIR] [--methods ROW ...] [--checkpoint PATH]]
-                                         mixamo-local: the papers' protocols on a reviewer's Mixamo folder
-                                         (retarget_lib.evaluation.mixamo, .mixamo_contact)
+    retarget sweep    --table tdcn|contact --out DIR [key=value ...] [--profile fast|paper] [--rows
+    ROW ...]
+                      [--cluster auto|slurm|local] [--gpus-per-row N] [--timeout-min M] [--partition
+                      P] [--wait] [--status]     one submitit job per table row
+                      (retarget_lib.training.sweep)
+    retarget evaluate --all --out DIR    every table with provenance (``make tables``: into
+    results/) retarget evaluate --status           each stored result in results/: provenance, stale
+    or not retarget evaluate --compare DIR      results/ against DIR's per-case files, within the
+    re-run tolerances retarget evaluate --table tdcn|contact|real [--profile fast|paper] [--runs
+    SWEEP_DIR] [--device auto] --out DIR
+                      [--data synthetic|mixamo-local [--mixamo DIR] [--methods ROW ...]
+                      [--checkpoint PATH]]
+                                         mixamo-local: the papers' protocols on a reviewer's Mixamo
+                                         folder (retarget_lib.evaluation.mixamo, .mixamo_contact)
     retarget bench [--quick]             speed table (ratios against references in the same run)
 
 Each command imports what it runs inside its ``_cmd_*`` function: the library below this module
@@ -140,7 +145,8 @@ def _evaluate_contact(args: argparse.Namespace, runs) -> int:
     if missing:
         print(f"no trained checkpoint yet for: {', '.join(missing)}")
     print(
-        f"wrote {args.out}/contact_table1.csv/.md, contact_table3.*, contact_table5.*, contact_table6.*, "
+        f"wrote {args.out}/contact_table1.csv/.md, contact_table3.*, contact_table5.*, "
+        "contact_table6.*, "
         "contact_cases.csv" + (", contact_coverage.csv" if args.data == "mixamo-local" else "")
     )
     return 0
@@ -355,7 +361,8 @@ def _evaluate_real(args: argparse.Namespace, command: str | None = None) -> int:
         f"{args.out}/real_worst.png",
     )
     print(
-        f"wrote {args.out}/real.csv, real.md, real_cases.csv (with .provenance.json), real_worst.png (each "
+        f"wrote {args.out}/real.csv, real.md, real_cases.csv (with .provenance.json), "
+        "real_worst.png (each "
         "method's case with the most arm vertices inside the body, those vertices red)"
     )
     return 0
@@ -413,7 +420,10 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     width = max(len(s.row) for s in statuses)
     for s in statuses:
         print(
-            f"{s.row:<{width}}  {s.state:<8} step {s.step:>6}  job {s.job_id or '-'}  {s.detail}".rstrip()
+            (
+                f"{s.row:<{width}}  {s.state:<8} step {s.step:>6}  "
+                f"job {s.job_id or '-'}  {s.detail}"
+            ).rstrip()
         )
     return 1 if any(s.state == "failed" for s in statuses) else 0
 
@@ -449,7 +459,8 @@ class _RegisteredMethods:
 
 
 class _RetargetHelp(argparse.HelpFormatter):
-    """``retarget retarget --help`` describes each registered method (summaries from the registry)."""
+    """``retarget retarget --help`` describes each registered method (summaries from the
+    registry)."""
 
     def _get_help_string(self, action: argparse.Action) -> str | None:
         if action.dest != "method":
@@ -495,7 +506,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--target",
         required=True,
-        help="target .bvh (its skeleton, units and joint names are used), .glb/.gltf/.vrm/.fbx character "
+        help="target .bvh (its skeleton, units and joint names are used), .glb/.gltf/.vrm/.fbx "
+        "character "
         "(skeleton, mesh, skin, all joints), shape .npz, SMPL-X/AMASS .npz (its betas' "
         "skeleton), or a character name",
     )
@@ -577,7 +589,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--all",
         action="store_true",
-        help="every table (Table 4 with its real-clip and windowed companions, contact Tables 1, 3, "
+        help="every table (Table 4 with its real-clip and windowed companions, contact Tables 1, "
+        "3, "
         "5, 6) with provenance; `make tables` writes them into results/",
     )
     p.add_argument(
@@ -589,14 +602,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--compare",
         metavar="DIR",
-        help="compare the stored results in results/ with the per-case files of DIR (e.g. written by "
+        help="compare the stored results in results/ with the per-case files of DIR (e.g. written "
+        "by "
         "--all), value by value within the live re-runs' tolerances (exit 1 when one is outside)",
     )
     p.add_argument(
         "--table",
         choices=["tdcn", "contact", "real"],
-        help="tdcn: Kim et al. 2020, Table 4 (both synthetic profiles); contact: Villegas et al. 2021, "
-        "Tables 1, 3, 5, 6; real: every method on the real characters, measures without ground truth",
+        help="tdcn: Kim et al. 2020, Table 4 (both synthetic profiles); contact: Villegas et al. "
+        "2021, "
+        "Tables 1, 3, 5, 6; real: every method on the real characters, measures without ground "
+        "truth",
     )
     p.add_argument(
         "--profile",
@@ -624,14 +640,17 @@ def build_parser() -> argparse.ArgumentParser:
         "--checkpoint",
         action="append",
         metavar="PATH",
-        help="with --table tdcn --data mixamo-local: also evaluate this TDCN/NKN checkpoint (repeatable)",
+        help="with --table tdcn --data mixamo-local: also evaluate this TDCN/NKN checkpoint "
+        "(repeatable)",
     )
     p.add_argument(
         "--rows",
         nargs="+",
         metavar="ROW",
-        help="with --table contact: recompute only these rows (e.g. TDCN after retraining the default "
-        "TDCN) and merge them into --out's contact_cases.csv; the provenance says which rows are new",
+        help="with --table contact: recompute only these rows (e.g. TDCN after retraining the "
+        "default "
+        "TDCN) and merge them into --out's contact_cases.csv; the provenance says which rows are "
+        "new",
     )
     p.add_argument("--out", help="output folder")
     p.add_argument(

@@ -78,7 +78,8 @@ def memory_cap(extra: int = CAP_BYTES):
 
 
 def snapshot(folder: Path) -> dict[str, tuple]:
-    """Every file under ``folder``: ``(inode, size, mtime, sha256)`` (symbolic links by their target path)."""
+    """Every file under ``folder``: ``(inode, size, mtime, sha256)`` (symbolic links by their target
+    path)."""
     out = {}
     for p in sorted(folder.rglob("*")):
         if p.is_symlink():

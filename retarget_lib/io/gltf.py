@@ -11,10 +11,11 @@ What is read (:func:`load_gltf_rig`):
 
 * **Skeleton** = the union of the joints of every skin used by a mesh node, as one tree (the
   nearest joint ancestor of a joint is its parent; one root: a second, smaller tree, a prop rigged
-  to its own armature, is hung under the skeleton's nearest joint, :func:`_hang_small_trees`). Rest pose = the nodes' own
-  transforms (the file as it shows without animation), including any non-joint ancestors such as
-  an ``Armature`` node with a 0.01 scale: rest joint positions are world positions. Joints
-  themselves must not scale (scale 1 within 1e-3, else :class:`~retarget_lib.errors.GLTFError`).
+  to its own armature, is hung under the skeleton's nearest joint, :func:`_hang_small_trees`). Rest
+  pose = the nodes' own transforms (the file as it shows without animation), including any non-joint
+  ancestors such as an ``Armature`` node with a 0.01 scale: rest joint positions are world
+  positions. Joints themselves must not scale (scale 1 within 1e-3, else
+  :class:`~retarget_lib.errors.GLTFError`).
 * **Mesh** = every triangle primitive of every skinned mesh node, merged, posed into the rest pose
   by the file's own skinning (``world(joint) @ inverseBindMatrix``; every inverse bind matrix must
   be an invertible affine matrix), so the rest vertices are what a viewer shows. Materials, UVs
@@ -296,7 +297,8 @@ class GLTFDocument:
         if self.decoded > MAX_ARRAY_BYTES:
             raise LimitError(
                 f"{self.path}: {what}: the accessors read from the file would take more than "
-                f"{MAX_ARRAY_BYTES / 2**30:.0f} GiB in all (the budget; an accessor read twice counts "
+                f"{MAX_ARRAY_BYTES / 2**30:.0f} GiB in all (the budget; an accessor read twice "
+                "counts "
                 "twice)"
             )
         if acc.bufferView is None:
@@ -390,7 +392,8 @@ def parse_gltf_bytes(data: bytes, path: Path, beside: bool) -> GLTFDocument:
         except UnicodeDecodeError as e:
             if e.start < 4092:  # not a multi-byte character cut by the slice
                 raise GLTFError(
-                    f"{path}: not a glTF 2.0 file: a binary .glb starts with the bytes 'glTF' and a "
+                    f"{path}: not a glTF 2.0 file: a binary .glb starts with the bytes 'glTF' and "
+                    "a "
                     f".gltf is JSON text; this file is neither (first bytes {data[:4]!r})"
                 ) from None
     raw = parse_json(text, f"{path}: not a readable glTF 2.0 / GLB file", GLTFError)
@@ -416,13 +419,15 @@ def _check_geometry_extensions(gltf: JsonObject, path: Path) -> None:
             ]
             if used:
                 raise GLTFError(
-                    f"{path}: mesh {m} primitive {p} is compressed with {used[0]}, which this reader does "
+                    f"{path}: mesh {m} primitive {p} is compressed with {used[0]}, which this "
+                    "reader does "
                     "not decode; export the file without mesh compression"
                 )
     required = [e for e in gltf.extensionsRequired if e in _GEOMETRY_EXTENSIONS]
     if required:
         raise GLTFError(
-            f"{path}: requires the extension {required[0]}, which this reader does not decode; export the "
+            f"{path}: requires the extension {required[0]}, which this reader does not decode; "
+            "export the "
             "file without mesh compression or quantization"
         )
 
@@ -465,7 +470,8 @@ def _local_matrix(node: JsonObject) -> np.ndarray:
 
 
 def _trs(t: np.ndarray, q_xyzw: np.ndarray, s: np.ndarray) -> np.ndarray:
-    """``(..., 4, 4)`` from translations ``(..., 3)``, quaternions ``(..., 4)`` xyzw, scales ``(..., 3)``."""
+    """``(..., 4, 4)`` from translations ``(..., 3)``, quaternions ``(..., 4)`` xyzw, scales ``(...,
+    3)``."""
     q = torch.from_numpy(np.ascontiguousarray(q_xyzw[..., [3, 0, 1, 2]]))
     q = q / q.norm(dim=-1, keepdim=True).clamp_min(1e-12)
     m = np.zeros(q.shape[:-1] + (4, 4))
@@ -572,7 +578,8 @@ def _parents_first(node_parent: list[int]) -> list[int]:
 
 @dataclass
 class _Skeleton:
-    """The joint tree of a file: joint node indices (parents first), parents, names, node parents."""
+    """The joint tree of a file: joint node indices (parents first), parents, names, node
+    parents."""
 
     nodes: list[int]
     parents: list[int]
@@ -643,7 +650,8 @@ def _tree_of(doc: GLTFDocument, joint_set: set[int], order_hint: list[int], what
     roots = sorted(j for j in joint_set if joint_parent[j] < 0)
     if len(roots) > 1:
         roots = _hang_small_trees(doc, joint_set, joint_parent, node_parent, roots, what)
-    # parents first, otherwise in the hint's order (the skins' joint order: a file's own order survives a round trip)
+    # parents first, otherwise in the hint's order (the skins' joint order: a file's own order
+    # survives a round trip)
     rank = {j: k for k, j in enumerate(order_hint)}
     kids: dict[int, list[int]] = {}
     for j in joint_set:
@@ -697,7 +705,8 @@ def _hang_small_trees(
     if large:
         names = [g.nodes[r].name or f"node{r}" for r in roots]
         raise doc.error(
-            f"{what} form {len(roots)} trees (roots {names}) of {sorted(size.values(), reverse=True)} "
+            f"{what} form {len(roots)} trees (roots {names}) of "
+            f"{sorted(size.values(), reverse=True)} "
             "joints; a character needs one skeleton (a tree under half the largest's size is taken "
             "as a prop's armature and hung under the nearest joint)"
         )
@@ -716,7 +725,8 @@ def _hang_small_trees(
 
 
 def _rotation_part(m: np.ndarray, doc: GLTFDocument, what: str) -> np.ndarray:
-    """``(..., 3, 3)`` the rotation of similarity transforms ``(..., 4, 4)`` (uniform scale removed)."""
+    """``(..., 3, 3)`` the rotation of similarity transforms ``(..., 4, 4)`` (uniform scale
+    removed)."""
     a = m[..., :3, :3]
     scale = np.cbrt(np.linalg.det(a))
     if np.any(np.abs(scale) < 1e-12):
@@ -764,14 +774,16 @@ def _inverse_binds(doc: GLTFDocument, skin_index: int) -> np.ndarray:
     if bad.size:
         name = doc.gltf.nodes[skin.joints[bad[0]]].name or f"node{skin.joints[bad[0]]}"
         raise doc.error(
-            f"{what}: {bad.size} of {len(ibm)} are not invertible affine matrices (first: joint {name!r}); "
+            f"{what}: {bad.size} of {len(ibm)} are not invertible affine matrices (first: joint "
+            f"{name!r}); "
             "every vertex they bind would collapse"
         )
     return ibm
 
 
 def _mesh(doc: GLTFDocument, skinned: list[int], tree: _Skeleton, world: dict[int, np.ndarray]):
-    """Rest vertices ``(V, 3)`` (posed by the file's skinning), faces ``(F, 3)``, weights ``(V, J)``."""
+    """Rest vertices ``(V, 3)`` (posed by the file's skinning), faces ``(F, 3)``, weights ``(V,
+    J)``."""
     g = doc.gltf
     index = {n: i for i, n in enumerate(tree.nodes)}
     verts, faces, weights, base, triangles = [], [], [], 0, 0
@@ -1051,7 +1063,8 @@ def animation_from(
 
 @dataclass
 class _Channel:
-    """One animation channel, decoded: the node and property it moves, its keys and interpolation."""
+    """One animation channel, decoded: the node and property it moves, its keys and
+    interpolation."""
 
     node: int
     path: str
@@ -1082,7 +1095,8 @@ def _channels(doc: GLTFDocument, animation: int) -> list[_Channel]:
         target = (c.target.node, c.target.path)
         if target in first:
             raise doc.error(
-                f"animation {animation} channels {first[target]} and {i} both move node {target[0]} "
+                f"animation {animation} channels {first[target]} and {i} both move node "
+                f"{target[0]} "
                 f"{target[1]}; a property may have one channel"
             )
         first[target] = i
@@ -1126,14 +1140,16 @@ def _keys(
 def _frame_rate(
     doc: GLTFDocument, animation: int, fps: float | None, channels: list[_Channel]
 ) -> float:
-    """The sampling rate: ``fps``, else the animation's ``extras.fps``, else the keys' rate, else 30."""
+    """The sampling rate: ``fps``, else the animation's ``extras.fps``, else the keys' rate, else
+    30."""
     extras = doc.gltf.animations[animation].extras
     stored = extras.get("fps") if isinstance(extras, dict) else None
     if stored is not None and not (
         isinstance(stored, (int, float)) and not isinstance(stored, bool)
     ):
         raise doc.error(
-            f"animation {animation} extras.fps must be a number of frames per second, got {stored!r}"
+            f"animation {animation} extras.fps must be a number of frames per second, got "
+            f"{stored!r}"
         )
     rate = float(fps or stored or key_rate([ch.times for ch in channels]) or DEFAULT_FPS)
     if not (np.isfinite(rate) and 1.0 <= rate <= 1000.0):
@@ -1149,7 +1165,8 @@ def _sample_motion(
     fps: float | None,
     animation: int,
 ) -> Motion:
-    """Animation ``animation`` of ``doc`` sampled as a motion on ``skeleton`` (the joints of ``tree``).
+    """Animation ``animation`` of ``doc`` sampled as a motion on ``skeleton`` (the joints of
+    ``tree``).
 
     The frames x (joints + animated ancestors) to sample are checked against the sample budget
     before anything is sampled; nodes no channel moves keep ``(4, 4)`` transforms, and frames are
@@ -1248,7 +1265,8 @@ def _pose(
 
 
 def key_rate(key_times: list[np.ndarray], tol: float = 0.01) -> float | None:
-    """The frame rate of baked keyframes (an FBX/GLB exported with a key on every frame, as Mixamo's).
+    """The frame rate of baked keyframes (an FBX/GLB exported with a key on every frame, as
+    Mixamo's).
 
     Args:
         key_times: each channel's ``(K,)`` increasing key times in seconds.
