@@ -94,7 +94,7 @@ unit-fast: $(STAMP)
 nbval: data
 	$(PYTEST) -q -n $(JOBS) --dist loadfile --nbval-lax notebooks
 
-test: data
+test: data lint
 	$(STEP) start pytest-unit+nbval
 	$(PYTEST) -q -n $(JOBS) --dist loadfile --durations=15 -m "not slow" tests --nbval-lax notebooks
 	$(STEP) end pytest-unit+nbval
@@ -110,9 +110,11 @@ test-slow: data
 
 # the library tests once more in one process with two OpenMP threads: results must not depend on the
 # thread count (tolerances, never exact equality between kernels); run by CI after `make test`
-# pyflakes and syntax checks over the library, tests, tools and benchmarks (config: pyproject.toml)
+# ruff (pycodestyle, pyflakes, isort, bugbear, pyupgrade; line length 100) and its formatter over the
+# library, tests, tools, benchmarks and CI scripts, then mypy (config: pyproject.toml); `make test` runs it first
 lint: $(STAMP)
-	$(BIN)/ruff check retarget_lib tests tools benchmarks
+	$(BIN)/ruff check retarget_lib tests tools benchmarks .ci
+	$(BIN)/ruff format --check retarget_lib tests tools benchmarks .ci
 	$(BIN)/mypy
 
 unit-threads: $(STAMP)

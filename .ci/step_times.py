@@ -1,4 +1,5 @@
-"""Wall-clock time of each step of `make` and `make test`, printed at the end so a regression is seen.
+"""Wall-clock time of each step of `make` and `make test`, printed at the end so a regression is
+seen.
 
 Used by the Makefile (standard library only: it runs before the virtual environment exists):
 

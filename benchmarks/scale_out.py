@@ -76,7 +76,8 @@ def rows_section(quick: bool) -> tuple[list[str], list[str]]:
         "|---|---|---|---|---|",
     ]
     cost = [
-        "| table | row | GFLOP/step at batch 16/8 (paper width) | paper batch x steps | PFLOP total | "
+        "| table | row | GFLOP/step at batch 16/8 (paper width) | paper batch x steps | PFLOP "
+        "total | "
         f"projected GPU-h at {GPU_TFLOPS:.0f} TFLOP/s |",
         "|---|---|---|---|---|---|",
     ]
@@ -159,7 +160,8 @@ def scaling_section(quick: bool) -> list[str]:
         f"| 1 | 16 | 16 | {one:.3f} | 1.0x |",
         f"| 2 (gloo, torchrun) | 16 | 8 | {two:.3f} | {one / two:.2f}x |",
         "",
-        f"TDCN 'ours', fast width, {steps} steps each (median of steps 1…), one thread per process; "
+        f"TDCN 'ours', fast width, {steps} steps each (median of steps 1…), one thread per "
+        "process; "
         f"{before} before, {load()} after.",
     ]
     return lines

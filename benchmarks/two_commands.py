@@ -7,7 +7,8 @@ time). Writes ``benchmarks/two-commands.md`` (every run, the per-step times that
 the slowest notebooks) and ``benchmarks/notebook-times.json`` (each notebook's median seconds, which
 ``make``'s runner uses to start the longest notebooks first).
 
-Usage (about 15 minutes per repetition on 2 cores, 20 with ``--ci-once``; nothing else should run meanwhile)::
+Usage (about 15 minutes per repetition on 2 cores, 20 with ``--ci-once``; nothing else should run
+meanwhile)::
 
     python3 benchmarks/two_commands.py --repeat 3 [--ci-once] [--append]
 
@@ -134,14 +135,19 @@ def write(runs: list[dict]) -> None:
     lines = [
         "# The two commands, timed from a fresh clone",
         "",
-        f"Measured by `python3 benchmarks/two_commands.py` (runs on {', '.join(sorted({r['date'] for r in runs}))}) on "
+        "Measured by `python3 benchmarks/two_commands.py` (runs on "
+        f"{', '.join(sorted({r['date'] for r in runs}))}) on "
         f"{_cpu()}, {os.cpu_count()} cores. Each run clones the "
         "repository into a new folder and runs `make`, `make test`, then `make workshop "
-        "WORKSHOP_FLAGS=--force` there (the README's commands, as a first-time student types them).",
+        "WORKSHOP_FLAGS=--force` there (the README's commands, as a first-time student types "
+        "them).",
         "",
-        "The machine column is the 1-minute load average before the run and the largest one seen after "
-        "a command (2 cores: a load near 2 means the run had the machine to itself; well above 2, other "
-        "work shared it and the run is slower than a student's), or a note where the load was not recorded.",
+        "The machine column is the 1-minute load average before the run and the largest one seen "
+        "after "
+        "a command (2 cores: a load near 2 means the run had the machine to itself; well above 2, "
+        "other "
+        "work shared it and the run is slower than a student's), or a note where the load was not "
+        "recorded.",
         "",
         "| run | commit | machine | `make` | `make test` | `make workshop` |",
         "|---|---|---|---|---|---|",
@@ -155,7 +161,8 @@ def write(runs: list[dict]) -> None:
     lines.append("| **limit** | | | " + " | ".join(f"{v} min" for v in LIMITS.values()) + " |")
     lines += [
         "",
-        "`make test` runs after `make` in the same clone, as the README orders them; typed first on a fresh clone it also pays the `setup` and `data` steps of `make` (add them).",
+        "`make test` runs after `make` in the same clone, as the README orders them; typed first "
+        "on a fresh clone it also pays the `setup` and `data` steps of `make` (add them).",
     ]
     ci = [r for r in runs if "make test-slow" in r]
     for r in ci:
@@ -163,9 +170,12 @@ def write(runs: list[dict]) -> None:
         total = setup + r["make test"] + r["make test-slow"] + r["make unit-threads"]
         lines += [
             "",
-            f"CI (`.ci/run` on a fresh clone = set-up and data + `make test` + `make test-slow` + `make "
-            f"unit-threads`), run {runs.index(r) + 1}: {setup / 60:.1f} + {r['make test'] / 60:.1f} + "
-            f"{r['make test-slow'] / 60:.1f} + {r['make unit-threads'] / 60:.1f} = **{total / 60:.1f} min** "
+            "CI (`.ci/run` on a fresh clone = set-up and data + `make test` + `make test-slow` + "
+            "`make "
+            f"unit-threads`), run {runs.index(r) + 1}: {setup / 60:.1f} + "
+            f"{r['make test'] / 60:.1f} + "
+            f"{r['make test-slow'] / 60:.1f} + {r['make unit-threads'] / 60:.1f} = "
+            f"**{total / 60:.1f} min** "
             "(limit 25 min).",
         ]
     lines += [
@@ -183,9 +193,8 @@ def write(runs: list[dict]) -> None:
             ),
         )
         for s in steps:
-            lines.append(
-                f"| {cmd} | {s} | {statistics.median(r[f'{cmd} steps'][s] for r in runs if s in r[f'{cmd} steps']):.0f} |"
-            )
+            median = statistics.median(r[f"{cmd} steps"][s] for r in runs if s in r[f"{cmd} steps"])
+            lines.append(f"| {cmd} | {s} | {median:.0f} |")
     workshop = {
         nb: statistics.median(
             r["workshop notebooks"][nb] for r in runs if nb in r["workshop notebooks"]
@@ -195,7 +204,8 @@ def write(runs: list[dict]) -> None:
     }
     lines += [
         "",
-        "Each notebook's wall-clock seconds as the runner recorded them (`build/notebooks/timings.json`; two "
+        "Each notebook's wall-clock seconds as the runner recorded them "
+        "(`build/notebooks/timings.json`; two "
         "at a time, one thread each; median over the runs, longest first):",
         "",
         "| notebook | during `make` | during `make workshop` |",
@@ -231,7 +241,8 @@ def main() -> None:
         )
         write(runs)
     print(
-        f"wrote {OUT_MD.relative_to(REPO)}, {OUT_RUNS.relative_to(REPO)} and {OUT_TIMES.relative_to(REPO)}; logs in {keep}"
+        f"wrote {OUT_MD.relative_to(REPO)}, {OUT_RUNS.relative_to(REPO)} and "
+        f"{OUT_TIMES.relative_to(REPO)}; logs in {keep}"
     )
 
 

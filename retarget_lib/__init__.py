@@ -3,11 +3,11 @@
 Two motion-retargeting methods are taught and re-checked here: TDCN (Kim, Park, Kwon, Han 2020) and
 contact-aware retargeting of skinned motion (Villegas et al. 2021).
 
-Layers, bottom to top; each folder imports only from the ones before it (README, "The map"; docs/architecture.md):
-``core`` → ``io`` → ``geometry`` → ``data`` → ``models``, ``losses`` → ``methods`` (the method
-registry) → ``training`` → ``evaluation`` → ``notebook``, ``viz``, ``cli``; ``files`` and
-``config`` are leaf helpers. ``retarget_lib.skeleton`` and ``retarget_lib.kinematics`` re-export
-the core modules for the public contract.
+Layers, bottom to top; each folder imports only from the ones before it (README, "The map";
+docs/architecture.md): ``core`` → ``io`` → ``geometry`` → ``data`` → ``models``, ``losses`` →
+``methods`` (the method registry) → ``training`` → ``evaluation`` → ``notebook``, ``viz``, ``cli``;
+``files`` and ``config`` are leaf helpers. ``retarget_lib.skeleton`` and ``retarget_lib.kinematics``
+re-export the core modules for the public contract.
 
 Conventions (used everywhere; notebook 01 shows each one):
 

@@ -142,7 +142,8 @@ TABLE4_ROWS: dict[str, dict[str, Any]] = {
     "A3": {"kind": "tdcn", "variant": "ours", "loss": "no_height"},
     "A4": {"kind": "tdcn", "variant": "disc81"},
     "A5": {"kind": "tdcn", "variant": "causal"},
-    # not a row of the paper: "ours" with a residual output over copy (TDCNGenerator.compose_residual)
+    # not a row of the paper: "ours" with a residual output over copy
+    # (TDCNGenerator.compose_residual)
     "ours-residual": {"kind": "tdcn", "variant": "ours", "residual": True},
 }
 
@@ -157,7 +158,8 @@ DATA_SOURCES = (
     "mixamo-local+synthetic",
 )
 
-#: ``data.source`` values of the contact-aware method (no Mixamo-local-only mix with the Mixamo-convention profile)
+#: ``data.source`` values of the contact-aware method (no Mixamo-local-only mix with the
+#: Mixamo-convention profile)
 CONTACT_DATA_SOURCES = (
     "synthetic",
     "mixamo-local",
@@ -309,7 +311,8 @@ def _problem(schema: dict, keys: list[str], value: Any) -> str | None:
             return f"{'.'.join(keys[:i])!r} is not a section"
         if k not in node:
             return (
-                f"unknown key {'.'.join(keys[: i + 1])!r}; allowed {'in ' + repr(where) if where else 'at the top'}: "
+                f"unknown key {'.'.join(keys[: i + 1])!r}; allowed "
+                f"{'in ' + repr(where) if where else 'at the top'}: "
                 f"{', '.join(sorted(node))}"
             )
         node = node[k]
@@ -332,7 +335,8 @@ def check_value(config: dict, keys: list[str], value: Any) -> str | None:
 
 
 def validate(config: dict) -> str | None:
-    """The first problem of a merged config (unknown key, wrong type, invalid value), or ``None``."""
+    """The first problem of a merged config (unknown key, wrong type, invalid value), or
+    ``None``."""
     schema = schema_for(config)
     for k, v in config.items():
         found = _problem(schema, [str(k)], v)
@@ -363,6 +367,7 @@ def memory_problem(config: dict) -> str | None:
     if need <= MAX_TRAINING_BYTES:
         return None
     return (
-        f"train.batch x data.window x the model's width would need about {need / 2**30:,.0f} GiB to train "
+        f"train.batch x data.window x the model's width would need about {need / 2**30:,.0f} GiB "
+        "to train "
         f"(estimate), beyond the {MAX_TRAINING_BYTES / 2**30:.0f} GiB limit; make them smaller"
     )

@@ -99,7 +99,8 @@ class AMASSError(RetargetInputError):
 
 
 class FBXError(RetargetInputError):
-    """An FBX file that cannot be converted or written, or the optional FBX reader is not installed."""
+    """An FBX file that cannot be converted or written, or the optional FBX reader is not
+    installed."""
 
 
 class DeviceError(RetargetInputError):

@@ -111,7 +111,8 @@ def quantised_sha256(arrays: Iterable[tuple[str, np.ndarray]], per_unit: float) 
 
 
 def check_sha256(path: str | os.PathLike, expected: str | None) -> None:
-    """Raise :class:`DataError` if ``path``'s SHA-256 differs from ``expected`` (skip if ``None``)."""
+    """Raise :class:`DataError` if ``path``'s SHA-256 differs from ``expected`` (skip if
+    ``None``)."""
     if expected is None:
         return
     got = sha256_file(path)
@@ -125,7 +126,8 @@ def check_sha256(path: str | os.PathLike, expected: str | None) -> None:
 # ------------------------------------------------------------------------------ what a run reads
 @dataclass
 class _Ledger:
-    """The inputs of one run, by ``(device, inode)``, and whether ``--force`` allows replacing them."""
+    """The inputs of one run, by ``(device, inode)``, and whether ``--force`` allows replacing
+    them."""
 
     force: bool
     files: dict[tuple[int, int], str] = field(default_factory=dict)
@@ -259,14 +261,16 @@ def read_beside(
         or ".." in rel.parts
     ):
         raise error(
-            f"{container}: {what} URI {reference!r} is not a file beside it (absolute paths, '..' and URLs "
+            f"{container}: {what} URI {reference!r} is not a file beside it (absolute paths, '..' "
+            "and URLs "
             "are refused)"
         )
     folder = os.path.realpath(container.absolute().parent)
     real = os.path.realpath(os.path.join(folder, *rel.parts))
     if os.path.commonpath([real, folder]) != folder:
         raise error(
-            f"{container}: {what} URI {reference!r} resolves to {real}, outside the folder {folder} (a "
+            f"{container}: {what} URI {reference!r} resolves to {real}, outside the folder "
+            f"{folder} (a "
             "symbolic link?); a file may only name files beside it"
         )
     try:
@@ -407,7 +411,8 @@ def load_yaml(text: str, where: str, error: type[RetargetInputError]) -> Any:
             loader.dispose()
     if _expands_beyond(data, MAX_YAML_VALUES):
         raise error(
-            f"{where}: holds more than {MAX_YAML_VALUES} values once its aliases are expanded (the limit; "
+            f"{where}: holds more than {MAX_YAML_VALUES} values once its aliases are expanded (the "
+            "limit; "
             "a YAML alias bomb?)"
         )
     return data

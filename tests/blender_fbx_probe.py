@@ -2,10 +2,11 @@
 
 Run by ``tests/test_fbx.py`` with the Python of a virtual environment that has Blender as a module
 (``python3.11 -m venv /work/bpy-venv && /work/bpy-venv/bin/pip install bpy``); not part of the
-library (``bpy`` pins ``numpy<2``). Usage: ``PYTHON probe.py FILE.fbx`` -> JSON on stdout's last line:
-bones (names, parents), the mesh's vertex count and vertex groups (name -> {vertex: weight}), the
-scene's frame rate, the action's frame range, and every bone's head in world space at every frame
-of that range and the skinned mesh's vertices at the last frame, converted back to +Y up (Blender is +Z up: ``(x, y, z)_blender = (x, -z, y)``).
+library (``bpy`` pins ``numpy<2``). Usage: ``PYTHON probe.py FILE.fbx`` -> JSON on stdout's last
+line: bones (names, parents), the mesh's vertex count and vertex groups (name -> {vertex: weight}),
+the scene's frame rate, the action's frame range, and every bone's head in world space at every
+frame of that range and the skinned mesh's vertices at the last frame, converted back to +Y up
+(Blender is +Z up: ``(x, y, z)_blender = (x, -z, y)``).
 """
 
 import json

@@ -1,4 +1,5 @@
-"""SMPL-X / AMASS motion .npz files (issue 12): skeleton from the betas, axes, round trips, bad files."""
+"""SMPL-X / AMASS motion .npz files (issue 12): skeleton from the betas, axes, round trips, bad
+files."""
 
 import numpy as np
 import pytest
@@ -45,9 +46,10 @@ def test_shipped_clip_is_reproducible_and_round_trips_through_bvh(tmp_path):
     shipped, made = np.load(AMASS_CLIP_PATH), np.load(again)
     for key in ("betas", "mocap_frame_rate"):
         np.testing.assert_array_equal(shipped[key], made[key])  # copied, not recomputed: exact
-    # float64 regenerated (trig, quaternion products, a betas matmul): last-bit differences between CPUs
-    # (2.2e-16 m measured). trans = root - J_0 cancels metre-sized terms, so the error is absolute (1.1e-16 m
-    # at |trans| = 0.06 m, 16 of its ulps); poses are then rounded to float32, which that can flip by one ulp
+    # float64 regenerated (trig, quaternion products, a betas matmul): last-bit differences between
+    # CPUs (2.2e-16 m measured). trans = root - J_0 cancels metre-sized terms, so the error is
+    # absolute (1.1e-16 m at |trans| = 0.06 m, 16 of its ulps); poses are then rounded to float32,
+    # which that can flip by one ulp
     np.testing.assert_allclose(made["trans"], shipped["trans"], rtol=0, atol=1e-15)
     np.testing.assert_allclose(
         made["poses"], shipped["poses"], rtol=np.finfo(np.float32).eps, atol=1e-15
@@ -56,7 +58,8 @@ def test_shipped_clip_is_reproducible_and_round_trips_through_bvh(tmp_path):
     motion = load_amass(AMASS_CLIP_PATH)
     assert motion.meta["up"] == "z" and motion.fps == 30.0 and motion.skeleton.is_canonical22()
     np.testing.assert_allclose(motion.meta["betas"][:10], AMASS_CLIP_BETAS)
-    # a walk on the floor: feet touch y = 0 (the soles' rest height), the body faces +Z and walks forward
+    # a walk on the floor: feet touch y = 0 (the soles' rest height), the body faces +Z and walks
+    # forward
     pos = motion.global_positions()
     assert pos[:, :, 1].min() > -0.02 and pos[:, [8, 12], 1].min() < 0.12
     assert motion.root_positions[-1, 2] - motion.root_positions[0, 2] > 0.5

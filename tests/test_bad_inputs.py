@@ -152,7 +152,8 @@ def test_out_equal_to_an_input_is_refused(tmp_path, capsys, src, which):
 def test_only_recorded_temp_files_of_gone_processes_are_swept(tmp_path):
     """Files that merely look like temporary files (a user's ``.notes.tmp``, the old
     ``.NAME.<pid>.<random>.tmp`` pattern of a dead process) are never removed; the temporary file
-    of a write whose process is gone is, from its record (tests/test_untrusted_paths.py: SIGKILL)."""
+    of a write whose process is gone is, from its record (tests/test_untrusted_paths.py:
+    SIGKILL)."""
     dead = tmp_path / ".out.bvh.999999999.abcd1234.tmp"  # pid beyond pid_max: its process is gone
     legacy = tmp_path / ".out.bvh.abcd1234.tmp"  # before temp names carried a pid
     notes = tmp_path / ".notes.tmp"
@@ -232,7 +233,8 @@ def test_huge_rotations_and_positions(tmp_path, capsys, src, column, value, prob
 
 def test_huge_offset(tmp_path):
     text = (
-        "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 1e300 0\n  CHANNELS 3 Zrotation Xrotation Yrotation\n}\n"
+        "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 1e300 0\n  CHANNELS 3 Zrotation Xrotation "
+        "Yrotation\n}\n"
         "MOTION\nFrames: 1\nFrame Time: 0.033\n0 0 0\n"
     )
     (tmp_path / "off.bvh").write_text(text)

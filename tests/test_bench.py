@@ -1,4 +1,5 @@
-"""The benchmark code runs and reports ratios (no timing is asserted: speed lives in `retarget bench`)."""
+"""The benchmark code runs and reports ratios (no timing is asserted: speed lives in `retarget
+bench`)."""
 
 import numpy as np
 import pytest

@@ -1,5 +1,6 @@
-"""The offline HTML book: the learning path lists every notebook, pages load nothing from other hosts,
-and the widget fallbacks (the motion player's scrubber, the knobs' sliders) are in the HTML."""
+"""The offline HTML book: the learning path lists every notebook, pages load nothing from other
+hosts, and the widget fallbacks (the motion player's scrubber, the knobs' sliders) are in the
+HTML."""
 
 import base64
 import re

@@ -142,7 +142,8 @@ def test_missing_joint_is_named():
 
 
 def test_a_22_joint_set_in_another_order_is_only_reordered():
-    # the canonical 22 under SMPL-X names and in SMPL-X order: nothing is refitted, every number is kept
+    # the canonical 22 under SMPL-X names and in SMPL-X order: nothing is refitted, every number is
+    # kept
     from retarget_lib.io.amass import SMPLX_BODY_NAMES, SMPLX_BODY_PARENTS, SMPLX_TO_CANONICAL
 
     m = mixamo_motion(seed=3)
@@ -254,7 +255,8 @@ def test_normalize_root_faces_z_at_the_origin(name):
 @pytest.mark.data
 @pytest.mark.parametrize("name", ["01_01.bvh", "Boxing_Toes.bvh"])
 def test_unfold_from_canonical22_restores_the_full_joint_set(name):
-    """fold -> unfold on the real clips: the 22 kept joints land where the canonical motion puts them."""
+    """fold -> unfold on the real clips: the 22 kept joints land where the canonical motion puts
+    them."""
     raw = load_bvh(cmu_clip_path(name)).slice(0, 200)
     folded = to_canonical22(raw)
     full = unfold_from_canonical22(folded, raw.skeleton, present_map(raw.skeleton)[0])

@@ -1,4 +1,5 @@
-"""Table 1's metrics on the Mixamo-convention characters (retarget_lib/evaluation/contact_mixamo_convention.py)."""
+"""Table 1's metrics on the Mixamo-convention characters
+(retarget_lib/evaluation/contact_mixamo_convention.py)."""
 
 from types import SimpleNamespace
 
@@ -67,7 +68,8 @@ def test_cases_are_the_targets_own_versions_with_the_sources_contacts(patched):
 def test_the_table_puts_each_rows_error_beside_copys(patched, tmp_path, monkeypatch):
     monkeypatch.setattr(mcc, "ROWS", ("copy", "copy-rest"))
     table = mcc.run_mixamo_convention_contact_evaluation(tmp_path, "fast", command="cmd")
-    # one T-pose rest with identity rotations: the rest-compensated copy is the copy, to the last digit
+    # one T-pose rest with identity rotations: the rest-compensated copy is the copy, to the last
+    # digit
     assert table.loc["copy", "ours global position MSE / copy's"] == 1.0
     assert table.loc["copy-rest", "ours global position MSE / copy's"] == pytest.approx(
         1.0, abs=1e-12

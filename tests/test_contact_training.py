@@ -107,7 +107,8 @@ def test_a_compiled_decoder_trains_like_the_eager_one(small):
         seed_everything(step)
         b = compiled.step(step)
         for term in LOG_TERMS:
-            # fused kernels sum in another order: float32 rounding, amplified over 20 recurrent frames
+            # fused kernels sum in another order: float32 rounding, amplified over 20 recurrent
+            # frames
             assert b[term] == pytest.approx(a[term], rel=1e-3, abs=1e-6), (step, term)
 
 

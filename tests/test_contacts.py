@@ -1,5 +1,5 @@
-"""Contact detection and vertex correspondence (retarget_lib.geometry.contacts; Villegas et al. 2021, Sec. 3.4,
-App. F)."""
+"""Contact detection and vertex correspondence (retarget_lib.geometry.contacts; Villegas et al.
+2021, Sec. 3.4, App. F)."""
 
 import itertools
 

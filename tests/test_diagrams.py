@@ -1,6 +1,6 @@
-"""Schematic diagrams (retarget_lib.viz.diagrams): every figure builds, is readable by the module's own
-checks (text >= 9 pt, inside its box and the canvas, no overlapping text), and draws the numbers of
-the real models (receptive fields, score counts) and real library functions."""
+"""Schematic diagrams (retarget_lib.viz.diagrams): every figure builds, is readable by the module's
+own checks (text >= 9 pt, inside its box and the canvas, no overlapping text), and draws the numbers
+of the real models (receptive fields, score counts) and real library functions."""
 
 import pytest
 from matplotlib.figure import Figure

@@ -91,7 +91,8 @@ def _initial_vertices(model, character, feats):
 
 
 def _pair_at(verts, character, distance):
-    """A vertex pair on two unrelated joints whose distance in ``verts (V, 3)`` is closest to ``distance``."""
+    """A vertex pair on two unrelated joints whose distance in ``verts (V, 3)`` is closest to
+    ``distance``."""
     owner = character.weights.argmax(1)
     parents = character.skeleton.parents
     d = torch.cdist(verts, verts).numpy()
@@ -120,8 +121,9 @@ def test_eso_leaves_an_output_that_already_equals_the_source_unchanged():
         model, feats, character, source, np.zeros((4, 4), bool), 1.0, weights=only_weak
     )
     assert result.energies.shape == (4, 31)
-    # Eweak at its minimum, every iteration: the same decode_step kernels on the same values in one process
-    # give exactly the source's rotations (and exact 0 matters: Adam's step hardly shrinks with the gradient)
+    # Eweak at its minimum, every iteration: the same decode_step kernels on the same values in one
+    # process give exactly the source's rotations (and exact 0 matters: Adam's step hardly shrinks
+    # with the gradient)
     assert result.energies.abs().max().item() == 0.0
     torch.testing.assert_close(result.rotations, out.rotations[0])
     torch.testing.assert_close(result.root_positions, posed.root_positions[0])

@@ -109,8 +109,8 @@ def test_tables_put_paper_numbers_beside_ours_and_split_by_body_type():
 def test_ablation_steps_compare_each_change_with_the_paper():
     import pandas as pd
 
-    # ours: Efoot raises foot accuracy (as in the paper, 0.71 -> 0.80) but also raises interpenetration
-    # (the paper lowers it, 1.67 -> 1.59)
+    # ours: Efoot raises foot accuracy (as in the paper, 0.71 -> 0.80) but also raises
+    # interpenetration (the paper lowers it, 1.67 -> 1.59)
     rows = [
         {
             "method": "Eskel",

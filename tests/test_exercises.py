@@ -84,7 +84,8 @@ def _wrong(x):
 
 
 def _inject_wrong_answers(nb) -> None:
-    """Each student cell computes the reference solution as ``answer`` and spoils it (``_wrong``)."""
+    """Each student cell computes the reference solution as ``answer`` and spoils it
+    (``_wrong``)."""
     for s, sol, _ in exercises(nb):
         source = nb.cells[sol].source
         call = _check_call(source)

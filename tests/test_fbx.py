@@ -5,8 +5,9 @@ Reading tests skip, with the reason, when the extra is not installed; CI install
 round trips through assimp always run there. Two extra checks run only where their tool exists:
 Blender's own importer (``bpy`` in a separate virtual environment, ``$RETARGET_BPY_PYTHON``, default
 ``/work/bpy-venv/bin/python``; it pins ``numpy<2`` so it is never a dependency of the library) and
-the Autodesk FBX SDK through ``FBX2glTF`` (``$RETARGET_FBX2GLTF``, default the npm package ``fbx2gltf``
-that ``.ci/node-deps.sh`` installs beside the virtual environment, as for the glTF validator).
+the Autodesk FBX SDK through ``FBX2glTF`` (``$RETARGET_FBX2GLTF``, default the npm package
+``fbx2gltf`` that ``.ci/node-deps.sh`` installs beside the virtual environment, as for the glTF
+validator).
 """
 
 import json
@@ -317,7 +318,7 @@ def test_cli_writes_fbx_like_glb(tmp_path):
         np.testing.assert_allclose(got.global_positions(), expected.global_positions(), atol=FK_TOL)
 
 
-# ------------------------------------------------------------------ other importers, where installed
+# ----------------------------------------------------------------- other importers, where installed
 def _tool(env: str, default: str | None) -> str | None:
     path = os.environ.get(env) or default
     return path if path and Path(path).exists() else None
@@ -383,7 +384,8 @@ def test_blender_imports_the_armature_mesh_weights_and_action(tmp_path):
 
 @pytest.mark.skipif(
     FBX2GLTF is None,
-    reason="no FBX2glTF (the Autodesk FBX SDK's converter): run .ci/node-deps.sh or set RETARGET_FBX2GLTF",
+    reason="no FBX2glTF (the Autodesk FBX SDK's converter): run .ci/node-deps.sh or set "
+    "RETARGET_FBX2GLTF",
 )
 def test_the_autodesk_fbx_sdk_reads_it(tmp_path):
     rig, motion, path = _manny_fbx(tmp_path, fps=30.0)

@@ -124,7 +124,8 @@ def test_forward_equals_step_by_step_decoding():
 
 
 def test_decoder_step_is_two_torch_gru_cells():
-    """decode_step's GRU update from gate products is nn.GRUCell's formula (float32 rounding only)."""
+    """decode_step's GRU update from gate products is nn.GRUCell's formula (float32 rounding
+    only)."""
     model = _small_model().eval()
     source, offsets, verts, weights = _inputs(2, 1)
     context = model.target_context(offsets, verts, weights)

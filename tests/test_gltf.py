@@ -217,7 +217,8 @@ def test_joint_rest_orientations_and_armature_scale(tmp_path):
 
 def _unreal_rig(character):
     """The character renamed to the Unreal mannequin's joints, with a ``root`` joint on the ground
-    above ``pelvis``, a ``spine_04`` between ``spine_03`` and ``neck_01``, and two fingers per hand."""
+    above ``pelvis``, a ``spine_04`` between ``spine_03`` and ``neck_01``, and two fingers per
+    hand."""
     sk = character.skeleton
     names22 = {v: k for k, v in RIG_MAPS["unreal"].items()}
     rest = sk.rest_positions()

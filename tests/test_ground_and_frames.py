@@ -1,5 +1,6 @@
-"""The ground rule (:mod:`retarget_lib.core.ground`) and the frames of ``retarget retarget``: feet on
-the floor where the source's are, for every method and output format, and every source frame kept."""
+"""The ground rule (:mod:`retarget_lib.core.ground`) and the frames of ``retarget retarget``: feet
+on the floor where the source's are, for every method and output format, and every source frame
+kept."""
 
 import numpy as np
 import pytest

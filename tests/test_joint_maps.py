@@ -270,8 +270,8 @@ def test_written_on_a_rig_without_some_joints_the_legs_match_the_result(clip, tm
     )
     written, target = load_bvh(out), load_bvh(tmp_path / "small.bvh")
     assert written.skeleton.joint_names == target.skeleton.joint_names
-    # onto itself with copy: the virtual joints never rotate, so every joint comes back (6-decimal text,
-    # and the ground rule's shift, the same for every joint of a frame)
+    # onto itself with copy: the virtual joints never rotate, so every joint comes back (6-decimal
+    # text, and the ground rule's shift, the same for every joint of a frame)
     got, want = written.global_positions(), target.global_positions()
     shift = got[:, :1, 1] - want[:, :1, 1]
     np.testing.assert_allclose(got[..., [0, 2]], want[..., [0, 2]], atol=1e-4)
@@ -308,7 +308,7 @@ def test_two_canonical_joints_on_one_bone_name_the_duplicate(tmp_path):
         load_mapping_file(tmp_path / "m.yaml")
 
 
-# ----------------------------------------------------------------------------- every format, one path
+# --------------------------------------------------------------------------- every format, one path
 @pytest.fixture(scope="module")
 def renamed(tmp_path_factory):
     """Half a second of CMU 01_01 written twice with the same numbers: with its own joint names, and
@@ -505,7 +505,8 @@ def test_an_smplx_file_takes_a_joint_map_like_any_other(tmp_path, capsys):
     same = load_amass(AMASS_CLIP_PATH, mapping=tmp_path / "same.yaml")
     np.testing.assert_array_equal(same.skeleton.offsets, plain.skeleton.offsets)
     np.testing.assert_array_equal(same.rotations, plain.rotations)
-    # Spine2 marked absent: SMPL-X's spine3 is folded away and Spine2 inserted halfway up spine2 -> neck
+    # Spine2 marked absent: SMPL-X's spine3 is folded away and Spine2 inserted halfway up spine2 ->
+    # neck
     (tmp_path / "two_spine.yaml").write_text("Spine2: null\n")
     fewer = load_amass(AMASS_CLIP_PATH, mapping=tmp_path / "two_spine.yaml")
     rest, rest_plain = fewer.skeleton.rest_positions(), plain.skeleton.rest_positions()
@@ -669,8 +670,8 @@ BANDAI_PARENTS = [-1, 0, 1, 2, 3, 2, 5, 6, 7, 2, 9, 10, 11, 0, 13, 14, 15, 0, 17
 def test_a_glb_rig_without_clavicles_and_one_spine_joint_is_retargeted_and_keeps_its_joints(
     tmp_path,
 ):
-    # Mr. Fixit's GLB has the clavicles and Spine1 only as inserted joints without weight; a map that
-    # marks them absent (null) treats it as the rig it was: two spine joints, no clavicles
+    # Mr. Fixit's GLB has the clavicles and Spine1 only as inserted joints without weight; a map
+    # that marks them absent (null) treats it as the rig it was: two spine joints, no clavicles
     full = load_mapping_file(joint_map_path("mrfixit"))
     absent = dict(full, Spine1=None, LeftShoulder=None, RightShoulder=None)
     (tmp_path / "map.yaml").write_text(

@@ -20,7 +20,8 @@ D = torch.float64
 
 def test_three_joint_chain_by_hand():
     # root at (1,0,0); joint1 offset (0,1,0); joint2 offset (0,1,0).
-    # root rotated 90° about Z: +Y -> -X. joint1 rotated 90° about Z again: +Y -> +Y rotated 180° = -Y.
+    # root rotated 90° about Z: +Y -> -X. joint1 rotated 90° about Z again: +Y -> +Y rotated 180° =
+    # -Y.
     parents = (-1, 0, 1)
     offsets = torch.tensor([[5.0, 5.0, 5.0], [0.0, 1.0, 0.0], [0.0, 1.0, 0.0]], dtype=D)
     qz = quat_from_axis_angle(torch.tensor([0.0, 0.0, math.pi / 2], dtype=D))

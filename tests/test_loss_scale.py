@@ -1,4 +1,5 @@
-"""The authors' loss scale (losses/tdcn.py, "Reductions"): per-frame sums and standardised positions."""
+"""The authors' loss scale (losses/tdcn.py, "Reductions"): per-frame sums and standardised
+positions."""
 
 import pytest
 import torch

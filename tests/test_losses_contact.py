@@ -246,7 +246,8 @@ def test_weights_training_eso_and_table3_rows():
     assert (w.lambda_j2j, w.beta_int, w.gamma_foot, w.rho, w.omega) == (1000, 100, 0.1, 1000, 1000)
     e = ContactEnergyWeights.eso()
     assert (e.lambda_j2j, e.beta_int, e.rho, e.omega, e.hold) == (100, 1, 10, 1000, 100)  # App. B.1
-    # the paper's gamma in ESO: four planted foot joints slipping 1 cm in a frame on a 1.7 m body cost ~2e-3
+    # the paper's gamma in ESO: four planted foot joints slipping 1 cm in a frame on a 1.7 m body
+    # cost ~2e-3
     slip = torch.zeros(1, 2, 22, 3)
     slip[0, 1, list(FOOT_CONTACT_IDS), 0] = 0.01
     foot = foot_contact_energy_per_frame(
@@ -314,7 +315,8 @@ def test_skeleton_energy_weights_terms_and_converts_lengths():
         terms["ee"], w.omega * end_effector_energy(b.positions, a.positions, b.height, a.height)
     )
     torch.testing.assert_close(terms["total"], terms["weak"] + terms["ee"])
-    # the root term is a squared length: in centimetres it is 10^4 times larger; rotations, Eee unchanged
+    # the root term is a squared length: in centimetres it is 10^4 times larger; rotations, Eee
+    # unchanged
     faster = b._replace(root_velocity=b.root_velocity + 0.01)
     extra_m = skeleton_energy(faster, a, 1.0, w)["weak"] - terms["weak"]
     extra_cm = (

@@ -65,7 +65,7 @@ def test_smooth_l1_both_branches():
     assert per.shape == (2,) and approx(per[0], 0.125) and approx(per[1], 2.5)
 
 
-# ------------------------------------------------------------------------------ Eq. 7 / Eq. 21 (A = B)
+# --------------------------------------------------------------------------- Eq. 7 / Eq. 21 (A = B)
 
 
 def motion(p, q, r):
@@ -224,14 +224,16 @@ def test_lsgan_discriminator_fake_mask():
 
 def test_adversarial_loss_picks_case_per_sample():
     # sample 0: A != B, score 0.25 -> (0.25 - 1)^2 = 0.5625 (its reconstruction error, 3.0, unused)
-    # sample 1: A == B, r off by 0.3 in one coordinate -> 0.09 / 3 = 0.03 (its score 0 -> 1.0 unused)
+    # sample 1: A == B, r off by 0.3 in one coordinate -> 0.09 / 3 = 0.03 (its score 0 -> 1.0
+    # unused)
     x_a = motion([[[[0.0, 0, 0]]]] * 2, [[[[1.0, 0, 0, 0]]]] * 2, [[[0.0, 0, 0]]] * 2)
     x_b = motion([[[[0.0, 0, 0]]]] * 2, [[[[1.0, 0, 0, 0]]]] * 2, [[[3.0, 0, 0]], [[0.0, 0.3, 0]]])
     same = torch.tensor([False, True])
     h_fake = t([[0.25], [0.0]])
     # batch mean: (0.5625 + 0.03) / 2 = 0.29625
     assert approx(adversarial_loss(h_fake, x_a, x_b, same), 0.29625)
-    # NKN flavour: sample 0 logit 0 -> -log σ(0) = ln 2 = 0.693147...; (0.6931471805599453 + 0.03) / 2
+    # NKN flavour: sample 0 logit 0 -> -log σ(0) = ln 2 = 0.693147...; (0.6931471805599453 + 0.03) /
+    # 2
     h_logit = t([[0.0], [5.0]])
     assert approx(
         adversarial_loss(h_logit, x_a, x_b, same, gan="sigmoid_ce"), (0.6931471805599453 + 0.03) / 2

@@ -1,5 +1,5 @@
-"""mixamo-local: a fixture written in the exact Mixamo download layout loads back correctly, in every
-format of a download (BVH, GLB and FBX clips; shape.npz, GLB and FBX character files)."""
+"""mixamo-local: a fixture written in the exact Mixamo download layout loads back correctly, in
+every format of a download (BVH, GLB and FBX clips; shape.npz, GLB and FBX character files)."""
 
 import numpy as np
 import pytest
@@ -109,7 +109,8 @@ def test_manifest_lists_both_papers_test_lists():
     }
 
 
-# --- the folder in the formats of a real download: FBX/GLB clips, FBX/GLB character files -----------
+# --- the folder in the formats of a real download: FBX/GLB clips, FBX/GLB character files
+# -----------
 
 
 def _clip(character, family="walk", frames=20, name="Walking", seed=3):
@@ -206,7 +207,8 @@ def test_layout_errors_name_the_files(tmp_path, capsys):
     ):
         scan_mixamo_folder(tmp_path)
     (tmp_path / "Kaya" / "T-Pose.glb").unlink()
-    # a malformed clip: the reader's error names it, and the command line says so on one line, status 2
+    # a malformed clip: the reader's error names it, and the command line says so on one line,
+    # status 2
     (tmp_path / "Kaya" / "Broken.glb").write_bytes(b"glTF\x02\x00\x00\x00\xff\xff\x00\x00")
     with pytest.raises(GLTFError, match=r"Kaya/Broken.glb: truncated GLB"):
         load_mixamo_folder(tmp_path)
@@ -298,7 +300,8 @@ def test_fbx_clips_without_the_fbx_extra_name_the_file(tmp_path, monkeypatch):
 
     def missing():
         raise FBXError(
-            "FBX needs the Open Asset Import Library (ImportError: no impasse); install the fbx extra"
+            "FBX needs the Open Asset Import Library (ImportError: no impasse); install the fbx "
+            "extra"
         )
 
     monkeypatch.setattr(fbx, "_impasse", missing)

@@ -45,7 +45,8 @@ def fixture_root(tmp_path_factory):
 
 def test_scenario_rule_gives_the_papers_pairs_their_scenarios():
     """Tables 2-3: pages 18, 23, 28, 33 are performed by scenario 1/2 sources (seen), 45, 51, 52
-    only by scenario 3/4 sources (unseen); the rule must put each of the eight pairs in its scenario."""
+    only by scenario 3/4 sources (unseen); the rule must put each of the eight pairs in its
+    scenario."""
     performers = {
         18: {"Kaya", "Warrok W Kurniawan"},
         28: {"Big Vegas", "Malcolm"},
@@ -113,7 +114,8 @@ def test_copy_row_matches_a_hand_computation(tmp_path):
     for pair, (long_sq, short_sq) in expected.items():
         row = rows.loc[pair]
         assert row["frames"] == len(long_sq)
-        # BVH text stores 6 decimals (cm, degrees): ~1e-8 m per joint, 1e-5 relative on |d|² at c = 5 cm
+        # BVH text stores 6 decimals (cm, degrees): ~1e-8 m per joint, 1e-5 relative on |d|² at c =
+        # 5 cm
         np.testing.assert_allclose(row["nmse"], 1e4 * long_sq.mean() / h_cm, rtol=1e-4)
         np.testing.assert_allclose(row["nmse_short"], 1e4 * short_sq.mean() / h_cm, rtol=1e-4)
         assert row["nmse_root_relative"] < 1e-6 and row["nmse_short_root_relative"] < 1e-6
@@ -254,7 +256,8 @@ def test_cli_contact_tables_on_the_folder(fixture_root, tmp_path, monkeypatch, c
     )
     assert "contact_coverage.csv" in capsys.readouterr().out
     cases = pd.read_csv(tmp_path / "out" / "contact_cases.csv")
-    # Y Bot performs the fixture's three test motions; Kaya lacks "Praying": 5 (motion, target) cases per method
+    # Y Bot performs the fixture's three test motions; Kaya lacks "Praying": 5 (motion, target)
+    # cases per method
     assert len(cases) == 2 * 5 and set(cases["body"]) == {"skinny", "bulky"}
     table1 = pd.read_csv(tmp_path / "out" / "contact_table1.csv", index_col=0)
     assert np.isfinite(table1.loc["copy", "ours global position MSE"])
@@ -351,7 +354,8 @@ def test_contact_training_runs_on_the_folder(fixture_root, tmp_path, monkeypatch
     assert all(np.isfinite(v) for log in losses for v in log.values())
 
 
-# --- splits.yaml: the folder declares its own seen/unseen motions and characters ----------------------
+# --- splits.yaml: the folder declares its own seen/unseen motions and characters
+# ----------------------
 
 
 def test_splits_yaml_replaces_the_default_rule(fixture_root, tmp_path):
@@ -383,7 +387,8 @@ def test_splits_yaml_replaces_the_default_rule(fixture_root, tmp_path):
     skeletons, clips = mixamo_training_set(root)
     assert list(skeletons) == ["Kaya", "Claire"]
     assert sorted(ref.name for ref, _ in clips) == ["Praying", "Sitting Clap", "Walking"]
-    # contact training: the declared seen characters with a mesh, outside the appendix's test motions
+    # contact training: the declared seen characters with a mesh, outside the appendix's test
+    # motions
     characters, contact_clips = mixamo_contact_training_set(root)
     assert list(characters) == ["Kaya", "Claire"] and [m.name for _, _, m in contact_clips] == [
         "Kaya/Walking"
@@ -433,7 +438,8 @@ def test_an_invalid_splits_yaml_is_refused_before_any_clip_loads(
     tmp_path, capsys, monkeypatch, text, message
 ):
     """The folder also holds a malformed clip: the splits.yaml error comes first (it is checked
-    before any clip is read), names the file, and the command line prints it on one line (exit 2)."""
+    before any clip is read), names the file, and the command line prints it on one line (exit
+    2)."""
     cleo = make_character("cleo")
     write_mixamo_character(
         tmp_path / "in",
@@ -476,10 +482,10 @@ def test_an_invalid_splits_yaml_is_refused_before_any_clip_loads(
 def test_the_glb_and_fbx_fixtures_give_the_bvh_fixtures_table(
     fixture_root, tmp_path, clip_format, mesh
 ):
-    """~25 s (GLB) / ~60 s (FBX, converted by assimp) writing and reading 13 clips: the fixture written as a GLB download (clips
-    without a skin, a T-pose ``<Character>.glb`` per character) or an FBX download (skinned FBX
-    clips in centimetres, a T-pose ``<Character>.fbx``) gives the same ``copy`` cases as the BVH +
-    shape.npz fixture."""
+    """~25 s (GLB) / ~60 s (FBX, converted by assimp) writing and reading 13 clips: the fixture
+    written as a GLB download (clips without a skin, a T-pose ``<Character>.glb`` per character) or
+    an FBX download (skinned FBX clips in centimetres, a T-pose ``<Character>.fbx``) gives the same
+    ``copy`` cases as the BVH + shape.npz fixture."""
     if clip_format == "fbx" and fbx_missing():
         pytest.skip(f"fbx extra not installed: {fbx_missing()}")
     root = write_mixamo_fixture(tmp_path / clip_format, clip_format=clip_format, mesh=mesh)

@@ -228,8 +228,9 @@ def test_generation_is_fast():
 
 
 def test_a_character_standing_on_the_floor_keeps_its_soles_on_it():
-    """A character whose rest pose stands on ``y = 0`` (soles there, toe joints above) plants its feet
-    at their rest heights, so its mesh stands on the floor, not 3 cm into it (Efoot's ḡ, Eq. 6)."""
+    """A character whose rest pose stands on ``y = 0`` (soles there, toe joints above) plants its
+    feet at their rest heights, so its mesh stands on the floor, not 3 cm into it (Efoot's ḡ, Eq.
+    6)."""
     from retarget_lib.core.measures import foot_rest_heights
     from retarget_lib.core.quantities import FOOT_CONTACT_IDS
     from retarget_lib.data.synthetic.characters import make_character

@@ -16,7 +16,8 @@ def test_a_flat_square_points_up_and_an_isolated_vertex_gets_plus_y():
 
 
 def test_a_corner_of_a_cube_points_along_the_diagonal():
-    # the three faces meeting at the origin of the unit cube, outward normals -X, -Y, -Z, equal areas
+    # the three faces meeting at the origin of the unit cube, outward normals -X, -Y, -Z, equal
+    # areas
     v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], dtype=float)
     f = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2]])
     assert vertex_normals(v, f)[0] == pytest.approx(-np.ones(3) / np.sqrt(3))

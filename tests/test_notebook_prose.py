@@ -51,9 +51,12 @@ def test_hand_typed_numbers_are_found(text, expected):
         "The paper's Table 4 reports 0.58 for copy.",  # 'paper' + a location
         "Set `train.steps=3000` or `lambda_h = 10` in the config.",  # config constants in backticks
         "Try `f(x,\n gamma_foot=10.0)` there.",  # inline code wrapping a line
-        "<!-- constants: 100k, 0.5 -->\nThe paper-form schedule trains 100k steps at a rate of 0.5.",
-        "Its objective (Eq. 6) is\n\n$$L = L_c + 0.1 L_r$$",  # a display equation of a cited sentence
-        "Download from [arXiv](https://arxiv.org/abs/2109.07431), doi https://doi.org/10.1111/cgf.13947.",
+        "<!-- constants: 100k, 0.5 -->\nThe paper-form schedule trains 100k steps at a rate of "
+        "0.5.",
+        # a display equation of a cited sentence
+        "Its objective (Eq. 6) is\n\n$$L = L_c + 0.1 L_r$$",
+        "Download from [arXiv](https://arxiv.org/abs/2109.07431), doi "
+        "https://doi.org/10.1111/cgf.13947.",
         "Every GLB passes the glTF 2.0 validator (Python 3.11, assimp 5.2.5).",
         "```\nretarget train --profile fast train.steps=0.5\n```",
         "A 3 × 3 matrix and 4x4 transforms.",

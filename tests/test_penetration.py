@@ -1,5 +1,6 @@
-"""Interpenetration (Villegas et al. 2021, Eqs. 4-5): detection (``collision``), cone field, geodesic weights,
-energy and gradients, penetration metrics — on hand-made meshes with hand-computed answers."""
+"""Interpenetration (Villegas et al. 2021, Eqs. 4-5): detection (``collision``), cone field,
+geodesic weights, energy and gradients, penetration metrics — on hand-made meshes with hand-computed
+answers."""
 
 import math
 
@@ -33,7 +34,8 @@ from retarget_lib.geometry.penetration import (
 from retarget_lib.geometry.penetration_rate import cap_holes, penetration_rate, ray_winding_numbers
 
 FLAT = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]  # normal +z, circumcentre (.5, .5, 0)
-# a vertical triangle in the plane y = 0.25 whose edge x = z-axis-parallel pierces FLAT at (0.25, 0.25, 0)
+# a vertical triangle in the plane y = 0.25 whose edge x = z-axis-parallel pierces FLAT at (0.25,
+# 0.25, 0)
 PIERCING = [[0.2, 0.25, -1.0], [0.3, 0.25, -1.0], [0.25, 0.25, 1.0]]
 
 
@@ -64,7 +66,8 @@ def test_crossing_touching_and_apart_triangles():
     np.testing.assert_array_equal(colliding_triangle_pairs(v, f), [[0, 1]])
     apart, _ = two_triangles((np.array(PIERCING) + [5.0, 0.0, 0.0]).tolist())
     assert colliding_triangle_pairs(apart, f).shape == (0, 2)
-    # sharing vertex 0 and crossing FLAT's plane there: geometrically touching, excluded as neighbours
+    # sharing vertex 0 and crossing FLAT's plane there: geometrically touching, excluded as
+    # neighbours
     shared_v = np.array(FLAT + [[0.3, 0.3, -0.5], [0.3, 0.3, 0.5]])
     shared_f = np.array([[0, 1, 2], [0, 3, 4]])
     assert triangles_intersect(shared_v[shared_f[:1]], shared_v[shared_f[1:]])[0]
@@ -231,7 +234,8 @@ def test_geodesic_eta_is_the_exact_diameter_on_a_body():
 
 # ----------------------------------------------------------------------------- energy
 def boxes(depth):
-    """A 1 m box (subdivided to 0.125 m triangles) and a 0.2 m box pushed ``depth`` into its +x face."""
+    """A 1 m box (subdivided to 0.125 m triangles) and a 0.2 m box pushed ``depth`` into its +x
+    face."""
     return merged(box(1.0, [0.0, 0.0, 0.0], 3), box(0.2, [0.6 - depth, 0.0, 0.0]))
 
 
@@ -258,8 +262,9 @@ def test_box_pushed_in_energy_grows_with_depth_and_gradient_pushes_it_out():
 
 
 def test_eint_reads_only_its_support():
-    # ESO skins only support(pairs): Eq. 4 on a mesh where every other vertex is zeroed is unchanged,
-    # and the support holds more than the pairs' corners (their normals need the faces around them)
+    # ESO skins only support(pairs): Eq. 4 on a mesh where every other vertex is zeroed is
+    # unchanged, and the support holds more than the pairs' corners (their normals need the faces
+    # around them)
     v, f = boxes(0.05)
     energy = InterpenetrationEnergy(f, v)
     pairs = energy.pairs(v)
@@ -275,7 +280,8 @@ def test_eint_reads_only_its_support():
 
 def test_a_plan_on_the_support_alone_padded_gives_the_same_energy_and_gradient():
     # ESO plans Eq. 4 once per frame on the vertices it skins (the support, renumbered) and pads
-    # the pairs with zero-weight copies for a compiled step: neither changes the energy or its gradient
+    # the pairs with zero-weight copies for a compiled step: neither changes the energy or its
+    # gradient
     v, f = boxes(0.05)
     energy = InterpenetrationEnergy(f, v)
     pairs = energy.pairs(v)
@@ -378,7 +384,7 @@ def test_penetration_rate_of_a_box_half_inside():
         penetration_rate(v, f, weights, {"tail": ["Tail"]})
 
 
-# ----------------------------------------------------------------------------- a synthetic character
+# ---------------------------------------------------------------------------- a synthetic character
 def test_character_rest_pose_is_clean_and_forearm_in_torso_is_not():
     from retarget_lib.data.synthetic.characters import make_character
     from retarget_lib.evaluation.bench_contact import forearm_in_torso_pose

@@ -1,5 +1,5 @@
-"""The public contract of docs/architecture.md stays importable from its documented paths, and those names are
-the library's own objects (not copies)."""
+"""The public contract of docs/architecture.md stays importable from its documented paths, and those
+names are the library's own objects (not copies)."""
 
 from retarget_lib import kinematics, skeleton
 from retarget_lib.core import skeleton as core_skeleton

@@ -108,8 +108,9 @@ def test_welding_joins_split_vertices_without_moving_the_surface():
 
 
 def test_jitter_is_zero_for_the_source_smoothness_and_symmetric_in_the_log(character):
-    # a source swaying 2 cm at 2 Hz; the result sways the same in proportion to its height (0), twice
-    # as much (ln 2) or half as much (also ln 2: smoothing a motion away is no better than shaking it)
+    # a source swaying 2 cm at 2 Hz; the result sways the same in proportion to its height (0),
+    # twice as much (ln 2) or half as much (also ln 2: smoothing a motion away is no better than
+    # shaking it)
     source = make_character("ada")
     t = np.arange(30) / 30.0
     sway = np.sin(2 * np.pi * 2 * t)

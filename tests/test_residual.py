@@ -41,7 +41,8 @@ def test_align_turns_each_global_frame_by_its_own_alignment():
 
 
 def test_bone_direction_loss_hand_values():
-    # two bones of a chain: straight up vs. turned by 90 degrees -> |u - u'|^2 = 2 for the turned bone
+    # two bones of a chain: straight up vs. turned by 90 degrees -> |u - u'|^2 = 2 for the turned
+    # bone
     parents = (-1, 0, 1)
     p_a = torch.tensor([[0.0, 0, 0], [0, 1, 0], [0, 2, 0]]).view(1, 1, 3, 3)
     p_b = torch.tensor([[0.0, 0, 0], [0, 1, 0], [1, 1, 0]]).view(1, 1, 3, 3)

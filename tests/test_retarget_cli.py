@@ -25,7 +25,8 @@ def short_source(tmp_path_factory):
 
 # CMU target: folded joints get identity, so the file reproduces the in-memory result (to the
 # 6-decimal text precision). Biovision target: its missing Spine2 is merged into the chest, which
-# moves neck, head and arms (measured up to 1.3 cm on 01_01 with copy) when the source bends at Spine2.
+# moves neck, head and arms (measured up to 1.3 cm on 01_01 with copy) when the source bends at
+# Spine2.
 @pytest.mark.parametrize("target_name,tol", [("01_03.bvh", 2e-4), ("Boxing_Toes.bvh", 2e-2)])
 @pytest.mark.parametrize(
     "method,reference", [("copy-rest", retarget_ground_truth), ("copy", copy_rotations)]

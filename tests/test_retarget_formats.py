@@ -1,4 +1,5 @@
-"""`retarget retarget` with GLB/glTF characters, SMPL-X/AMASS motion and skinned GLB output (issue 12).
+"""`retarget retarget` with GLB/glTF characters, SMPL-X/AMASS motion and skinned GLB output (issue
+12).
 
 No built data needed: the sources are the shipped AMASS-format clip and GLB files written here from
 the synthetic characters. Every GLB the command writes passes the Khronos validator.
@@ -66,7 +67,8 @@ def test_amass_source_to_a_glb_character_writes_a_valid_skinned_glb(files, tmp_p
     np.testing.assert_allclose(rig.rest_vertices, target.rest_vertices, atol=1e-6)
     assert motion.num_frames == 120 and motion.fps == 30.0
     expected = retarget_ground_truth(load_amass(AMASS_CLIP_PATH), target.character().skeleton)
-    # float32 file; the root moves vertically by the ground rule only (AMASS's floor onto the target's)
+    # float32 file; the root moves vertically by the ground rule only (AMASS's floor onto the
+    # target's)
     assert_same_up_to_floor_shift(
         rig.motion_to_canonical(motion).global_positions(), expected.global_positions(), atol=1e-4
     )

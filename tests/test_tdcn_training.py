@@ -52,8 +52,8 @@ VARIANTS = {
         if stem not in ("tdcn_paper", "tdcn_ours_residual")
     },
 }
-# train.compile=false: these tiny runs test the training mechanics; the compiled GRU decoder is tested
-# against the eager one in test_models.py (compiling it costs ~1 min of CPU per config)
+# train.compile=false: these tiny runs test the training mechanics; the compiled GRU decoder is
+# tested against the eager one in test_models.py (compiling it costs ~1 min of CPU per config)
 TINY = ["model.channels=16", "model.disc_channels=16", "train.batch=4", "train.compile=false"]
 TERMS = ["Lc", "Lt", "Lh", "La", "Lr", "Lo", "Ld", "total", "D"]
 
@@ -232,7 +232,8 @@ def test_rest_jitter_changes_rest_poses_not_the_motion():
         )
     moved = (jittered.offsets_source - plain.offsets_source).norm(dim=-1).amax(-1) > 1e-4
     assert 0.25 < moved.float().mean() < 0.75  # about half the sources
-    # A = B: one rest pose (the same code on the same values at the same batch rows, one process: exact)
+    # A = B: one rest pose (the same code on the same values at the same batch rows, one process:
+    # exact)
     assert torch.equal(
         jittered.offsets_target[jittered.same_character],
         jittered.offsets_source[jittered.same_character],

@@ -24,7 +24,8 @@ def test_default_tdcn_returns_a_clip_on_its_own_skeleton(tdcn):
     by_group = errors.groupby("group")["mean"].mean()
     assert set(by_group.index) == {"synthetic", "mannequin-x", "cmu"}
     # the bar we promise users: at most 2 cm mean root-relative joint error for a 1.7 m body on each
-    # set (the residual network is exact here by construction; 2 cm is the contract, not the expectation)
+    # set (the residual network is exact here by construction; 2 cm is the contract, not the
+    # expectation)
     assert (by_group <= 2.0).all(), by_group.to_dict()
     assert (errors["root"] <= 2.0).all()
 

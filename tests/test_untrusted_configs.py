@@ -1,6 +1,7 @@
 """Hostile joint maps and experiment configs: bounded YAML (nesting, alias bombs, duplicate keys),
-bounded sizes before anything is allocated, and the ``base:`` merging rule (``retarget_lib.files.read_yaml``,
-``retarget_lib.io.rig_maps``, ``retarget_lib.config``, ``retarget_lib.config_schema``)."""
+bounded sizes before anything is allocated, and the ``base:`` merging rule
+(``retarget_lib.files.read_yaml``, ``retarget_lib.io.rig_maps``, ``retarget_lib.config``,
+``retarget_lib.config_schema``)."""
 
 import pytest
 import yaml
@@ -197,8 +198,8 @@ def train_run(tmp_path, path, *overrides):
             "name = [1, 2, 3, 4, ...]",
         ),
         ("base: [1]\n", (), "base must be the name of a config file"),
-        # found by test_fuzz_configs: the indented line continues the base's value, which names no file;
-        # the error names the config that refers to it, not the path it could not find
+        # found by test_fuzz_configs: the indented line continues the base's value, which names no
+        # file; the error names the config that refers to it, not the path it could not find
         (f"base: {CONFIGS / 'tdcn_paper.yaml'}\n  model", (), "model' is no config file"),
         (f"base: {CONFIGS / 'tdcn_paper.yaml'}\ntrain: {{lr: {'9' * 400}}}\n", (), "train.lr = "),
     ],

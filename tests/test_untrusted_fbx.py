@@ -25,7 +25,8 @@ pytestmark = pytest.mark.skipif(
 
 
 def kato_fbx(path: Path, monkeypatch=None, skeleton=None, mesh=None) -> Path:
-    """kato as a binary FBX; ``skeleton(scene, ids)`` / ``mesh(scene)`` edit the scene before writing."""
+    """kato as a binary FBX; ``skeleton(scene, ids)`` / ``mesh(scene)`` edit the scene before
+    writing."""
     character = make_character("kato")
     if skeleton is not None:
         add_skeleton = fbx_write._add_skeleton
@@ -102,7 +103,8 @@ def temp_folders() -> set[str]:
         ),
         (
             "index",
-            "malformed FBX: cluster 'Hips' binds vertex 1,000,000,000 of a mesh with 3,002 vertices",
+            "malformed FBX: cluster 'Hips' binds vertex 1,000,000,000 of a mesh with 3,002 "
+            "vertices",
         ),
     ],
 )
@@ -186,7 +188,8 @@ def kato_fbx_bytes(tmp_path_factory) -> bytes:
 @given(data=st.data())
 def test_fuzz_fbx(tmp_path_factory, kato_fbx_bytes, data):
     """Random uint32 values written over record headers and array headers, bytes flipped, the file
-    cut: each run ends with exit status 0 or 2 and one line, reads nothing else, leaves no folder."""
+    cut: each run ends with exit status 0 or 2 and one line, reads nothing else, leaves no
+    folder."""
     raw = bytearray(kato_fbx_bytes)
     for _ in range(data.draw(st.integers(1, 4))):
         at = data.draw(st.integers(27, len(raw) - 4))

@@ -269,7 +269,9 @@ def test_a_result_beyond_the_budget_is_refused_before_any_work(tmp_path, kato_pa
     def edit(doc, blob):
         times = np.arange(12) / 30.0
         times[-1] = (
-            1000.0  # 30,001 frames x 22 joints: within the budget; at 1000 fps out, 1,000,001 frames are not
+            # 30,001 frames x 22 joints: within the budget; at 1000 fps out, 1,000,001 frames are
+            # not
+            1000.0
         )
         put_accessor(doc, blob, TIMES, times)
 
@@ -684,7 +686,8 @@ def test_the_memory_cases_stay_within_2_gib_in_a_fresh_process(tmp_path, kato_pa
         import resource, sys
         resource.setrlimit(resource.RLIMIT_AS, (2 * 2**30, 2 * 2**30))
         from retarget_lib.cli import main
-        codes = [main(["retarget", "--source", p, "--target", "kato", "--method", "copy", "--out", p + ".bvh"])
+        args = ["--target", "kato", "--method", "copy"]
+        codes = [main(["retarget", "--source", p, *args, "--out", p + ".bvh"])
                  for p in {[str(p) for p in cases]!r}]
         print(codes)
     """)

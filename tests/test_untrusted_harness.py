@@ -78,7 +78,8 @@ def memory_cap(extra: int = CAP_BYTES):
 
 
 def snapshot(folder: Path) -> dict[str, tuple]:
-    """Every file under ``folder``: ``(inode, size, mtime, sha256)`` (symbolic links by their target path)."""
+    """Every file under ``folder``: ``(inode, size, mtime, sha256)`` (symbolic links by their target
+    path)."""
     out = {}
     for p in sorted(folder.rglob("*")):
         if p.is_symlink():
@@ -242,13 +243,13 @@ def test_the_file_check_fails_on_a_changed_removed_or_created_file(tmp_path):
 
 
 def test_a_warning_counts_as_a_line_on_stderr(tmp_path, monkeypatch):
-    import retarget_lib.cli
+    import retarget_lib.cli.parser
 
     def warn_then_fail(args):
         warnings.warn("casting discards the imaginary part", RuntimeWarning, stacklevel=2)
         raise ValueError("a.glb: problem")
 
-    monkeypatch.setattr(retarget_lib.cli, "_cmd_data", warn_then_fail)
+    monkeypatch.setattr(retarget_lib.cli.parser, "_cmd_data", warn_then_fail)
     run = run_contained(["data", "list"], tmp_path)
     with pytest.raises(AssertionError):
         run.assert_error("a.glb")

@@ -27,7 +27,8 @@ from retarget_lib.io.gltf import load_gltf_rig
 
 
 def gltf_with_buffer(folder: Path, uri: str, blob: bytes, kato_parts) -> Path:  # noqa: F811
-    """``folder/a.gltf``: kato's JSON whose one buffer is the file ``uri`` (``blob`` not written)."""
+    """``folder/a.gltf``: kato's JSON whose one buffer is the file ``uri`` (``blob`` not
+    written)."""
     doc = json.loads(json.dumps(kato_parts[0]))
     doc["buffers"] = [{"uri": uri, "byteLength": len(blob)}]
     folder.mkdir(parents=True, exist_ok=True)

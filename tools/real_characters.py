@@ -8,8 +8,9 @@ written back as a compact GLB:
   cameras are dropped; positions, normals, ``JOINTS_0``/``WEIGHTS_0`` (the 4 strongest
   influences, renormalised) and triangle indices are kept;
 * meshes that no skin deforms (props, hats) are dropped;
-* a mesh with more than :data:`MAX_VERTICES` vertices is decimated (quadric, ``fast_simplification``)
-  and every kept vertex takes the skin weights of the nearest original vertex;
+* a mesh with more than :data:`MAX_VERTICES` vertices is decimated (quadric,
+  ``fast_simplification``) and every kept vertex takes the skin weights of the nearest original
+  vertex;
 * where a rig lacks a joint of the canonical 22 (no clavicles, two spine joints) or its joints are
   not one tree, the recipe below says so and edits the joint tree without moving anything: an
   inserted joint carries no skin weight and its children keep their world transforms; a re-parented
@@ -163,7 +164,8 @@ class Doc:
                 skin.ibm = np.concatenate([skin.ibm, np.linalg.inv(w)[None]])
 
     def scale(self, factor: float) -> None:
-        """Every length times ``factor`` (node translations, vertices, inverse bind translations)."""
+        """Every length times ``factor`` (node translations, vertices, inverse bind
+        translations)."""
         for n in self.nodes:
             n.matrix = n.matrix.copy()
             n.matrix[:3, 3] *= factor
@@ -590,7 +592,8 @@ def read_iqm(path: Path, scale: float = 1.0) -> Doc:
 def read_makehuman(mpfb_dir: Path, rig: str, scale: float = 0.1) -> Doc:
     """The MakeHuman base mesh (``3dobjs/base.obj``, body group only, decimetres) skinned with one
     of MPFB2's rigs (``rigs/<standard|rigify>/rig.<rig>.json`` and ``weights.<rig>.json``): joint
-    positions from the rig's head definitions (joint cubes, vertex means), identity rest rotations."""
+    positions from the rig's head definitions (joint cubes, vertex means), identity rest
+    rotations."""
     verts, groups, cur = [], {}, None
     for line in (mpfb_dir / "3dobjs" / "base.obj").read_text().splitlines():
         if line.startswith("v "):
@@ -684,7 +687,8 @@ def read_makehuman(mpfb_dir: Path, rig: str, scale: float = 0.1) -> Doc:
         bare.any()
     ):  # (none in the rigs used) a vertex no group weights takes its nearest weighted neighbour's
         print(
-            f"{rig}: {int(bare.sum())} body vertices without weights take their nearest weighted vertex's"
+            f"{rig}: {int(bare.sum())} body vertices without weights take their nearest weighted "
+            "vertex's"
         )
         dense[bare] = dense[~bare][cKDTree(verts[used][~bare]).query(verts[used][bare])[1]]
     order4 = np.argsort(-dense, axis=1)[:, :4]
@@ -719,7 +723,8 @@ def _midpoint(doc: Doc, a: str, b: str) -> np.ndarray:
 def bcn_epileptic(src: Path) -> Doc:
     """DirectX ``BCN_Epileptic.X``: the spine chain (``B_Root_Pelvis_T``) and the legs
     (``B_Root_Pelvis_L``) are two sibling trees under a non-joint ``$dummy_root``; the spine's root
-    is re-parented under the legs' root (both at the same point) so that the joints form one tree."""
+    is re-parented under the legs' root (both at the same point) so that the joints form one
+    tree."""
     doc = via_assimp(src)
     doc.reparent("B_Root_Pelvis_T", "B_Root_Pelvis_L")
     return doc
@@ -728,12 +733,12 @@ def bcn_epileptic(src: Path) -> Doc:
 def mrfixit(src: Path) -> Doc:
     """Sauerbraten's Mr. Fixit (IQM): unitless, scaled by 0.24 (about 1.8 m tall: an assumption);
     the two IK pole joints (``ElbowRot.L/R``, roots of their own, no skin weight) are hung under
-    ``Root``; the hands and fingers are skinned to the IK goals ``HandGoal.L/R``, which hang from the
-    chest (``ArmIK.L/R`` under ``Spine1``), not to the unweighted ``Hand.L/R`` under the forearms:
-    each goal is re-parented under its ``LowerArm`` (the map names it the hand), so the hand follows
-    the arm instead of the chest. The rig has two spine joints and no clavicles, so ``Spine1_inserted``
-    (midway between ``Spine1`` and ``Spine2``) and ``Clavicle.L/R_inserted`` (midway between ``Spine2``
-    and each upper arm) are inserted without weights."""
+    ``Root``; the hands and fingers are skinned to the IK goals ``HandGoal.L/R``, which hang from
+    the chest (``ArmIK.L/R`` under ``Spine1``), not to the unweighted ``Hand.L/R`` under the
+    forearms: each goal is re-parented under its ``LowerArm`` (the map names it the hand), so the
+    hand follows the arm instead of the chest. The rig has two spine joints and no clavicles, so
+    ``Spine1_inserted`` (midway between ``Spine1`` and ``Spine2``) and ``Clavicle.L/R_inserted``
+    (midway between ``Spine2`` and each upper arm) are inserted without weights."""
     doc = read_iqm(src, scale=0.24)
     doc.reparent("ElbowRot.L", "Root")
     doc.reparent("ElbowRot.R", "Root")

@@ -200,7 +200,8 @@ def fit_global_rotations(
 def unfold_from_canonical22(
     motion: Motion, skeleton: Skeleton, joint_map: Mapping[int, int]
 ) -> Motion:
-    """Put a canonical-22 motion back on a full joint set (the inverse of :func:`fold_to_canonical22`).
+    """Put a canonical-22 motion back on a full joint set (the inverse of
+    :func:`fold_to_canonical22`).
 
     Used to write a retargeted motion with the target file's own joints, names and rest offsets.
     Each kept joint gets the product of the canonical local rotations along its canonical path
@@ -268,10 +269,10 @@ def _snap(v: np.ndarray) -> np.ndarray:
 def upright_rotation(
     hips: np.ndarray, head: np.ndarray, left_hip: np.ndarray, right_hip: np.ndarray
 ) -> np.ndarray:
-    """``(3, 3)`` the quarter turns that stand a rest pose up in the library's axes: its hips-to-head
-    direction onto +Y and its right-to-left hip direction onto +X (so that it faces +Z), each
-    snapped to the nearest coordinate axis first; the identity for a rest pose that already does,
-    or when the hips lie on the up axis (nothing to tell the facing by).
+    """``(3, 3)`` the quarter turns that stand a rest pose up in the library's axes: its
+    hips-to-head direction onto +Y and its right-to-left hip direction onto +X (so that it faces
+    +Z), each snapped to the nearest coordinate axis first; the identity for a rest pose that
+    already does, or when the hips lie on the up axis (nothing to tell the facing by).
 
     Args:
         hips, head, left_hip, right_hip: ``(3,)`` rest positions of those joints.

@@ -61,7 +61,8 @@ def foot_positions(positions: np.ndarray, skeleton: Skeleton) -> np.ndarray:
 def sole_heights(
     positions: np.ndarray, skeleton: Skeleton, rest_vertices: np.ndarray | None = None
 ) -> np.ndarray:
-    """``(T, 4)`` height of each foot joint's sole above ``y = 0`` (metres, :data:`FOOT_JOINTS` order).
+    """``(T, 4)`` height of each foot joint's sole above ``y = 0`` (metres, :data:`FOOT_JOINTS`
+    order).
 
     Args:
         positions: ``(T, 22, 3)`` global joint positions (metres, +Y up).

@@ -94,9 +94,9 @@ def leg_length(offsets: Tensor) -> Tensor:
     """``h_legs`` of a batch of canonical-22 rest offsets: the rest height of the hips above the
     lowest foot joint (Villegas et al. 2021, Eq. 8's leg-length ratio).
 
-    The tensor form of :meth:`Skeleton.leg_length() <retarget_lib.core.skeleton.Skeleton.leg_length>`
-    (differentiable): the ``y`` offsets summed down each leg chain, the lowest of the four
-    feet joints; the two agree to rounding.
+    The tensor form of :meth:`Skeleton.leg_length()
+    <retarget_lib.core.skeleton.Skeleton.leg_length>` (differentiable): the ``y`` offsets summed
+    down each leg chain, the lowest of the four feet joints; the two agree to rounding.
 
     Args:
         offsets: ``(..., 22, 3)`` rest offsets in canonical-22 order (metres).
@@ -145,7 +145,8 @@ def mesh_standing_height(vertices: np.ndarray | Tensor) -> Any:
         vertices: ``(..., V, 3)`` rest vertices (metres, +Y up), NumPy or torch.
 
     Returns:
-        ``(...)``: a float for one NumPy mesh ``(V, 3)``, else an array or a tensor (differentiable).
+        ``(...)``: a float for one NumPy mesh ``(V, 3)``, else an array or a tensor
+            (differentiable).
     """
     if isinstance(vertices, Tensor):
         y = vertices[..., 1]

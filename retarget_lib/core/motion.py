@@ -158,7 +158,8 @@ class Motion:
         n_new = max(1, int(np.floor((T - 1) * fps / self.fps + 1e-9)) + 1)
         if n_new > MAX_FRAMES:
             raise LimitError(
-                f"resampling {self.name or 'the motion'} ({T} frames at {self.fps:g} fps) to {fps:g} fps "
+                f"resampling {self.name or 'the motion'} ({T} frames at {self.fps:g} fps) to "
+                f"{fps:g} fps "
                 f"gives {n_new} frames, beyond the limit of {MAX_FRAMES}"
             )
         return self._at_frames(np.arange(n_new) * (self.fps / fps), fps)
@@ -240,9 +241,9 @@ class Motion:
     def normalize_root(self, face_z: bool = True, on_ground: bool = True) -> Motion:
         """Put frame 0's root above the origin, facing +Z; optionally feet on the ground (y = 0).
 
-        Rotates the whole clip about world +Y so the character faces +Z at frame 0, translates so the
-        root starts at ``x = z = 0``, and (``on_ground``) shifts vertically so that the lowest joint
-        over the clip's first second touches ``y = 0``.
+        Rotates the whole clip about world +Y so the character faces +Z at frame 0, translates so
+        the root starts at ``x = z = 0``, and (``on_ground``) shifts vertically so that the lowest
+        joint over the clip's first second touches ``y = 0``.
         """
         rot = self.rotations.copy()
         root = self.root_positions.copy()

@@ -41,7 +41,7 @@ __all__ = [
 ]
 
 
-# ----------------------------------------------------------------------------- TDCN (Kim et al. 2020)
+# --------------------------------------------------------------------------- TDCN (Kim et al. 2020)
 class DiscriminatorInputs(NamedTuple):
     """What the discriminator sees of one motion (Eqs. 19/20).
 
@@ -148,8 +148,9 @@ def _check_last(name: str, x: Tensor, channels: int, ndim: int) -> None:
         raise ValueError(f"{name} must have {ndim} dims ending in {channels}, got {tuple(x.shape)}")
 
 
-# ----------------------------------------------------------------------------- contact-aware (Villegas et al. 2021)
-#: canonical ids of the Efoot joints, in :data:`retarget_lib.core.skeleton.FOOT_CONTACT_JOINTS` order
+# ------------------------------------------------------------- contact-aware (Villegas et al. 2021)
+#: canonical ids of the Efoot joints, in :data:`retarget_lib.core.skeleton.FOOT_CONTACT_JOINTS`
+#: order
 FOOT_CONTACT_IDS: tuple[int, ...] = tuple(J[n] for n in FOOT_CONTACT_JOINTS)
 
 
@@ -160,7 +161,8 @@ def leg_ratio(source: Skeleton, target: Skeleton) -> float:
 
 
 def forward_root_velocity(root_positions: Tensor) -> Tensor:
-    """Root velocity ``o_t = r_(t+1) − r_t`` (Eqs. 8, 17-18: ``o_(t−1)`` moves frame ``t−1`` to ``t``).
+    """Root velocity ``o_t = r_(t+1) − r_t`` (Eqs. 8, 17-18: ``o_(t−1)`` moves frame ``t−1`` to
+    ``t``).
 
     The last frame repeats the previous velocity (a one-frame clip gets zero).
 

@@ -96,7 +96,8 @@ class Rig:
         return out
 
     def _with_virtual_joints(self, motion: Motion) -> tuple[Motion, dict[int, int]]:
-        """``motion`` on the rig's joints with the absent canonical ones inserted, and the full map."""
+        """``motion`` on the rig's joints with the absent canonical ones inserted, and the full
+        map."""
         return with_virtual_joints(motion, self.joint_map)
 
     def character(self) -> Character:
@@ -127,17 +128,19 @@ class Rig:
         )
 
     def motion_to_canonical(self, motion: Motion) -> Motion:
-        """Fold a motion on the rig's joints onto the canonical 22 (see ``fold_to_canonical22``; absent
-        joints inserted as virtual ones first)."""
+        """Fold a motion on the rig's joints onto the canonical 22 (see ``fold_to_canonical22``;
+        absent joints inserted as virtual ones first)."""
         return fold_to_canonical22(motion, self.joint_map)
 
     def motion_from_canonical(self, motion: Motion) -> Motion:
         """A canonical-22 motion on the rig's joints: mapped joints take the canonical rotations,
-        the others keep their rest pose relative to their parent (see ``unfold_from_canonical22``)."""
+        the others keep their rest pose relative to their parent (see
+        ``unfold_from_canonical22``)."""
         return unfold_from_canonical22(motion, self.skeleton, self.joint_map)
 
     def posed_vertices(self, motion: Motion) -> np.ndarray:
-        """``(T, V, 3)`` the mesh skinned by a motion on the rig's joints (linear blend skinning)."""
+        """``(T, V, 3)`` the mesh skinned by a motion on the rig's joints (linear blend
+        skinning)."""
         fk = motion.fk()
         return linear_blend_skinning(
             self.rest_vertices,

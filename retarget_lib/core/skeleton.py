@@ -87,7 +87,8 @@ FOOT_CONTACT_JOINTS: tuple[str, ...] = ("LeftFoot", "RightFoot", "LeftToeBase", 
 
 
 class JointSetError(RetargetInputError):
-    """A motion's joints cannot be mapped onto the canonical 22 (the message names the missing ones)."""
+    """A motion's joints cannot be mapped onto the canonical 22 (the message names the missing
+    ones)."""
 
 
 @dataclass

@@ -8,7 +8,8 @@ Villegas et al. 2021, Appendix B, Eq. 16)::
 with rest vertex ``v_v``, skinning weight ``w_vj`` (rows sum to 1), rest joint position ``x̄_j``,
 and the posed joint's global rotation ``R_j`` and position ``x_j``. The rest pose has identity
 rotations (the library's convention: the rest pose is encoded in the skeleton's offsets), so
-``R_j`` is the joint's global rotation from :func:`~retarget_lib.core.kinematics.forward_kinematics`.
+``R_j`` is the joint's global rotation from
+:func:`~retarget_lib.core.kinematics.forward_kinematics`.
 
 How it is computed: each joint's transform is an affine map ``A_j = [R_j | x_j - R_j x̄_j]``
 (12 numbers); the per-vertex blended map ``M_v = sum_j w_vj A_j`` is one dense matrix product

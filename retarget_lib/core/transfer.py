@@ -1,5 +1,5 @@
-"""Rest-pose transfer: the ground-truth retargeting of synthetic motion (the copy baselines built on it
-are methods: :mod:`retarget_lib.methods.copy`, :mod:`retarget_lib.methods.copy_rest`).
+"""Rest-pose transfer: the ground-truth retargeting of synthetic motion (the copy baselines built on
+it are methods: :mod:`retarget_lib.methods.copy`, :mod:`retarget_lib.methods.copy_rest`).
 
 Ground truth of the synthetic data: the target performs the source's motion with the same *global*
 bone directions and twists, rest-pose differences compensated, and the root trajectory scaled by
@@ -250,7 +250,8 @@ def random_rest_rotations(
 
 
 def retarget_ground_truth(motion: Motion, target_skeleton: Skeleton) -> Motion:
-    """The ground-truth retargeting of a synthetic motion onto another character (see the module docstring).
+    """The ground-truth retargeting of a synthetic motion onto another character (see the module
+    docstring).
 
     Every global bone direction and twist of the source is reproduced (:func:`transfer_rotations`;
     an A-pose source and a T-pose target end up with the same world-space arms), and the root

@@ -1,4 +1,5 @@
-"""Virtual joints: the canonical joints a rig does not have, inserted so that the library always sees 22.
+"""Virtual joints: the canonical joints a rig does not have, inserted so that the library always
+sees 22.
 
 A joint map (:func:`~retarget_lib.io.rig_maps.load_mapping_file`) may mark a canonical joint
 ``null``: the rig has no such joint. Only the joints in :data:`MAY_BE_ABSENT` may be absent (a rig
@@ -9,10 +10,10 @@ An absent joint becomes a **virtual joint** of the file's skeleton: a joint betw
 (``Spine2`` of a two-spine rig, a clavicle) is placed on the bone between them (evenly, when
 several in a row are absent), a leaf (a toe) at its parent with a zero-length bone; it has the
 identity rotation in every frame, so every file joint keeps its position and rotation. Writing a
-result back on the rig (:func:`~retarget_lib.core.canonical.unfold_from_canonical22` with the present
-joints' map) composes the virtual joints out: a present joint takes its kept ancestor's global
-rotation undone, then its own, so the file has exactly its own joints (a bend the result puts at an
-inserted joint is carried by the bone's end instead). Every fold
+result back on the rig (:func:`~retarget_lib.core.canonical.unfold_from_canonical22` with the
+present joints' map) composes the virtual joints out: a present joint takes its kept ancestor's
+global rotation undone, then its own, so the file has exactly its own joints (a bend the result puts
+at an inserted joint is carried by the bone's end instead). Every fold
 (:func:`~retarget_lib.core.canonical.fold_to_canonical22`) inserts them, whatever the file's format:
 BVH, glTF/GLB/VRM, FBX and SMPL-X files (:mod:`retarget_lib.io.joint_maps`) and rigs
 (:class:`~retarget_lib.core.rig.Rig`) alike; a rig convention that lacks a joint (Biovision's
@@ -75,7 +76,8 @@ def _run_of_absent(c: int, present: set[int]) -> list[int]:
 def with_virtual_joints(
     motion: Motion, index_map: Mapping[int, int]
 ) -> tuple[Motion, dict[int, int]]:
-    """Insert the canonical joints ``index_map`` lacks into ``motion``'s skeleton (module docstring).
+    """Insert the canonical joints ``index_map`` lacks into ``motion``'s skeleton (module
+    docstring).
 
     Args:
         motion: a motion on a file's joints (rest rotations identity, offsets in world axes: BVH).
@@ -83,8 +85,8 @@ def with_virtual_joints(
             one must be in :data:`MAY_BE_ABSENT`.
 
     Returns:
-        ``(motion on the skeleton with the virtual joints, {joint index: canonical index} of all 22)``;
-        each virtual joint is named ``"<canonical name> (virtual)"``.
+        ``(motion on the skeleton with the virtual joints, {joint index: canonical index} of all
+        22)``; each virtual joint is named ``"<canonical name> (virtual)"``.
     """
     present = set(index_map.values())
     missing = [c for c in range(22) if c not in present]

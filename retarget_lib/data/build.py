@@ -38,7 +38,8 @@ def build_all(force: bool = False) -> None:
     if expected and fp != expected:
         raise DataError(
             f"synthetic dataset fingerprint {fp} differs from the manifest's {expected}. A stale "
-            "cache: run `retarget data build --force`. A deliberate change to the generator: record "
+            "cache: run `retarget data build --force`. A deliberate change to the generator: "
+            "record "
             "the new fingerprint in data_manifest.yaml."
         )
     for s in verify():

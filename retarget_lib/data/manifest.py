@@ -111,7 +111,8 @@ def checkpoint(checkpoint_id: str, verify_checksum: bool = True) -> CheckpointEn
     entry = entries[checkpoint_id]
     if not entry.path.exists():
         raise DataError(
-            f"checkpoint {checkpoint_id} missing at {entry.path}; re-create it with: {entry.command}"
+            f"checkpoint {checkpoint_id} missing at {entry.path}; re-create it with: "
+            f"{entry.command}"
         )
     if verify_checksum and sha256_file(entry.path) != entry.sha256:
         raise DataError(

@@ -10,8 +10,9 @@ not record; it gives the paper's eight pairs exactly their scenarios (pages 45, 
 23, 28, 33 seen). A folder **declares its own split** in an optional ``splits.yaml``
 (``seen_motions``/``unseen_motions``, ``seen_characters``/``unseen_characters``; the layout and the
 checks are in :mod:`retarget_lib.data.sources.mixamo_local`), which replaces the default for what it
-names; :func:`folder_split` gives the split in force. Training (:func:`mixamo_training_set`) uses the
-seen characters' clips of every seen motion, so unseen motions and characters are never trained on.
+names; :func:`folder_split` gives the split in force. Training (:func:`mixamo_training_set`) uses
+the seen characters' clips of every seen motion, so unseen motions and characters are never trained
+on.
 
 Contact-aware (Villegas et al. 2021, Sec. 4, App. C): the test source (Y Bot) is never trained on;
 the paper trains on the seven characters of NKN's training set [32], which it does not name, so
@@ -107,8 +108,10 @@ class FolderSplit:
 
     Attributes:
         unseen_motions: the unseen motions of the folder.
-        train_characters: the seen (training) characters, in order (may name characters the folder lacks).
-        motion_rule: where ``unseen_motions`` comes from (the ``splits.yaml`` path or the default rule).
+        train_characters: the seen (training) characters, in order (may name characters the folder
+            lacks).
+        motion_rule: where ``unseen_motions`` comes from (the ``splits.yaml`` path or the default
+            rule).
         character_rule: where ``train_characters`` comes from.
     """
 
@@ -124,7 +127,8 @@ class FolderSplit:
     def describe(self) -> str:
         """One sentence naming the rules and the unseen motions (for reports)."""
         return (
-            f"unseen motions ({self.motion_rule}): {', '.join(sorted(self.unseen_motions)) or 'none'}; "
+            f"unseen motions ({self.motion_rule}): "
+            f"{', '.join(sorted(self.unseen_motions)) or 'none'}; "
             f"seen characters ({self.character_rule}): {', '.join(self.train_characters) or 'none'}"
         )
 
@@ -178,7 +182,8 @@ def mixamo_training_set(
     train = [n for n in split.train_characters if any(n in who for who in performers.values())]
     if len(train) < 2:
         raise ValueError(
-            f"mixamo-local folder {folder.root}: needs clips of at least two of the training characters "
+            f"mixamo-local folder {folder.root}: needs clips of at least two of the training "
+            "characters "
             f"{list(split.train_characters)} ({split.character_rule}); found {train}"
         )
     skeletons = {
@@ -216,7 +221,8 @@ def mixamo_contact_training_set(
 
     Returns:
         ``(characters, clips)``: training character -> :class:`Character` (its mesh), and
-        ``(character, cache key, motion)`` per training clip (motion named ``"<character>/<motion>"``).
+        ``(character, cache key, motion)`` per training clip (motion named
+        ``"<character>/<motion>"``).
 
     Raises:
         ValueError: no training character with a mesh, or no training clip.
@@ -230,7 +236,8 @@ def mixamo_contact_training_set(
     }
     if not characters:
         raise ValueError(
-            f"mixamo-local folder {folder.root}: no mesh (shape.npz or a skinned FBX/GLB) of a training "
+            f"mixamo-local folder {folder.root}: no mesh (shape.npz or a skinned FBX/GLB) of a "
+            "training "
             f"character {list(train)}"
         )
     test_motions = {m["name"] for m in lists["motions"]}

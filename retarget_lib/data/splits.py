@@ -84,7 +84,8 @@ def tdcn_splits(
     * Scenarios 1/2 share their motions and sources and differ only in the target, as do 3/4
       (Table 3 uses page 52 for both Claire->Warrok and Claire->Mutant), so the effect of an
       unseen target is measured on the same inputs. Source and target always differ.
-    * The ground truth of a pair is :func:`~retarget_lib.core.transfer.retarget_ground_truth` of the source clip.
+    * The ground truth of a pair is :func:`~retarget_lib.core.transfer.retarget_ground_truth` of the
+      source clip.
 
     Args:
         character_names: all character names (e.g. ``characters.CHARACTER_NAMES``).

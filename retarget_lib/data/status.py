@@ -40,7 +40,8 @@ class SourceStatus:
 
     @property
     def state(self) -> str:
-        """``ok``, ``present`` (nothing to verify), ``BAD``, ``absent (optional)`` or ``MISSING``."""
+        """``ok``, ``present`` (nothing to verify), ``BAD``, ``absent (optional)`` or
+        ``MISSING``."""
         if self.present:
             return "ok" if self.verified else "present" if self.verified is None else "BAD"
         return "absent (optional)" if self.optional else "MISSING"

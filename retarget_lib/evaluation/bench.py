@@ -180,7 +180,8 @@ def bench_tdcn(quick: bool = False, frames: int = 1000) -> list[BenchRow]:
             ref = time_it(lambda body=body, x=x: body(x), repeat=3 if quick else 9)
         rows.append(
             BenchRow(
-                f"TDCN inference {frames} frames, {profile} width {width} (incl. features, heads, FK)",
+                f"TDCN inference {frames} frames, {profile} width {width} (incl. features, heads, "
+                "FK)",
                 t,
                 f"plain dilated-conv body, width {width}",
                 ref,
@@ -243,7 +244,8 @@ def bench_training(quick: bool = False, batch: int = 16) -> list[BenchRow]:
         steps[compile] = time_it(lambda run=run: run.step(0), repeat=2 if quick else 5, warmup=1)
     rows.append(
         BenchRow(
-            f"NKN Baseline training step (tdcn_baseline), fast, compiled GRU decoder, batch {batch}: "
+            "NKN Baseline training step (tdcn_baseline), fast, compiled GRU decoder, batch "
+            f"{batch}: "
             f"{batch / steps[True]:.1f} windows/s",
             steps[True],
             f"the same step eager: {batch / steps[False]:.1f} windows/s",
@@ -257,7 +259,8 @@ def bench_contact_training(quick: bool = False) -> list[BenchRow]:
     """One contact-aware training step (Efull, Eqs. 1-9, of 60-frame windows at the fast profile)
     of the residual default: compiled (the fast profile's ``train.compile``, one-off compilation in
     the warm-up) beside the same step eager, and eager beside the Eskel row's energy (no mesh
-    terms: what Ej2j, Eint and the skinned frame cost). Row names carry the throughput in windows/s."""
+    terms: what Ej2j, Eint and the skinned frame cost). Row names carry the throughput in
+    windows/s."""
 
     def step_time(config: str, compile: bool) -> tuple[float, int]:
         cfg = load_config(
@@ -275,7 +278,8 @@ def bench_contact_training(quick: bool = False) -> list[BenchRow]:
     skeleton_only, _ = step_time("contact_eskel", False)
     return [
         BenchRow(
-            f"contact training step (contact_residual, Efull), fast, compiled decoder, batch {batch}: "
+            "contact training step (contact_residual, Efull), fast, compiled decoder, batch "
+            f"{batch}: "
             f"{batch / compiled:.1f} windows/s",
             compiled,
             f"the same step eager: {batch / eager:.1f} windows/s",

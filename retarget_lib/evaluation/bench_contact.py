@@ -92,7 +92,10 @@ def bench_eint(quick: bool = False) -> list[BenchRow]:
     t_brute = time_it(
         lambda: _brute_force_pairs(posed_np, energy.faces), repeat=1 if quick else 3, warmup=0
     )
-    label = f"{character.num_vertices} vertices, {len(energy.faces)} faces, {len(pairs)} colliding pairs"
+    label = (
+        f"{character.num_vertices} vertices, {len(energy.faces)} faces, "
+        f"{len(pairs)} colliding pairs"
+    )
     reference = "all-pairs box test + same narrow phase"
     threads = torch.get_num_threads()
     rows = [
@@ -221,8 +224,10 @@ def _bench_eso_real_body(
     ten_k, full, small = per_frame["10k", True], per_frame["full", True], per_frame["small", True]
     return [
         BenchRow(
-            f"ESO per frame, 30 iterations, compiled ({which} network, real body {REAL_BODY} decimated to "
-            f"{ten_k[2]} vertices, {ten_k[1]:.0f} colliding pairs/frame): {1 / ten_k[0]:.1f} frames/s",
+            f"ESO per frame, 30 iterations, compiled ({which} network, real body {REAL_BODY} "
+            "decimated to "
+            f"{ten_k[2]} vertices, {ten_k[1]:.0f} colliding pairs/frame): {1 / ten_k[0]:.1f} "
+            "frames/s",
             ten_k[0],
             "the same uncompiled",
             per_frame["10k", False][0],

@@ -18,8 +18,8 @@ def training_budget(table: str) -> pd.DataFrame:
     """Training steps, batch size and training windows of every shipped checkpoint of a table.
 
     Args:
-        table: ``"tdcn"`` (Kim et al. 2020, Table 4) or ``"contact"`` (Villegas et al. 2021, Table 3),
-            as in the manifest's ``table:`` field.
+        table: ``"tdcn"`` (Kim et al. 2020, Table 4) or ``"contact"`` (Villegas et al. 2021, Table
+            3), as in the manifest's ``table:`` field.
 
     Returns:
         One row per table row (manifest order): ``checkpoint`` (manifest id), ``steps`` (the step

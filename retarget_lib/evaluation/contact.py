@@ -10,15 +10,16 @@ three skinny + three bulky targets):
 * targets: :data:`CONTACT_TARGETS`, three skinny and three bulky synthetic characters, none of
   them a training character of the contact model;
 * ground truth for the global position error: the same clip (family, seed) authored on the target
-  by :func:`~retarget_lib.data.synthetic.motions.make_motion`, hand contacts solved on the target's own mesh
-  (as Mixamo gives each character its own version of a motion);
+  by :func:`~retarget_lib.data.synthetic.motions.make_motion`, hand contacts solved on the target's
+  own mesh (as Mixamo gives each character its own version of a motion);
 * source contacts are *detected* (Sec. 3.4) and carried to the target by the App. F correspondence.
 
 **Metrics** (Sec. 4), per (clip, target), then averaged:
 
 * ``interpenetration``: Eq. 4 (with the geodesic weights of Eq. 5) on height-normalised vertices,
-  averaged over the evaluated frames (:func:`~retarget_lib.geometry.penetration.interpenetration_score`);
-  ×1000 in the tables to give readable magnitudes;
+  averaged over the evaluated frames
+  (:func:`~retarget_lib.geometry.penetration.interpenetration_score`); ×1000 in the tables to give
+  readable magnitudes;
 * ``vertex contact MSE``: for every frame with a (transferred) source contact, the squared distance
   between the two target vertices of each contact pair, in cm², divided by the target height in
   cm (the normalisation of the position error), averaged over pairs and frames;
@@ -26,7 +27,8 @@ three skinny + three bulky targets):
   target's scale) against those detected on the source, share of agreeing (frame, joint) labels;
 * ``global position MSE``: the NKN/TDCN normalised MSE (cm² / cm) against the ground truth;
 * ``penetration rate``: share of the arm and leg vertices inside the rest of the body (mean of
-  the four limbs, :func:`~retarget_lib.geometry.penetration_rate.penetration_rate`), a metric of later work;
+  the four limbs, :func:`~retarget_lib.geometry.penetration_rate.penetration_rate`), a metric of
+  later work;
 * ``foot height error`` (ours): in the source's foot-contact (frame, joint) labels, the mean
   distance in cm of the output's heel or toe joint from its rest height (the ground of Eq. 6),
   :func:`foot_height_error`. The paper's foot contact accuracy counts a foot 5 cm *below* the
@@ -268,7 +270,8 @@ def foot_heights_in_contact(output: Motion, source_contacts: np.ndarray) -> np.n
 
     Args:
         output: ``(T, ...)`` motion on a canonical 22-joint skeleton (ground ``y = 0``).
-        source_contacts: ``(T, 4)`` bool in :data:`~retarget_lib.core.skeleton.FOOT_CONTACT_JOINTS` order.
+        source_contacts: ``(T, 4)`` bool in :data:`~retarget_lib.core.skeleton.FOOT_CONTACT_JOINTS`
+            order.
 
     Returns:
         ``(N,)`` cm, one per contact label (frame-major).
@@ -490,7 +493,8 @@ def ablation_steps(
     """What each Table 3 step does to each metric, here and in the paper.
 
     Args:
-        table3: :func:`contact_tables`'s ``"table3"`` (``ours <metric>`` and ``paper <metric>`` columns).
+        table3: :func:`contact_tables`'s ``"table3"`` (``ours <metric>`` and ``paper <metric>``
+            columns).
         steps: ``(before, after)`` row pairs.
 
     Returns:
@@ -535,8 +539,9 @@ def contact_row_checkpoints(
 
 def stored_contact_results() -> StoredResult:
     """The stored per-case metrics of the contact tables on the shipped checkpoints (``results/
-    contact_cases.csv``, written by ``retarget evaluate --table contact --profile fast``; one row per
-    method and case), with its provenance and staleness (:func:`~retarget_lib.evaluation.results.load_result`).
+    contact_cases.csv``, written by ``retarget evaluate --table contact --profile fast``; one row
+    per method and case), with its provenance and staleness
+    (:func:`~retarget_lib.evaluation.results.load_result`).
 
     ESO makes the full run take ~20 min on 2 cores, so the notebooks read these and re-run a few
     cases live (:func:`rerun_cases`) to show that they reproduce.
@@ -546,8 +551,8 @@ def stored_contact_results() -> StoredResult:
 
 #: relative tolerance of a live re-run against the stored table: feed-forward rows (networks, copy,
 #: IK) reproduce to float rounding; ESO rows run 30 Adam steps per frame against colliding triangle
-#: pairs found anew at every step, so a last-bit change in a matrix product (MKL picks its kernels by
-#: CPU) can change which pairs collide and the optimisation takes another path. Measured on
+#: pairs found anew at every step, so a last-bit change in a matrix product (MKL picks its kernels
+#: by CPU) can change which pairs collide and the optimisation takes another path. Measured on
 #: hands_on_hips_008 -> otto, Ours (residual): foot height error 0.776-0.796 cm over MKL's code
 #: paths (``MKL_CBWR``) on one AMD EPYC, 0.856 cm stored from another CPU; position MSE
 #: 0.0900-0.0912. Every other value of that re-run agreed to 0.05 %.
@@ -630,8 +635,10 @@ def run_contact_evaluation(
                 f"{before['commit'][:12]}, {before['date']}]"
             )
     note = (
-        f"Contact-aware retargeting, profile {profile}: source {CONTACT_SOURCE} (unseen), {len(cases)} cases "
-        f"(targets {CONTACT_TARGETS}); interpenetration x1000, vertex contact MSE and global position MSE "
+        f"Contact-aware retargeting, profile {profile}: source {CONTACT_SOURCE} (unseen), "
+        f"{len(cases)} cases "
+        f"(targets {CONTACT_TARGETS}); interpenetration x1000, vertex contact MSE and global "
+        "position MSE "
         "in cm^2/cm; 'paper' columns: Villegas et al. 2021 (Mixamo). "
         + (f"Rows without a shipped checkpoint: {', '.join(missing)}." if missing else "")
     )

@@ -121,9 +121,12 @@ def run_mixamo_convention_contact_evaluation(
     copy_error = table.loc["copy", "ours global position MSE"]
     table["ours global position MSE / copy's"] = table["ours global position MSE"] / copy_error
     note = (
-        f"Table 1's metrics on the Mixamo-convention profile (one T-pose rest, every clip authored on every "
-        f"character; ground truth = the target's own version), profile {profile}: {len(cases)} cases "
-        f"({', '.join(sorted({c.family for c in cases}))}); interpenetration x1000, vertex contact MSE and "
+        "Table 1's metrics on the Mixamo-convention profile (one T-pose rest, every clip authored "
+        "on every "
+        f"character; ground truth = the target's own version), profile {profile}: {len(cases)} "
+        "cases "
+        f"({', '.join(sorted({c.family for c in cases}))}); interpenetration x1000, vertex contact "
+        "MSE and "
         "global position MSE in cm^2/cm. "
         + (f"Rows without a shipped checkpoint: {', '.join(missing)}." if missing else "")
     )

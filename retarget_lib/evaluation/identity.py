@@ -67,7 +67,8 @@ def identity_clips(
     Args:
         synthetic_clips: synthetic clips (``family_seed``); seeds 8-9 and the families wave/clap
             are never trained on (the TDCN split).
-        characters: characters that perform them (``bram`` is a training character, ``ada`` a test one).
+        characters: characters that perform them (``bram`` is a training character, ``ada`` a test
+            one).
         mannequin_clips: clips performed by mannequin-x (never trained on).
     """
     ds = load_synthetic()

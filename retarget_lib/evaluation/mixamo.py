@@ -125,7 +125,8 @@ def mixamo_tdcn_cases(folder: MixamoFolder) -> tuple[list[EvalCase], pd.DataFram
                             "source": src,
                             "target": tgt,
                             "motion": motion,
-                            "why": f"{a.num_frames} frames at {a.fps:g} fps vs {b.num_frames} at {b.fps:g} fps",
+                            "why": f"{a.num_frames} frames at {a.fps:g} fps vs {b.num_frames} at "
+                            f"{b.fps:g} fps",
                         }
                     )
                     continue
@@ -184,7 +185,8 @@ def checkpoint_method(path: str | Path) -> tuple[str, Method]:
 
 
 def mixamo_tdcn_per_case(methods: Mapping[str, Method], cases: list[EvalCase]) -> pd.DataFrame:
-    """Every method on every case: one row per (source, target, motion, method), :data:`CASE_COLUMNS`."""
+    """Every method on every case: one row per (source, target, motion, method),
+    :data:`CASE_COLUMNS`."""
     per_case = evaluate_methods(methods, cases, scores=mixamo_scores)
     by_case = {(c.source_name, c.target_name, c.clip): c for c in cases}
     extra = []
@@ -218,7 +220,8 @@ def mixamo_tdcn_per_case(methods: Mapping[str, Method], cases: list[EvalCase]) -
 
 
 def _table4(per_case: pd.DataFrame) -> pd.DataFrame:
-    """:func:`~retarget_lib.evaluation.tdcn.table_from_cases` of per-case rows in :data:`CASE_COLUMNS`."""
+    """:func:`~retarget_lib.evaluation.tdcn.table_from_cases` of per-case rows in
+    :data:`CASE_COLUMNS`."""
     if per_case.empty:
         return pd.DataFrame()
     return table_from_cases(per_case.rename(columns={"nmse": "long", "nmse_short": "short"}))
@@ -291,14 +294,20 @@ def _report(
     lines = [
         f"# Table 4 on the mixamo-local folder {folder.root}",
         "",
-        "Protocol: Kim et al. 2020, Sec. 6.1. Ground truth = the target character's own clip of the same "
-        "motion; normalised MSE of global joint positions (cm² / H in cm, H of the target). Short = "
-        f"120-frame chunks at {METHOD_FPS:g} fps retargeted on their own, long = whole clip; compared at the "
-        "ground truth's frame times. 'avg' is the mean over the scenarios present. 'paper' columns: Kim et al. "
+        "Protocol: Kim et al. 2020, Sec. 6.1. Ground truth = the target character's own clip of "
+        "the same "
+        "motion; normalised MSE of global joint positions (cm² / H in cm, H of the target). Short "
+        "= "
+        f"120-frame chunks at {METHOD_FPS:g} fps retargeted on their own, long = whole clip; "
+        "compared at the "
+        "ground truth's frame times. 'avg' is the mean over the scenarios present. 'paper' "
+        "columns: Kim et al. "
         "2020, Table 4 (their data, not this folder).",
         "",
-        f"Folder: {len(folder.characters)} characters, {len(folder.clips)} clips; {len(cases)} ordered "
-        f"(source, target, motion) cases; cases per scenario 1-4: {', '.join(map(str, per_scenario.values))}.",
+        f"Folder: {len(folder.characters)} characters, {len(folder.clips)} clips; {len(cases)} "
+        "ordered "
+        "(source, target, motion) cases; cases per scenario 1-4: "
+        f"{', '.join(map(str, per_scenario.values))}.",
         "",
         f"Split: {folder_split(folder).describe()}.",
         "",

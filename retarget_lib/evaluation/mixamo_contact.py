@@ -5,8 +5,9 @@
 to each skinny and bulky target that performs the same motion with the same frame count
 (:func:`~retarget_lib.evaluation.mixamo.same_length`). Every character involved needs its real
 mesh (Eint, contacts and the vertex metrics use it): its ``shape.npz``, else its FBX/GLB character
-file, else a clip that carries the skin (:meth:`~retarget_lib.data.sources.mixamo_local.MixamoFolder.character`).
-Whatever is absent is listed in the coverage (``contact_coverage.csv``), not raised.
+file, else a clip that carries the skin
+(:meth:`~retarget_lib.data.sources.mixamo_local.MixamoFolder.character`). Whatever is absent is
+listed in the coverage (``contact_coverage.csv``), not raised.
 
 **Per case**: the source clip, resampled to 30 fps, is put on the source mesh's skeleton (the
 mesh file's rest offsets, which can differ slightly from the clip's); its foot and hand contacts
@@ -66,7 +67,8 @@ def mixamo_contact_cases(
     for m in lists["motions"]:
         motion = m["name"]
         src_clip = folder.clips.get((src_name, motion))
-        prepared = {}  # frames -> the source's ContactClip (frame counts agree up to resampling rounding)
+        # frames -> the source's ContactClip (frame counts agree up to resampling rounding)
+        prepared = {}
         for name, body in groups.items():
             truth = folder.clips.get((name, motion))
             why = (
@@ -150,10 +152,14 @@ def run_mixamo_contact_evaluation(
         per_case = pd.DataFrame(columns=["method", "body", *METRICS], dtype=float)
     evaluated = coverage[coverage["status"] == "evaluated"]
     note = (
-        f"Contact-aware retargeting on the mixamo-local folder {folder.root}, profile {profile}: source "
-        f"{contact_lists()['source_character']}, {len(cases)} (motion, target) cases of the appendix's "
-        f"{len(coverage)} ({len(evaluated['motion'].unique())} motions; the rest: contact_coverage.csv). "
-        "Ground truth = each target's own clip. Interpenetration x1000, vertex contact MSE and global position "
+        f"Contact-aware retargeting on the mixamo-local folder {folder.root}, profile {profile}: "
+        "source "
+        f"{contact_lists()['source_character']}, {len(cases)} (motion, target) cases of the "
+        "appendix's "
+        f"{len(coverage)} ({len(evaluated['motion'].unique())} motions; the rest: "
+        "contact_coverage.csv). "
+        "Ground truth = each target's own clip. Interpenetration x1000, vertex contact MSE and "
+        "global position "
         "MSE in cm^2/cm; 'paper' columns: Villegas et al. 2021. "
         + (f"Rows without a shipped checkpoint: {', '.join(missing)}." if missing else "")
     )
@@ -164,7 +170,8 @@ def run_mixamo_contact_evaluation(
         "contact_cases",
         profile=profile,
         seconds=time.perf_counter() - t0,
-        command=f"retarget evaluate --table contact --data mixamo-local --profile {profile} --out DIR",
+        command=f"retarget evaluate --table contact --data mixamo-local --profile {profile} --out "
+        "DIR",
         checkpoints=contact_row_checkpoints(tuple(per_case["method"].unique())),
     )
     return tables, coverage, missing

@@ -1,7 +1,7 @@
 """Every number the two papers report that this suite compares against, in one place.
 
-* Kim, Park, Kwon, Han 2020 (TDCN), Table 4: normalised MSE of global joint positions per scenario and
-  their average, short and long clips (Mixamo).
+* Kim, Park, Kwon, Han 2020 (TDCN), Table 4: normalised MSE of global joint positions per scenario
+  and their average, short and long clips (Mixamo).
 * Villegas, Ceylan, Hertzmann, Yang, Saito 2021 (contact-aware), Tables 1, 3, 5 and 6:
   interpenetration, vertex contact MSE, foot contact accuracy, global position MSE (Mixamo).
 
@@ -49,7 +49,8 @@ CONTACT_PAPER_METRICS = (
     "foot contact accuracy",
     "global position MSE",
 )
-#: Villegas et al. 2021, Tables 1, 3, 5, 6 (interpenetration, vertex contact MSE, foot accuracy, position MSE)
+#: Villegas et al. 2021, Tables 1, 3, 5, 6 (interpenetration, vertex contact MSE, foot accuracy,
+#: position MSE)
 PAPER_TABLE1 = {
     "Ours": (0.81, 3.87, 0.97, 0.48),
     "Efull + IK": (1.19, 4.52, 0.82, 1.58),

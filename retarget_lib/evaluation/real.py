@@ -13,18 +13,20 @@ Measures, per (character, method, clip); lengths as a percentage of the target's
 * ``identity_pct``: the character's own motion (the first clip moved onto it with ``copy-rest``,
   the rest-compensated transfer) retargeted onto the same character: mean joint distance from
   the input. A method that changes a motion on its own skeleton is wrong there.
-* ``skate_pct_per_s``: where a foot of the source stands (:func:`~retarget_lib.core.ground.standing_feet`),
-  the mean horizontal speed of the same foot joint of the result.
+* ``skate_pct_per_s``: where a foot of the source stands
+  (:func:`~retarget_lib.core.ground.standing_feet`), the mean horizontal speed of the same foot
+  joint of the result.
 * ``under_floor_pct``: the mean depth of the lowest sole below ``y = 0`` (0 when above).
-* ``float_pct``: where a source foot stands, the mean height of the result's same sole above ``y = 0``.
+* ``float_pct``: where a source foot stands, the mean height of the result's same sole above ``y =
+  0``.
 * ``foot_contact_mismatch``: one minus Villegas et al.'s foot contact accuracy (Sec. 4): heel and
   toe contacts detected on the result and on the source (Sec. 3.4 thresholds, each at its own
   :func:`~retarget_lib.core.measures.estimated_standing_height`,
   :func:`~retarget_lib.geometry.contacts.detect_foot_contacts`), the share of
   (frame, foot joint) labels on which they disagree; 0 when every contact is kept.
 * ``arm_penetration``: the share of arm vertices inside the rest of the body (mean of both arms,
-  :func:`~retarget_lib.geometry.penetration_rate.penetration_rate`, winding numbers on the skinned real
-  mesh), every :data:`PENETRATION_EVERY`-th frame.
+  :func:`~retarget_lib.geometry.penetration_rate.penetration_rate`, winding numbers on the skinned
+  real mesh), every :data:`PENETRATION_EVERY`-th frame.
 * ``hand_gap_pct``: on a clip with labelled hand-hand contacts (clap), the mean absolute
   difference, over the labelled frames, between the distance of the two hand joints and that
   distance on the source (scaled by the height ratio): how far hands that touch end up from
@@ -253,7 +255,8 @@ def real_checkpoints() -> dict[str, CheckpointEntry]:
 
 
 def _methods(only: Sequence[str] | None, device: str | None) -> dict[str, tuple[Retarget, bool]]:
-    """row -> (retarget function, needs the mesh); a learned row without a shipped checkpoint is left out."""
+    """row -> (retarget function, needs the mesh); a learned row without a shipped checkpoint is
+    left out."""
     checkpoints = real_checkpoints()
     methods = {}
     for row, (name, _) in REAL_METHODS.items():
@@ -436,9 +439,12 @@ def run_real_evaluation(
         table.to_csv(f)
     with atomic_write(out / "real.md", "w") as f:
         f.write(
-            "Real characters (data/real_characters), no ground truth: mean over characters and clips "
-            f"(CMU 01_01, 01_03, synthetic clap_008, assimp's motion capture ROM; {CLIP_FRAMES} frames each). Lengths in % of the target's "
-            "height; lower is better in every column (identity: 0 is exact; foot contact mismatch: 1 - the foot contact "
+            "Real characters (data/real_characters), no ground truth: mean over characters and "
+            "clips "
+            f"(CMU 01_01, 01_03, synthetic clap_008, assimp's motion capture ROM; {CLIP_FRAMES} "
+            "frames each). Lengths in % of the target's "
+            "height; lower is better in every column (identity: 0 is exact; foot contact mismatch: "
+            "1 - the foot contact "
             "accuracy of Villegas et al.; jitter: 0 is as smooth as the source).\n\n"
             + markdown_table(table, 3)
             + "\n"
@@ -461,5 +467,6 @@ def rerun_tolerance(method: str, metric: str, stored: float) -> float:
 
 
 def stored_real_results() -> StoredResult:
-    """The stored ``real_cases`` (``results/``) with its staleness against the shipped checkpoints."""
+    """The stored ``real_cases`` (``results/``) with its staleness against the shipped
+    checkpoints."""
     return load_result("real_cases", rows=real_checkpoints())

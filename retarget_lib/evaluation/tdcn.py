@@ -160,7 +160,8 @@ def cmu_cases(characters: Sequence[str] | None = None) -> list[EvalCase]:
     ]
 
 
-#: per-comparison scores: ``(pred (N,J,3), truth (N,J,3), H) -> {suffix: value}`` (metres in, any unit out)
+#: per-comparison scores: ``(pred (N,J,3), truth (N,J,3), H) -> {suffix: value}`` (metres in, any
+#: unit out)
 Scores = Callable[[np.ndarray, np.ndarray, float], dict[str, float]]
 
 
@@ -202,7 +203,8 @@ def truth_frames(
 def aligned_positions(
     pred: Motion, start: int, truth: np.ndarray, truth_fps: float
 ) -> tuple[np.ndarray, np.ndarray]:
-    """A prediction's and the ground truth's global joint positions at the ground truth's frame times.
+    """A prediction's and the ground truth's global joint positions at the ground truth's frame
+    times.
 
     Args:
         pred: the method's output for source frames ``start ..`` (at ``pred.fps``).
@@ -224,7 +226,8 @@ def aligned_positions(
 def evaluate_case(
     method: Method, case: EvalCase, short_frames: int = SHORT_FRAMES, scores: Scores = table4_scores
 ) -> dict[str, float]:
-    """Long (whole clip) and short (mean over :func:`short_chunks`) scores of one method on one case.
+    """Long (whole clip) and short (mean over :func:`short_chunks`) scores of one method on one
+    case.
 
     Each chunk is retargeted on its own and compared at the ground truth's frame times
     (:func:`aligned_positions`).
@@ -276,7 +279,8 @@ def error_breakdown(method: Method, case: EvalCase, frames: int = SHORT_FRAMES) 
 def evaluate_method(
     method: Method, cases: list[EvalCase], scores: Scores = table4_scores
 ) -> pd.DataFrame:
-    """Per-case results: one row per case with scenario, names and the scores of :func:`evaluate_case`."""
+    """Per-case results: one row per case with scenario, names and the scores of
+    :func:`evaluate_case`."""
     return pd.DataFrame(
         [
             {
@@ -539,7 +543,8 @@ def rerun_cases(
 def stored_table4(name: str = "table4_cases") -> StoredResult:
     """A stored Table 4 result from ``results/`` (``table4_cases``, ``table4_cmu_cases`` or
     ``table4_windowed_cases``; written by :func:`run_tdcn_evaluation`), with its provenance and
-    staleness against the shipped checkpoints (:func:`~retarget_lib.evaluation.results.load_result`)."""
+    staleness against the shipped checkpoints
+    (:func:`~retarget_lib.evaluation.results.load_result`)."""
     if name == "table4_mixamo_convention_cases":
         return load_result(name, rows=mixamo_convention_checkpoints())
     rows = table_checkpoints("tdcn")
@@ -565,8 +570,8 @@ def run_tdcn_evaluation(
     files with their provenance (:func:`~retarget_lib.evaluation.results.write_result`):
     ``table4_cases`` (every row, every pair), ``table4_cmu_cases`` (every row on the real CMU clips,
     :func:`cmu_cases`) and ``table4_windowed_cases`` ("ours" with a re-centred window per frame);
-    and ``table4_mixamo_convention.csv/.md`` with its per-case file (:func:`mixamo_convention_cases`,
-    :func:`mixamo_convention_methods`).
+    and ``table4_mixamo_convention.csv/.md`` with its per-case file
+    (:func:`mixamo_convention_cases`, :func:`mixamo_convention_methods`).
 
     Args:
         out_dir: output folder.
@@ -634,8 +639,10 @@ def run_tdcn_evaluation(
         mc_table,
         out_dir,
         "table4_mixamo_convention",
-        "Normalised MSE (as table4.md) on the Mixamo-convention synthetic profile: every character in "
-        "one T-pose rest, each clip authored on every character (its own version is the ground truth), "
+        "Normalised MSE (as table4.md) on the Mixamo-convention synthetic profile: every character "
+        "in "
+        "one T-pose rest, each clip authored on every character (its own version is the ground "
+        "truth), "
         "as on Mixamo. Rows trained on this profile, and the default TDCN.",
     )
     write_result(

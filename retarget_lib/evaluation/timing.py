@@ -13,7 +13,8 @@ __all__ = ["BenchRow", "time_it", "format_table"]
 
 @dataclass
 class BenchRow:
-    """One benchmark line: what was timed, its median seconds, and the reference it is compared to."""
+    """One benchmark line: what was timed, its median seconds, and the reference it is compared
+    to."""
 
     name: str
     seconds: float

@@ -36,7 +36,8 @@ __all__ = [
 
 # ----------------------------------------------------------------------------- input checks
 def as_vertex_array(vertices) -> np.ndarray:
-    """``(V, 3)`` float64 NumPy copy of NumPy or tensor (detached) vertices; raises on another shape."""
+    """``(V, 3)`` float64 NumPy copy of NumPy or tensor (detached) vertices; raises on another
+    shape."""
     if isinstance(vertices, torch.Tensor):
         vertices = vertices.detach().cpu().numpy()
     vertices = np.asarray(vertices, dtype=np.float64)
@@ -239,7 +240,8 @@ class TriangleBVH:
     def leaf_pairs(
         self, levels: list[tuple[np.ndarray, np.ndarray]], a: np.ndarray, b: np.ndarray
     ) -> np.ndarray:
-        """``(C, 2)`` face pairs ``r < i`` of overlapping leaf pairs ``(a, b)`` that share no vertex."""
+        """``(C, 2)`` face pairs ``r < i`` of overlapping leaf pairs ``(a, b)`` that share no
+        vertex."""
         fa, fb = self.order[a], self.order[b]
         r, i = np.minimum(fa, fb), np.maximum(fa, fb)
         keep = ~_share_vertex(self.faces, r, i)
@@ -249,8 +251,9 @@ class TriangleBVH:
 def _boxes_overlap(
     lower: np.ndarray, upper: np.ndarray, a: np.ndarray, b: np.ndarray
 ) -> np.ndarray:
-    """``(n,)`` bool: boxes ``a`` and ``b`` overlap (``lower``/``upper`` as in :meth:`TriangleBVH.refit`);
-    one 1-D gather per coordinate, several times faster than gathering rows."""
+    """``(n,)`` bool: boxes ``a`` and ``b`` overlap (``lower``/``upper`` as in
+    :meth:`TriangleBVH.refit`); one 1-D gather per coordinate, several times faster than gathering
+    rows."""
     keep = np.take(lower[0], a) <= np.take(upper[0], b)
     for k in range(1, 6):
         keep &= np.take(lower[k], a) <= np.take(upper[k], b)

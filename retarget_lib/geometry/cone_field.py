@@ -88,7 +88,8 @@ def cone_distance_field(
 def check_cone(sigma: float, height: float, radius_scale: float) -> None:
     if min(sigma, height, radius_scale) <= 0:
         raise ValueError(
-            f"sigma, height and radius_scale must be positive, got {sigma}, {height}, {radius_scale}"
+            f"sigma, height and radius_scale must be positive, got {sigma}, {height}, "
+            f"{radius_scale}"
         )
 
 

@@ -2,11 +2,12 @@
 (Villegas et al. 2021, Sec. 3.4 and Appendix F).
 
 **Foot contacts** (:func:`detect_foot_contacts`) are read from the skeleton with simple thresholds
-(:mod:`retarget_lib.core.ground`'s Sec. 3.4 constants). At the paper's scale of a 180 cm character: a toe joint (``*ToeBase``) is in contact when its height
-above the ground is at most 3 cm and it moved at most 1 cm since the previous frame; a heel joint
-(``*Foot``, the ankle) only needs the 1 cm displacement (some Mixamo subjects wear high heels, so a
-heel height says little). A sliding window of 5 frames then fills short gaps (false negatives).
-These contacts feed the foot term ``Efoot`` (Eq. 6).
+(:mod:`retarget_lib.core.ground`'s Sec. 3.4 constants). At the paper's scale of a 180 cm character:
+a toe joint (``*ToeBase``) is in contact when its height above the ground is at most 3 cm and it
+moved at most 1 cm since the previous frame; a heel joint (``*Foot``, the ankle) only needs the 1 cm
+displacement (some Mixamo subjects wear high heels, so a heel height says little). A sliding window
+of 5 frames then fills short gaps (false negatives). These contacts feed the foot term ``Efoot``
+(Eq. 6).
 
 **Self-contacts** (:func:`detect_self_contacts`) are read from the skinned mesh. Each joint owns a
 *vertex group*, the vertices whose skinning weight for it is at least 0.5, and the triangles among
@@ -106,7 +107,8 @@ def detect_foot_contacts(
     window: int = 5,
     fps: float = REFERENCE_FPS,
 ) -> np.ndarray:
-    """Heel and toe contacts with the ground (Villegas et al. 2021, Sec. 3.4), for ``Efoot`` (Eq. 6).
+    """Heel and toe contacts with the ground (Villegas et al. 2021, Sec. 3.4), for ``Efoot`` (Eq.
+    6).
 
     Thresholds at 180 cm scale, multiplied by ``character_height / 1.80``:
 
@@ -531,7 +533,8 @@ def correspondence_features(
         character: a :class:`~retarget_lib.core.character.Character` (``rest_vertices (V, 3)``,
             ``weights (V, 22)``, ``skeleton``, ``height``).
         offset_weight: factor on the offset part (0 = skinning weights alone, Fig. 7 left).
-        canonical_pose: measure offsets in the canonical T-pose instead of the character's rest pose.
+        canonical_pose: measure offsets in the canonical T-pose instead of the character's rest
+            pose.
 
     Returns:
         ``(V, 25)`` float64.
@@ -576,8 +579,8 @@ def authored_contact_frames(
     hand_contacts: Iterable, num_frames: int, hand: str | None = None
 ) -> np.ndarray:
     """``(T,)`` bool: frames inside any authored hand-contact interval ``[start, stop)`` (the
-    synthetic clips' :class:`~retarget_lib.data.synthetic.authoring.HandContact` list), optionally only
-    those of one ``hand`` (``"LeftHand"`` / ``"RightHand"``)."""
+    synthetic clips' :class:`~retarget_lib.data.synthetic.authoring.HandContact` list), optionally
+    only those of one ``hand`` (``"LeftHand"`` / ``"RightHand"``)."""
     mask = np.zeros(num_frames, dtype=bool)
     for c in hand_contacts:
         if hand is None or c.hand == hand:

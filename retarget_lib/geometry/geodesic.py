@@ -2,10 +2,10 @@
 
 ``w_ri = min_{v_j in f_r, v_k in f_i} D(v_j, v_k) / eta`` (``eta`` = the largest geodesic distance
 on the mesh) makes touching folds near joints (armpits, crotch) cheap and penetrations between
-distant body parts expensive in the interpenetration energy (:mod:`retarget_lib.geometry.penetration`).
-``D`` is approximated by shortest paths along mesh edges (Dijkstra): :func:`geodesic_distances`
-for a whole ``V x V`` table, :class:`GeodesicDistances` for the distances between colliding faces,
-searched when first needed.
+distant body parts expensive in the interpenetration energy
+(:mod:`retarget_lib.geometry.penetration`). ``D`` is approximated by shortest paths along mesh edges
+(Dijkstra): :func:`geodesic_distances` for a whole ``V x V`` table, :class:`GeodesicDistances` for
+the distances between colliding faces, searched when first needed.
 
 Units: metres.
 """
@@ -62,7 +62,8 @@ class GeodesicDistances:
     the other, which is one multi-source Dijkstra from the first face's three vertices (about 3 ms
     on a 13,000-vertex body) read at the other's. Each face's search is cached (``4 V`` bytes), so
     a pair that collides in many frames costs one search. Building it costs a few searches (the
-    diameter ``eta``) instead of ``V`` of them (34 s and 716 MB for the 13,380-vertex MakeHuman body).
+    diameter ``eta``) instead of ``V`` of them (34 s and 716 MB for the 13,380-vertex MakeHuman
+    body).
 
     ``eta`` (the paper's ``max_{a,b} D(v_a, v_b)``) is the exact largest finite distance, found
     per connected piece from eccentricity bounds (:meth:`_piece_diameter`) with tens of searches;
@@ -130,7 +131,8 @@ class GeodesicDistances:
         return self._from_face[face]
 
     def between_faces(self, pairs) -> np.ndarray:
-        """``(P,)`` float64 ``min_{v_j in f_r, v_k in f_i} D(v_j, v_k)`` of face pairs ``(r, i)``."""
+        """``(P,)`` float64 ``min_{v_j in f_r, v_k in f_i} D(v_j, v_k)`` of face pairs ``(r,
+        i)``."""
         pairs = as_face_pairs(pairs, len(self.faces))
         out = np.empty(len(pairs))
         for k, (r, i) in enumerate(pairs):

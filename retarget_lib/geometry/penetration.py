@@ -2,7 +2,8 @@
 interpenetration score (Sec. 4).
 
 **Detection** (no gradient): the intersecting triangle pairs ``F = {(r, i)}`` of each frame come
-from :mod:`retarget_lib.geometry.collision` (the paper's BVH [29] and an exact triangle-triangle test).
+from :mod:`retarget_lib.geometry.collision` (the paper's BVH [29] and an exact triangle-triangle
+test).
 
 **Energy** (differentiable). Each triangle ``i`` carries a cone-shaped local distance field
 ``psi_i`` (:func:`~retarget_lib.geometry.cone_field.cone_distance_field`, after Tzionas et al.
@@ -10,7 +11,8 @@ from :mod:`retarget_lib.geometry.collision` (the paper's BVH [29] and an exact t
 outside the cone. For each colliding pair, Eq. 4 penalises the vertices of one triangle inside the
 other's field::
 
-    E_int = sum_{(r,i) in F} w_ri ( sum_{v_j in f_r} ||-psi_i(v_j) n_j||^2 + sum_{v_k in f_i} ||-psi_r(v_k) n_k||^2 )
+    E_int = sum_{(r,i) in F} w_ri ( sum_{v_j in f_r} ||-psi_i(v_j) n_j||^2 + sum_{v_k in f_i}
+    ||-psi_r(v_k) n_k||^2 )
 
 with area-weighted unit vertex normals ``n_j`` (:mod:`retarget_lib.geometry.normals`; so each term
 equals ``psi^2``; the normals give the penalty its direction in the paper's notation). Eq. 5's
@@ -18,7 +20,8 @@ geodesic weights ``w_ri`` (:mod:`retarget_lib.geometry.geodesic`) make touching 
 (armpits, crotch) cheap and penetrations between distant body parts expensive.
 
 **Metric.** :func:`interpenetration_score` is the paper's Sec. 4 score (Eq. 4 on height-normalised
-vertices); the per-limb penetration rate of later work is :mod:`retarget_lib.geometry.penetration_rate`.
+vertices); the per-limb penetration rate of later work is
+:mod:`retarget_lib.geometry.penetration_rate`.
 
 Units: metres; ``psi`` is a length (metres), ``E_int`` is in square metres.
 """
@@ -154,8 +157,8 @@ def interpenetration_energy(
         pairs: ``(P, 2)`` colliding face pairs ``(r, i)`` (:func:`colliding_triangle_pairs`).
         pair_weights: ``(P,)`` ``w_ri`` (Eq. 5, :func:`geodesic_pair_weights`); ``None`` = all 1
             (the paper's "E_int without w_ri" ablation).
-        normals: ``(..., V, 3)`` per-vertex unit normals; ``None`` = :func:`~retarget_lib.geometry.normals.vertex_normals` of
-            ``vertices``.
+        normals: ``(..., V, 3)`` per-vertex unit normals; ``None`` =
+            :func:`~retarget_lib.geometry.normals.vertex_normals` of ``vertices``.
         sigma, height, radius_scale: cone parameters (:func:`cone_distance_field`).
 
     Returns:
@@ -256,7 +259,8 @@ class InterpenetrationEnergy:
 
         Args:
             vertices: ``(V, 3)`` metres (NumPy or tensor; no gradient).
-            workers: threads detecting (:func:`~retarget_lib.geometry.collision.colliding_triangle_pairs`).
+            workers: threads detecting
+                (:func:`~retarget_lib.geometry.collision.colliding_triangle_pairs`).
 
         Returns:
             ``(P, 2)`` int64 ``(r, i)``, ``r < i``.
@@ -324,8 +328,8 @@ class InterpenetrationEnergy:
             vertex_index: ``(V,)`` int, where each mesh vertex sits in the vertices the plan will be
                 evaluated on (a subset holding at least :meth:`support` of the pairs); default the
                 whole mesh.
-            min_pairs: pad with zero-weight pairs (:data:`PADDING_PAIR`, frame 0) to at least this many
-                (fixed minimum sizes keep a compiled energy from specialising on 0 or 1 pairs).
+            min_pairs: pad with zero-weight pairs (:data:`PADDING_PAIR`, frame 0) to at least this
+                many (fixed minimum sizes keep a compiled energy from specialising on 0 or 1 pairs).
             device: of the tensors.
 
         Returns:

@@ -25,7 +25,8 @@ __all__ = [
     "ray_winding_numbers",
 ]
 
-#: limbs of :func:`penetration_rate`: name -> canonical joints whose dominant-weight vertices form it
+#: limbs of :func:`penetration_rate`: name -> canonical joints whose dominant-weight vertices form
+#: it
 DEFAULT_LIMBS: dict[str, tuple[str, ...]] = {
     "left_arm": ("LeftArm", "LeftForeArm", "LeftHand"),
     "right_arm": ("RightArm", "RightForeArm", "RightHand"),

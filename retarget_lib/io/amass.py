@@ -1,4 +1,5 @@
-"""SMPL-X / AMASS motion ``.npz`` files: read as a canonical-22 :class:`~retarget_lib.core.motion.Motion`, and write.
+"""SMPL-X / AMASS motion ``.npz`` files: read as a canonical-22
+:class:`~retarget_lib.core.motion.Motion`, and write.
 
 An AMASS-style file holds (``allow_pickle=False``; SMPL-H files alike, the first 22 joints agree):
 
@@ -20,12 +21,13 @@ key                                    shape         meaning
 ten betas, ``J(b) = J_rest + D b``; the PyPI package ``mannequin-x`` ships that table
 (``mannequin/assets/smplx_calibration.npz``, baked from the neutral SMPL-X model, checked here by
 SHA-256) with the rest heights of the soles. The 22 body joints (:data:`SMPLX_BODY_NAMES`) are
-mapped onto the canonical 22 like any file's joints (:func:`~retarget_lib.io.joint_maps.to_canonical22`:
-the ``smplx`` convention of :data:`~retarget_lib.io.rig_maps.RIG_MAPS`, one-to-one, then a joint map
-if one is given); hands, jaw and eyes are dropped. The skeleton
-is the *neutral* model's: a gendered fit's joints differ by millimetres (``meta["gender"]`` says
-which model the file was fitted with). SMPL-X's zero pose is the library's rest pose (identity
-local rotations), so the file's axis-angles are the local rotations.
+mapped onto the canonical 22 like any file's joints
+(:func:`~retarget_lib.io.joint_maps.to_canonical22`: the ``smplx`` convention of
+:data:`~retarget_lib.io.rig_maps.RIG_MAPS`, one-to-one, then a joint map if one is given); hands,
+jaw and eyes are dropped. The skeleton is the *neutral* model's: a gendered fit's joints differ by
+millimetres (``meta["gender"]`` says which model the file was fitted with). SMPL-X's zero pose is
+the library's rest pose (identity local rotations), so the file's axis-angles are the local
+rotations.
 
 **Axes.** AMASS is Z-up; the library is +Y up. ``up="z"`` turns the world by -90 degrees about X
 (``(x, y, z) -> (x, z, -y)``), ``up="y"`` keeps it; ``up=None`` (default) decides from the data:
@@ -128,7 +130,8 @@ SMPLX_BODY_PARENTS: tuple[int, ...] = (
 
 
 def _body_order() -> tuple[int, ...]:
-    """``(22,)`` the SMPL-X body joint of each canonical joint, found by the rig conventions' detector."""
+    """``(22,)`` the SMPL-X body joint of each canonical joint, found by the rig conventions'
+    detector."""
     found, _ = map_joints(SMPLX_BODY_NAMES, SMPLX_BODY_PARENTS, what="the SMPL-X body")
     file_of = {c: i for i, c in found.items()}
     return tuple(file_of[c] for c in range(22))
@@ -141,7 +144,8 @@ _Z_TO_Y = np.array([np.cos(-np.pi / 4), np.sin(-np.pi / 4), 0.0, 0.0])
 
 
 def _calibration() -> dict[str, np.ndarray]:
-    """The SMPL-X joint/sole table of mannequin-x (:class:`~retarget_lib.files.DataError` if missing)."""
+    """The SMPL-X joint/sole table of mannequin-x (:class:`~retarget_lib.files.DataError` if
+    missing)."""
     try:
         path = Path(
             str(importlib.resources.files("mannequin") / "assets" / "smplx_calibration.npz")
@@ -229,7 +233,8 @@ def _check_shape(path: Path, key: str, shape: tuple[int, ...]) -> None:
 
 
 def _read_arrays(path: Path) -> dict[str, np.ndarray]:
-    """The arrays of the file the reader uses (pickled ``gender`` / ``surface_model_type`` left out)."""
+    """The arrays of the file the reader uses (pickled ``gender`` / ``surface_model_type`` left
+    out)."""
     return read_npz(
         path,
         _WANTED,
@@ -245,7 +250,8 @@ def _frame_rate(a: dict[str, np.ndarray], fps: float | None, path: Path) -> floa
     if key is None:
         if fps is None:
             raise AMASSError(
-                f"{path}: no frame rate: the file has no 'mocap_frame_rate' or 'mocap_framerate' key; "
+                f"{path}: no frame rate: the file has no 'mocap_frame_rate' or 'mocap_framerate' "
+                "key; "
                 "add it (frames per second), as AMASS files have it"
             )
         rate = float(fps)
@@ -316,7 +322,8 @@ def load_amass(
         poses = a["poses"]
         if poses.ndim != 2 or poses.shape[1] < 66:
             raise AMASSError(
-                f"{path}: poses must be (T, >=66) axis-angles (pelvis + 21 body joints), got {poses.shape}"
+                f"{path}: poses must be (T, >=66) axis-angles (pelvis + 21 body joints), got "
+                f"{poses.shape}"
             )
         poses = poses[:, :66]
     elif "root_orient" in a and "pose_body" in a:
@@ -328,7 +335,8 @@ def load_amass(
             or len(a["root_orient"]) != len(a["pose_body"])
         ):
             raise AMASSError(
-                f"{path}: root_orient must be (T, 3) and pose_body (T, 63), got {a['root_orient'].shape} "
+                f"{path}: root_orient must be (T, 3) and pose_body (T, 63), got "
+                f"{a['root_orient'].shape} "
                 f"and {a['pose_body'].shape}"
             )
         poses = np.concatenate([a["root_orient"], a["pose_body"]], axis=1)

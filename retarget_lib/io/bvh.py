@@ -8,7 +8,8 @@ Semantics used here (the common ones, e.g. Blender's and Holden's readers):
 
 * rotation channels are Euler angles in degrees, composed in the order listed:
   ``Zrotation Xrotation Yrotation`` means ``R = Rz(a) @ Rx(b) @ Ry(c)``
-  (:func:`~retarget_lib.core.rotations.quat_from_euler`); any permutation of the three axes is accepted;
+  (:func:`~retarget_lib.core.rotations.quat_from_euler`); any permutation of the three axes is
+  accepted;
 * position channels *replace* the joint's ``OFFSET``: the root's become ``Motion.root_positions``
   (the root ``OFFSET`` is kept as the skeleton's rest root position); a non-root joint's constant
   position channels become its offset; varying ones cannot be represented by a
@@ -237,7 +238,8 @@ def _parse_block(
         )
     if len(joints) >= MAX_JOINTS:
         raise BVHError(
-            f"line {name_line}: more than {MAX_JOINTS} joints (the limit; real skeletons have < 100)"
+            f"line {name_line}: more than {MAX_JOINTS} joints (the limit; real skeletons have < "
+            "100)"
         )
     if depth > MAX_DEPTH:
         raise BVHError(
@@ -332,7 +334,8 @@ def _parse_hierarchy(lines: list[str]) -> tuple[list[_Joint], int]:
 
 
 def _header_value(lines: list[str], idx: int, pattern: re.Pattern, what: str) -> tuple[str, int]:
-    """Find ``what`` (``Frames:``/``Frame Time:``) on the first non-blank line at or after ``idx``."""
+    """Find ``what`` (``Frames:``/``Frame Time:``) on the first non-blank line at or after
+    ``idx``."""
     while idx < len(lines) and not lines[idx].strip():
         idx += 1
     if idx >= len(lines):
@@ -432,7 +435,8 @@ def _check_magnitudes(data: np.ndarray, channels: list[list[str]], numbers: list
             else f"position beyond |x| <= {MAX_LENGTH:g} file units"
         )
         raise BVHError(
-            f"line {numbers[k]}: {names[c]} value {data[k, c]:g} in frame {k} is a {what} (the limit)"
+            f"line {numbers[k]}: {names[c]} value {data[k, c]:g} in frame {k} is a {what} (the "
+            "limit)"
         )
 
 
@@ -647,7 +651,8 @@ def _check_writable(motion: Motion, scale: float, path: Path) -> None:
     fps = float(motion.fps)
     if not (math.isfinite(fps) and fps > 0 and MIN_FRAME_TIME <= 1.0 / fps <= MAX_FRAME_TIME):
         raise BVHError(
-            f"{path}: cannot write frame rate {fps:g} fps: the frame time must be positive and within "
+            f"{path}: cannot write frame rate {fps:g} fps: the frame time must be positive and "
+            "within "
             f"{MIN_FRAME_TIME:g}-{MAX_FRAME_TIME:g} s"
         )
     arrays = {

@@ -85,7 +85,8 @@ _CONVERTER = """
 import io, json, resource, sys
 limit = int(sys.argv[1])
 hard = resource.getrlimit(resource.RLIMIT_AS)[1]
-resource.setrlimit(resource.RLIMIT_AS, (limit if hard == resource.RLIM_INFINITY else min(limit, hard), hard))
+soft = limit if hard == resource.RLIM_INFINITY else min(limit, hard)
+resource.setrlimit(resource.RLIMIT_AS, (soft, hard))
 import impasse
 try:
     scene = impasse.load(io.BytesIO(sys.stdin.buffer.read()), file_type="fbx")
@@ -176,7 +177,8 @@ def _properties(data: bytes, pos: int, end: int, count: int, path: Path) -> list
 
 
 def _int_array(prop, path: Path) -> np.ndarray:
-    """An ``i`` / ``l`` array property decoded (its inflated size bounded by its declared length)."""
+    """An ``i`` / ``l`` array property decoded (its inflated size bounded by its declared
+    length)."""
     code, length, encoding, payload = prop
     size = length * _ARRAY_ITEM[code]
     try:  # max_length 0 would mean "all of it": an empty array is not inflated at all
@@ -315,7 +317,8 @@ def _check_clusters(scan: _Scan, path: Path) -> None:
             name = scan.objects.get(cluster, ("?", ""))[0]
             bad = low if low < 0 else high
             raise FBXError(
-                f"{path}: malformed FBX: cluster {name!r} binds vertex {bad:,} of a mesh with {vertices:,} "
+                f"{path}: malformed FBX: cluster {name!r} binds vertex {bad:,} of a mesh with "
+                f"{vertices:,} "
                 "vertices"
             )
 
@@ -349,7 +352,8 @@ def _convert(data: bytes, path: Path) -> tuple[bytes, float | None, float]:
         )
     except subprocess.TimeoutExpired:
         raise FBXError(
-            f"{path}: the FBX reader (assimp) took longer than {TIMEOUT_SECONDS} s; the file is malformed "
+            f"{path}: the FBX reader (assimp) took longer than {TIMEOUT_SECONDS} s; the file is "
+            "malformed "
             "or too large"
         ) from None
     problem = done.stderr.decode("utf-8", "replace").strip().splitlines()
@@ -362,7 +366,8 @@ def _convert(data: bytes, path: Path) -> tuple[bytes, float | None, float]:
         how = _ending(done.returncode)
         raise FBXError(
             f"{path}: the FBX reader (assimp) crashed on it ({how}: "
-            f"{problem[-1][:200] if problem else 'no message'}); the file is malformed or needs more than "
+            f"{problem[-1][:200] if problem else 'no message'}); the file is malformed or needs "
+            "more than "
             f"{_child_memory(len(data)) / 2**30:.1f} GiB to read"
         )
     size = int.from_bytes(done.stdout[:8], "little")
@@ -382,8 +387,8 @@ def _convert(data: bytes, path: Path) -> tuple[bytes, float | None, float]:
 
 
 def _as_glb(path: str | os.PathLike):
-    """``(the parsed GLB of the FBX, its first animation's frame rate or None, metres per file unit)``;
-    the document's messages name ``path``."""
+    """``(the parsed GLB of the FBX, its first animation's frame rate or None, metres per file
+    unit)``; the document's messages name ``path``."""
     path = readable_file(path, "FBX file", MAX_FILE_BYTES)
     try:
         _impasse()
@@ -433,8 +438,9 @@ def load_fbx_motion(
     fps: float | None = None,
     mapping: str | os.PathLike | dict | None = None,
 ) -> tuple[Motion, Rig]:
-    """Sample the first animation of a skinned FBX file (see :func:`~retarget_lib.io.gltf.load_gltf_motion`)
-    at ``fps``, by default the file's own frame rate (else 30)."""
+    """Sample the first animation of a skinned FBX file (see
+    :func:`~retarget_lib.io.gltf.load_gltf_motion`) at ``fps``, by default the file's own frame rate
+    (else 30)."""
     doc, rate, metres = _as_glb(path)
     motion, rig = motion_from(doc, fps=fps or rate, mapping=mapping)
     rig = _in_metres(rig, metres)

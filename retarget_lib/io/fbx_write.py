@@ -10,12 +10,12 @@ this module writes it with ``struct`` and ``zlib`` only: no optional dependency 
 records ``(end offset, property count, property bytes: uint32; name: uint8 length + bytes;
 properties; children; a 13-byte zero record closing a child list)``, a zero record closing the top
 level and the footer (a 16-byte id, zero padding to a multiple of 16, 4 zero bytes, the version,
-120 zero bytes, a fixed 16-byte end), so the file's length is a multiple of 16. Properties are typed by one letter: ``C`` bool, ``I`` int32, ``L``
-int64, ``D`` float64, ``S`` string, ``R`` bytes, and arrays ``i l f d`` (``count, encoding,
-byte length`` then the data, zlib-compressed when longer than 128 bytes). Object names are
-``b"Name\\0\\x01Class"``. ``FileId``, ``CreationTime`` and the footer use the fixed values
-other writers use (the FBX SDK checks them against each other), so a file's bytes depend only
-on its content.
+120 zero bytes, a fixed 16-byte end), so the file's length is a multiple of 16. Properties are typed
+by one letter: ``C`` bool, ``I`` int32, ``L`` int64, ``D`` float64, ``S`` string, ``R`` bytes, and
+arrays ``i l f d`` (``count, encoding, byte length`` then the data, zlib-compressed when longer than
+128 bytes). Object names are ``b"Name\\0\\x01Class"``. ``FileId``, ``CreationTime`` and the footer
+use the fixed values other writers use (the FBX SDK checks them against each other), so a file's
+bytes depend only on its content.
 
 **Scene** (the library's conventions: metres, +Y up, facing +Z, rest pose = identity local
 rotations with world-axis offsets):
@@ -97,7 +97,8 @@ _LINEAR_KEY = 4  # KeyAttrFlags: eInterpolationLinear
 
 
 def fbx_time_mode(fps: float) -> int:
-    """The FBX ``GlobalSettings`` ``TimeMode`` of a frame rate (``eCustom`` = 14 for other rates)."""
+    """The FBX ``GlobalSettings`` ``TimeMode`` of a frame rate (``eCustom`` = 14 for other
+    rates)."""
     return _TIME_MODES.get(float(fps), _CUSTOM_TIME_MODE)
 
 
@@ -119,7 +120,8 @@ class _Node:
 
 
 class _Typed:
-    """A property whose FBX type letter is given explicitly (``I`` int32, ``D`` double, ``R`` bytes)."""
+    """A property whose FBX type letter is given explicitly (``I`` int32, ``D`` double, ``R``
+    bytes)."""
 
     __slots__ = ("code", "value")
 
@@ -306,7 +308,8 @@ def save_fbx(
         raise FBXError(f"{path}: the motion's joints are not the rig {rig.name!r}'s joints")
     if not (np.isfinite(unit_scale_factor) and unit_scale_factor > 0):
         raise FBXError(
-            f"{path}: unit_scale_factor {unit_scale_factor} must be a positive number of centimetres"
+            f"{path}: unit_scale_factor {unit_scale_factor} must be a positive number of "
+            "centimetres"
         )
     for name in sk.joint_names:
         if name_problem(name):

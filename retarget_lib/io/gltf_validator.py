@@ -1,8 +1,9 @@
 """The Khronos glTF validator (npm ``gltf-validator``), run with Node on a written file.
 
-Set-up (README, ``.ci/node-deps.sh``): ``npm install --prefix .venv/node gltf-validator@2.0.0-dev.3.10``,
-i.e. into ``node/`` beside the active virtual environment (``sys.prefix``); or point
-``RETARGET_GLTF_VALIDATOR`` at the package folder (``.../node_modules/gltf-validator``).
+Set-up (README, ``.ci/node-deps.sh``): ``npm install --prefix .venv/node
+gltf-validator@2.0.0-dev.3.10``, i.e. into ``node/`` beside the active virtual environment
+(``sys.prefix``); or point ``RETARGET_GLTF_VALIDATOR`` at the package folder
+(``.../node_modules/gltf-validator``).
 """
 
 from __future__ import annotations
@@ -41,7 +42,8 @@ def validator_missing() -> str | None:
     if not (validator_path() / "package.json").is_file():
         return (
             f"gltf-validator is not installed at {validator_path()}; run "
-            f"`npm install --prefix {Path(sys.prefix) / 'node'} gltf-validator@{GLTF_VALIDATOR_VERSION}`"
+            f"`npm install --prefix {Path(sys.prefix) / 'node'} "
+            f"gltf-validator@{GLTF_VALIDATOR_VERSION}`"
         )
     return None
 

@@ -5,10 +5,11 @@ animation. It is written in the library's rest convention, which glTF allows dir
 node has identity rest rotation and its world-axis rest offset as translation, the inverse bind
 matrices are ``translate(-rest position)``, and the animation keys every joint's local rotation
 (wxyz converted to glTF's xyzw) and the root's translation at ``1 / fps`` steps; the frame rate is
-also stored in the animation's ``extras`` (``{"fps": ...}``) so :func:`~retarget_lib.io.gltf.load_gltf_motion`
-reads the same frames back. Skinning weights are written as ``JOINTS_n`` / ``WEIGHTS_n`` sets of
-four (as many sets as the widest vertex needs), renormalised in float32. Positions, rotations and
-weights are float32 (round trips agree to float32 precision); materials are not written.
+also stored in the animation's ``extras`` (``{"fps": ...}``) so
+:func:`~retarget_lib.io.gltf.load_gltf_motion` reads the same frames back. Skinning weights are
+written as ``JOINTS_n`` / ``WEIGHTS_n`` sets of four (as many sets as the widest vertex needs),
+renormalised in float32. Positions, rotations and weights are float32 (round trips agree to float32
+precision); materials are not written.
 
 Every file passes the Khronos glTF validator with 0 errors (``tests/test_gltf.py``).
 """
@@ -88,7 +89,8 @@ def _weight_sets(weights: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
 def save_glb(
     rig: Rig, path: str | os.PathLike, motion: Motion | None = None, skin: bool = True
 ) -> None:
-    """Write ``rig`` (mesh, skin, all its joints) and optionally ``motion`` as a ``.glb`` (atomically).
+    """Write ``rig`` (mesh, skin, all its joints) and optionally ``motion`` as a ``.glb``
+    (atomically).
 
     Args:
         rig: the character; ``Rig.from_character`` makes one from a canonical-22 character.

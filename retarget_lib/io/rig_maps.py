@@ -94,7 +94,8 @@ def _table(
 
 
 #: ``{rig: {file joint name: canonical name}}``, matched with :func:`joint_key`; a canonical joint
-#: no name stands for is one the convention lacks (inserted where the reader may: Biovision's Spine2)
+#: no name stands for is one the convention lacks (inserted where the reader may: Biovision's
+#: Spine2)
 RIG_MAPS: dict[str, dict[str, str]] = {
     "mixamo": {n: n for n in CANONICAL22},
     "cmu": _table(
@@ -182,7 +183,8 @@ def _ancestors(j: int, parents: Sequence[int]) -> set[int]:
 
 def _detect(names: Sequence[str], convention: str | None, what: str) -> tuple[str, dict[int, int]]:
     """The convention of :data:`RIG_MAPS` that maps the most canonical joints of ``names`` (the
-    first in the table's order on a tie), or ``convention``, and its ``{file index: canonical index}``."""
+    first in the table's order on a tie), or ``convention``, and its ``{file index: canonical
+    index}``."""
     if convention is not None:
         if convention not in RIG_MAPS:
             raise JointSetError(
@@ -265,7 +267,8 @@ def map_joints(
                 continue
             if joint_key(file_name) not in keys:
                 raise JointSetError(
-                    f"{what}: {mapping_source} maps {canon} to {short_repr(file_name)}, which is not a "
+                    f"{what}: {mapping_source} maps {canon} to {short_repr(file_name)}, which is "
+                    "not a "
                     "joint of the rig"
                 )
             i = keys.index(joint_key(file_name))
@@ -289,10 +292,13 @@ def map_joints(
             if CANONICAL22[c] in missing
         )
         raise JointSetError(
-            f"{what}: cannot map joints {missing} onto the canonical 22 (closest rig naming: {rig}{with_mapping})"
+            f"{what}: cannot map joints {missing} onto the canonical 22 (closest rig naming: "
+            f"{rig}{with_mapping})"
             f"{dup}; "
-            f"give a joint map (a YAML file with a line 'CanonicalName: file_joint_name' for each joint listed{null}; "
-            f"--joint-map for a target, --source-joint-map for a source); the rig's joints: {_listed(names)}"
+            "give a joint map (a YAML file with a line 'CanonicalName: file_joint_name' for each "
+            f"joint listed{null}; "
+            "--joint-map for a target, --source-joint-map for a source); the rig's joints: "
+            f"{_listed(names)}"
         )
     if parents is not None:
         _check_tree(names, parents, found, absent, what, with_mapping)
@@ -317,7 +323,8 @@ def _check_tree(
             continue
         if file_of[p] not in _ancestors(file_of[c], parents):
             raise JointSetError(
-                f"{what}: {short_repr(names[file_of[c]])} (mapped to {CANONICAL22[c]}) is not below "
+                f"{what}: {short_repr(names[file_of[c]])} (mapped to {CANONICAL22[c]}) is not "
+                "below "
                 f"{short_repr(names[file_of[p]])} (mapped to {CANONICAL22[p]}) in the joint tree"
                 f"{with_mapping}"
             )
@@ -329,9 +336,9 @@ def _listed(names: Sequence[str], limit: int = 60) -> str:
 
 
 def load_mapping_file(path: str | os.PathLike) -> dict[str, str | None]:
-    """Read a joint mapping file: YAML or JSON, ``{canonical name: file joint name or null}``, read within
-    the bounds of :func:`~retarget_lib.files.read_yaml` (1 MiB, nesting, aliases; a key given twice
-    is an error, not a silently dropped line).
+    """Read a joint mapping file: YAML or JSON, ``{canonical name: file joint name or null}``, read
+    within the bounds of :func:`~retarget_lib.files.read_yaml` (1 MiB, nesting, aliases; a key given
+    twice is an error, not a silently dropped line).
 
     Raises:
         JointSetError: malformed, not a mapping of strings to strings, a canonical name given

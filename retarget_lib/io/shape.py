@@ -1,4 +1,5 @@
-"""Character shape ``.npz`` files: the layout used by public Mixamo preprocessing (``mixamo-local``).
+"""Character shape ``.npz`` files: the layout used by public Mixamo preprocessing
+(``mixamo-local``).
 
 Keys (units are the BVH's, usually centimetres):
 
@@ -48,7 +49,8 @@ MAX_VERTICES, MAX_FACES = 2_000_000, 4_000_000
 
 
 class ShapeError(RetargetInputError):
-    """A shape ``.npz`` that is not a valid character (the message names the file and the problem)."""
+    """A shape ``.npz`` that is not a valid character (the message names the file and the
+    problem)."""
 
 
 def _unit_scale(unit: str | float) -> float:
@@ -65,7 +67,8 @@ def _unit_scale(unit: str | float) -> float:
 
 
 def _infer_scale(height: float) -> float:
-    """Centimetres if the skeleton's NKN height exceeds 5 units (no character is 5 m), else metres."""
+    """Centimetres if the skeleton's NKN height exceeds 5 units (no character is 5 m), else
+    metres."""
     return 0.01 if height > 5.0 else 1.0
 
 
@@ -87,8 +90,8 @@ def load_shape_npz(
 
     Raises:
         ShapeError: naming the problem: not a readable ``.npz`` (truncated, corrupt, pickled
-            objects, a ``.npy``), missing keys, wrong shapes, NaN/inf values, face indices out of range, weight
-            rows not summing to 1 (which rows).
+            objects, a ``.npy``), missing keys, wrong shapes, NaN/inf values, face indices out of
+            range, weight rows not summing to 1 (which rows).
         JointSetError: joints that cannot be mapped (all of them named), a bad joint map.
         InputFileError: missing, a directory, unreadable or empty.
         LimitError: more than :data:`MAX_VERTICES` vertices or :data:`MAX_FACES` faces, or an array
@@ -166,12 +169,14 @@ def _validated(
     empty = sums <= 0
     if empty.any():
         raise ShapeError(
-            f"{path}: skinning_weights rows {_rows(empty)} are all zero (vertices bound to no joint)"
+            f"{path}: skinning_weights rows {_rows(empty)} are all zero (vertices bound to no "
+            "joint)"
         )
     off = np.abs(sums - 1.0) > _RENORMALIZE_TOL
     if off.any():
         raise ShapeError(
-            f"{path}: skinning_weights rows must sum to 1 (within {_RENORMALIZE_TOL}); rows {_rows(off)} "
+            f"{path}: skinning_weights rows must sum to 1 (within {_RENORMALIZE_TOL}); rows "
+            f"{_rows(off)} "
             "do not"
         )
     drift = np.abs(sums - 1.0) > _WEIGHT_TOL
@@ -218,7 +223,8 @@ def save_shape_npz(
     Args:
         character: any :class:`~retarget_lib.core.character.Character`.
         path: destination file (written as given; use a ``.npz`` suffix).
-        unit: the file's length unit (``"cm"`` like Mixamo BVH, ``"m"``, ``"mm"`` or metres per unit).
+        unit: the file's length unit (``"cm"`` like Mixamo BVH, ``"m"``, ``"mm"`` or metres per
+            unit).
         prefix: put before each joint name (``""`` for none).
     """
     scale = _unit_scale(unit)

@@ -104,7 +104,8 @@ def check_motion_samples(frames: int, joints: int, where: str, hint: str = "") -
     exceeds :data:`MAX_MOTION_SAMPLES` (``hint`` is appended to the message)."""
     if frames * joints > MAX_MOTION_SAMPLES:
         raise LimitError(
-            f"{where}: {frames:,} frames x {joints} joints = {frames * joints:,} joint-frames exceed the "
+            f"{where}: {frames:,} frames x {joints} joints = {frames * joints:,} joint-frames "
+            "exceed the "
             f"limit of {MAX_MOTION_SAMPLES:,} for one motion{hint}"
         )
 
@@ -320,7 +321,8 @@ def _check_archive(path: Path, error: type[RetargetInputError]) -> None:
         head = f.read(6)
     if head.startswith(_NPY_MAGIC):
         raise error(
-            f"{path}: a single .npy array, not an .npz archive of named arrays (write it with np.savez)"
+            f"{path}: a single .npy array, not an .npz archive of named arrays (write it with "
+            "np.savez)"
         )
     if not head.startswith(_ZIP_MAGICS):
         raise error(f"{path}: not an .npz file (an .npz is a zip archive of .npy arrays)")

@@ -1,15 +1,15 @@
 """Contact-aware energies (Villegas, Ceylan, Hertzmann, Yang, Saito, ICCV 2021, Sec. 3.1, App. B.1).
 
 Every term is a small differentiable function on plain tensors, batched over leading dims, so
-the training code, encoder-space optimisation (:mod:`retarget_lib.methods.eso`) and notebook 07 share
-them::
+the training code, encoder-space optimisation (:mod:`retarget_lib.methods.eso`) and notebook 07
+share them::
 
     Efull  = Egeo + Eskel                                   (Eq. 1)
     Egeo   = λ Ej2j + β Eint + γ Efoot                      (Eq. 2)
     Ej2j   = 1/|V| Σ_(i,j) ‖v_i − v_j‖₂                     (Eq. 3)  self_contact_energy
-    Eint   = Tzionas et al.'s cone penalty                  (Eq. 4)  retarget_lib.geometry.penetration
-    Efoot  = Σ_(j∈C) (‖ġ_j‖² + (g_j^y − ḡ_j^y)²) / h_B      (Eq. 6)  foot_contact_energy
-    Eskel  = Eweak + ω Eee                                  (Eq. 7)
+    Eint   = Tzionas et al.'s cone penalty                  (Eq. 4)
+    retarget_lib.geometry.penetration Efoot  = Σ_(j∈C) (‖ġ_j‖² + (g_j^y − ḡ_j^y)²) / h_B      (Eq.
+    6)  foot_contact_energy Eskel  = Eweak + ω Eee                                  (Eq. 7)
     Eweak  = ρ Σ_j ‖θ^B_j − θ^A_j‖² + ‖o^B − o^(A→B)‖²      (Eq. 8)  weak_energy
     Eee    = Σ_(j∈ee) ‖ġ^B_j / h_B − ġ^A_j / h_A‖²          (Eq. 9)  end_effector_energy
 
@@ -194,8 +194,8 @@ class ContactEnergyWeights:
         return cls(**TABLE3_ROWS[name])
 
     def relaxed(self) -> ContactEnergyWeights:
-        """These weights with ESO's relaxed ``ρ = 10, β = 1, λ = 100`` and ``hold = 100`` (App. B.1);
-        ``γ`` and the switches kept."""
+        """These weights with ESO's relaxed ``ρ = 10, β = 1, λ = 100`` and ``hold = 100`` (App.
+        B.1); ``γ`` and the switches kept."""
         return replace(self, rho=10.0, beta_int=1.0, lambda_j2j=100.0, hold=100.0)
 
     def with_foot_ramp(self, epoch: int, epochs: int) -> ContactEnergyWeights:
@@ -336,12 +336,14 @@ def foot_contact_energy_per_frame(
 ) -> Tensor:
     """``Efoot(t)`` for every frame (Eq. 6).
 
-    ``Σ_(j in contact at t) (‖g_t − g_(t−1)‖² + (g_t^y − ground_j)²) / h_B``, first-frame velocity 0.
+    ``Σ_(j in contact at t) (‖g_t − g_(t−1)‖² + (g_t^y − ground_j)²) / h_B``, first-frame velocity
+    0.
 
     Args:
         positions: ``(..., T, 22, 3)`` global joint positions (metres).
         contacts: ``(..., T, 4)`` bool, per :data:`retarget_lib.core.skeleton.FOOT_CONTACT_JOINTS`.
-        ground_heights: ``(4,)`` the joints' rest heights (:func:`~retarget_lib.core.measures.foot_rest_heights`).
+        ground_heights: ``(4,)`` the joints' rest heights
+            (:func:`~retarget_lib.core.measures.foot_rest_heights`).
         height: ``h_B`` (metres), float or ``(...)``.
 
     Returns:
@@ -391,7 +393,8 @@ def weak_energy(
         rot_a: ``(..., 22, 4)`` source local rotations.
         root_vel_b: ``(..., 3)`` output root velocity ``o^B`` (metres per frame).
         root_vel_a: ``(..., 3)`` source root velocity ``o^A``.
-        leg_ratio: ``h_legs_B / h_legs_A`` (:func:`~retarget_lib.core.quantities.leg_ratio`), float or ``(...)``.
+        leg_ratio: ``h_legs_B / h_legs_A`` (:func:`~retarget_lib.core.quantities.leg_ratio`), float
+            or ``(...)``.
         rho: ``ρ``.
 
     Returns:
@@ -499,7 +502,8 @@ def geometry_energy(
         vertices: ``(..., V, 3)`` posed output mesh (metres).
         contact_pairs: ``(K, 2)`` or ``(..., K, 2)`` target-mesh vertex pairs, or ``None``.
         positions: ``(..., T, 22, 3)`` output global joint positions.
-        foot_contacts: ``(..., T, 4)`` bool (:data:`retarget_lib.core.skeleton.FOOT_CONTACT_JOINTS`).
+        foot_contacts: ``(..., T, 4)`` bool
+            (:data:`retarget_lib.core.skeleton.FOOT_CONTACT_JOINTS`).
         ground_heights: ``(4,)`` rest heights of those joints.
         height: ``h_B``.
         weights: :class:`ContactEnergyWeights`.

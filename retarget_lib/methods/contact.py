@@ -53,9 +53,9 @@ __all__ = [
 ]
 
 #: above this many vertices, ESO works on a decimated copy of the target mesh (App. B's 3,000): the
-#: output is skeletal, so the full mesh follows it exactly. Full meshes work too (Eint's geodesics are
-#: searched on demand, each step skins only the vertices its energy reads): compiled, 0.07 s a frame
-#: at 10,000 vertices, 0.08 s at 13,380 (`retarget bench --only eso`)
+#: output is skeletal, so the full mesh follows it exactly. Full meshes work too (Eint's geodesics
+#: are searched on demand, each step skins only the vertices its energy reads): compiled, 0.07 s a
+#: frame at 10,000 vertices, 0.08 s at 13,380 (`retarget bench --only eso`)
 ESO_MAX_VERTICES = 5000
 
 
@@ -93,8 +93,9 @@ def _motion_digest(motion: Motion) -> str:
 def _detected_contacts(
     motion: Motion, character: Character, cache_key: str | None
 ) -> tuple[np.ndarray, SelfContacts]:
-    """Foot and hand contacts of a clip on its performer, cached under ``cache_key`` plus a digest of
-    the motion's values (a clip that changes, e.g. after a dataset rebuild, never reads a stale entry).
+    """Foot and hand contacts of a clip on its performer, cached under ``cache_key`` plus a digest
+    of the motion's values (a clip that changes, e.g. after a dataset rebuild, never reads a stale
+    entry).
 
     Sec. 3.4's thresholds are scaled with two heights: the feet with the skeleton's
     :func:`~retarget_lib.core.measures.estimated_standing_height`, the hands with the performer's
@@ -155,8 +156,9 @@ def load_contact_model(
     device: str | torch.device | None = None,
 ) -> tuple[GeometryConditionedRNN, dict]:
     """``(model in eval mode, config)`` from a training or exported checkpoint: a manifest id (the
-    shipped file, sha256 verified) or a path (:func:`~retarget_lib.data.checkpoints.resolve_checkpoint`),
-    on ``device`` (a ``--device`` name or ``torch.device``; default the CPU)."""
+    shipped file, sha256 verified) or a path
+    (:func:`~retarget_lib.data.checkpoints.resolve_checkpoint`), on ``device`` (a ``--device`` name
+    or ``torch.device``; default the CPU)."""
     state = load_state(checkpoint)
     model = model_from_config(state["config"])
     model.load_state_dict(state["modules"]["model"])

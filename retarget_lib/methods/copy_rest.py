@@ -26,5 +26,6 @@ def copy_rotations_rest_compensated(motion: Motion, target_skeleton: Skeleton) -
 
 
 def load(checkpoint: None = None, device: None = None) -> Callable[..., Motion]:
-    """The registry's loader: :func:`copy_rotations_rest_compensated` (nothing to load; NumPy, no device)."""
+    """The registry's loader: :func:`copy_rotations_rest_compensated` (nothing to load; NumPy, no
+    device)."""
     return copy_rotations_rest_compensated

@@ -110,7 +110,8 @@ def load_source(path: str | os.PathLike, joint_map: str | os.PathLike | None = N
         joint_map: a joint map file for joints the rig conventions do not name (docs/joint-maps.md).
 
     Raises:
-        RetargetInputError: an unsupported suffix, or the reader's error for a bad file or joint map.
+        RetargetInputError: an unsupported suffix, or the reader's error for a bad file or joint
+            map.
     """
     suffix = _suffix(path)
     if suffix == ".bvh":
@@ -159,7 +160,8 @@ def load_target(
     """Resolve ``--target`` (a file by suffix, or a character name) and ``--target-mesh``.
 
     Args:
-        target: a ``.bvh``, ``.glb``/``.gltf``/``.vrm``, ``.fbx`` or ``.npz`` file, or a character name.
+        target: a ``.bvh``, ``.glb``/``.gltf``/``.vrm``, ``.fbx`` or ``.npz`` file, or a character
+            name.
         target_mesh: a shape ``.npz`` for a target without a mesh.
         joint_map: a joint map file for the target file's joints (docs/joint-maps.md).
 
@@ -226,7 +228,10 @@ def _fit_mesh(character: Character, target_skeleton: Skeleton, target_mesh, targ
     (:func:`rebind_mesh`), with a warning beyond :data:`MESH_WARN`."""
     height = target_skeleton.height()
     diff = float(np.abs(_root_relative(character.skeleton) - _root_relative(target_skeleton)).max())
-    what = f"its skeleton differs from the target {target} by {diff * 100:.1f} cm ({diff / height:.1%} of its height)"
+    what = (
+        f"its skeleton differs from the target {target} by {diff * 100:.1f} cm "
+        f"({diff / height:.1%} of its height)"
+    )
     if diff > MESH_LIMIT * height:
         raise RetargetInputError(
             f"{target_mesh}: {what}, more than {MESH_LIMIT:.0%}: a mesh of another character?"

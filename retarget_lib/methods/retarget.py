@@ -3,18 +3,19 @@
 
 Sources and targets are read by suffix (:mod:`.inputs`: BVH, SMPL-X/AMASS ``.npz``, glTF/GLB, FBX
 through the optional extra; a target may also be a shape ``.npz`` or a character name). The
-methods run on the canonical 22 joints at :data:`METHOD_FPS` (:func:`method_times`: the source's last
-frame included); the result is brought back to the source's frame rate with the source's frame count, or to ``fps``
-with the count the duration implies (:func:`at_output_rate`), put on the ground there by one rule for
-every method (:func:`on_the_ground`: where the source's feet stand on its floor, the target's stand
-on ``y = 0``), and written by the output's suffix:
+methods run on the canonical 22 joints at :data:`METHOD_FPS` (:func:`method_times`: the source's
+last frame included); the result is brought back to the source's frame rate with the source's frame
+count, or to ``fps`` with the count the duration implies (:func:`at_output_rate`), put on the ground
+there by one rule for every method (:func:`on_the_ground`: where the source's feet stand on its
+floor, the target's stand on ``y = 0``), and written by the output's suffix:
 
 * ``.bvh``: on a BVH target's *full* joint set, names, channel layout and length unit
-  (:func:`~retarget_lib.core.canonical.unfold_from_canonical22`), so it loads next to the target's own
-  clips; on a GLB/FBX target's own joints; a target given by name in the source file's unit;
+  (:func:`~retarget_lib.core.canonical.unfold_from_canonical22`), so it loads next to the target's
+  own clips; on a GLB/FBX target's own joints; a target given by name in the source file's unit;
 * ``.glb``: the target's mesh, skin and all its joints (fingers and extra joints follow their
-  parents) performing the result: a skinned, animated glTF 2.0 file (:func:`~retarget_lib.io.gltf_write.save_glb`);
-  needs a target with a mesh (a GLB/FBX/shape file, a character name, or ``--target-mesh``);
+  parents) performing the result: a skinned, animated glTF 2.0 file
+  (:func:`~retarget_lib.io.gltf_write.save_glb`); needs a target with a mesh (a GLB/FBX/shape file,
+  a character name, or ``--target-mesh``);
 * ``.fbx``: the same skinned, animated character as a binary FBX 7.4 file
   (:func:`~retarget_lib.io.fbx_write.save_fbx`, pure Python: writing needs no optional extra),
   keyed at the output frame rate.
@@ -22,15 +23,16 @@ on ``y = 0``), and written by the output's suffix:
 ``--method contact`` uses the target file's own mesh (a GLB/FBX/shape file or a name) unless
 ``--target-mesh`` is given, and a GLB/FBX source's mesh as the source character.
 
-Everything the user gives is checked before any work: the output path (:func:`~retarget_lib.files.check_output`:
-a supported suffix, never an input unless ``force``), options the method would ignore (a mesh for a
-skeleton-only method), a target mesh whose skeleton differs from the target file's by more than
-:data:`MESH_LIMIT` of its height (rebound, with a warning, beyond :data:`MESH_WARN`), target joint
-names the output format cannot hold (:func:`~retarget_lib.io.untrusted.name_problem`). The run is
-one :func:`~retarget_lib.files.input_ledger`: every file it reads (the inputs, a ``.gltf``'s
-buffers, joint maps, meshes, checkpoints) is recorded by inode and no output replaces one. An
-error while reading an input names that input. A result that is non-finite or implausibly far
-away (a corrupt checkpoint) is refused, not written.
+Everything the user gives is checked before any work: the output path
+(:func:`~retarget_lib.files.check_output`: a supported suffix, never an input unless ``force``),
+options the method would ignore (a mesh for a skeleton-only method), a target mesh whose skeleton
+differs from the target file's by more than :data:`MESH_LIMIT` of its height (rebound, with a
+warning, beyond :data:`MESH_WARN`), target joint names the output format cannot hold
+(:func:`~retarget_lib.io.untrusted.name_problem`). The run is one
+:func:`~retarget_lib.files.input_ledger`: every file it reads (the inputs, a ``.gltf``'s buffers,
+joint maps, meshes, checkpoints) is recorded by inode and no output replaces one. An error while
+reading an input names that input. A result that is non-finite or implausibly far away (a corrupt
+checkpoint) is refused, not written.
 """
 
 from __future__ import annotations
@@ -81,7 +83,8 @@ ROOT_RANGE_FACTOR = 10.0
 
 
 def resolve_target(target: str) -> tuple[Skeleton, Motion | None]:
-    """``(canonical-22 skeleton, full target BVH motion or None)`` of ``--target`` (see :mod:`.inputs`)."""
+    """``(canonical-22 skeleton, full target BVH motion or None)`` of ``--target`` (see
+    :mod:`.inputs`)."""
     resolved = load_target(target)
     return resolved.skeleton, resolved.bvh
 
@@ -157,8 +160,9 @@ def _check_plausible(
 
 
 def _load_retargeter(chosen: Method, checkpoint, device):
-    """``chosen.retargeter(checkpoint, device)``, with a checkpoint that does not fit its model (missing
-    keys, wrong shapes or config) reported as :class:`~retarget_lib.errors.CheckpointError`."""
+    """``chosen.retargeter(checkpoint, device)``, with a checkpoint that does not fit its model
+    (missing keys, wrong shapes or config) reported as
+    :class:`~retarget_lib.errors.CheckpointError`."""
     try:
         return chosen.retargeter(checkpoint, device)
     except (KeyError, TypeError, AttributeError, RuntimeError) as e:
@@ -210,10 +214,11 @@ def retarget_file(
         RetargetInputError: any bad input (its subclasses name the file and the problem):
             :class:`~retarget_lib.errors.OutputPathError`, :class:`~retarget_lib.io.bvh.BVHError`,
             :class:`~retarget_lib.errors.GLTFError`, :class:`~retarget_lib.errors.AMASSError`,
-            :class:`~retarget_lib.errors.FBXError`, :class:`~retarget_lib.core.skeleton.JointSetError`,
-            :class:`~retarget_lib.io.shape.ShapeError`, :class:`~retarget_lib.errors.CheckpointError`,
-            :class:`~retarget_lib.errors.LimitError`, :class:`~retarget_lib.errors.InputFileError`,
-            :class:`~retarget_lib.errors.DeviceError`.
+            :class:`~retarget_lib.errors.FBXError`,
+            :class:`~retarget_lib.core.skeleton.JointSetError`,
+            :class:`~retarget_lib.io.shape.ShapeError`,
+            :class:`~retarget_lib.errors.CheckpointError`, :class:`~retarget_lib.errors.LimitError`,
+            :class:`~retarget_lib.errors.InputFileError`, :class:`~retarget_lib.errors.DeviceError`.
     """
     chosen = get_method(method)
     _check_options(chosen, str(target), target_mesh, source_mesh, checkpoint)
@@ -311,9 +316,9 @@ def on_the_ground(
     target: Character | None = None,
     source_character: Character | None = None,
 ) -> Motion:
-    """``result`` shifted vertically by the ground rule (:func:`~retarget_lib.core.ground.floor_offset`):
-    where a foot of ``source`` stands on its floor, the result's is on ``y = 0`` (at the source's
-    sole height times the height ratio).
+    """``result`` shifted vertically by the ground rule
+    (:func:`~retarget_lib.core.ground.floor_offset`): where a foot of ``source`` stands on its
+    floor, the result's is on ``y = 0`` (at the source's sole height times the height ratio).
 
     Args:
         result: the canonical-22 result on the target skeleton.
@@ -371,7 +376,8 @@ def _check_target_fits(tgt: Target, target, out: Path) -> None:
 
 
 def _write(result: Motion, tgt: Target, source_layout: dict, out: Path) -> None:
-    """Write a canonical result by ``out``'s suffix on the target's own joints (module docstring)."""
+    """Write a canonical result by ``out``'s suffix on the target's own joints (module
+    docstring)."""
     suffix = out.suffix.lower()
     if suffix in (".glb", ".fbx"):
         if tgt.rig is None:  # refused before any work by the output check

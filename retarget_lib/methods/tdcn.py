@@ -121,7 +121,8 @@ def retarget_motion_with(
             :func:`load_generator` (eval mode).
         motion: source clip on the canonical 22 joints (``T`` frames, metres).
         target: canonical-22 target skeleton.
-        windowed: per-frame re-centred windows (needs a :class:`~retarget_lib.models.TDCNGenerator`).
+        windowed: per-frame re-centred windows (needs a
+            :class:`~retarget_lib.models.TDCNGenerator`).
         chunk: windows per network call when ``windowed``.
 
     Returns:

@@ -75,7 +75,8 @@ NUM_JOINTS = 22
 
 
 def residual_input_channels(num_joints: int = NUM_JOINTS) -> int:
-    """``C_in`` of the residual TDCN: ``p`` (3J) + ``q`` (4J) + root (3) + ``s̄B`` (3J) + ``s̄A`` (3J)."""
+    """``C_in`` of the residual TDCN: ``p`` (3J) + ``q`` (4J) + root (3) + ``s̄B`` (3J) + ``s̄A``
+    (3J)."""
     return 13 * num_joints + 3
 
 

@@ -160,7 +160,8 @@ def batch_meshes(
     weights: Sequence[np.ndarray | Tensor],
     dtype: torch.dtype = torch.float32,
 ) -> tuple[Tensor, Tensor]:
-    """Stack meshes with different vertex counts by repeating vertices (cyclically) up to the largest.
+    """Stack meshes with different vertex counts by repeating vertices (cyclically) up to the
+    largest.
 
     Repeating vertices changes neither :func:`normalize_rest_vertices` nor the max-pool of
     :class:`PointNetEncoder`, so every mesh keeps its own embedding.
@@ -291,7 +292,8 @@ class DecoderState(NamedTuple):
         hidden: ``(layers, B, H)`` ``h^dec_(t−1)``.
         local_positions: ``(B, 22, 3)`` ``p^B_(t−1)`` (metres).
         root_velocity: ``(B, 3)`` ``o^B_(t−1)`` (metres per frame); ESO optimises it (Eq. 11).
-        root_position: ``(B, 3)`` ``r^B_(t−1)``; frame ``t``'s root is ``root_position + root_velocity``.
+        root_position: ``(B, 3)`` ``r^B_(t−1)``; frame ``t``'s root is ``root_position +
+            root_velocity``.
         global_rotations: ``(B, 22, 4)`` frame ``t−1``'s global joint rotations (FK), kept for
             skinning; the global joints are ``local_positions + root_position``.
     """
@@ -312,7 +314,8 @@ class DecoderGates(NamedTuple):
     not depend on ``h^enc_t`` or ``o^B_(t−1)``.
 
     Attributes:
-        input0: ``(B, 3H)`` layer 0's ``W_ih x + b_ih`` over the inputs ``p^B_(t−1)``, ``s̄^B``, ``e^B``.
+        input0: ``(B, 3H)`` layer 0's ``W_ih x + b_ih`` over the inputs ``p^B_(t−1)``, ``s̄^B``,
+            ``e^B``.
         hidden: ``(layers, B, 3H)`` every layer's ``W_hh h^dec_(t−1) + b_hh``.
     """
 
@@ -323,7 +326,8 @@ class DecoderGates(NamedTuple):
 def gru_update(gi: Tensor, gh: Tensor, h: Tensor) -> Tensor:
     """A GRU cell's new state from its gate products (the formula of :class:`torch.nn.GRUCell`).
 
-    ``r = σ(i_r + h_r)``, ``z = σ(i_z + h_z)``, ``n = tanh(i_n + r ⊙ h_n)``, ``h' = (1 − z) ⊙ n + z ⊙ h``.
+    ``r = σ(i_r + h_r)``, ``z = σ(i_z + h_z)``, ``n = tanh(i_n + r ⊙ h_n)``, ``h' = (1 − z) ⊙ n + z
+    ⊙ h``.
 
     Args:
         gi: ``(B, 3H)`` ``W_ih x + b_ih``, gates in the order r, z, n.
@@ -342,8 +346,8 @@ def gru_update(gi: Tensor, gh: Tensor, h: Tensor) -> Tensor:
 
 
 class PosedOutput(NamedTuple):
-    """:func:`pose_outputs`: global joints ``g`` ``(B, T, 22, 3)``, their rotations ``(B, T, 22, 4)``
-    (for skinning) and the root trajectory ``(B, T, 3)``, metres."""
+    """:func:`pose_outputs`: global joints ``g`` ``(B, T, 22, 3)``, their rotations ``(B, T, 22,
+    4)`` (for skinning) and the root trajectory ``(B, T, 3)``, metres."""
 
     positions: Tensor
     global_rotations: Tensor
@@ -398,7 +402,8 @@ class GeometryConditionedRNN(nn.Module):
             correction of ``o^(A→B)``; both start at exactly no change (biases at the identity,
             head weights zero, as the last layer of a residual branch is usually initialised), so
             the untrained network *is* its base, the rest-compensated copy (Eweak = 0). The
-            paper-form heads start small (weights scaled by 0.01). Needs a :class:`ResidualBase` in every call.
+            paper-form heads start small (weights scaled by 0.01). Needs a :class:`ResidualBase` in
+            every call.
     """
 
     def __init__(
@@ -454,7 +459,8 @@ class GeometryConditionedRNN(nn.Module):
         return self.encoder(source)[0]
 
     def geometry(self, vertices: Tensor, weights: Tensor) -> Tensor:
-        """``e^B`` (Eq. 19) of ``(B, V, 3)`` rest vertices (metres) and ``(B, V, 22)`` weights → ``(B, G)``."""
+        """``e^B`` (Eq. 19) of ``(B, V, 3)`` rest vertices (metres) and ``(B, V, 22)`` weights →
+        ``(B, G)``."""
         return self.pointnet(vertices, weights)
 
     def target_context(
@@ -500,7 +506,8 @@ class GeometryConditionedRNN(nn.Module):
         )
 
     def compile_decoder(self) -> None:
-        """Compile :meth:`decode_step` with ``torch.compile`` (inductor; needs a C++ compiler on the CPU).
+        """Compile :meth:`decode_step` with ``torch.compile`` (inductor; needs a C++ compiler on the
+        CPU).
 
         One frame of the decoder is a few hundred small tensor operations (two GRU cells, the 6D
         rotation head, the residual alignment, FK by depth level), run ``T`` times per clip, so the
@@ -543,7 +550,8 @@ class GeometryConditionedRNN(nn.Module):
         return DecoderGates(input0, hidden)
 
     def _input_columns(self) -> tuple[slice, slice, slice, slice]:
-        """Layer 0's input columns of ``h^enc_t``, ``p^B_(t−1)``, ``o^B_(t−1)`` and ``[s̄^B, e^B]``."""
+        """Layer 0's input columns of ``h^enc_t``, ``p^B_(t−1)``, ``o^B_(t−1)`` and ``[s̄^B,
+        e^B]``."""
         h, p = self.hidden, 3 * self.joints
         return slice(0, h), slice(h, h + p), slice(h + p, h + p + 3), slice(h + p + 3, None)
 
@@ -567,8 +575,8 @@ class GeometryConditionedRNN(nn.Module):
                 from the one they were computed with: they do not depend on it.
 
         Returns:
-            ``(θ_t (B, 22, 4) unit wxyz, o_t (B, 3) metres per frame, state after frame t)``; the new
-            state's ``root_position`` is frame ``t``'s root ``r_t``.
+            ``(θ_t (B, 22, 4) unit wxyz, o_t (B, 3) metres per frame, state after frame t)``; the
+            new state's ``root_position`` is frame ``t``'s root ``r_t``.
         """
         b = h_enc.shape[0]
         h = context.height.view(b, 1)

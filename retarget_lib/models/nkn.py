@@ -253,7 +253,8 @@ class NKNGenerator(nn.Module):
 
         Measured on the fast Baseline training step (idle 2-core machine, 2 threads, batch 16;
         ``retarget bench --only training``): 0.715 → 0.253 s per step (22.4 → 63.2 windows/s, 2.8x).
-        A whole 2000-step Baseline run took 694 s including its compilation (8 s beyond the steps)."""
+        A whole 2000-step Baseline run took 694 s including its compilation (8 s beyond the
+        steps)."""
         if self.backbone != "gru":
             return
         self.decode_step = compile_frame_step(self.decode_step)

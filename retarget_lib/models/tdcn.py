@@ -334,7 +334,8 @@ class ResidualBlock(nn.Module):
 
 
 class DilatedStack(nn.Module):
-    """The conv body shared by the TDCN generator, the patch discriminator and the conv NKN baselines.
+    """The conv body shared by the TDCN generator, the patch discriminator and the conv NKN
+    baselines.
 
     ``first`` conv (``first_kernel``, dilation 1) then one :class:`ResidualBlock` per entry of
     ``dilations`` (Fig. 2b; Fig. 3 for the discriminator). Receptive field
@@ -405,7 +406,8 @@ class DilatedStack(nn.Module):
         return self.first.fused
 
     def forward(self, x: Tensor) -> Tensor:
-        """Args: x ``(B, C_in, T)``. Returns: ``(B, C, T)`` (edge) or ``(B, C, T - RF + 1)`` (valid)."""
+        """Args: x ``(B, C_in, T)``. Returns: ``(B, C, T)`` (edge) or ``(B, C, T - RF + 1)``
+        (valid)."""
         x = edge_pad(x, *self.pad_amounts)
         h = self.first(x)
         for block in self.blocks:
@@ -431,7 +433,8 @@ class DilatedStack(nn.Module):
         return torch.stack(outs)
 
     def fuse_for_inference(self) -> DilatedStack:
-        """Fold BatchNorm into the convs and drop dropout (eval-only afterwards). Returns ``self``."""
+        """Fold BatchNorm into the convs and drop dropout (eval-only afterwards). Returns
+        ``self``."""
         self.eval()
         for m in self.modules():
             if isinstance(m, ConvUnit):
@@ -494,7 +497,8 @@ class TDCNGenerator(nn.Module):
         causal: A5 (Table 4) — use past frames only.
         dense: A1 (Table 4) — dense instead of dilated convs, same receptive field.
         num_joints: ``J`` (22).
-        in_channels: input channels (default ``10J + 3``, :func:`features.generator_input_channels`).
+        in_channels: input channels (default ``10J + 3``,
+            :func:`features.generator_input_channels`).
         slope: LeakyReLU slope.
         head_hidden: width of the cyan 1×1 layer (default ``channels // 2``: 512 at the paper
             width, the released code's ``out_features``).

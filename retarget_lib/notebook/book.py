@@ -1,18 +1,20 @@
-"""The offline HTML book: every notebook as a self-contained HTML page plus an index of the learning path.
+"""The offline HTML book: every notebook as a self-contained HTML page plus an index of the learning
+path.
 
-``notebooks/learning_path.yaml`` lists the notebooks in reading order with what each teaches, what it
-needs and how long it takes; :func:`build_book` turns each listed notebook into ``<out>/<name>.html``
-(executed copy from ``build/notebooks/`` when ``make`` made one, otherwise the outputs committed in
-``notebooks/``) and writes ``<out>/index.html``.
+``notebooks/learning_path.yaml`` lists the notebooks in reading order with what each teaches, what
+it needs and how long it takes; :func:`build_book` turns each listed notebook into
+``<out>/<name>.html`` (executed copy from ``build/notebooks/`` when ``make`` made one, otherwise the
+outputs committed in ``notebooks/``) and writes ``<out>/index.html``.
 
 Every page opens from disk with no network: nbconvert's ``lab`` template is used with the parts
 that load from CDNs removed (require.js, the ipywidgets HTML manager, mermaid) and MathJax 3 served
 from a local copy (``<out>/_static/mathjax/tex-svg-full.js``, copied from the PyPI package
 ``django-static-mathjax``, which bundles MathJax 3.2.2 and needs no Django to be imported: one
-file with every TeX extension and SVG output, so no web fonts and nothing loaded on demand). Before export each notebook goes through
-:func:`offline_outputs`: a widget view is dropped where the output also carries a picture or HTML
-(the motion player's still image or offline scrubber), and GIFs become inline ``<img>`` tags
-(nbconvert would otherwise show their ``text/plain``). Images are embedded as ``data:`` URIs.
+file with every TeX extension and SVG output, so no web fonts and nothing loaded on demand). Before
+export each notebook goes through :func:`offline_outputs`: a widget view is dropped where the output
+also carries a picture or HTML (the motion player's still image or offline scrubber), and GIFs
+become inline ``<img>`` tags (nbconvert would otherwise show their ``text/plain``). Images are
+embedded as ``data:`` URIs.
 
 Why nbconvert and not Jupyter Book: Jupyter Book 2 (mystmd) downloads its site theme from
 api.mystmd.org at build time and fails offline; Jupyter Book 1 builds offline but is the legacy
@@ -23,7 +25,8 @@ nbconvert, already a dependency, does with one template and an index page.
 Usage::
 
     python -m retarget_lib.notebook.book --out build/book            # after `make` executed them
-    python -m retarget_lib.notebook.book --out build/book --executed /nonexistent   # committed outputs
+    python -m retarget_lib.notebook.book --out build/book --executed /nonexistent   # committed
+    outputs
 """
 
 from __future__ import annotations
@@ -54,8 +57,8 @@ MATHJAX_PARTS = ("es5/tex-svg-full.js", "LICENSE")
 WIDGET_VIEW = "application/vnd.jupyter.widget-view+json"
 TIMINGS_FILE = "timings.json"
 
-#: every reference to another host in a page (``<script src=``, ``<link href=``, ``<img src=``, module
-#: imports and CSS ``url()``); tests and :func:`remote_references` use it
+#: every reference to another host in a page (``<script src=``, ``<link href=``, ``<img src=``,
+#: module imports and CSS ``url()``); tests and :func:`remote_references` use it
 REMOTE_REFERENCE = re.compile(
     r"""<(?:script|link|img|iframe|source|video|audio)\b[^>]*?\b(?:src|href)\s*=\s*["']?\s*(?:https?:)?//"""
     r"""|\bimport\s*\(\s*["'](?:https?:)?//|@import\s+(?:url\()?["']?(?:https?:)?//|url\(\s*["']?(?:https?:)?//""",
@@ -98,7 +101,8 @@ def load_learning_path(path: Path = LEARNING_PATH) -> LearningPath:
     """Read and check the learning path.
 
     Raises:
-        ValueError: a missing field, a duplicate file, or a ``needs`` entry that is not listed earlier.
+        ValueError: a missing field, a duplicate file, or a ``needs`` entry that is not listed
+            earlier.
     """
     raw = yaml.safe_load(Path(path).read_text())
     lessons, seen = [], set()
@@ -136,7 +140,7 @@ def load_learning_path(path: Path = LEARNING_PATH) -> LearningPath:
     return LearningPath(raw.get("title", "Notebooks"), tuple(lessons))
 
 
-# ---------------------------------------------------------------------------------------------- export
+# ------------------------------------------------------------------------------------------- export
 def offline_outputs(nb):
     """Make a notebook's outputs exportable offline (in place; returns ``nb``).
 
@@ -191,7 +195,8 @@ def export_page(
 
     Args:
         nb: the (executed) notebook; modified by :func:`offline_outputs`.
-        lesson: its learning-path entry (``None`` for a notebook outside the path, e.g. a test fixture).
+        lesson: its learning-path entry (``None`` for a notebook outside the path, e.g. a test
+            fixture).
         path: the learning path (previous / next links).
         source_note: where the outputs come from, shown under the navigation bar.
         exporter: a reused ``HTMLExporter`` (building one costs ~0.3 s).
@@ -238,13 +243,14 @@ def copy_mathjax(out: Path) -> Path:
     return dst
 
 
-# ----------------------------------------------------------------------------------------------- index
+# -------------------------------------------------------------------------------------------- index
 def _fmt_seconds(s: float) -> str:
     return f"{s:.0f} s" if s < 90 else f"{s / 60:.1f} min"
 
 
 def index_html(path: LearningPath, sources: dict[str, str], timings: dict[str, dict]) -> str:
-    """The book's front page: the learning path as a table (what, needs, time) and a dependency list."""
+    """The book's front page: the learning path as a table (what, needs, time) and a dependency
+    list."""
     rows = []
     for les in path.lessons:
         needs = (
@@ -256,7 +262,8 @@ def index_html(path: LearningPath, sources: dict[str, str], timings: dict[str, d
         )
         t = timings.get(les.file)
         run = (
-            f'{_fmt_seconds(t["seconds"])}<br><span class="note">{_fmt_seconds(t["cpu_seconds"])} CPU</span>'
+            f'{_fmt_seconds(t["seconds"])}<br><span class="note">{_fmt_seconds(t["cpu_seconds"])} '
+            "CPU</span>"
             if t
             else "not executed here"
         )
@@ -270,7 +277,8 @@ def index_html(path: LearningPath, sources: dict[str, str], timings: dict[str, d
             f'<td><a href="{les.stem}.html"><b>{html.escape(les.title)}</b></a><br>'
             f'<span class="teaches">{html.escape(les.teaches)}</span></td>'
             f'<td>{needs}</td><td class="num">{les.minutes} min</td><td class="num">{run}</td>'
-            f'<td>{workshop}</td><td class="note">{html.escape(sources.get(les.file, ""))}</td></tr>'
+            f"<td>{workshop}</td><td "
+            f'class="note">{html.escape(sources.get(les.file, ""))}</td></tr>'
         )
     total = sum(les.minutes for les in path.lessons)
     total_ws = sum(les.minutes for les in path.lessons if les.workshop)
@@ -280,10 +288,11 @@ def index_html(path: LearningPath, sources: dict[str, str], timings: dict[str, d
 <meta name="viewport" content="width=device-width, initial-scale=1.0">
 <title>{html.escape(path.title)}</title>
 <style>
-body {{ font-family: system-ui, -apple-system, "Segoe UI", sans-serif; max-width: 72rem; margin: 2rem auto;
-       padding: 0 1rem; color: #222; line-height: 1.45; }}
+body {{ font-family: system-ui, -apple-system, "Segoe UI", sans-serif; max-width: 72rem;
+       margin: 2rem auto; padding: 0 1rem; color: #222; line-height: 1.45; }}
 table {{ border-collapse: collapse; width: 100%; }}
-th, td {{ border-bottom: 1px solid #ddd; padding: .45rem .5rem; vertical-align: top; text-align: left; }}
+th, td {{ border-bottom: 1px solid #ddd; padding: .45rem .5rem; vertical-align: top;
+         text-align: left; }}
 th {{ background: #f4f4f4; }}
 td.num {{ white-space: nowrap; }}
 .teaches {{ color: #444; }}
@@ -313,7 +322,7 @@ playing side by side; turn and zoom the characters in the browser.</p>
 """
 
 
-# ----------------------------------------------------------------------------------------------- build
+# -------------------------------------------------------------------------------------------- build
 def _source_for(lesson: Lesson, executed: Path | None, committed: Path) -> tuple[Path, str]:
     if executed is not None:
         run = executed / lesson.file
@@ -369,7 +378,8 @@ def build_book(
         blank = widget_only_outputs(nb)
         if blank:
             print(
-                f"book: WARNING {src.name}: cells {blank} show a widget with no picture; blank in the book",
+                f"book: WARNING {src.name}: cells {blank} show a widget with no picture; blank in "
+                "the book",
                 file=sys.stderr,
             )
         page = out / f"{src.stem}.html"
@@ -384,7 +394,8 @@ def build_book(
     viewer = write_viewer(out)
     if verbose:
         print(
-            f"book: {viewer.name} (3-D viewer: {', '.join(VIEWER_METHODS)}) in {time.perf_counter() - t0:.1f} s",
+            f"book: {viewer.name} (3-D viewer: {', '.join(VIEWER_METHODS)}) in "
+            f"{time.perf_counter() - t0:.1f} s",
             flush=True,
         )
     index = out / "index.html"

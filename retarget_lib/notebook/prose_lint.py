@@ -17,8 +17,8 @@ Bare integers (``22 joints``, ``16 characters``), years and version-like names a
 **What is allowed**, removed before the scan:
 
 1. *References*: ``Eq. 8``, ``Eqs. 4-8``, ``Sec. 3.4``, ``Section 5``, ``Table 4``, ``Fig. 3``,
-   ``Figure 5b``, ``App. F``, ``Appendix B.2``, ``Alg. 1``, ``notebook 04``, ``Exercise 05.2``; and an
-   exercise label on its own when written with the notebook number's leading zero (``your 08.1
+   ``Figure 5b``, ``App. F``, ``Appendix B.2``, ``Alg. 1``, ``notebook 04``, ``Exercise 05.2``; and
+   an exercise label on its own when written with the notebook number's leading zero (``your 08.1
    answer``, ``08b.2``): a measured decimal is never written so.
 2. *Code*: inline code in backticks (config constants such as ```lambda_h = 10```,
    ```train.steps=2000```) and fenced code blocks; HTML comments and tags; link targets and URLs.
@@ -65,7 +65,8 @@ _REF_WORDS = (
     r"|Algs?|Algorithms?|[Nn]otebooks?|Exercises?|Rows?|Scenarios?"
 )
 _REF_ITEM = r"(?:\d+(?:\.\d+)*[a-z]?|[A-Z](?:\.\d+)*)"
-#: "Eq. 8", "Eqs. 4-8", "Sec. 3.4", "Table 4", "Figure 5b", "Appendix F", "notebook 04", "Exercise 05.2"
+#: "Eq. 8", "Eqs. 4-8", "Sec. 3.4", "Table 4", "Figure 5b", "Appendix F", "notebook 04", "Exercise
+#: 05.2"
 REFERENCE = re.compile(
     rf"\b(?i:{_REF_WORDS})\.?\s*{_REF_ITEM}"
     rf"(?:\s*(?:[-–—/]|to)\s*{_REF_ITEM}|\s*(?:,|and|&)\s*(?:\d+[a-z]?|[A-Z])(?![\d.]))*"
@@ -171,7 +172,8 @@ def _norm(token: str) -> str:
 
 
 def scan_markdown(source: str, cell: int = 0) -> list[Violation]:
-    """The hand-typed numbers in one Markdown cell's source (see the module docstring for the rule)."""
+    """The hand-typed numbers in one Markdown cell's source (see the module docstring for the
+    rule)."""
     allowed = {
         _norm(tok) for block in ALLOWLIST.findall(source) for tok in block.split(",") if tok.strip()
     }
@@ -207,7 +209,7 @@ def notebook_violations(nb) -> list[Violation]:
     return out
 
 
-# -------------------------------------------------------------------------------------- closing sections
+# --------------------------------------------------------------------------------- closing sections
 _H2 = re.compile(r"^##\s+(.+?)\s*$", re.MULTILINE)
 _EXERCISE = re.compile(
     r"\*\*Exercise\s+(\d+[a-z]?\.\d+)\.?\*\*"

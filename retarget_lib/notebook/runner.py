@@ -75,7 +75,8 @@ def run_notebook(
     """
     if not force and is_up_to_date(notebook, out_dir):
         return None
-    # here, not at the top: these take ~3 s to import, which the up-to-date check and --help should not pay
+    # here, not at the top: these take ~3 s to import, which the up-to-date check and --help should
+    # not pay
     import nbformat
     from nbclient import NotebookClient
 
@@ -170,7 +171,8 @@ def main(argv: list[str] | None = None) -> int:
         notebooks += [nb for nb in run if nb not in notebooks]
         for name, why in left_out:
             print(
-                f"{name}: NOT executed in the workshop run ({why}); the book shows its committed outputs",
+                f"{name}: NOT executed in the workshop run ({why}); the book shows its committed "
+                "outputs",
                 flush=True,
             )
     if not notebooks:

@@ -1,11 +1,14 @@
-"""Teaching helpers shared by every notebook: prose rendered from computed values, and exercise checks.
+"""Teaching helpers shared by every notebook: prose rendered from computed values, and exercise
+checks.
 
 Numbers in a notebook's prose must come from the cells, never be typed by hand (a typed number goes
 stale the day a checkpoint changes). :func:`prose` renders a Markdown paragraph from an f-string of
-computed values; :func:`check_answer` judges the student's ``answer`` at the end of every exercise's solution cell::
+computed values; :func:`check_answer` judges the student's ``answer`` at the end of every exercise's
+solution cell::
 
     prose(f"Copy's mean error is **{copy_err:.2f} m**, {ratio:.0f}x the network's.")
-    check_answer("01.4", answer, expected, solution=solution, hint="H counts spine and one leg", atol=1e-9)
+    check_answer("01.4", answer, expected, solution=solution, hint="H counts spine and one leg",
+    atol=1e-9)
 """
 
 from __future__ import annotations
@@ -19,7 +22,8 @@ __all__ = ["prose", "check_answer", "NO_ANSWER"]
 
 
 def prose(text: str) -> Markdown:
-    """Markdown rendered from a (usually f-) string: dedented, so triple-quoted blocks read naturally.
+    """Markdown rendered from a (usually f-) string: dedented, so triple-quoted blocks read
+    naturally.
 
     Args:
         text: Markdown; put computed values in with an f-string.
@@ -30,7 +34,8 @@ def prose(text: str) -> Markdown:
     return Markdown(textwrap.dedent(text).strip())
 
 
-#: what ``check_answer`` is given when the student has not answered (the student cell's ``answer = None``)
+#: what ``check_answer`` is given when the student has not answered (the student cell's ``answer =
+#: None``)
 NO_ANSWER = None
 
 
@@ -53,7 +58,8 @@ def _matches(value, expected, rtol: float, atol: float) -> bool:
 
 
 def _short(value) -> str:
-    """A value as the message shows it: arrays rounded to 6 significant digits, at most 200 characters."""
+    """A value as the message shows it: arrays rounded to 6 significant digits, at most 200
+    characters."""
     if isinstance(value, (np.ndarray, list, tuple)) and not isinstance(value, str):
         with np.printoptions(precision=6, suppress=True, threshold=20):
             text = repr(np.asarray(value))

@@ -3,12 +3,13 @@ turns and zooms in the browser, with no network.
 
 :func:`viewer_models` retargets one real clip (CMU subject 1's forward jumps) onto one character
 with several methods through :func:`~retarget_lib.methods.retarget.retarget_file` (the same command
-a user runs) and keeps the GLBs; :func:`write_viewer` writes ``viewer.html`` beside the book's pages.
-The page plays them with Google's ``<model-viewer>`` component (:mod:`retarget_lib.data.sources.model_viewer`,
-copied to ``_static/model-viewer/``). A page opened from disk may load classic scripts but not fetch
-files, so each GLB also goes into a small script (``_static/models/NAME.glb.js``) that hands its
-bytes to the page as a blob; the ``.glb`` files themselves sit beside it for download. Nothing on
-the page comes from another host (:func:`~retarget_lib.notebook.book.remote_references` is empty).
+a user runs) and keeps the GLBs; :func:`write_viewer` writes ``viewer.html`` beside the book's
+pages. The page plays them with Google's ``<model-viewer>`` component
+(:mod:`retarget_lib.data.sources.model_viewer`, copied to ``_static/model-viewer/``). A page opened
+from disk may load classic scripts but not fetch files, so each GLB also goes into a small script
+(``_static/models/NAME.glb.js``) that hands its bytes to the page as a blob; the ``.glb`` files
+themselves sit beside it for download. Nothing on the page comes from another host
+(:func:`~retarget_lib.notebook.book.remote_references` is empty).
 """
 
 from __future__ import annotations
@@ -58,11 +59,14 @@ def viewer_models(folder: Path) -> dict[str, Path]:
 
 def _page(models: dict[str, Path]) -> str:
     cards = "\n".join(
-        f'<figure><model-viewer id="{html.escape(m)}" data-glb="{html.escape(p.stem)}" camera-controls autoplay '
-        f'shadow-intensity="1" exposure="1" camera-orbit="90deg 80deg 5.5m" camera-target="0m 0.9m 0.6m" '
+        f'<figure><model-viewer id="{html.escape(m)}" data-glb="{html.escape(p.stem)}" '
+        "camera-controls autoplay "
+        'shadow-intensity="1" exposure="1" camera-orbit="90deg 80deg 5.5m" '
+        'camera-target="0m 0.9m 0.6m" '
         f'alt="{html.escape(m)} result"></model-viewer>'
         f"<figcaption><b>{html.escape(m)}</b>: {html.escape(VIEWER_METHODS[m])} "
-        f'(<a href="_static/models/{html.escape(p.name)}">{html.escape(p.name)}</a>)</figcaption></figure>'
+        f'(<a href="_static/models/{html.escape(p.name)}">{html.escape(p.name)}</a>)'
+        "</figcaption></figure>"
         for m, p in models.items()
     )
     scripts = "\n".join(
@@ -73,8 +77,8 @@ def _page(models: dict[str, Path]) -> str:
 <meta name="viewport" content="width=device-width, initial-scale=1.0">
 <title>Retargeted characters in 3-D</title>
 <style>
-body {{ font-family: system-ui, -apple-system, "Segoe UI", sans-serif; max-width: 80rem; margin: 2rem auto;
-       padding: 0 1rem; color: #222; line-height: 1.45; }}
+body {{ font-family: system-ui, -apple-system, "Segoe UI", sans-serif; max-width: 80rem;
+       margin: 2rem auto; padding: 0 1rem; color: #222; line-height: 1.45; }}
 .row {{ display: flex; gap: 1rem; flex-wrap: wrap; }}
 figure {{ flex: 1 1 22rem; margin: 0; }}
 model-viewer {{ width: 100%; height: 26rem; background: #eef1f4; }}
@@ -85,9 +89,10 @@ figcaption {{ font-size: .9em; color: #444; }}
 </head>
 <body>
 <h1>Retargeted characters in 3-D</h1>
-<p>CMU subject 1's forward jumps (<code>{CLIP}</code>, its first {FRAMES} frames) retargeted onto the synthetic
-character <code>{CHARACTER}</code> by <code>retarget retarget --method M --out {CHARACTER}_M.glb</code>, one
-method per view. Drag to turn a character, scroll to zoom; the files load from this folder, no network.
+<p>CMU subject 1's forward jumps (<code>{CLIP}</code>, its first {FRAMES} frames) retargeted onto
+the synthetic character <code>{CHARACTER}</code> by
+<code>retarget retarget --method M --out {CHARACTER}_M.glb</code>, one method per view. Drag to turn
+a character, scroll to zoom; the files load from this folder, no network.
 <a href="index.html">Back to the learning path.</a></p>
 <div class="row">
 {cards}
@@ -98,7 +103,8 @@ for (const viewer of document.querySelectorAll("model-viewer[data-glb]")) {{
   if (!b64) continue;
   const bytes = Uint8Array.from(atob(b64), c => c.charCodeAt(0));
   viewer.addEventListener("load", () => {{  // a tint: the GLBs carry no material colour
-    for (const m of viewer.model.materials) m.pbrMetallicRoughness.setBaseColorFactor([0.55, 0.68, 0.85, 1]);
+    for (const m of viewer.model.materials)
+      m.pbrMetallicRoughness.setBaseColorFactor([0.55, 0.68, 0.85, 1]);
   }});
   viewer.src = URL.createObjectURL(new Blob([bytes], {{type: "model/gltf-binary"}}));
 }}

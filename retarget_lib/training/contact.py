@@ -76,9 +76,9 @@ def training_clips(config: dict) -> tuple[list[ContactClip], dict[str, Character
 
     ``data.source``: ``synthetic`` (default), ``mixamo-local`` (the reviewer's folder,
     :func:`~retarget_lib.data.mixamo_splits.mixamo_contact_training_set`), ``mixamo-convention``
-    (the T-pose characters of :mod:`~retarget_lib.data.synthetic.mixamo_convention`, proportioned like
-    the real rigs: the train characters of its split, each train clip performed by one of them in turn,
-    on its own body) or a ``+``-joined pair of them.
+    (the T-pose characters of :mod:`~retarget_lib.data.synthetic.mixamo_convention`, proportioned
+    like the real rigs: the train characters of its split, each train clip performed by one of them
+    in turn, on its own body) or a ``+``-joined pair of them.
 
     Returns:
         ``(clips, targets)``: clips performed by the training characters (synthetic clips: seeds
@@ -98,7 +98,8 @@ def training_clips(config: dict) -> tuple[list[ContactClip], dict[str, Character
         unknown = [n for n in names if n not in ds.characters]
         if unknown:
             raise ValueError(
-                f"data.train_characters: unknown characters {unknown}; known: {sorted(ds.characters)}"
+                f"data.train_characters: unknown characters {unknown}; known: "
+                f"{sorted(ds.characters)}"
             )
         key = fingerprint_of(dataset_path())[:12]
         clips += [

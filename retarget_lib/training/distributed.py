@@ -176,7 +176,8 @@ def from_environment() -> Distributed:
 
 def init_process_group(layout: Distributed, device: torch.device) -> None:
     """Join the process group of ``layout`` (``env://``: ``MASTER_ADDR``/``MASTER_PORT``, as set by
-    ``torchrun``) with NCCL on CUDA, gloo otherwise. Nothing for one process or if already joined."""
+    ``torchrun``) with NCCL on CUDA, gloo otherwise. Nothing for one process or if already
+    joined."""
     if not layout.enabled or dist.is_initialized():
         return
     if device.type == "cuda":

@@ -57,8 +57,9 @@ def train_config(
         out: run folder (default ``runs/<config stem>``).
         resume: continue from ``<out>/last.pt`` if it exists (at any number of processes).
         export: also write the slim inference model here (rank 0).
-        device: ``auto``, ``cpu``, ``cuda`` or ``mps`` (:func:`~retarget_lib.devices.resolve_device`;
-            under ``torchrun`` CUDA device ``LOCAL_RANK``).
+        device: ``auto``, ``cpu``, ``cuda`` or ``mps``
+            (:func:`~retarget_lib.devices.resolve_device`; under ``torchrun`` CUDA device
+            ``LOCAL_RANK``).
         amp: bfloat16 autocast (CUDA only).
         progress: tqdm progress bar (rank 0).
 

@@ -157,7 +157,8 @@ def submit(
         parallel: at most this many rows at once (Slurm array parallelism).
 
     Returns:
-        row -> ``submitit.Job`` of the rows submitted now (``.job_id``; :func:`wait` waits for them).
+        row -> ``submitit.Job`` of the rows submitted now (``.job_id``; :func:`wait` waits for
+        them).
 
     Raises:
         SweepError: an unknown table or row.

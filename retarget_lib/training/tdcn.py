@@ -135,7 +135,8 @@ HALF_PRECISION_KINDS = ("tdcn",)
 
 
 def loss_weights(config: dict) -> TDCNLossWeights:
-    """:class:`~retarget_lib.losses.TDCNLossWeights` from the ``loss`` section (``lambda_*`` keys)."""
+    """:class:`~retarget_lib.losses.TDCNLossWeights` from the ``loss`` section (``lambda_*``
+    keys)."""
     loss = config["loss"]
     return TDCNLossWeights(
         **{f.name: float(loss[f.name]) for f in fields(TDCNLossWeights) if f.name in loss}
@@ -202,7 +203,8 @@ class RetargetTraining:
         clips: training data (default :func:`training_clips`).
         device: where the networks and each step's batch live (default CPU). Batches are drawn on
             the CPU either way, so every device sees the same data.
-        amp: bfloat16 autocast for the forward passes (CUDA only, :func:`~retarget_lib.devices.autocast`).
+        amp: bfloat16 autocast for the forward passes (CUDA only,
+            :func:`~retarget_lib.devices.autocast`).
         layout: this process's place in a ``torchrun`` job: each step draws the global batch
             ``train.batch`` and keeps this rank's shard (:mod:`~retarget_lib.training.distributed`).
 
@@ -255,7 +257,8 @@ class RetargetTraining:
             self._fit_normalizer()
         self.position_scale = self._fit_position_scale() if loss.get("standardize", False) else None
         if bool(train.get("compile", False)) and hasattr(self.generator, "compile_decoder"):
-            self.generator.compile_decoder()  # NKN's per-frame GRU decoder; TDCN has no per-frame loop
+            # NKN's per-frame GRU decoder; TDCN has no per-frame loop
+            self.generator.compile_decoder()
         for module in (self.generator, self.discriminator):
             prepare_module(module, self.device, layout)
         adam = dict(lr=float(train["lr"]), betas=tuple(float(b) for b in train["betas"]))
@@ -265,7 +268,8 @@ class RetargetTraining:
         self.decay_from = train.get("decay_from")
 
     def task(self) -> TrainTask:
-        """The :class:`~retarget_lib.training.loop.TrainTask` for :func:`~retarget_lib.training.loop.fit`."""
+        """The :class:`~retarget_lib.training.loop.TrainTask` for
+        :func:`~retarget_lib.training.loop.fit`."""
         return TrainTask(
             {"generator": self.generator, "discriminator": self.discriminator},
             {"generator": self.opt_g, "discriminator": self.opt_d},
@@ -274,7 +278,8 @@ class RetargetTraining:
 
     @torch.no_grad()
     def _fit_normalizer(self) -> None:
-        """Fit the generator's input normaliser on source windows (own RNG: global state untouched)."""
+        """Fit the generator's input normaliser on source windows (own RNG: global state
+        untouched)."""
         b = self.sampler.sample(
             _NORMALIZER_WINDOWS, torch.Generator().manual_seed(int(self.config["seed"]))
         )
@@ -301,7 +306,8 @@ class RetargetTraining:
         )
 
     def _retarget(self, q: Tensor, r: Tensor, p: Tensor, off_src: Tensor, off_tgt: Tensor):
-        """``G(x, s̄_tgt)`` (Eqs. 4-5) → (raw output, unit q̂ ``(B,W,J,4)``, ``p̂ = f_FK(q̂, s̄_tgt)``)."""
+        """``G(x, s̄_tgt)`` (Eqs. 4-5) → (raw output, unit q̂ ``(B,W,J,4)``, ``p̂ = f_FK(q̂,
+        s̄_tgt)``)."""
         out = self.generator.generate(q, r, off_src, off_tgt, positions=p)
         q_unit = normalize_quaternions(out.rotations)
         return out, q_unit, source_local_positions(q_unit, off_tgt)

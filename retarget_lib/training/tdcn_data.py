@@ -172,11 +172,11 @@ def training_clips(
             train clips (ground-truth transfers). ``mixamo-convention``: the same of the
             Mixamo-convention profile (each character's own version of each clip).
             ``synthetic+mixamo-convention``: both profiles' characters and clips (a character
-            without its own version of a clip performs its ground-truth transfer). ``mixamo-local``: the folder's paper training
-            characters and seen motions (:func:`~retarget_lib.data.mixamo_splits.mixamo_training_set`),
-            each character's own clip where it has one. ``mixamo-local+synthetic``: both
-            characters sets, both clip sets; a character without its own version of a clip
-            performs the clip's ground-truth transfer.
+            without its own version of a clip performs its ground-truth transfer). ``mixamo-local``:
+            the folder's paper training characters and seen motions
+            (:func:`~retarget_lib.data.mixamo_splits.mixamo_training_set`), each character's own
+            clip where it has one. ``mixamo-local+synthetic``: both characters sets, both clip sets;
+            a character without its own version of a clip performs the clip's ground-truth transfer.
         mixamo_root: the ``mixamo-local`` folder (default ``$RETARGET_MIXAMO``).
 
     Returns:
@@ -247,10 +247,11 @@ class WindowSampler:
         rest_jitter_deg: our augmentation, not the paper's (0 = off): half the source skeletons
             and, independently, half the target skeletons get a random rest pose
             (:func:`~retarget_lib.core.transfer.random_rest_rotations`, swings up to this angle)
-            with their windows re-expressed on it (:func:`~retarget_lib.core.transfer.change_rest_pose`:
-            every joint stays where it was). The synthetic characters mostly share straight-leg
-            rest poses, real files do not (CMU's legs are splayed by 20°), and a network that
-            must compensate rest poses has to see them vary. ``A = B`` pairs share one rest pose.
+            with their windows re-expressed on it
+            (:func:`~retarget_lib.core.transfer.change_rest_pose`: every joint stays where it was).
+            The synthetic characters mostly share straight-leg rest poses, real files do not (CMU's
+            legs are splayed by 20°), and a network that must compensate rest poses has to see them
+            vary. ``A = B`` pairs share one rest pose.
         rest_arm_drop_deg: our augmentation (0 = off): a skeleton that gets a random rest pose
             also has both upper arms lowered from their rest by an angle uniform in
             ``[0, rest_arm_drop_deg]`` (about the forward axis). Real rigs rest with their arms

@@ -1,6 +1,6 @@
 """Pictures: offscreen PyVista renders of skeletons and skinned meshes (PNG, GIF/MP4), side-by-side
-lineups, matplotlib trajectory and timeline plots, a notebook motion player, and schematic diagrams of
-the networks and pipelines drawn from the models themselves (:mod:`.diagrams`)."""
+lineups, matplotlib trajectory and timeline plots, a notebook motion player, and schematic diagrams
+of the networks and pipelines drawn from the models themselves (:mod:`.diagrams`)."""
 
 from .animate import animate, animate_mesh, animate_motion, render_frames, write_animation
 from .camera import VIEWS, fit_camera

@@ -73,7 +73,8 @@ _SPHERE = _sphere_template()
 
 
 class Glyphs:
-    """Fixed-topology triangle soup for one scene; :meth:`compute` maps a scene to points/normals."""
+    """Fixed-topology triangle soup for one scene; :meth:`compute` maps a scene to
+    points/normals."""
 
     def __init__(self, scene: Scene, radius: float, tube_sides: int = 12):
         sp, sf = _SPHERE

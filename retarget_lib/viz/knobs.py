@@ -1,10 +1,10 @@
 """Interactive knobs that also work offline: a slider over precomputed pictures.
 
 :func:`knob` draws a picture for each value of one constant (the twist loss's alpha, the cone
-field's sigma, the ESO iterations, the contact threshold, ...) and shows them behind a slider made of
-plain HTML and a few lines of inline JavaScript: no widget kernel, no CDN. The same display bundle
-carries a PNG of the default value, so front ends that do not run scripts (GitHub's viewer, an
-untrusted notebook, a PDF export) show the still picture, and the HTML book keeps both.
+field's sigma, the ESO iterations, the contact threshold, ...) and shows them behind a slider made
+of plain HTML and a few lines of inline JavaScript: no widget kernel, no CDN. The same display
+bundle carries a PNG of the default value, so front ends that do not run scripts (GitHub's viewer,
+an untrusted notebook, a PDF export) show the still picture, and the HTML book keeps both.
 """
 
 from __future__ import annotations
@@ -56,7 +56,8 @@ class Knob:
         return (
             f'<div id="{uid}"><label><input type="range" min="0" max="{len(srcs) - 1}" step="1" '
             f'value="{self.default}" style="width:60%" '
-            f"oninput=\"var k=window['{uid}'];this.parentNode.parentNode.querySelector('img').src=k.s[this.value];"
+            'oninput="var '
+            f"k=window['{uid}'];this.parentNode.parentNode.querySelector('img').src=k.s[this.value];"
             f"this.parentNode.querySelector('span').textContent=k.l[this.value];\"> "
             f"<span>{labels[self.default]}</span></label><br>"
             f'<img src="{srcs[self.default]}" alt="{labels[self.default]}">'

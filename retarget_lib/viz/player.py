@@ -198,7 +198,10 @@ class Player:
 
     def _repr_mimebundle_(self, include=None, exclude=None):
         still = png_bytes(self.render())
-        text = f"Player: {self.name} on {self.character}, frame {self.frame} ({len(self.motions)} motions)"
+        text = (
+            f"Player: {self.name} on {self.character}, frame {self.frame} "
+            f"({len(self.motions)} motions)"
+        )
         offline = self.scrubber()
         bundle = (
             {}

@@ -112,7 +112,8 @@ def plot_skeleton_mpl(
 
 
 def plain_log_ticks(axis, subs: Sequence[float] | None = None) -> None:
-    """Label a log axis with plain numbers (``0.01, 0.1, 1, 10``) instead of ``10^k`` and ``4×10^0``.
+    """Label a log axis with plain numbers (``0.01, 0.1, 1, 10``) instead of ``10^k`` and
+    ``4×10^0``.
 
     Call it after the data are drawn (the automatic choice reads the axis' current limits).
 

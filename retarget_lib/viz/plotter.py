@@ -3,9 +3,10 @@ place; a flat "shadow" (the geometry projected onto the floor) on a checkerboard
 contact and sliding readable.
 
 Everything renders offscreen (EGL + Mesa on a machine without X or GPU) into ``(H, W, 3)`` uint8
-images. One plotter is reused for all frames of an animation (:func:`~retarget_lib.viz.animate.animate`,
-:class:`~retarget_lib.viz.player.Player`): a scene with the same structure only rewrites point
-arrays. The floor sits at the lowest drawn point, so feet touch it.
+images. One plotter is reused for all frames of an animation
+(:func:`~retarget_lib.viz.animate.animate`, :class:`~retarget_lib.viz.player.Player`): a scene with
+the same structure only rewrites point arrays. The floor sits at the lowest drawn point, so feet
+touch it.
 """
 
 from __future__ import annotations
@@ -75,7 +76,8 @@ def _set_points(mesh, points: np.ndarray, normals: np.ndarray | None = None) -> 
 
 
 def _checkerboard(x0: float, x1: float, z0: float, z1: float, step: float, y: float = 0.0):
-    """A floor at height ``y`` over ``[x0, x1] x [z0, z1]``: one quad per ``step`` square, two greys."""
+    """A floor at height ``y`` over ``[x0, x1] x [z0, z1]``: one quad per ``step`` square, two
+    greys."""
     xs = np.arange(x0, x1 + 0.5 * step, step)
     zs = np.arange(z0, z1 + 0.5 * step, step)
     gx, gz = np.meshgrid(xs, zs, indexing="ij")
@@ -248,8 +250,8 @@ class SceneRenderer:
         return p
 
     def drawn_points(self) -> np.ndarray:
-        """``(N, 3)`` every point currently drawn (joint spheres, bone tubes, meshes, contact pairs),
-        without floor and shadows."""
+        """``(N, 3)`` every point currently drawn (joint spheres, bone tubes, meshes, contact
+        pairs), without floor and shadows."""
         parts = [
             np.asarray(it[k].points)
             for it in self._items

@@ -195,12 +195,13 @@ def render_side_by_side(
     lineup wraps into rows rendered with one camera (same scale) and stacked vertically.
 
     Args:
-        scenes: :class:`Scene` objects, ``(J, 3)`` arrays (with ``parents``), ``(positions, parents)``
-            tuples or Motions (frame 0).
+        scenes: :class:`Scene` objects, ``(J, 3)`` arrays (with ``parents``), ``(positions,
+            parents)`` tuples or Motions (frame 0).
         titles: one label per scene (default: each scene's ``title``).
         parents: parents for bare arrays.
         view: camera preset or ``(az, el)``; ``"front"`` by default.
-        window_size: ``(width, height)`` of one row (default: 640x400 up to 3 characters, wider after).
+        window_size: ``(width, height)`` of one row (default: 640x400 up to 3 characters, wider
+            after).
         ncols: characters per row (default all in one row).
         parallel: orthographic projection.
         stand: put every character's lowest point on the floor.

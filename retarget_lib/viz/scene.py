@@ -118,7 +118,8 @@ class Scene:
 
 
 def as_scene(obj, parents: Sequence[int] | None = None, **kw) -> Scene:
-    """Coerce ``Scene`` / ``(J, 3)`` array / ``(positions, parents)`` tuple / ``Motion`` (frame 0)."""
+    """Coerce ``Scene`` / ``(J, 3)`` array / ``(positions, parents)`` tuple / ``Motion`` (frame
+    0)."""
     if isinstance(obj, Scene):
         return replace(obj, **kw) if kw else obj
     if isinstance(obj, tuple) and len(obj) == 2 and not np.isscalar(obj[1]):

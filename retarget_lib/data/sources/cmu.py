@@ -159,9 +159,10 @@ def load_cmu_clip(
     Args:
         name: one of :data:`CMU_CLIPS`.
         fps: resample to this frame rate (``None`` keeps the file's 120 or 100 fps).
-        canonical: fold onto the canonical 22 joints (:func:`~retarget_lib.io.joint_maps.to_canonical22`).
-        normalize: :meth:`~retarget_lib.core.motion.Motion.normalize_root` (frame 0 at ``x = z = 0``,
-            facing +Z, feet on ``y = 0``).
+        canonical: fold onto the canonical 22 joints
+            (:func:`~retarget_lib.io.joint_maps.to_canonical22`).
+        normalize: :meth:`~retarget_lib.core.motion.Motion.normalize_root` (frame 0 at ``x = z =
+            0``, facing +Z, feet on ``y = 0``).
 
     Returns:
         The Motion (metres; ``rotations (T, J, 4)``, ``root_positions (T, 3)``), named after the

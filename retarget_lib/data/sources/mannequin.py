@@ -15,8 +15,8 @@ finger joints) with up to 8 influences per vertex. What its arrays mean, as chec
   the vertices listed in ``skin_rigid_joint_indices`` rigidly to one joint; the same is done here.
 
 The first 22 joints follow the SMPL-X body order and map one-to-one onto the canonical 22
-(:data:`~retarget_lib.io.amass.SMPLX_TO_CANONICAL`, by the rig conventions' detector); hand roots and
-fingers are folded into the wrists.
+(:data:`~retarget_lib.io.amass.SMPLX_TO_CANONICAL`, by the rig conventions' detector); hand roots
+and fingers are folded into the wrists.
 The body is lifted so that its soles rest on ``y = 0``.
 """
 
@@ -59,7 +59,8 @@ def mannequin_path() -> Path:
 
 
 def load_mannequin(verify: bool = True) -> Character:
-    """The mannequin-x wooden body as a canonical-22 :class:`~retarget_lib.core.character.Character`.
+    """The mannequin-x wooden body as a canonical-22
+    :class:`~retarget_lib.core.character.Character`.
 
     Args:
         verify: check the asset's SHA-256 against :data:`MANNEQUIN_SHA256`.

@@ -160,7 +160,8 @@ def scan_mixamo_folder(root: str | Path) -> list[MixamoCharacterFolder]:
     if not root.is_dir():
         raise DataError(
             f"mixamo-local folder {root} does not exist; set RETARGET_MIXAMO "
-            "(layout: <Character>/<Motion>.bvh|.fbx|.glb + <Character>/shape.npz or <Character>.fbx|.glb)"
+            "(layout: <Character>/<Motion>.bvh|.fbx|.glb + <Character>/shape.npz or "
+            "<Character>.fbx|.glb)"
         )
     found = []
     for folder in sorted(p for p in root.iterdir() if p.is_dir()):
@@ -215,7 +216,8 @@ class DeclaredSplit:
         unseen_motions: the unseen motions (from ``unseen_motions``, or every motion of the folder
             not in ``seen_motions``), or ``None``.
         seen_characters: the seen (training) characters in the file's order (from
-            ``seen_characters``, or every character not in ``unseen_characters``, by name), or ``None``.
+            ``seen_characters``, or every character not in ``unseen_characters``, by name), or
+            ``None``.
     """
 
     path: Path
@@ -425,7 +427,8 @@ class MixamoFolder:
         return self._mesh(name)[0]
 
     def fingerprint(self, character: str, motion: str) -> str:
-        """16 hex digits of the sha256 of a clip's file and its character's mesh file (cache keys)."""
+        """16 hex digits of the sha256 of a clip's file and its character's mesh file (cache
+        keys)."""
         mesh = self.mesh_file(character)
         parts = [sha256_file(self.clip_path(character, motion))] + (
             [sha256_file(mesh)] if mesh is not None else []
@@ -451,7 +454,8 @@ def load_mixamo_folder(root: str | Path) -> MixamoFolder:
         DataError: no such folder or no clip in it.
         MixamoFolderError: an ambiguous layout or an invalid ``splits.yaml``.
         BVHError, GLTFError, FBXError: a malformed clip (names the file).
-        JointSetError: a clip whose joints do not fold onto the canonical 22 (names the file's joints).
+        JointSetError: a clip whose joints do not fold onto the canonical 22 (names the file's
+            joints).
     """
     characters = scan_mixamo_folder(root)
     splits = read_splits_file(root, characters)

@@ -1,6 +1,6 @@
-"""The ``model-viewer`` source: Google's ``<model-viewer>`` web component (npm ``@google/model-viewer``,
-Apache-2.0; it bundles three.js, MIT, and lit, BSD-3-Clause), which the offline HTML book uses to
-play result GLBs in 3-D.
+"""The ``model-viewer`` source: Google's ``<model-viewer>`` web component (npm
+``@google/model-viewer``, Apache-2.0; it bundles three.js, MIT, and lit, BSD-3-Clause), which the
+offline HTML book uses to play result GLBs in 3-D.
 
 One file of the package is used: ``package/dist/model-viewer-umd.min.js``, the build that a plain
 ``<script src=...>`` loads (a module script would be blocked on a page opened from disk). It is

@@ -1,5 +1,6 @@
 """The ``real-characters`` source: publicly released skinned humanoids in several rig conventions,
-shipped in the repository under ``data/real_characters/`` (a validation set: real meshes, real rigs).
+shipped in the repository under ``data/real_characters/`` (a validation set: real meshes, real
+rigs).
 
 Each file is a compact GLB made by ``tools/real_characters.py`` from its public source (textures,
 materials, UVs, morph targets and animations dropped; the skin kept), listed in
@@ -129,14 +130,15 @@ def skeleton_proportions(skeleton: Skeleton) -> dict[str, float | str]:
     """Rest-pose proportions of a canonical-22 skeleton (the columns of ``proportions.csv`` but
     the mesh's height).
 
-    ``height_m`` is the library's skeleton height ``H`` (:meth:`~retarget_lib.core.skeleton.Skeleton.height`:
-    the hips-to-head chain plus the left leg chain). Lengths, as fractions of ``H`` (left side):
-    ``leg`` hip-knee-ankle, ``thigh``, ``shin``, ``foot`` ankle-toe, ``arm`` shoulder joint-elbow-wrist,
-    ``upper_arm``, ``forearm``, ``spine`` the Hips-Spine-Spine1-Spine2-Neck chain, ``neck_head``
-    Neck-Head, ``shoulder`` Spine2-clavicle-shoulder joint, ``shoulder_width`` between the shoulder
-    joints, ``hip_width`` between the hip joints. ``arm_angle_deg``: how far the left upper arm
-    hangs below the horizontal plane (0 = T-pose, about 45 = A-pose, 90 = arms down);
-    ``rest_pose`` names it (T below 20, A below 60, else down).
+    ``height_m`` is the library's skeleton height ``H``
+    (:meth:`~retarget_lib.core.skeleton.Skeleton.height`: the hips-to-head chain plus the left leg
+    chain). Lengths, as fractions of ``H`` (left side): ``leg`` hip-knee-ankle, ``thigh``, ``shin``,
+    ``foot`` ankle-toe, ``arm`` shoulder joint-elbow-wrist, ``upper_arm``, ``forearm``, ``spine``
+    the Hips-Spine-Spine1-Spine2-Neck chain, ``neck_head`` Neck-Head, ``shoulder``
+    Spine2-clavicle-shoulder joint, ``shoulder_width`` between the shoulder joints, ``hip_width``
+    between the hip joints. ``arm_angle_deg``: how far the left upper arm hangs below the horizontal
+    plane (0 = T-pose, about 45 = A-pose, 90 = arms down); ``rest_pose`` names it (T below 20, A
+    below 60, else down).
     """
     p = skeleton.rest_positions()
 

@@ -1,5 +1,6 @@
-"""The ``real-motions`` source: real motion capture shipped in the repository (``data/real_motions``),
-a second public mocap source beside CMU's (:mod:`~retarget_lib.data.sources.cmu`).
+"""The ``real-motions`` source: real motion capture shipped in the repository
+(``data/real_motions``), a second public mocap source beside CMU's
+(:mod:`~retarget_lib.data.sources.cmu`).
 
 * ``motion_capture_rom.bvh``: the range-of-motion capture of assimp's test models (a 3ds Max Biped
   performer with German bone names, 45 s, keys at 6 per second; "Free for any purpose"), converted
@@ -59,7 +60,8 @@ def real_motion_path(name: str) -> Path:
         )
     if sha256_file(path) != entry["sha256"]:
         raise DataError(
-            f"{SOURCE_ID}: {path} does not match its sha256 in data_manifest.yaml; restore it with git, "
+            f"{SOURCE_ID}: {path} does not match its sha256 in data_manifest.yaml; restore it with "
+            "git, "
             "or rebuild it with tools/real_motions.py and record the new sha256"
         )
     return path
@@ -71,8 +73,8 @@ def load_real_motion(name: str, fps: float | None = 30, normalize: bool = True) 
     Args:
         name: one of :func:`real_motion_names`.
         fps: resample to this rate (``None`` keeps the file's).
-        normalize: :meth:`~retarget_lib.core.motion.Motion.normalize_root` (frame 0 at ``x = z = 0``,
-            facing +Z, feet on ``y = 0``).
+        normalize: :meth:`~retarget_lib.core.motion.Motion.normalize_root` (frame 0 at ``x = z =
+            0``, facing +Z, feet on ``y = 0``).
     """
     entry, path = _entry(name), real_motion_path(name)
     raw = load_bvh(path, unit=entry["unit"])

@@ -3,8 +3,8 @@ and notebook 10: a synthetic motion authored directly on the SMPL-X skeleton of 
 (:func:`~retarget_lib.io.amass.smplx_skeleton`) and written with
 :func:`~retarget_lib.io.amass.save_amass` (Z-up, ``poses (T, 165)``, 16 betas). Deterministic.
 
-The shipped copy is ``tests/data/amass_walk.npz`` (``python -m retarget_lib.data.synthetic.amass_clip``
-writes it again).
+The shipped copy is ``tests/data/amass_walk.npz`` (``python -m
+retarget_lib.data.synthetic.amass_clip`` writes it again).
 """
 
 from __future__ import annotations
@@ -32,7 +32,8 @@ def make_amass_clip(
     duration: float = 4.0,
     betas: np.ndarray = AMASS_CLIP_BETAS,
 ) -> None:
-    """Write a synthetic ``family`` clip performed by the SMPL-X body ``betas`` as an AMASS ``.npz``.
+    """Write a synthetic ``family`` clip performed by the SMPL-X body ``betas`` as an AMASS
+    ``.npz``.
 
     Args:
         path: destination ``.npz``.

@@ -1,10 +1,11 @@
 """The embedded ``synthetic`` dataset: every named character and a motion library, built once into
 the cache (``<cache>/synthetic/dataset.npz``) and loaded from there.
 
-Each clip is authored (keyframes + IK, :mod:`retarget_lib.data.synthetic.motions`) on one *performer*
-character, so its contacts are exact on that body; performers rotate over all characters. Any
-other character's version of a clip is its ground truth (:func:`retarget_lib.core.transfer.
-retarget_ground_truth`) — like Mixamo, where every motion exists on every character.
+Each clip is authored (keyframes + IK, :mod:`retarget_lib.data.synthetic.motions`) on one
+*performer* character, so its contacts are exact on that body; performers rotate over all
+characters. Any other character's version of a clip is its ground truth
+(:func:`retarget_lib.core.transfer. retarget_ground_truth`) — like Mixamo, where every motion exists
+on every character.
 """
 
 from __future__ import annotations
@@ -42,8 +43,8 @@ class SyntheticClip:
         seed: style seed within the family.
         performer: name of the character the clip was authored on.
         foot_contacts: ``(T, 2)`` bool, left/right foot flat and still (as authored).
-        joint_contacts: ``(T, 4)`` bool per :data:`~retarget_lib.core.skeleton.FOOT_CONTACT_JOINTS` (a toe
-            can stay planted while its heel lifts).
+        joint_contacts: ``(T, 4)`` bool per :data:`~retarget_lib.core.skeleton.FOOT_CONTACT_JOINTS`
+            (a toe can stay planted while its heel lifts).
         hand_contacts: hand-contact intervals (as authored).
     """
 

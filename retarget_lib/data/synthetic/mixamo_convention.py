@@ -2,9 +2,10 @@
 
 Both papers train on Mixamo, where every character is rigged in one T-pose rest with identity rest
 rotations, and every motion exists on every character (Mixamo's own retargeting keeps feet planted
-and hands where they touch). The default synthetic data (:mod:`~retarget_lib.data.synthetic.dataset`,
-the *varied-rest* profile) gives its characters A-poses, T-poses, bent knees and swept arms, so
-that copying local rotations is wrong there; this profile is the easier, paper-like one:
+and hands where they touch). The default synthetic data
+(:mod:`~retarget_lib.data.synthetic.dataset`, the *varied-rest* profile) gives its characters
+A-poses, T-poses, bent knees and swept arms, so that copying local rotations is wrong there; this
+profile is the easier, paper-like one:
 
 * **Characters** ``tp01 .. tp14``: T-pose rest (arms horizontal, straight legs, feet forward,
   straight spine; all encoded in the offsets' directions, rest rotations identity), segment length

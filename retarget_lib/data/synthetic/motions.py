@@ -6,14 +6,14 @@ is deterministic in ``(family, skeleton, seed)``; the seed draws the style (spee
 amplitude, arm swing, stance width, timing, turning direction, small asymmetries and noise) and
 the duration (2-40 s depending on the family), at 30 fps.
 
-The clips are authored with :mod:`retarget_lib.data.synthetic.authoring` (canonical rest pose, planted
-feet, real hand contacts; see there for how a clip is made), one function per family in
+The clips are authored with :mod:`retarget_lib.data.synthetic.authoring` (canonical rest pose,
+planted feet, real hand contacts; see there for how a clip is made), one function per family in
 :mod:`retarget_lib.data.synthetic.families`.
 
 ``Motion.meta`` records what was used: ``family``, ``seed``, ``style``, ``body_radii``,
 ``foot_contacts`` ``(T, 2)`` bool (left, right foot flat on the ground and still),
-``joint_contacts`` ``(T, 4)`` bool in :data:`~retarget_lib.core.skeleton.FOOT_CONTACT_JOINTS` order (a toe
-stays planted while its heel lifts), and ``hand_contacts``: a list of :class:`HandContact`.
+``joint_contacts`` ``(T, 4)`` bool in :data:`~retarget_lib.core.skeleton.FOOT_CONTACT_JOINTS` order
+(a toe stays planted while its heel lifts), and ``hand_contacts``: a list of :class:`HandContact`.
 """
 
 from __future__ import annotations

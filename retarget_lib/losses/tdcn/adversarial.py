@@ -34,7 +34,8 @@ __all__ = [
 
 
 def adversarial_loss_generator(h_fake: Tensor, reduction: Reduction = "mean") -> Tensor:
-    """Generator side of the least-squares adversarial loss (Eq. 21, case ``A ≠ B``): ``(h^B − 1)²``.
+    """Generator side of the least-squares adversarial loss (Eq. 21, case ``A ≠ B``): ``(h^B −
+    1)²``.
 
     **Reading of Eq. 21.** The paper prints ``La = (h^A)² + (1 − h^B)²`` (real scores ``h^A``,
     fake ``h^B``) inside ``min_G max_D`` (Eq. 6). Only ``(1 − h^B)²`` depends on G, so G

@@ -18,9 +18,9 @@ terms comparing **standardised** positions (z-scores with the training set's per
 std; :class:`PositionScale`). Under per-element means in metres, a 22-joint reconstruction term
 is about two orders of magnitude weaker against ``λh·Lh`` than in the authors' balance (measured
 at initialisation on the synthetic data: ``Lc`` 0.61 against ``λh·Lh`` 15.9 with means in
-metres; 123 against 15.9 with frame sums of z-scores), which is why the paper-form network, trained with the means,
-does not even learn identity. ``loss.reduction: frame_sum`` and ``loss.standardize: true`` in a
-config restore the authors' balance (``configs/tdcn_paper_code_scale.yaml``).
+metres; 123 against 15.9 with frame sums of z-scores), which is why the paper-form network, trained
+with the means, does not even learn identity. ``loss.reduction: frame_sum`` and ``loss.standardize:
+true`` in a config restore the authors' balance (``configs/tdcn_paper_code_scale.yaml``).
 """
 
 from __future__ import annotations

@@ -205,8 +205,8 @@ def height_loss(
     ``Lh = smoothL1(l^A_{2:T} − l̂^B_{2:T}) + λg · smoothL1(m^A_{2:T} − m̂^B_{2:T})`` with
     ``l`` the per-joint frame-to-frame displacement magnitudes over ``H`` (Eqs. 9-12, see
     :func:`~retarget_lib.core.quantities.normalized_joint_displacements`), ``m`` the root's
-    distance from the origin over ``H`` (Eqs. 15-16) and ``smoothL1`` Eq. 14. Frame 1 of ``m`` is not used (Eq. 17 says ``2:T``; the
-    authors' code uses ``1:T−1`` — immaterial for long clips).
+    distance from the origin over ``H`` (Eqs. 15-16) and ``smoothL1`` Eq. 14. Frame 1 of ``m`` is
+    not used (Eq. 17 says ``2:T``; the authors' code uses ``1:T−1`` — immaterial for long clips).
 
     Example: a joint moving 3 cm in a frame on a 1.5 m character (l = 0.02) matches the same
     joint moving 4 cm on a 2 m character (l = 0.02): zero loss.
@@ -246,7 +246,8 @@ def height_loss(
 def bone_direction_loss(
     p_a: Tensor, p_b_hat: Tensor, parents: Sequence[int], reduction: Reduction = "mean"
 ) -> Tensor:
-    """Bone-direction term ``Ld = mean_j ‖u^B_j − u^A_j‖²`` — not in the TDCN paper (weight 0 there).
+    """Bone-direction term ``Ld = mean_j ‖u^B_j − u^A_j‖²`` — not in the TDCN paper (weight 0
+    there).
 
     ``u_j = (p_j − p_parent(j)) / ‖p_j − p_parent(j)‖`` is the world direction of the bone that ends
     at joint ``j`` (root-relative positions, root rotation applied). It is the skeleton-level
@@ -283,7 +284,8 @@ def bone_direction_loss(
 def regularization_loss(
     q_b_hat: Tensor, q_a_hat: Tensor | None = None, reduction: Reduction = "mean"
 ) -> Tensor:
-    """Quaternion-norm regulariser ``Lr = (1 − ‖q̂^B‖)² + (1 − ‖q̂^A‖)²`` (Eq. 22, after Pavllo 2018).
+    """Quaternion-norm regulariser ``Lr = (1 − ‖q̂^B‖)² + (1 − ‖q̂^A‖)²`` (Eq. 22, after Pavllo
+    2018).
 
     Apply to the network's **raw** quaternions, before normalisation (normalised ones cost 0).
 

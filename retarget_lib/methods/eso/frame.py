@@ -165,7 +165,8 @@ def decode(
 
 
 class Frame:
-    """The fixed data of one frame's ESO problem: its state, contacts, held joints, colliding pairs."""
+    """The fixed data of one frame's ESO problem: its state, contacts, held joints, colliding
+    pairs."""
 
     def __init__(
         self,
@@ -326,7 +327,8 @@ class Problem:
             float(source.height),
         )
         self.leg_ratio = float(leg_ratio)
-        #: what a residual network corrects (Eweak's targets θ^A, o^(A→B)); ignored by the paper's network
+        #: what a residual network corrects (Eweak's targets θ^A, o^(A→B)); ignored by the paper's
+        #: network
         self.base = ResidualBase(
             self.source.rotations[None], self.leg_ratio * self.source.root_velocity[None]
         )
@@ -358,7 +360,8 @@ class Problem:
 
 def contact_pairs_at(contacts: Any, t: int) -> np.ndarray:
     """Frame ``t``'s ``(n, 2)`` contact vertex pairs of ``contacts`` (see
-    :func:`encoder_space_optimization`: a ``SelfContacts``, a sequence of pair arrays, or ``None``)."""
+    :func:`encoder_space_optimization`: a ``SelfContacts``, a sequence of pair arrays, or
+    ``None``)."""
     if contacts is None:
         return np.zeros((0, 2), np.int64)
     pairs = contacts.at(t) if hasattr(contacts, "at") else contacts[t]

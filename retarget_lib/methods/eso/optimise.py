@@ -22,8 +22,8 @@ frame, ``Efull(t)`` (Eq. 1):
 
 =========  ========================================================================================
 ``j2j``    ``λ ·`` relaxed self-contact term on frame ``t``'s reachable pairs
-``hold``   ``hold ·`` mean drift of the joints the hands touch from their initial positions (App. B.1)
-``int``    ``β ·`` Eq. 4 on frame ``t``'s mesh and its detected triangle pairs (Eq. 5 weights)
+``hold``   ``hold ·`` mean drift of the joints the hands touch from their initial positions (App.
+B.1) ``int``    ``β ·`` Eq. 4 on frame ``t``'s mesh and its detected triangle pairs (Eq. 5 weights)
 ``foot``   ``γ ·`` Eq. 6 at ``t`` (velocity against the already fixed frame ``t − 1``)
 ``ee``     ``ω ·`` Eq. 9 at ``t`` (velocities against frame ``t − 1``, source and output)
 ``weak``   Eq. 8: ``ρ Σ_j ‖θ_t − θ^A_t‖²`` + ``‖o_(t−1) − leg_ratio · o^A_(t−1)‖²`` (the velocity
@@ -41,11 +41,12 @@ skinning joint ``LeftHand``/``RightHand``), the dominant joint of every non-hand
 pair (:func:`reached_joints`).
 
 Speed (:func:`eso_throughput`, ``retarget bench --only eso``; the shipped network, the mannequin's
-synthetic ``pray`` clip (palms together) onto MakeHuman's body decimated to 10,000 vertices, 80 colliding triangle pairs
-and 3 contact pairs a frame, 30 steps, idle 2-core machine): one uncompiled step is ~8,000 small
-tensor operations (decoder, FK, skinning of the vertices the energy reads, energy, backward, Adam:
-~8 ms, almost all per-operation overhead), 0.27 s a frame. Compiled (``compile=True``), one step is
-one call of one graph (:func:`~retarget_lib.methods.eso.step.adam_step`: energy, its gradient and Adam's update fused by
+synthetic ``pray`` clip (palms together) onto MakeHuman's body decimated to 10,000 vertices, 80
+colliding triangle pairs and 3 contact pairs a frame, 30 steps, idle 2-core machine): one uncompiled
+step is ~8,000 small tensor operations (decoder, FK, skinning of the vertices the energy reads,
+energy, backward, Adam: ~8 ms, almost all per-operation overhead), 0.27 s a frame. Compiled
+(``compile=True``), one step is one call of one graph
+(:func:`~retarget_lib.methods.eso.step.adam_step`: energy, its gradient and Adam's update fused by
 ``torch.compile``): 73 ms a frame, 13.7 frames/s (was 0.10-0.11 s while the backward ran through
 autograd's engine and the update through ``torch.optim``), of which ~20 ms are the frame's collision
 detection (two threads) and initial decode. Detection runs once per frame by default
@@ -171,7 +172,8 @@ def encoder_space_optimization(
         lr: Adam learning rate ``α`` (0.01).
         reach: optimise a contact only if the initial output has it within this distance (metres).
         blend: fraction of a contact gap targeted per frame (0.3).
-        start: ``(3,)`` frame 0's root position, on the model's device (default ``leg_ratio ×`` the source's first root).
+        start: ``(3,)`` frame 0's root position, on the model's device (default ``leg_ratio ×`` the
+            source's first root).
         redetect_every: re-detect colliding triangles every this many iterations (0 = once per
             frame, on the initial output).
         num_threads: torch intra-op threads while optimising (restored afterwards); ``None``
@@ -213,7 +215,8 @@ def encoder_space_optimization(
     if start is None:
         start = problem.leg_ratio * problem.source.positions[0, 0]
     step = compiled_step() if compile else adam_step
-    if compile:  # inductor's parallel kernels for these dynamic sizes corrupt memory on 2 threads (torch 2.13)
+    # inductor's parallel kernels for these dynamic sizes corrupt memory on 2 threads (torch 2.13)
+    if compile:
         num_threads = 1
     was_training, threads = model.training, torch.get_num_threads()
     grad_flags = [p.requires_grad for p in model.parameters()]

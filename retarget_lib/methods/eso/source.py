@@ -45,8 +45,8 @@ def eso_source(
     Args:
         motion: source motion (metres).
         target: a ``Character``-like object (``.skeleton``).
-        foot_contacts: ``(T, 4)`` bool; default :func:`retarget_lib.geometry.contacts.detect_foot_contacts`
-            on the source.
+        foot_contacts: ``(T, 4)`` bool; default
+            :func:`retarget_lib.geometry.contacts.detect_foot_contacts` on the source.
         rest_aligned: Eweak's ``θ^A`` (and a residual network's base) are the source rotations
             re-expressed on the target's rest pose
             (:func:`~retarget_lib.core.transfer.transfer_rotations`): pass ``model.residual``

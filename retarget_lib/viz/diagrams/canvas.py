@@ -75,7 +75,8 @@ class Box(NamedTuple):
 
 
 class Canvas:
-    """A figure whose main axes span it in inches: ``(0, 0)`` lower left, ``(width, height)`` upper right."""
+    """A figure whose main axes span it in inches: ``(0, 0)`` lower left, ``(width, height)`` upper
+    right."""
 
     def __init__(self, width: float = 9.0, height: float = 4.0, title: str | None = None):
         self.fig = DiagramFigure(figsize=(width, height), dpi=100)

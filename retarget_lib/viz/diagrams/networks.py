@@ -69,7 +69,8 @@ def tdcn_generator_diagram(config: Mapping[str, Any] | None = None) -> Figure:
 
     Left: input features (Sec. 3.1, Eq. 2: local positions ``p``, quaternions ``q``, root ``r``
     and the target skeleton ``s̄B``), edge padding, the "3d1" convolution, the residual blocks
-    (dilated convolution, 1x1 convolution, skip connection), the head and the outputs ``q̂``, ``r̂``.
+    (dilated convolution, 1x1 convolution, skip connection), the head and the outputs ``q̂``,
+    ``r̂``.
     Right: the dilation pyramid — which frames of each layer feed one output frame.
 
     Every number is read from the generator that :func:`retarget_lib.models.build_model` builds
@@ -242,11 +243,12 @@ def tdcn_generator_diagram(config: Mapping[str, Any] | None = None) -> Figure:
     return cv.fig
 
 
-# ------------------------------------------------------------------------------------------ discriminators
+# ----------------------------------------------------------------------------------- discriminators
 def patch_discriminator_diagram(
     config: Mapping[str, Any] | None = None, clip_frames: int = 120
 ) -> Figure:
-    """TDCN's patch discriminator (Kim et al. 2020, Secs. 4.1-4.2, Fig. 3) beside NKN's whole-clip one.
+    """TDCN's patch discriminator (Kim et al. 2020, Secs. 4.1-4.2, Fig. 3) beside NKN's whole-clip
+    one.
 
     Top: the patch discriminator scores every window of ``RF`` frames (31, or 81 for A4) of the
     height-normalised features ``(l_t, δ_t, B)`` (Eqs. 18-20) with valid convolutions, giving one
@@ -366,13 +368,14 @@ def patch_discriminator_diagram(
 
 # ------------------------------------------------------------------------------------------ NKN
 def nkn_diagram(config: Mapping[str, Any] | None = None) -> Figure:
-    """The NKN baseline (Villegas, Yang, Ceylan, Lee 2018; TDCN Table 4 "Baseline"), unrolled in time.
+    """The NKN baseline (Villegas, Yang, Ceylan, Lee 2018; TDCN Table 4 "Baseline"), unrolled in
+    time.
 
     Per frame ``t``: the encoder GRU reads ``x_t = [p_t, v_t]`` (local joint positions, root
     offset); the decoder GRU reads the encoder state, the target skeleton ``s̄B`` and its own
-    previous output ``p̂_{t-1}, v̂_{t-1}``; a linear layer gives raw quaternions ``q̂_t`` and the root
-    offset ``v̂_t``; the forward-kinematics layer turns ``q̂_t`` into ``p̂_t`` on ``s̄B`` (fed back to
-    the next step); the root is integrated, ``r̂_t = r̂_0 + Σ v̂``.
+    previous output ``p̂_{t-1}, v̂_{t-1}``; a linear layer gives raw quaternions ``q̂_t`` and the
+    root offset ``v̂_t``; the forward-kinematics layer turns ``q̂_t`` into ``p̂_t`` on ``s̄B`` (fed
+    back to the next step); the root is integrated, ``r̂_t = r̂_0 + Σ v̂``.
 
     Widths are read from the model :func:`retarget_lib.models.build_model` builds for ``config``.
 
@@ -464,7 +467,8 @@ def nkn_diagram(config: Mapping[str, Any] | None = None) -> Figure:
     cv.text(
         4.5,
         0.13,
-        "root: $\\hat{r}_t = \\hat{r}_0 + \\sum\\hat{v}$ (offsets integrated, so errors accumulate; TDCN Sec. 6.1)",
+        "root: $\\hat{r}_t = \\hat{r}_0 + \\sum\\hat{v}$ (offsets integrated, so errors "
+        "accumulate; TDCN Sec. 6.1)",
         size=MIN_FONT,
         color="#444444",
     )
@@ -473,7 +477,7 @@ def nkn_diagram(config: Mapping[str, Any] | None = None) -> Figure:
     return cv.fig
 
 
-# ------------------------------------------------------------------------------------------ contact-aware
+# ------------------------------------------------------------------------------------ contact-aware
 def georet_diagram(model=None) -> Figure:
     """The geometry-conditioned RNN of Villegas et al. 2021 (Sec. 3.2, Fig. 3, Eqs. 12-19).
 

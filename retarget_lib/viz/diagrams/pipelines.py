@@ -72,7 +72,8 @@ def eso_loop_diagram(eso_config: Mapping[str, Any] | None = None) -> Figure:
         2.5,
         0.85,
         "gradient",
-        "$\\partial E/\\partial h^{enc}_t$, $\\partial E/\\partial o_{t-1}$\nthrough the frozen decoder",
+        "$\\partial E/\\partial h^{enc}_t$, $\\partial E/\\partial o_{t-1}$\nthrough the frozen "
+        "decoder",
         role="head",
     )
     adam = cv.box(0.2, 1.1, 2.2, 0.85, "Adam step", f"lr {lr:g} (App. B.1)", role="opt")
@@ -97,7 +98,7 @@ def eso_loop_diagram(eso_config: Mapping[str, Any] | None = None) -> Figure:
     return cv.fig
 
 
-# ------------------------------------------------------------------------------------------ data flow
+# ---------------------------------------------------------------------------------------- data flow
 class Stage(NamedTuple):
     """One box of a method's data flow: what happens and which library object does it."""
 

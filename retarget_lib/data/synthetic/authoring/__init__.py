@@ -1,10 +1,10 @@
 """Motion authoring engine: keyframed, IK-solved poses made physically consistent for one character.
 
-The motion families (:mod:`retarget_lib.data.synthetic.motions`) describe *what* is performed; this package
-provides the tools they are written with (the character, :mod:`.body`; timing and easing curves,
-:mod:`.timing`; the canonical pose, :mod:`.pose`; footstep plans, :mod:`.feet`; hand goals,
-:mod:`.assembly`) and turns a finished :class:`Plan` into a :class:`~retarget_lib.core.motion.Motion`
-(:mod:`.assembly`).
+The motion families (:mod:`retarget_lib.data.synthetic.motions`) describe *what* is performed; this
+package provides the tools they are written with (the character, :mod:`.body`; timing and easing
+curves, :mod:`.timing`; the canonical pose, :mod:`.pose`; footstep plans, :mod:`.feet`; hand goals,
+:mod:`.assembly`) and turns a finished :class:`Plan` into a
+:class:`~retarget_lib.core.motion.Motion` (:mod:`.assembly`).
 
 How a clip is made (so that it is physically consistent *for the given character*):
 
@@ -20,9 +20,9 @@ How a clip is made (so that it is physically consistent *for the given character
    (:func:`~retarget_lib.core.measures.rest_ground`: ``y = 0`` under a character that
    stands on the floor, so its soles, not its toe joints, touch it): a planted foot is flat, still,
    and keeps its rest height above that ground; between plants the ankle follows a minimum-jerk path
-   with a lift, toe-off and heel-strike pitch, never letting the toe joint under its rest height. The root is lowered wherever a leg
-   could not reach, and both legs are solved with :func:`~retarget_lib.geometry.ik.two_bone_ik` (knees
-   towards the toes).
+   with a lift, toe-off and heel-strike pitch, never letting the toe joint under its rest height.
+   The root is lowered wherever a leg could not reach, and both legs are solved with
+   :func:`~retarget_lib.geometry.ik.two_bone_ik` (knees towards the toes).
 3. **Make the hand contacts real.** Targets are computed from *this* character's joints plus a
    body-size hint (:func:`default_body_radii`): palms meeting in front of the chest (clap, pray),
    hands on the side of the pelvis (hands_on_hips), a hand on top of the head (touch_head), fists

@@ -1,0 +1,127 @@
+"""The ``data``, ``retarget``, ``train``, ``sweep`` and ``bench`` subcommands: each imports what it
+runs inside its function (see :mod:`retarget_lib.cli`)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from ..files import atomic_write, sha256_file
+
+
+def _cmd_data(args: argparse.Namespace) -> int:
+    from ..data import status
+
+    if args.action == "list":
+        print(status.cache_summary())
+        print(status.source_table())
+        return 0
+    if args.action == "verify":
+        statuses = status.verify()
+        for s in statuses:
+            print(f"{s.id}: {s.state} — {s.detail}")
+        print("all required sources verified")
+        return 0
+    from ..data.build import build_all
+
+    build_all(force=args.force)
+    return 0
+
+
+def _cmd_retarget(args: argparse.Namespace) -> int:
+    from ..methods.retarget import retarget_file
+
+    out = retarget_file(
+        args.source,
+        args.target,
+        args.method,
+        args.out,
+        args.checkpoint,
+        args.target_mesh,
+        args.source_mesh,
+        fps=args.fps,
+        force=args.force,
+        joint_map=args.joint_map,
+        source_joint_map=args.source_joint_map,
+        device=args.device,
+    )
+    print(f"wrote {out}")
+    return 0
+
+
+def _cmd_train(args: argparse.Namespace) -> int:
+    from ..losses import NonFiniteLossError
+    from ..training.distributed import from_environment
+    from ..training.run import train_config
+
+    try:
+        result = train_config(
+            args.config,
+            args.overrides,
+            args.profile,
+            args.out,
+            args.resume,
+            args.export,
+            args.device,
+            args.amp,
+            progress=sys.stderr.isatty(),
+        )
+    except NonFiniteLossError as e:
+        print(f"retarget train: stopped: {e}", file=sys.stderr)
+        return 1
+    if not from_environment().is_main:  # torchrun: rank 0 reports
+        return 0
+    print(f"checkpoint: {result.final}  (losses: {result.final.parent / 'losses.csv'})")
+    if result.exported:
+        print(f"exported model: {result.exported}  sha256 {sha256_file(result.exported)}")
+    return 0
+
+
+def _cmd_sweep(args: argparse.Namespace) -> int:
+    from ..training import sweep
+
+    if not args.status:
+        jobs = sweep.submit(
+            args.table,
+            args.out,
+            args.overrides,
+            args.profile,
+            args.rows,
+            args.cluster,
+            args.device,
+            args.amp,
+            args.gpus_per_row,
+            args.timeout_min,
+            args.partition,
+            args.parallel,
+        )
+        print(
+            f"submitted {len(jobs)} job(s) to {args.out}/jobs: "
+            + (
+                ", ".join(f"{r} ({j.job_id})" for r, j in jobs.items())
+                or "every row is finished already"
+            )
+        )
+        if args.wait:
+            sweep.wait(jobs)
+    statuses = sweep.sweep_status(args.out)
+    width = max(len(s.row) for s in statuses)
+    for s in statuses:
+        print(
+            (
+                f"{s.row:<{width}}  {s.state:<8} step {s.step:>6}  "
+                f"job {s.job_id or '-'}  {s.detail}"
+            ).rstrip()
+        )
+    return 1 if any(s.state == "failed" for s in statuses) else 0
+
+
+def _cmd_bench(args: argparse.Namespace) -> int:
+    from ..evaluation.bench import run
+
+    table = run(quick=args.quick, only=args.only)
+    print(table)
+    if args.out:
+        with atomic_write(args.out, "w") as f:
+            f.write(table + "\n")
+    return 0
