@@ -37,7 +37,8 @@ animated and ``R_j`` the rest world rotation of joint ``j``.
 exported "Without Skin": an armature and its animation): without a skinned mesh the joints are the
 nodes the animation moves and every node below them (end sites), except mesh nodes and the pivot
 helpers assimp inserts when it converts an FBX (``..._$AssimpFbx$_...``), whose transforms are
-applied as those of any non-joint ancestor.
+applied as those of any non-joint ancestor in the rest pose; in the animation they are folded into
+the joint below, whose keys assimp bakes them into (:func:`.animation._fold_assimp_pivots`).
 
 Bounds (:class:`~retarget_lib.errors.LimitError` naming the limit): file size 256 MiB, 100,000
 nodes, 1000 joints, 2,000,000 vertices, 4,000,000 triangles, 1,000,000 keys per channel and

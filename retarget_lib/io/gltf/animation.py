@@ -20,6 +20,7 @@ from ..untrusted import (
     check_motion_samples,
 )
 from .document import (
+    _ASSIMP_HELPER,
     _BLOCK_SAMPLES,
     _KEY_TIMES,
     _KEY_VALUES,
@@ -253,13 +254,19 @@ def _sample_motion(
         f" (keys from {start:g} s to {end:g} s at {rate:g} fps)",
     )
     static = {n: _local_matrix(g.nodes[n]) for n in nodes if n not in moving}
+    rest_of = _fold_assimp_pivots(doc, tree.node_parent, moving, static)
     rotations, root = np.empty((count, len(tree.nodes), 4)), np.empty((count, 3))
     block = max(1, _BLOCK_SAMPLES // (len(tree.nodes) + len(moving)))
     for lo in range(0, count, block):
         t = start + np.arange(lo, min(count, lo + block)) / rate
         local = dict(static)
         local.update(
-            {n: _animated_local(g.nodes[n], [ch for ch in used if ch.node == n], t) for n in moving}
+            {
+                n: _animated_local(
+                    g.nodes[n], [ch for ch in used if ch.node == n], t, rest_of.get(n)
+                )
+                for n in moving
+            }
         )
         rotations[lo : lo + len(t)], root[lo : lo + len(t)] = _pose(
             doc, tree, rest_rot, local, len(t)
@@ -274,11 +281,49 @@ def _sample_motion(
     )
 
 
-def _animated_local(node: JsonObject, channels: list[_Channel], t: np.ndarray) -> np.ndarray:
-    """``(T, 4, 4)`` the local transforms of an animated node at times ``t``."""
+def _fold_assimp_pivots(
+    doc: GLTFDocument, node_parent: list[int], moving: set[int], static: dict[int, np.ndarray]
+) -> dict[int, tuple]:
+    """Fold the pivot helpers assimp inserts above an animated FBX node into its channels.
+
+    assimp converts an FBX node with a pre-rotation (every Mixamo joint but the hips) into a chain
+    ``X_$AssimpFbx$_Translation -> X_$AssimpFbx$_PreRotation -> ... -> X`` whose static
+    transforms make the rest pose, but it bakes that whole chain into the animation keys of ``X``
+    (translation and pre-rotation included), so applying both turns the joint twice (issue 28: a
+    Mixamo clip's legs folded up, the body 0.8 m tall in every frame). For every animated node
+    whose helpers no channel moves, the helpers become the identity in ``static`` (edited in
+    place) and the node's rest ``(translation, rotation xyzw, scale)`` is the whole chain's, for
+    the properties it has no channel for. Returns ``{node: that rest}``."""
+    g = doc.gltf
+    out: dict[int, tuple] = {}
+    for n in moving:
+        helpers, k = [], node_parent[n]
+        prefix = f"{g.nodes[n].name or ''}_{_ASSIMP_HELPER}_"
+        while k >= 0 and k not in moving and (g.nodes[k].name or "").startswith(prefix):
+            helpers.append(k)
+            k = node_parent[k]
+        if not helpers or not g.nodes[n].name or any(h not in static for h in helpers):
+            continue
+        chain = _local_matrix(g.nodes[n])
+        for h in helpers:
+            chain = static[h] @ chain
+            static[h] = np.eye(4)
+        scale = np.linalg.norm(chain[:3, :3], axis=0)
+        q = matrix_to_quat(torch.from_numpy(chain[:3, :3] / scale)).numpy()
+        out[n] = (chain[:3, 3], q[[1, 2, 3, 0]], scale)
+    return out
+
+
+def _animated_local(
+    node: JsonObject, channels: list[_Channel], t: np.ndarray, rest: tuple | None = None
+) -> np.ndarray:
+    """``(T, 4, 4)`` the local transforms of an animated node at times ``t`` (``rest``: the
+    ``(translation, rotation xyzw, scale)`` of properties without a channel, else the node's
+    own)."""
     trs = [
         np.broadcast_to(np.asarray(v, dtype=np.float64), (len(t), len(v)))
-        for v in (
+        for v in rest
+        or (
             node.translation or (0, 0, 0),
             node.rotation or (0, 0, 0, 1),
             node.scale or (1, 1, 1),
