@@ -74,12 +74,13 @@ def test_cli_evaluate_writes_every_table4_row_with_provenance(tmp_path, capsys, 
     from retarget_lib.cli import main
     from retarget_lib.evaluation import tdcn
     from retarget_lib.evaluation.results import load_result
+    from retarget_lib.evaluation.tdcn import tables  # where `retarget evaluate` looks the cases up
 
     # every row on a subset of the cases (the full run is `make tables`, ~10 min): the first pair of
     # every scenario, one CMU clip onto one target
     every, real = tdcn.tdcn_cases(), tdcn.cmu_cases()[:1]
-    monkeypatch.setattr(tdcn, "tdcn_cases", lambda: tdcn.rerun_subset(every))
-    monkeypatch.setattr(tdcn, "cmu_cases", lambda: real)
+    monkeypatch.setattr(tables, "tdcn_cases", lambda: tdcn.rerun_subset(every))
+    monkeypatch.setattr(tables, "cmu_cases", lambda: real)
     # the Mixamo-convention profile: one pair of two of its characters in every scenario, authored
     # here (the whole profile is built on first use by `make tables`, 3.5 min)
     two = generate(count=2, clip_ids=[("walk", 8)])
@@ -96,7 +97,7 @@ def test_cli_evaluate_writes_every_table4_row_with_provenance(tmp_path, capsys, 
         )
         for s in (1, 2, 3, 4)
     ]
-    monkeypatch.setattr(tdcn, "mixamo_convention_cases", lambda: mc)
+    monkeypatch.setattr(tables, "mixamo_convention_cases", lambda: mc)
     assert main(["evaluate", "--table", "tdcn", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     assert "no trained checkpoint yet for:" not in out  # every Table 4 row ships a checkpoint
