@@ -11,8 +11,10 @@ from retarget_lib.core.ground import (
     clip_floor,
     floor_offset,
     foot_positions,
+    ground_contacts,
     sole_heights,
     standing_feet,
+    touching_feet,
 )
 from retarget_lib.core.measures import foot_rest_heights, rest_ground
 from retarget_lib.core.rig import Rig
@@ -46,6 +48,24 @@ def test_no_standing_frame_gives_no_shift():
     assert not floor_offset(
         np.ones((3, 4)), np.ones((3, 4)), 0.0, np.zeros((3, 4), bool), 1.0
     ).any()
+
+
+def test_a_run_is_held_where_its_feet_touch_the_floor():
+    """No foot joint is ever still: the ground rule holds the ones at the floor instead; a clip
+    with one still foot joint is held by that one only."""
+    feet = np.zeros((4, 4, 3))
+    feet[:, :, 2] = 0.1 * np.arange(4)[:, None]  # every joint moves 10 cm a frame
+    soles = np.full((4, 4), 0.5)
+    soles[1, 0] = soles[3, 2] = 0.01  # touching the floor (at 0) twice, never still
+    assert not standing_feet(feet, soles, 0.0, 1.8, 30.0).any()
+    expected = np.zeros((4, 4), bool)
+    expected[1, 0] = expected[3, 2] = True
+    np.testing.assert_array_equal(touching_feet(soles, 0.0, 1.8), expected)
+    np.testing.assert_array_equal(ground_contacts(feet, soles, 0.0, 1.8, 30.0), expected)
+    feet[:, 3, 2] = 0.0  # one joint still and at the floor in every frame: only it is held
+    soles[:, 3] = 0.0
+    held = ground_contacts(feet, soles, 0.0, 1.8, 30.0)
+    assert held[:, 3].all() and not held[:, :3].any()
 
 
 def test_clip_floor_ignores_a_few_frames_through_the_floor():
@@ -107,8 +127,13 @@ def files(tmp_path_factory):
     walk = load_bvh(cmu_clip_path("01_01.bvh")).slice(0, 240)  # 2 s at 120 fps, feet on its floor
     save_bvh(walk, folder / "walk.bvh")
     raised = walk.copy()
-    raised.root_positions[:, 1] += 50.0 / walk.meta.get("unit_scale", 1.0)  # its floor 50 cm up
+    raised.root_positions[:, 1] += 0.50  # its floor 50 cm up (positions are in metres)
     save_bvh(raised, folder / "raised.bvh")
+    # a run as the ground rule sees one: every foot on the floor still rolls on (here the whole
+    # walk slides forward at 3 m/s, 2.5 cm a frame at 120 fps), on a floor 50 cm up
+    run = raised.copy()
+    run.root_positions[:, 2] += 3.0 * np.arange(run.num_frames) / run.fps
+    save_bvh(run, folder / "run.bvh")
     for name in ("gus", "hana"):  # a tall and a small character, each with its mesh
         save_glb(Rig.from_character(make_character(name)), folder / f"{name}.glb")
     return folder
@@ -218,6 +243,32 @@ def test_an_amass_clip_stands_on_the_targets_floor(files, tmp_path):
     assert standing.any(axis=1).mean() > 0.5
     lowest = np.where(standing, error, np.inf).min(axis=1)[standing.any(axis=1)]
     assert np.abs(lowest).max() <= 1e-3  # float32 GLB
+
+
+def test_a_runs_feet_touch_the_targets_floor_where_the_sources_do(files, tmp_path):
+    """A clip with no still foot (a run) is put on the target's floor where its feet touch the
+    source's: it ended 1.4-6 cm under (or, on a raised floor, as far above) before (issue 28)."""
+    out = _run(files, tmp_path, "copy", ".bvh", "gus", source="run.bvh")
+    source = to_canonical22(load_bvh(files / "run.bvh"))
+    pos = source.global_positions()
+    soles = sole_heights(pos, source.skeleton)
+    floor = clip_floor(soles)
+    assert not standing_feet(
+        foot_positions(pos, source.skeleton), soles, floor, source.skeleton.height(), source.fps
+    ).any()
+    touching = touching_feet(soles, floor, source.skeleton.height())
+    result = to_canonical22(load_bvh(out))
+    ratio = result.skeleton.height() / source.skeleton.height()
+    error = (
+        sole_heights(
+            result.global_positions(),
+            result.skeleton,
+            Rig.from_character(make_character("gus")).character().rest_vertices,
+        )
+        - (soles - floor) * ratio
+    )
+    lowest = np.where(touching, error, np.inf).min(axis=1)[touching.any(axis=1)]
+    assert touching.any(axis=1).mean() > 0.5 and np.abs(lowest).max() <= 1e-3  # 6-decimal BVH
 
 
 def test_a_sources_floor_need_not_be_at_zero(files, tmp_path):

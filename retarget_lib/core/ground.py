@@ -15,7 +15,10 @@ A clip's *floor* is where its feet touch (:func:`clip_floor`): a motion file's f
 on the source's floor (near it and still, the thresholds of Sec. 3.4 at the character's scale),
 the target's same joint is at the source's sole height times the target/source height ratio
 above ``y = 0``; between such frames the vertical correction is interpolated, and before the first /
-after the last it is held. ``retarget retarget`` applies it to every method's result.
+after the last it is held. A clip in which no foot is ever still (a run, a sprint: each foot
+touches the floor only while it rolls) is held by the frames where a foot joint is at its floor
+instead, moving or not (:func:`ground_contacts`). ``retarget retarget`` applies it to every
+method's result.
 """
 
 from __future__ import annotations
@@ -35,6 +38,8 @@ __all__ = [
     "sole_heights",
     "clip_floor",
     "standing_feet",
+    "touching_feet",
+    "ground_contacts",
     "floor_offset",
 ]
 
@@ -104,12 +109,38 @@ def standing_feet(
         fps: the clip's frame rate.
     """
     scale = height / REFERENCE_HEIGHT_M
-    low = np.asarray(soles, dtype=np.float64) - floor <= STAND_BAND_M * scale
+    low = touching_feet(soles, floor, height)
     if len(low) < 2:
         return low
     step = np.linalg.norm(np.diff(np.asarray(feet, dtype=np.float64), axis=0), axis=-1)
     step = np.concatenate([step[:1], step])
     return low & (step <= STILL_STEP_M * scale * REFERENCE_FPS / fps)
+
+
+def touching_feet(soles: np.ndarray, floor: float, height: float) -> np.ndarray:
+    """``(T, 4)`` bool: where each foot joint is at the floor, still or not: the height half of
+    :func:`standing_feet` (at most :data:`STAND_BAND_M` above ``floor`` at 180 cm scale).
+
+    Args:
+        soles: ``(T, 4)`` sole heights (:func:`sole_heights`), metres.
+        floor: the clip's floor (:func:`clip_floor`), metres.
+        height: the character's height (metres), the scale of the band.
+    """
+    return np.asarray(soles, dtype=np.float64) - floor <= STAND_BAND_M * height / REFERENCE_HEIGHT_M
+
+
+def ground_contacts(
+    feet: np.ndarray, soles: np.ndarray, floor: float, height: float, fps: float
+) -> np.ndarray:
+    """``(T, 4)`` bool: the foot joints the ground rule holds on the floor.
+
+    The standing ones (:func:`standing_feet`); in a clip where no foot joint ever stands (a run:
+    every foot on the floor still rolls faster than Sec. 3.4's 1 cm a frame), the touching ones
+    (:func:`touching_feet`), so that a run's feet meet the target's floor as they meet the
+    source's. Arguments as :func:`standing_feet`.
+    """
+    standing = standing_feet(feet, soles, floor, height, fps)
+    return standing if standing.any() else touching_feet(soles, floor, height)
 
 
 def floor_offset(
@@ -131,7 +162,7 @@ def floor_offset(
         target_soles: ``(T, 4)`` the result's sole heights above ``y = 0`` (metres).
         source_soles: ``(T, 4)`` the source's sole heights (metres, in the source's frame).
         source_floor: the source clip's floor (:func:`clip_floor`), metres.
-        standing: ``(T, 4)`` bool, :func:`standing_feet` of the source.
+        standing: ``(T, 4)`` bool, :func:`ground_contacts` of the source.
         ratio: target height / source height (a source sole 1 cm above its floor is ``ratio`` cm
             above the target's).
     """

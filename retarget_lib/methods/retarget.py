@@ -46,7 +46,7 @@ import numpy as np
 
 from ..core.canonical import unfold_from_canonical22
 from ..core.character import Character
-from ..core.ground import clip_floor, floor_offset, foot_positions, sole_heights, standing_feet
+from ..core.ground import clip_floor, floor_offset, foot_positions, ground_contacts, sole_heights
 from ..core.motion import Motion
 from ..core.skeleton import Skeleton
 from ..errors import CheckpointError, OutputPathError, RetargetInputError
@@ -318,7 +318,8 @@ def on_the_ground(
 ) -> Motion:
     """``result`` shifted vertically by the ground rule
     (:func:`~retarget_lib.core.ground.floor_offset`): where a foot of ``source`` stands on its
-    floor, the result's is on ``y = 0`` (at the source's sole height times the height ratio).
+    floor (in a run, where it touches it: :func:`~retarget_lib.core.ground.ground_contacts`), the
+    result's is on ``y = 0`` (at the source's sole height times the height ratio).
 
     Args:
         result: the canonical-22 result on the target skeleton.
@@ -341,7 +342,7 @@ def on_the_ground(
     src_soles = sole_heights(src_pos, source.skeleton, src_mesh)
     floor = clip_floor(src_soles)
     src_height = source.skeleton.height()
-    standing = standing_feet(
+    standing = ground_contacts(
         foot_positions(src_pos, source.skeleton), src_soles, floor, src_height, source.fps
     )
     tgt_soles = sole_heights(result.global_positions(), result.skeleton, tgt_mesh)
