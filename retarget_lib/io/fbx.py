@@ -56,6 +56,7 @@ from ..core.rig import Rig
 from ..errors import FBXError
 from ..files import readable_file
 from .gltf import MAX_FILE_BYTES, animation_from, motion_from, parse_gltf_bytes, rig_from
+from .gltf.document import _INVERSE_BIND, GLTFDocument
 from .untrusted import check_array_bytes
 
 __all__ = [
@@ -79,15 +80,17 @@ TIMEOUT_SECONDS = 300
 _BINARY_MAGIC = b"Kaydara FBX Binary  \x00"
 _ARRAY_ITEM = {"f": 4, "d": 8, "l": 8, "i": 4, "b": 1}
 _SCALAR = {"Y": 2, "C": 1, "I": 4, "F": 4, "D": 8, "L": 8}
-#: the child that converts: FBX bytes on stdin -> (8-byte length, JSON of the frame rate and
-#: unit, GLB bytes) on stdout; exit 3 with assimp's message on stderr when it refuses the file
+#: the child that converts: FBX bytes on stdin -> (8-byte length, JSON of the frame rate, the
+#: unit and every mesh's bind matrices, GLB bytes) on stdout; exit 3 with assimp's message on
+#: stderr when it refuses the file
 _CONVERTER = """
-import io, json, resource, sys
+import io, json, math, resource, struct, sys
 limit = int(sys.argv[1])
 hard = resource.getrlimit(resource.RLIMIT_AS)[1]
 soft = limit if hard == resource.RLIM_INFINITY else min(limit, hard)
 resource.setrlimit(resource.RLIMIT_AS, (soft, hard))
 import impasse
+from impasse.core import ffi
 try:
     scene = impasse.load(io.BytesIO(sys.stdin.buffer.read()), file_type="fbx")
     glb = bytes(impasse.export_blob(scene, "glb2")[0].data)
@@ -95,8 +98,20 @@ except impasse.errors.AssimpError as e:
     sys.stderr.write(str(e))
     sys.exit(3)
 settings = dict(scene.metadata) if scene.metadata is not None else {}
+# every mesh's own bind matrices (assimp 5.2.5's aiBone: mName is 1028 bytes, then mNumWeights,
+# mArmature, mNode, mWeights, and mOffsetMatrix at byte 1056, row-major; impasse declares the
+# first four in another order, so its offset_matrix is read 8 bytes late): glTF export keeps one
+binds = []
+for mesh in scene.meshes:
+    bones = {}
+    for bone in mesh.bones:
+        m = struct.unpack_from("<16f", ffi.buffer(bone.struct, 1120), 1056)
+        affine = max(map(abs, (m[12], m[13], m[14], m[15] - 1))) < 1e-6
+        if all(math.isfinite(v) for v in m) and affine:
+            bones[bone.name] = m
+    binds.append(dict(vertices=len(mesh.vertices), bones=bones))
 info = dict(rate=float(scene.animations[0].ticks_per_second) if len(scene.animations) else None,
-            unit=settings.get("UnitScaleFactor", 1.0))
+            unit=settings.get("UnitScaleFactor", 1.0), binds=binds)
 head = json.dumps(info).encode()
 sys.stdout.buffer.write(len(head).to_bytes(8, "little") + head + glb)
 """
@@ -339,9 +354,10 @@ def _ending(returncode: int) -> str:
         return f"signal {-returncode}"
 
 
-def _convert(data: bytes, path: Path) -> tuple[bytes, float | None, float]:
-    """``(GLB bytes, the first animation's frame rate or None, metres per file unit)`` of an FBX
-    file's bytes, converted by assimp in the contained child (module docstring)."""
+def _convert(data: bytes, path: Path) -> tuple[bytes, float | None, float, list]:
+    """``(GLB bytes, the first animation's frame rate or None, metres per file unit, every mesh's
+    bind matrices)`` of an FBX file's bytes, converted by assimp in the contained child (module
+    docstring)."""
     try:
         done = subprocess.run(
             [sys.executable, "-I", "-c", _CONVERTER, str(_child_memory(len(data)))],
@@ -383,7 +399,46 @@ def _convert(data: bytes, path: Path) -> tuple[bytes, float | None, float]:
         done.stdout[8 + size :],
         (rate if rate is not None and 1.0 <= rate <= 1000.0 else None),
         metres,
+        info["binds"],
     )
+
+
+def _mesh_binds(doc: GLTFDocument, binds: list) -> list[dict[str, np.ndarray] | None] | None:
+    """Each glTF primitive's own inverse bind matrices by joint name
+    (:attr:`~retarget_lib.io.gltf.GLTFDocument.primitive_inverse_binds`) from the converter's
+    per-mesh bind matrices, or None when they cannot be matched with certainty: assimp exports
+    each of its meshes as one primitive, in order (checked: as many, none with more vertices;
+    the export may join a mesh's duplicate vertices), and writes, for each joint, the bind matrix
+    of the first mesh bound to it into the file's one skin (checked: else the matrices were not
+    read as assimp lays them out)."""
+    g = doc.gltf
+    prims = [prim for mesh in g.meshes for prim in mesh.primitives]
+    counts = [
+        g.accessors[p.attributes.POSITION].count
+        if p.attributes.POSITION is not None and p.attributes.POSITION < len(g.accessors)
+        else -1
+        for p in prims
+    ]
+    if (
+        len(g.skins) != 1
+        or g.skins[0].inverseBindMatrices is None
+        or len(counts) != len(binds)
+        or any(not 0 < c <= b["vertices"] for c, b in zip(counts, binds, strict=True))
+    ):
+        return None
+    own = [
+        {name: np.array(m, dtype=np.float64).reshape(4, 4) for name, m in b["bones"].items()}
+        for b in binds
+    ]
+    skin = g.skins[0]
+    ibm = doc.accessor(skin.inverseBindMatrices, _INVERSE_BIND, "skin 0 inverse bind matrices")
+    for k, joint in enumerate(skin.joints):
+        first = next((o[g.nodes[joint].name] for o in own if g.nodes[joint].name in o), None)
+        if first is not None and not np.allclose(
+            first, ibm[k], rtol=1e-5, atol=1e-5 * max(1.0, float(np.abs(first).max()))
+        ):
+            return None
+    return [o or None for o in own]
 
 
 def _as_glb(path: str | os.PathLike):
@@ -399,10 +454,12 @@ def _as_glb(path: str | os.PathLike):
         scan = _scan_binary_fbx(data, path)
         _check_connections(scan, path)
         _check_clusters(scan, path)
-    glb, rate, metres = _convert(data, path)
+    glb, rate, metres, binds = _convert(data, path)
+    doc = parse_gltf_bytes(glb, path, beside=False)
+    doc.primitive_inverse_binds = _mesh_binds(doc, binds)
     # assimp keeps the rate in single precision (29.97 -> 29.969999...): rounded to 1/1000 fps,
     # which every rate in use (23.976, 29.97, 59.94 ...) is exact in
-    return parse_gltf_bytes(glb, path, beside=False), rate, metres
+    return doc, rate, metres
 
 
 def _in_metres(rig: Rig, metres: float) -> Rig:

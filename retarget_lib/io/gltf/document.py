@@ -245,6 +245,12 @@ class GLTFDocument:
     #: metres added to every height above the top nodes so that the rest mesh's lowest point is at
     #: ``y = 0`` (:func:`_load`; a character stands on the floor); 0 until a rig is read
     lift: float = 0.0
+    #: per primitive (the meshes' primitives in file order), ``{joint node name: (4, 4) inverse
+    #: bind matrix}`` that replaces the skin's for that primitive's vertices, or None. Set by the
+    #: FBX reader (:mod:`~retarget_lib.io.fbx`): assimp's glTF export writes one skin for every
+    #: mesh of a file, each joint with the bind matrix of the first mesh bound to it, so a mesh
+    #: placed by another transform (a Blender export of several meshes) needs its own
+    primitive_inverse_binds: list[dict[str, np.ndarray] | None] | None = None
 
     def error(self, problem: str) -> GLTFError:
         return GLTFError(f"{self.path}: {problem}")

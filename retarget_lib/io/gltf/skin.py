@@ -88,20 +88,41 @@ def _inverse_binds(doc: GLTFDocument, skin_index: int) -> np.ndarray:
     return ibm
 
 
+def _primitive_binds(
+    doc: GLTFDocument, joints: list[int], skin_binds: np.ndarray, primitive: int
+) -> np.ndarray:
+    """``(K, 4, 4)`` the inverse bind matrices that bind primitive number ``primitive`` (counted
+    over every mesh): the skin's, except where the document carries the primitive's own
+    (:attr:`GLTFDocument.primitive_inverse_binds`, by joint name; names that several joints share
+    keep the skin's)."""
+    own = doc.primitive_inverse_binds
+    if own is None or primitive >= len(own) or own[primitive] is None:
+        return skin_binds
+    names = [doc.gltf.nodes[j].name for j in joints]
+    binds = np.array(skin_binds)
+    for k, name in enumerate(names):
+        if name in own[primitive] and names.count(name) == 1:
+            binds[k] = own[primitive][name]
+    return binds
+
+
 def _mesh(doc: GLTFDocument, skinned: list[int], tree: _Skeleton, world: dict[int, np.ndarray]):
     """Rest vertices ``(V, 3)`` (posed by the file's skinning), faces ``(F, 3)``, weights ``(V,
     J)``."""
     g = doc.gltf
     index = {n: i for i, n in enumerate(tree.nodes)}
+    first_primitive = np.cumsum([0] + [len(m.primitives) for m in g.meshes])
     verts, faces, weights, base, triangles = [], [], [], 0, 0
     for n in skinned:
         skin = g.skins[g.nodes[n].skin]
         palette = np.array([index[j] for j in skin.joints])
-        skin_mats = np.stack([world[j] for j in skin.joints]) @ _inverse_binds(
-            doc, g.nodes[n].skin
-        )  # (K, 4, 4)
+        joint_worlds = np.stack([world[j] for j in skin.joints])  # (K, 4, 4)
+        skin_binds = _inverse_binds(doc, g.nodes[n].skin)
         for p, prim in enumerate(g.meshes[g.nodes[n].mesh].primitives):
             what = f"mesh {g.nodes[n].mesh} primitive {p}"
+            skin_mats = joint_worlds @ _primitive_binds(
+                doc, skin.joints, skin_binds, int(first_primitive[g.nodes[n].mesh]) + p
+            )
             if (prim.mode if prim.mode is not None else _TRIANGLES) != _TRIANGLES:
                 raise doc.error(f"{what} is not a triangle list (mode {prim.mode})")
             attrs = prim.attributes
