@@ -6,7 +6,10 @@ node has identity rest rotation and its world-axis rest offset as translation, t
 matrices are ``translate(-rest position)``, and the animation keys every joint's local rotation
 (wxyz converted to glTF's xyzw) and the root's translation at ``1 / fps`` steps; the frame rate is
 also stored in the animation's ``extras`` (``{"fps": ...}``) so
-:func:`~retarget_lib.io.gltf.load_gltf_motion` reads the same frames back. Skinning weights are
+:func:`~retarget_lib.io.gltf.load_gltf_motion` reads the same frames back, and the rig's joint map
+in the file's ``extras`` (``{"retarget_lib_canonical22": {canonical name: joint name}}``, the
+canonical joints the rig has) when its names alone would not map it (a rig mapped by a joint map
+or a VRM humanoid), so that the result reads back mapped. Skinning weights are
 written as ``JOINTS_n`` / ``WEIGHTS_n`` sets of four (as many sets as the widest vertex needs),
 renormalised in float32. Positions, rotations and weights are float32 (round trips agree to float32
 precision); materials are not written.
@@ -23,8 +26,12 @@ import pygltflib
 
 from ..core.motion import Motion
 from ..core.rig import Rig
+from ..core.skeleton import CANONICAL22, JointSetError
+from ..core.virtual_joints import MAY_BE_ABSENT
 from ..errors import RetargetInputError
 from ..files import atomic_write
+from .gltf.skin import JOINT_MAP_EXTRAS
+from .rig_maps import map_joints
 
 __all__ = ["save_glb"]
 
@@ -86,6 +93,23 @@ def _weight_sets(weights: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
     return [(idx[:, k : k + 4], w[:, k : k + 4]) for k in range(0, width, 4)]
 
 
+def _joint_map_to_write(rig: Rig) -> dict[str, str] | None:
+    """``{canonical name: joint name}`` for the canonical joints ``rig`` has, when its joint names
+    alone would not map the same way on reading (a rig mapped by a joint map or a VRM humanoid),
+    else None (nothing written)."""
+    sk = rig.skeleton
+    try:
+        detected, _ = map_joints(sk.joint_names, sk.parents, may_be_absent=MAY_BE_ABSENT)
+    except JointSetError:
+        detected = None
+    if detected == rig.joint_map:
+        return None
+    canonical = {c: i for i, c in rig.joint_map.items()}
+    return {
+        name: sk.joint_names[canonical[c]] for c, name in enumerate(CANONICAL22) if c in canonical
+    }
+
+
 def save_glb(
     rig: Rig, path: str | os.PathLike, motion: Motion | None = None, skin: bool = True
 ) -> None:
@@ -119,6 +143,9 @@ def save_glb(
         )
     b = _Builder()
     g = b.gltf
+    written_map = _joint_map_to_write(rig)
+    if written_map is not None:
+        g.extras = {JOINT_MAP_EXTRAS: written_map}
     rest = sk.rest_positions()
     for j, name in enumerate(sk.joint_names):
         g.nodes.append(

@@ -114,6 +114,7 @@ _GEOMETRY_EXTENSIONS = (
 _GLTF_JSON = Obj(
     {
         "asset!": Obj({"version!": TEXT}),
+        "extras": ANY,
         "extensionsRequired": Arr(TEXT),
         "extensionsUsed": Arr(TEXT),
         "extensions": Obj(

@@ -189,9 +189,11 @@ def _weights(
     return w / sums[:, None]
 
 
-def _vrm_mapping(doc: GLTFDocument, tree: _Skeleton) -> dict[str, str]:
+def _vrm_mapping(doc: GLTFDocument, tree: _Skeleton) -> dict[str, str | None]:
     """``{canonical name: joint name}`` from a VRM 0.x (``VRM``) or 1.0 (``VRMC_vrm``) humanoid
-    (types checked by :data:`_GLTF_JSON`)."""
+    (types checked by :data:`_GLTF_JSON`); a canonical joint whose humanoid bone the file does not
+    list (VRM's optional ``upperChest``, ``chest``, shoulders, toes) is absent (``None``: the reader
+    inserts it, :mod:`~retarget_lib.core.virtual_joints`) when it may be."""
     ext = doc.gltf.extensions
     if ext is None:
         return {}
@@ -206,11 +208,34 @@ def _vrm_mapping(doc: GLTFDocument, tree: _Skeleton) -> dict[str, str]:
         return {}
     canon = {joint_key(k): v for k, v in RIG_MAPS["vrm"].items()}
     name_of = dict(zip(tree.nodes, tree.names, strict=False))
-    return {
+    listed: dict[str, str | None] = {
         canon[joint_key(b)]: name_of[n]
         for b, n in bones.items()
         if b and joint_key(b) in canon and n in name_of
     }
+    if not listed:
+        return {}
+    return {c: None for c in MAY_BE_ABSENT} | listed
+
+
+#: the key of the top-level ``extras`` under which :func:`~retarget_lib.io.gltf_write.save_glb`
+#: writes the rig's joint map, ``{canonical name: joint name}`` for the canonical joints the rig
+#: has, so that a result on a rig mapped by a joint map or a VRM humanoid reads back as written
+JOINT_MAP_EXTRAS = "retarget_lib_canonical22"
+
+
+def _written_mapping(doc: GLTFDocument) -> dict[str, str | None]:
+    """The joint map a file written by the library carries (:data:`JOINT_MAP_EXTRAS`), a canonical
+    joint it does not list absent when it may be (as in a VRM humanoid); entries of another type
+    are ignored (the map is then the rig naming's, as for any file)."""
+    extras = doc.gltf.extras
+    table = extras.get(JOINT_MAP_EXTRAS) if isinstance(extras, dict) else None
+    if not isinstance(table, dict):
+        return {}
+    listed: dict[str, str | None] = {
+        k: v for k, v in table.items() if isinstance(k, str) and isinstance(v, str)
+    }
+    return {c: None for c in MAY_BE_ABSENT} | listed if listed else {}
 
 
 def _armature(
@@ -248,13 +273,13 @@ def _armature(
     skeleton = Skeleton(tuple(tree.names), tuple(tree.parents), offsets)
     entries, source = read_mapping(mapping)
     user = entries or {}
-    vrm = _vrm_mapping(doc, tree)
+    vrm = _vrm_mapping(doc, tree) or _written_mapping(doc)
     joint_map, rig_name = map_joints(
         tree.names,
         tree.parents,
         vrm | user,
         what=str(doc.path),
-        mapping_source=source if user else "the VRM humanoid",
+        mapping_source=source if user else "the VRM humanoid or the written joint map",
         may_be_absent=MAY_BE_ABSENT,
     )
     turn = _upright(rest, joint_map)
