@@ -1,5 +1,7 @@
 """The second real mocap source (data/real_motions): present, intact, upright, on the floor."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -14,7 +16,9 @@ from retarget_lib.data.sources.real_motions import (
 )
 from retarget_lib.evaluation.real import CLIP_FRAMES, ROM_START
 from retarget_lib.files import DataError
-from retarget_lib.io.bvh import load_bvh
+from retarget_lib.io.bvh import load_bvh, save_bvh
+from retarget_lib.io.fbx import fbx_missing
+from retarget_lib.io.gltf import load_gltf_animation
 from retarget_lib.methods.registry import get_method
 from retarget_lib.methods.retarget import on_the_ground
 
@@ -79,3 +83,38 @@ def test_the_range_of_motion_clip_stands_on_every_real_characters_floor(name):
     target = sole_heights(result.global_positions(), result.skeleton, character.rest_vertices)
     best = np.where(standing, np.abs(target), np.inf).min(axis=1)[standing.any(axis=1)]
     assert standing.any(axis=1).mean() > 0.8 and (best < 0.03).mean() >= 0.99, (best < 0.03).mean()
+
+
+def test_the_range_of_motion_clip_round_trips_through_bvh(tmp_path):
+    raw = load_bvh(real_motion_path("motion_capture_rom"), unit="inch")
+    out = tmp_path / "rom.bvh"
+    save_bvh(raw, out, unit="inch")
+    back = load_bvh(out, unit="inch")
+    assert back.num_frames == raw.num_frames and back.fps == raw.fps
+    assert back.skeleton.joint_names == raw.skeleton.joint_names
+    # 6-decimal text in inches: 1e-6 inch, through FK of ~25 joints with 6-decimal angles
+    np.testing.assert_allclose(back.global_positions(), raw.global_positions(), atol=1e-5)
+
+
+ASE = Path("/usr/share/assimp/models/ASE/MotionCaptureROM.ase")
+
+
+@pytest.mark.skipif(
+    fbx_missing() is not None or not ASE.is_file(),
+    reason="needs the fbx extra (assimp) and assimp-testmodels' MotionCaptureROM.ase",
+)
+def test_the_original_capture_reads_through_gltf_as_shipped(tmp_path):
+    """The real file in its own format (3ds Max ASE), converted to a skinless glTF clip by assimp
+    as ``tools/real_motions.py`` does, reads as the shipped BVH: the glTF clip path on real
+    mocap."""
+    impasse = pytest.importorskip("impasse")  # the fbx extra's binding of assimp
+    scene = impasse.load(str(ASE))
+    glb = tmp_path / "rom.glb"
+    glb.write_bytes(bytes(impasse.export_blob(scene, "glb2")[0].data))
+    path = real_motion_path("motion_capture_rom")
+    motion, _ = load_gltf_animation(glb, mapping=path.with_suffix(".joints.yaml"))
+    shipped = load_bvh(path, unit="m")  # the file's numbers (inches), as the tool wrote them
+    assert motion.num_frames == shipped.num_frames == 272 and motion.fps == pytest.approx(6.0)
+    assert motion.skeleton.joint_names == shipped.skeleton.joint_names
+    # float32 glTF against 6-decimal BVH text, in file units of ~1-60
+    np.testing.assert_allclose(motion.global_positions(), shipped.global_positions(), atol=1e-4)
