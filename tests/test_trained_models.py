@@ -95,10 +95,10 @@ def test_default_contact_method_with_eso_returns_a_clip_on_its_own_character():
 
 def test_default_contact_network_beats_copy_on_the_contact_cases(contact_network):
     from retarget_lib.evaluation.contact import (
-        _skeleton_method,
         contact_cases,
         evaluate_contact_methods,
     )
+    from retarget_lib.evaluation.contact.methods import _skeleton_method
 
     cases = contact_cases("fast")[
         ::5

@@ -35,6 +35,7 @@ from .rotations import (
 from .skeleton import (
     CANONICAL22,
     CANONICAL22_PARENTS,
+    FOOT_CONTACT_JOINTS,
     J,
     JointSetError,
     Skeleton,
@@ -85,11 +86,10 @@ ACROSS_PAIR: dict[int, tuple[int, int]] = {
 }
 
 
-#: the joints whose rest orientation is "standing flat on the floor" on every character: their
-#: rest alignment is the identity when :func:`keep_feet_as_rest` is asked for
-FOOT_JOINTS_AS_REST: tuple[int, ...] = tuple(
-    J[n] for n in ("LeftFoot", "RightFoot", "LeftToeBase", "RightToeBase")
-)
+#: the joints whose rest orientation is "standing flat on the floor" on every character (the foot
+#: contact joints, heels and toes): their rest alignment is the identity when
+#: :func:`keep_feet_as_rest` is asked for
+FOOT_JOINTS_AS_REST: tuple[int, ...] = tuple(J[n] for n in FOOT_CONTACT_JOINTS)
 
 
 def keep_feet_as_rest(alignment: torch.Tensor) -> torch.Tensor:

@@ -44,7 +44,7 @@ The package: :mod:`.cases` (cases and metrics), :mod:`.methods` (the rows as met
 
 from __future__ import annotations
 
-from .cases import (  # noqa: F401
+from .cases import (
     CONTACT_PROFILES,
     CONTACT_RICH,
     CONTACT_SOURCE,
@@ -57,8 +57,6 @@ from .cases import (  # noqa: F401
     TABLE3_ROWS,
     VARIANT_ROWS,
     ContactCase,
-    _character,
-    _radii,
     contact_cases,
     evaluate_contact_case,
     foot_contact_accuracy,
@@ -66,16 +64,8 @@ from .cases import (  # noqa: F401
     foot_heights_in_contact,
     vertex_contact_mse,
 )
-from .methods import (  # noqa: F401
-    ContactMethod,
-    _eso_method,
-    _ik_method,
-    _network_method,
-    _skeleton_method,
-    contact_methods,
-    evaluate_contact_methods,
-)
-from .tables import (  # noqa: F401
+from .methods import ContactMethod, contact_methods, evaluate_contact_methods
+from .tables import (
     RERUN_FLOOR,
     RERUN_RTOL,
     TABLE3_STEPS,
@@ -113,4 +103,15 @@ __all__ = [
     "TABLE3_STEPS",
     "ablation_steps",
     "run_contact_evaluation",
+    "CONTACT_RICH",
+    "CONTACT_SOURCE",
+    "EFULL_ROWS",
+    "ESO_ROWS",
+    "REGISTRY_ROWS",
+    "TABLE1_ROWS",
+    "TABLE3_ROWS",
+    "VARIANT_ROWS",
+    "ContactMethod",
+    "RERUN_FLOOR",
+    "RERUN_RTOL",
 ]

@@ -17,7 +17,7 @@ stored results, the command).
 
 from __future__ import annotations
 
-from .cases import (  # noqa: F401
+from .cases import (
     METRES_TO_CM,
     SHORT_FRAMES,
     WINDOWED_ROW,
@@ -37,12 +37,11 @@ from .cases import (  # noqa: F401
     tdcn_cases,
     truth_frames,
 )
-from .tables import (  # noqa: F401
+from .tables import (
     CASE_KEYS,
     MIXAMO_CONVENTION_TABLE,
     RERUN_FLOOR,
     RERUN_RTOL,
-    _row_checkpoints,
     markdown_table,
     mixamo_convention_checkpoints,
     mixamo_convention_methods,
@@ -59,3 +58,43 @@ from .tables import (  # noqa: F401
     tdcn_table,
     write_table,
 )
+
+__all__ = [
+    "METRES_TO_CM",
+    "SHORT_FRAMES",
+    "WINDOWED_ROW",
+    "EvalCase",
+    "Method",
+    "Scores",
+    "aligned_positions",
+    "cmu_cases",
+    "error_breakdown",
+    "evaluate_case",
+    "evaluate_method",
+    "evaluate_methods",
+    "mixamo_convention_cases",
+    "normalized_mse",
+    "short_chunks",
+    "table4_scores",
+    "tdcn_cases",
+    "truth_frames",
+    "CASE_KEYS",
+    "MIXAMO_CONVENTION_TABLE",
+    "RERUN_FLOOR",
+    "RERUN_RTOL",
+    "markdown_table",
+    "mixamo_convention_checkpoints",
+    "mixamo_convention_methods",
+    "ordering_checks",
+    "paper_comparison",
+    "rerun_cases",
+    "rerun_subset",
+    "rerun_tolerance",
+    "run_tdcn_evaluation",
+    "stored_table4",
+    "table4_row",
+    "table_from_cases",
+    "tdcn_methods",
+    "tdcn_table",
+    "write_table",
+]

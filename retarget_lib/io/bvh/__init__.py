@@ -48,13 +48,7 @@ The package: :mod:`.parse` (the text under limits), :mod:`.read` (files into mot
 
 from __future__ import annotations
 
-from .parse import (  # noqa: F401
-    _CHANNELS,
-    _DEFAULT_CHANNELS,
-    _DEFAULT_ROOT_CHANNELS,
-    _FRAME_TIME,
-    _FRAMES,
-    _TOKEN,
+from .parse import (
     HUMAN_HEIGHT,
     MAX_ANGLE_DEG,
     MAX_DEPTH,
@@ -66,28 +60,9 @@ from .parse import (  # noqa: F401
     MIN_FRAME_TIME,
     UNIT_SCALES,
     BVHError,
-    _check_magnitudes,
-    _floats,
-    _header_value,
-    _Joint,
-    _parse_block,
-    _parse_channels,
-    _parse_end_site,
-    _parse_hierarchy,
-    _parse_motion,
-    _Tokens,
 )
-from .read import (  # noqa: F401
-    _build_motion,
-    _check_first_word,
-    _euler_groups,
-    _resolve_unit,
-    _skeleton_names,
-    infer_unit_scale,
-    load_bvh,
-    load_canonical_bvh,
-)
-from .write import _check_writable, _file_layout, save_bvh  # noqa: F401
+from .read import infer_unit_scale, load_bvh, load_canonical_bvh
+from .write import save_bvh
 
 __all__ = [
     "BVHError",
@@ -103,4 +78,6 @@ __all__ = [
     "MAX_FRAME_TIME",
     "MAX_ANGLE_DEG",
     "MAX_LENGTH",
+    "HUMAN_HEIGHT",
+    "load_canonical_bvh",
 ]

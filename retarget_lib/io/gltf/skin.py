@@ -95,14 +95,15 @@ def _primitive_binds(
     over every mesh): the skin's, except where the document carries the primitive's own
     (:attr:`GLTFDocument.primitive_inverse_binds`, by joint name; names that several joints share
     keep the skin's)."""
-    own = doc.primitive_inverse_binds
-    if own is None or primitive >= len(own) or own[primitive] is None:
+    listed = doc.primitive_inverse_binds
+    own = listed[primitive] if listed is not None and primitive < len(listed) else None
+    if own is None:
         return skin_binds
     names = [doc.gltf.nodes[j].name for j in joints]
     binds = np.array(skin_binds)
     for k, name in enumerate(names):
-        if name in own[primitive] and names.count(name) == 1:
-            binds[k] = own[primitive][name]
+        if name in own and names.count(name) == 1:
+            binds[k] = own[name]
     return binds
 
 
@@ -189,6 +190,16 @@ def _weights(
     return w / sums[:, None]
 
 
+def _absent_unless_listed(listed: dict[str, str | None]) -> dict[str, str | None]:
+    """A rig's own table of its joints (a VRM humanoid, a written joint map) with every canonical
+    joint that may be absent (:data:`~retarget_lib.core.virtual_joints.MAY_BE_ABSENT`) and is not
+    listed marked absent; an empty table stays empty (no table: the names are detected)."""
+    if not listed:
+        return {}
+    absent: dict[str, str | None] = dict.fromkeys(MAY_BE_ABSENT)
+    return absent | listed
+
+
 def _vrm_mapping(doc: GLTFDocument, tree: _Skeleton) -> dict[str, str | None]:
     """``{canonical name: joint name}`` from a VRM 0.x (``VRM``) or 1.0 (``VRMC_vrm``) humanoid
     (types checked by :data:`_GLTF_JSON`); a canonical joint whose humanoid bone the file does not
@@ -213,9 +224,7 @@ def _vrm_mapping(doc: GLTFDocument, tree: _Skeleton) -> dict[str, str | None]:
         for b, n in bones.items()
         if b and joint_key(b) in canon and n in name_of
     }
-    if not listed:
-        return {}
-    return {c: None for c in MAY_BE_ABSENT} | listed
+    return _absent_unless_listed(listed)
 
 
 #: the key of the top-level ``extras`` under which :func:`~retarget_lib.io.gltf_write.save_glb`
@@ -235,7 +244,7 @@ def _written_mapping(doc: GLTFDocument) -> dict[str, str | None]:
     listed: dict[str, str | None] = {
         k: v for k, v in table.items() if isinstance(k, str) and isinstance(v, str)
     }
-    return {c: None for c in MAY_BE_ABSENT} | listed if listed else {}
+    return _absent_unless_listed(listed)
 
 
 def _armature(

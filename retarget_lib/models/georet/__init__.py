@@ -47,8 +47,8 @@ The package: :mod:`.parts` (features, PointNet, decoder state, posing) and :mod:
 
 from __future__ import annotations
 
-from .model import GeometryConditionedRNN  # noqa: F401
-from .parts import (  # noqa: F401
+from .model import GeometryConditionedRNN
+from .parts import (
     MOTION_FEATURE_LAYOUT,
     MOTION_FEATURES,
     NUM_JOINTS,
@@ -59,8 +59,6 @@ from .parts import (  # noqa: F401
     PosedOutput,
     ResidualBase,
     TargetContext,
-    Tensor,
-    _heights,
     batch_meshes,
     gru_update,
     motion_features,
@@ -84,4 +82,5 @@ __all__ = [
     "normalize_rest_vertices",
     "batch_meshes",
     "pose_outputs",
+    "NUM_JOINTS",
 ]

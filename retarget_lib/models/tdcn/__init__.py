@@ -65,19 +65,17 @@ head) and :mod:`.generator` (:class:`TDCNGenerator`).
 
 from __future__ import annotations
 
-from .blocks import (  # noqa: F401
+from .blocks import (
     DEFAULT_SLOPE,
     ConvUnit,
     DilatedStack,
     FrameHead,
     ResidualBlock,
-    Tensor,
-    _norm_kind,
     edge_pad,
     normalize_quaternions,
     quaternion_norm,
 )
-from .generator import GeneratorOutput, TDCNGenerator, init_identity_head  # noqa: F401
+from .generator import GeneratorOutput, TDCNGenerator, init_identity_head
 
 __all__ = [
     "ConvUnit",
@@ -90,4 +88,5 @@ __all__ = [
     "quaternion_norm",
     "edge_pad",
     "init_identity_head",
+    "DEFAULT_SLOPE",
 ]
