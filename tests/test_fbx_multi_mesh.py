@@ -4,7 +4,8 @@
 ``tests/data/multi_mesh_blender.fbx`` (made by ``tests/data/make_multi_mesh_fbx.py`` with Blender's
 own FBX exporter): the synthetic character ``gus``, decimated to a tenth, with its head, hands and
 feet as separate meshes, each under its own object transform (a head in centimetres, hands moved
-and turned, feet scaled unevenly), the mesh data compensated so that nothing moves.
+and turned, feet scaled unevenly), the mesh data compensated so that nothing moves, and an eye
+parented to the head bone without a skin.
 """
 
 from pathlib import Path
@@ -19,7 +20,7 @@ from retarget_lib.data.sources.cmu import cmu_clip_path
 from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.io import fbx, load_bvh, save_bvh
 from retarget_lib.io.fbx import fbx_missing, load_fbx_rig
-from retarget_lib.io.gltf import load_gltf_motion
+from retarget_lib.io.gltf import load_gltf_motion, skin
 
 pytestmark = pytest.mark.skipif(
     fbx_missing() is not None, reason=f"fbx extra not installed: {fbx_missing()}"
@@ -52,6 +53,22 @@ def test_the_shared_skin_alone_tears_the_body_apart(monkeypatch):
     head, hands and feet metres away: the check above fails without each mesh's own matrices."""
     monkeypatch.setattr(fbx, "_mesh_binds", lambda doc, binds: None)
     assert _distance_to_character(load_fbx_rig(FILE).rest_vertices).max() > 1.0
+
+
+def test_a_mesh_parented_to_a_bone_moves_with_it(monkeypatch):
+    """The eye (no skin, a child of the head bone) is part of the body, weighted wholly to the
+    head; without it the reader had only the skinned meshes."""
+    rig = load_fbx_rig(FILE)
+    character = rig.character()
+    head = character.skeleton.index("Head")
+    on_head = character.weights[:, head] == 1.0
+    monkeypatch.setattr(skin, "_rigid_nodes", lambda doc, tree: {})
+    without = load_fbx_rig(FILE)
+    extra = len(rig.rest_vertices) - len(without.rest_vertices)
+    assert extra > 0 and on_head[len(without.rest_vertices) :].all()
+    # the eye sits on the front of the head (the check above: on the character's surface)
+    eye = rig.rest_vertices[len(without.rest_vertices) :]
+    assert eye[:, 1].min() > character.skeleton.rest_positions()[head, 1] - 0.05
 
 
 def test_a_retarget_onto_it_writes_one_body(tmp_path):

@@ -12,8 +12,9 @@ decimated to a tenth (a small file; no UVs, no colours), and its head, hands and
 mesh objects of their own, each under its own object transform with the mesh data compensated (the
 world positions do not change), as a character assembled from meshes authored apart is: a head in
 centimetres, hands moved and turned, feet scaled unevenly. Blender's FBX exporter then writes every
-mesh with its own skin (deformer and clusters, each with its mesh's bind matrix). The project's own
-data: no licence beyond the repository's.
+mesh with its own skin (deformer and clusters, each with its mesh's bind matrix), and an eye
+parented to the head bone without a skin. The project's own data: no licence beyond the
+repository's.
 """
 
 import sys
@@ -78,6 +79,16 @@ for obj, m in pieces.items():
     world = obj.matrix_world.copy()
     obj.data.transform(m.inverted())
     obj.matrix_world = world @ m
+# an eye parented to the head bone, not skinned (as eyes, teeth and helmets often are): a small
+# sphere on the front of the head
+head_mesh = next(o for o in pieces if o.name == "HeadMesh")
+front = max((head_mesh.matrix_world @ v.co for v in head_mesh.data.vertices), key=lambda c: -c.y)
+bpy.ops.mesh.primitive_uv_sphere_add(segments=8, ring_count=6, radius=0.02)
+eye = bpy.context.active_object
+eye.name = eye.data.name = "Eye"
+eye.parent, eye.parent_type, eye.parent_bone = arm, "BONE", "Head"
+bpy.context.view_layer.update()
+eye.matrix_world = Matrix.Translation(front)
 bpy.ops.export_scene.fbx(filepath=out, add_leaf_bones=False, bake_anim=False)
 print(
     "meshes",

@@ -18,7 +18,9 @@ What is read (:func:`load_gltf_rig`):
   :class:`~retarget_lib.errors.GLTFError`).
 * **Mesh** = every triangle primitive of every skinned mesh node, merged, posed into the rest pose
   by the file's own skinning (``world(joint) @ inverseBindMatrix``; every inverse bind matrix must
-  be an invertible affine matrix), so the rest vertices are what a viewer shows. Materials, UVs
+  be an invertible affine matrix), so the rest vertices are what a viewer shows; then every mesh
+  node without a skin under a joint (an eye parented to the head bone), weighted wholly to its
+  nearest joint ancestor. Materials, UVs
   and morph targets are not read; a Draco- or meshopt-compressed mesh is refused by name.
 * **Weights** = ``JOINTS_n`` / ``WEIGHTS_n`` (any number of sets) as a dense ``(V, J)`` array.
 * **Joint map** onto the canonical 22 by :func:`~retarget_lib.io.rig_maps.map_joints`: the rig's

@@ -60,6 +60,24 @@ def _skinned_nodes(doc: GLTFDocument) -> list[int]:
     return nodes
 
 
+def _rigid_nodes(doc: GLTFDocument, tree: _Skeleton) -> dict[int, int]:
+    """``{mesh node: joint tree index}``: the meshes without a skin that hang under a joint (eyes,
+    teeth, a helmet parented to a bone in Blender or Maya), each moved rigidly by its nearest joint
+    ancestor. Meshes under no joint (a floor, a bone's display shape) are not the character's."""
+    g = doc.gltf
+    index = {n: i for i, n in enumerate(tree.nodes)}
+    out: dict[int, int] = {}
+    for n, node in enumerate(g.nodes):
+        if node.mesh is None or node.skin is not None or node.mesh >= len(g.meshes):
+            continue
+        k = tree.node_parent[n]
+        while k >= 0 and k not in index:
+            k = tree.node_parent[k]
+        if k >= 0:
+            out[n] = index[k]
+    return out
+
+
 def _inverse_binds(doc: GLTFDocument, skin_index: int) -> np.ndarray:
     """``(K, 4, 4)`` the inverse bind matrices of a skin (identity without an accessor), each an
     invertible affine matrix."""
@@ -107,27 +125,45 @@ def _primitive_binds(
     return binds
 
 
+def _rigid_world(doc: GLTFDocument, tree: _Skeleton, node: int, world: dict[int, np.ndarray]):
+    """``(4, 4)`` the rest world transform of a mesh node under a joint (its joint's world, then the
+    local transforms down to it)."""
+    chain, k = [], node
+    while k not in world:
+        chain.append(k)
+        k = tree.node_parent[k]
+    out = world[k]
+    for c in reversed(chain):
+        out = out @ _local_matrix(doc.gltf.nodes[c])
+    return out
+
+
 def _mesh(doc: GLTFDocument, skinned: list[int], tree: _Skeleton, world: dict[int, np.ndarray]):
     """Rest vertices ``(V, 3)`` (posed by the file's skinning), faces ``(F, 3)``, weights ``(V,
-    J)``."""
+    J)``: the skinned meshes, then the meshes that hang rigidly under a joint
+    (:func:`_rigid_nodes`, weight 1 on that joint)."""
     g = doc.gltf
     index = {n: i for i, n in enumerate(tree.nodes)}
     first_primitive = np.cumsum([0] + [len(m.primitives) for m in g.meshes])
     verts, faces, weights, base, triangles = [], [], [], 0, 0
-    for n in skinned:
-        skin = g.skins[g.nodes[n].skin]
-        palette = np.array([index[j] for j in skin.joints])
-        joint_worlds = np.stack([world[j] for j in skin.joints])  # (K, 4, 4)
-        skin_binds = _inverse_binds(doc, g.nodes[n].skin)
+    parts = [(n, None) for n in skinned] + list(_rigid_nodes(doc, tree).items())
+    for n, joint in parts:
+        if joint is None:
+            skin = g.skins[g.nodes[n].skin]
+            palette = np.array([index[j] for j in skin.joints])
+            joint_worlds = np.stack([world[j] for j in skin.joints])  # (K, 4, 4)
+            skin_binds = _inverse_binds(doc, g.nodes[n].skin)
+        else:
+            palette = np.array([joint])
+            rigid = _rigid_world(doc, tree, n, world)[None]  # (1, 4, 4)
         for p, prim in enumerate(g.meshes[g.nodes[n].mesh].primitives):
             what = f"mesh {g.nodes[n].mesh} primitive {p}"
-            skin_mats = joint_worlds @ _primitive_binds(
-                doc, skin.joints, skin_binds, int(first_primitive[g.nodes[n].mesh]) + p
-            )
             if (prim.mode if prim.mode is not None else _TRIANGLES) != _TRIANGLES:
                 raise doc.error(f"{what} is not a triangle list (mode {prim.mode})")
             attrs = prim.attributes
-            if attrs.POSITION is None or attrs.JOINTS_0 is None or attrs.WEIGHTS_0 is None:
+            if attrs.POSITION is None or (
+                joint is None and (attrs.JOINTS_0 is None or attrs.WEIGHTS_0 is None)
+            ):
                 raise doc.error(
                     f"{what} lacks POSITION, JOINTS_0 or WEIGHTS_0 (a skinned mesh needs all three)"
                 )
@@ -139,9 +175,16 @@ def _mesh(doc: GLTFDocument, skinned: list[int], tree: _Skeleton, world: dict[in
                 "skinning weights (vertices x joints)",
                 str(doc.path),
             )
-            w = _weights(doc, attrs, len(pos), palette, len(tree.nodes), what)
-            local_w = w[:, palette]  # (V, K)
-            blended = np.einsum("vk,kij->vij", local_w, skin_mats)
+            if joint is None:
+                skin_mats = joint_worlds @ _primitive_binds(
+                    doc, skin.joints, skin_binds, int(first_primitive[g.nodes[n].mesh]) + p
+                )
+                w = _weights(doc, attrs, len(pos), palette, len(tree.nodes), what)
+            else:
+                skin_mats = rigid
+                w = np.zeros((len(pos), len(tree.nodes)))
+                w[:, joint] = 1.0
+            blended = np.einsum("vk,kij->vij", w[:, palette], skin_mats)
             verts.append(np.einsum("vij,vj->vi", blended[:, :3, :3], pos) + blended[:, :3, 3])
             idx = (
                 doc.accessor(prim.indices, _INDICES, f"{what} indices").astype(np.int64).ravel()
