@@ -196,25 +196,14 @@ class Motion:
     def mirror(self) -> Motion:
         """Left/right mirror image across the YZ plane (x -> -x); needs a symmetric joint set.
 
-        Left and right joints swap (names starting with Left/Right); rotations are reflected
-        (``(w, x, y, z) -> (w, x, -y, -z)``) and offsets get ``x`` negated.
+        Left and right joints swap (names with Left/Right); rotations are reflected
+        (``(w, x, y, z) -> (w, x, -y, -z)``) and the skeleton is mirrored
+        (:meth:`~retarget_lib.core.skeleton.Skeleton.mirror`).
         """
-        names = self.skeleton.joint_names
-        idx = {n: i for i, n in enumerate(names)}
-
-        def partner(n: str) -> str:
-            for a, b in (("Left", "Right"), ("Right", "Left")):
-                if a in n:
-                    return n.replace(a, b)
-            return n
-
-        swap = [idx.get(partner(n), i) for i, n in enumerate(names)]
-        rot = self.rotations[:, swap] * np.array([1.0, 1.0, -1.0, -1.0])
-        off = self.skeleton.offsets[swap] * np.array([-1.0, 1.0, 1.0])
+        rot = self.rotations[:, self.skeleton.mirror_swap()] * np.array([1.0, 1.0, -1.0, -1.0])
         root = self.root_positions * np.array([-1.0, 1.0, 1.0])
-        skel = Skeleton(names, self.skeleton.parents, off)
         return self.copy(
-            skeleton=skel,
+            skeleton=self.skeleton.mirror(),
             rotations=rot,
             root_positions=root,
             name=(self.name + "_mirror") if self.name else "mirror",

@@ -159,6 +159,28 @@ class Skeleton:
             {k: v * factor for k, v in self.end_sites.items()},
         )
 
+    def mirror_swap(self) -> list[int]:
+        """``(J,)`` each joint's left/right partner (names with ``Left``/``Right`` swapped; itself
+        when it has none): the joint order of the mirror image."""
+        index = {n: i for i, n in enumerate(self.joint_names)}
+
+        def partner(n: str) -> str:
+            for a, b in (("Left", "Right"), ("Right", "Left")):
+                if a in n:
+                    return n.replace(a, b)
+            return n
+
+        return [index.get(partner(n), i) for i, n in enumerate(self.joint_names)]
+
+    def mirror(self) -> Skeleton:
+        """The left/right mirror image across the YZ plane (``x -> -x``): each joint takes its
+        partner's offset (:meth:`mirror_swap`) with ``x`` negated; needs a symmetric joint set."""
+        return Skeleton(
+            self.joint_names,
+            self.parents,
+            self.offsets[self.mirror_swap()] * np.array([-1.0, 1.0, 1.0]),
+        )
+
     def bone_lengths(self) -> np.ndarray:
         """``(J,)`` length of each joint's offset (the root's entry is its rest-position norm)."""
         return np.linalg.norm(self.offsets, axis=-1)
