@@ -136,7 +136,12 @@ def mirror_averaged(generator: Any, motion: Motion, target: Skeleton) -> tuple[T
 
 
 def retarget_motion_with(
-    generator: Any, motion: Motion, target: Skeleton, windowed: bool = False, chunk: int = 256
+    generator: Any,
+    motion: Motion,
+    target: Skeleton,
+    windowed: bool = False,
+    chunk: int = 256,
+    mirror_average: bool = True,
 ) -> Motion:
     """Retarget a whole clip with a trained TDCN/NKN generator (any length).
 
@@ -144,7 +149,7 @@ def retarget_motion_with(
     leg-scaled root as its root: it runs on the clip as it is (``windowed`` is not needed), with
     the feet's alignments the identity (flat where the source's are flat,
     :func:`~retarget_lib.core.transfer.keep_feet_as_rest`), once on the clip and once on its
-    mirror image, averaged (:func:`mirror_averaged`).
+    mirror image, averaged (:func:`mirror_averaged`; ``mirror_average=False``: one pass).
 
     ``windowed=False`` (the paper, Sec. 3.1): the clip is centred like the training windows
     (:func:`centre_root`) and run through the network in one pass; the removed horizontal shift
@@ -165,6 +170,8 @@ def retarget_motion_with(
         windowed: per-frame re-centred windows (needs a
             :class:`~retarget_lib.models.TDCNGenerator`).
         chunk: windows per network call when ``windowed``.
+        mirror_average: a residual generator's result averaged with its mirror image's
+            (:func:`mirror_averaged`, the default); False: one pass, the network alone.
 
     Returns:
         the target's :class:`~retarget_lib.core.motion.Motion` (``T`` frames, unit quaternions),
@@ -178,7 +185,11 @@ def retarget_motion_with(
         if getattr(
             generator, "residual", False
         ):  # translation-invariant inputs, analytic root: no centring
-            q_b, r_b = mirror_averaged(generator, motion, target)
+            q_b, r_b = (
+                mirror_averaged(generator, motion, target)
+                if mirror_average
+                else _residual_pass(generator, motion, target)
+            )
             shift = r.new_zeros(3)
         elif not windowed:
             r, shift = centre_root(r)
