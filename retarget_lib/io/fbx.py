@@ -56,7 +56,8 @@ from ..core.rig import Rig
 from ..errors import FBXError
 from ..files import readable_file
 from .gltf import MAX_FILE_BYTES, animation_from, motion_from, parse_gltf_bytes, rig_from
-from .gltf.document import _INVERSE_BIND, GLTFDocument
+from .gltf.document import GLTFDocument
+from .gltf.skin import _inverse_binds
 from .untrusted import check_array_bytes
 
 __all__ = [
@@ -100,7 +101,8 @@ except impasse.errors.AssimpError as e:
 settings = dict(scene.metadata) if scene.metadata is not None else {}
 # every mesh's own bind matrices (assimp 5.2.5's aiBone: mName is 1028 bytes, then mNumWeights,
 # mArmature, mNode, mWeights, and mOffsetMatrix at byte 1056, row-major; impasse declares the
-# first four in another order, so its offset_matrix is read 8 bytes late): glTF export keeps one
+# first four in another order, so its offset_matrix is read 8 bytes late); the glTF export keeps
+# only the first mesh's for each joint
 binds = []
 for mesh in scene.meshes:
     bones = {}
@@ -431,7 +433,7 @@ def _mesh_binds(doc: GLTFDocument, binds: list) -> list[dict[str, np.ndarray] | 
         for b in binds
     ]
     skin = g.skins[0]
-    ibm = doc.accessor(skin.inverseBindMatrices, _INVERSE_BIND, "skin 0 inverse bind matrices")
+    ibm = _inverse_binds(doc, 0)
     for k, joint in enumerate(skin.joints):
         first = next((o[g.nodes[joint].name] for o in own if g.nodes[joint].name in o), None)
         if first is not None and not np.allclose(
