@@ -243,6 +243,9 @@ TDCN: dict[str, Any] = {
         "twist_exclude_root": BOOL,
         "reduction": choice("mean", "frame_sum"),
         "standardize": BOOL,
+        "quaternion_weight": POS_NUM,
+        "position_joints": choice("all", "end_effectors"),
+        "root_scale": choice("height", "leg_length"),
         **{f"lambda_{k}": NONNEG_NUM for k in "ctharogd"},
     },
     "train": {
@@ -265,6 +268,7 @@ CONTACT: dict[str, Any] = {
         "geometry": WIDTH,
         "dropout": DROPOUT,
         "residual": BOOL,
+        "lower_body_from_base": BOOL,
     },
     "energy": {
         "row": lazy_choice(

@@ -6,12 +6,14 @@ import torch
 
 from retarget_lib.config import load_config
 from retarget_lib.losses.tdcn import (
+    CODE_END_EFFECTOR_IDS,
     MotionTensors,
     PositionScale,
     adversarial_loss,
     cycle_loss,
     height_loss,
     per_sample,
+    reconstruction_loss,
     twist_loss,
 )
 
@@ -134,3 +136,57 @@ def test_the_arm_drop_augmentation_lowers_both_upper_arms_by_the_same_drawn_angl
     assert torch.allclose(left, right, atol=1e-3)  # symmetric (float32 rotations)
     assert (drop >= -1e-3).all() and drop.max() <= 70.0 + 1e-3 and drop.max() > 35.0
     assert 10 < int((drop.abs() < 1e-3).sum()) < 54  # about half the skeletons keep their rest
+
+
+def test_the_authors_code_weighting_of_the_reconstruction_and_cycle_terms_by_hand():
+    # one frame, 22 joints: every position off by 1 in x, every quaternion off by 0.5 in w,
+    # the root off by 2 in y. frame sums: p 22 (all joints) or 5 (the code's end effectors),
+    # q 22 x 0.25 = 5.5, r 4.
+    p = torch.zeros(1, 1, 22, 3)
+    q = torch.zeros(1, 1, 22, 4)
+    r = torch.zeros(1, 1, 3)
+    x = MotionTensors(p, q, r)
+    dp, dq, dr = p.clone(), q.clone(), r.clone()
+    dp[..., 0], dq[..., 0], dr[..., 1] = 1.0, 0.5, 2.0
+    y = MotionTensors(dp, dq, dr)
+    assert cycle_loss(x, y, "frame_sum").item() == pytest.approx(22 + 5.5 + 4)
+    assert cycle_loss(x, y, "frame_sum", 10.0).item() == pytest.approx(22 + 55 + 4)
+    code = dict(quaternion_weight=10.0, joints=CODE_END_EFFECTOR_IDS)
+    assert cycle_loss(x, y, "frame_sum", **code).item() == pytest.approx(5 + 55 + 4)
+    assert reconstruction_loss(x, y, "frame_sum", **code).item() == pytest.approx(5 + 55 + 4)
+    same = torch.tensor([True])
+    h = torch.zeros(1, 1)
+    assert adversarial_loss(h, x, y, same, reduction="frame_sum", **code).item() == pytest.approx(
+        64.0
+    )
+    # a position error away from the end effectors is not seen by the code's comparison
+    spine = MotionTensors(p.clone(), q, r)
+    spine.p[0, 0, 1, 0] = 3.0
+    assert cycle_loss(x, spine, "frame_sum", **code).item() == 0.0
+    assert cycle_loss(x, spine, "frame_sum").item() == pytest.approx(9.0)
+
+
+def test_the_code_losses_config_is_a_small_delta_over_the_mixamo_convention_row():
+    base = load_config("configs/tdcn_ours_mixamo_convention.yaml", profile="fast")
+    code = load_config("configs/tdcn_ours_mixamo_convention_code_losses.yaml", profile="fast")
+    assert code["loss"]["quaternion_weight"] == 10.0
+    assert code["loss"]["position_joints"] == "end_effectors"
+    delta = ("quaternion_weight", "position_joints")
+    assert {k: v for k, v in code["loss"].items() if k not in delta} == base["loss"]
+    assert {k: v for k, v in code.items() if k not in ("loss", "name", "config_path")} == {
+        k: v for k, v in base.items() if k not in ("loss", "name", "config_path")
+    }
+
+
+def test_the_root_term_can_be_normalised_by_leg_length_by_hand():
+    # two frames, the root 1 m up on A, 0.5 m up on B; both 2 m tall (H), legs 1 m and 0.5 m.
+    # By H (Eqs. 15-16): m = 0.5 against 0.25, smoothL1(0.25) = 0.03125, times lambda_g = 5.
+    # By leg length: m = 1 against 1: nothing (the leg-scaled root is what the term asks for).
+    p = torch.zeros(1, 2, 2, 3)
+    r_a = torch.tensor([[[0.0, 1.0, 0.0], [0.0, 1.0, 0.0]]])
+    r_b = r_a * 0.5
+    h = torch.tensor([2.0])
+    by_height = height_loss(p, p, r_a, r_b, h, h, 5.0)
+    assert by_height.item() == pytest.approx(5.0 * 0.5 * 0.25**2)
+    by_leg = height_loss(p, p, r_a, r_b, h, h, 5.0, root_scales=(torch.tensor([1.0]), 0.5))
+    assert by_leg.item() == 0.0

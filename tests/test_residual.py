@@ -231,3 +231,76 @@ def test_the_tdcn_method_commutes_with_a_mirror_and_keeps_identity():
         clip.global_positions(),
         atol=1e-4,
     )  # identity: both passes return the input (float32)
+
+
+def _far_from_identity(model, seed=0):
+    torch.manual_seed(seed)
+    with torch.no_grad():
+        model.rotation_head.weight.normal_(std=0.5)
+        model.velocity_head.weight.normal_(std=0.5)
+    return model
+
+
+def test_lower_body_from_base_keeps_the_bases_hips_legs_and_root_path_for_any_weights():
+    from retarget_lib.core.rotations import quat_to_matrix
+    from retarget_lib.models.georet import GeometryConditionedRNN, ResidualBase, motion_features
+    from retarget_lib.models.georet.model import LOWER_BODY
+
+    q = random_quats(1, 6, 22, seed=7).float()
+    root = torch.cumsum(torch.randn(1, 6, 3) * 0.01, 1)
+    off = torch.randn(22, 3) * 0.1
+    feats = motion_features(q, root, off)
+    vel = torch.randn(1, 6, 3) * 0.01
+    verts, weights = torch.randn(1, 50, 3), torch.softmax(torch.randn(1, 50, 22), -1)
+    outs = {}
+    for kept in (False, True):
+        model = GeometryConditionedRNN(
+            hidden=32, geometry=16, residual=True, lower_body_from_base=kept
+        ).eval()
+        _far_from_identity(model)
+        with torch.no_grad():
+            outs[kept] = model(feats, off, verts, weights, base=ResidualBase(q, vel))
+    lower, upper = list(LOWER_BODY), [j for j in range(22) if j not in LOWER_BODY]
+    m = {k: quat_to_matrix(o.rotations) for k, o in outs.items()}
+    base = quat_to_matrix(q)
+    # float32 products of unit quaternions: rounding only
+    assert torch.allclose(m[True][:, :, lower], base[:, :, lower], atol=1e-5)
+    assert torch.allclose(outs[True].root_velocity, vel, atol=1e-6)
+    # the same weights with the lower body free change it, and the upper body changes either way
+    assert not torch.allclose(m[False][:, :, lower], base[:, :, lower], atol=1e-2)
+    assert not torch.allclose(outs[False].root_velocity, vel, atol=1e-3)
+    assert not torch.allclose(m[True][:, :, upper], base[:, :, upper], atol=1e-2)
+    with pytest.raises(ValueError, match="residual"):
+        GeometryConditionedRNN(hidden=32, geometry=16, lower_body_from_base=True)
+
+
+def test_eso_moves_neither_the_root_nor_the_legs_of_a_lower_body_from_base_network():
+    from retarget_lib.core.rotations import quat_to_matrix
+    from retarget_lib.data.synthetic.characters import make_character
+    from retarget_lib.data.synthetic.motions import make_motion
+    from retarget_lib.geometry.penetration import InterpenetrationEnergy
+    from retarget_lib.methods.contact import retarget_with_eso
+    from retarget_lib.models.georet import GeometryConditionedRNN
+    from retarget_lib.models.georet.model import LOWER_BODY
+
+    character = make_character("ada")
+    motion = make_motion("clap", character.skeleton, 0).slice(0, 4)
+    eint = InterpenetrationEnergy(character.faces, character.rest_vertices)
+    eso = {"iterations": 3, "lr": 0.05, "reach": 0.15, "blend": 0.3}
+    results = {}
+    for kept in (False, True):
+        model = GeometryConditionedRNN(
+            hidden=32, geometry=16, residual=True, lower_body_from_base=kept
+        ).eval()
+        _far_from_identity(model, seed=1)
+        results[kept] = retarget_with_eso(
+            model, eso, motion, character, None, eint, compile=False
+        )
+    lower = list(LOWER_BODY)
+    kept = results[True]
+    # onto its own skeleton the base is the source itself (leg ratio 1)
+    np.testing.assert_allclose(kept.root_positions, motion.root_positions, atol=1e-5)
+    a = quat_to_matrix(torch.as_tensor(kept.rotations[:, lower]))
+    b = quat_to_matrix(torch.as_tensor(motion.rotations[:, lower]))
+    assert torch.allclose(a, b.to(a.dtype), atol=1e-4)  # float32 network, float64 source
+    assert np.abs(results[False].root_positions - motion.root_positions).max() > 1e-3

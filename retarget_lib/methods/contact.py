@@ -148,6 +148,7 @@ def model_from_config(config: dict) -> GeometryConditionedRNN:
         geometry=int(m["geometry"]),
         dropout=float(m["dropout"]),
         residual=bool(m.get("residual", False)),
+        lower_body_from_base=bool(m.get("lower_body_from_base", False)),
     )
 
 

@@ -76,7 +76,7 @@ from pathlib import Path
 
 import torch
 
-from ..core.measures import nkn_height
+from ..core.measures import leg_length, nkn_height
 from ..data.checkpoints import save_state
 from ..data.manifest import mixamo_local_dir
 from ..devices import autocast
@@ -98,6 +98,7 @@ from ..losses import (
     total_generator_loss,
     twist_loss,
 )
+from ..losses.tdcn import CODE_END_EFFECTOR_IDS
 from ..methods.tdcn import model_config
 from ..models import build_model, normalize_quaternions, resolve_config
 from ..models.features import (
@@ -239,6 +240,12 @@ class RetargetTraining:
         )
         self.twist_exclude_root = bool(loss.get("twist_exclude_root", False))
         self.reduction = loss.get("reduction", "mean")
+        end_effectors_only = loss.get("position_joints") == "end_effectors"
+        self.compare = dict(  # how Lc and La's reconstruction compare two motions
+            quaternion_weight=float(loss.get("quaternion_weight", 1.0)),
+            joints=CODE_END_EFFECTOR_IDS if end_effectors_only else None,
+        )
+        self.root_scale = leg_length if loss.get("root_scale") == "leg_length" else nkn_height
         if clips is None:
             source = data.get("source", "synthetic")
             root = str(mixamo_local_dir()) if "mixamo-local" in source.split("+") else None
@@ -344,7 +351,7 @@ class RetargetTraining:
         h_fake = d(d.features(p_b, out_b.root_positions, off_b))
         z = self.position_scale.apply if self.position_scale is not None else (lambda x: x)
         terms = {
-            "Lc": cycle_loss(z(x_a), z(x_a_hat), red),
+            "Lc": cycle_loss(z(x_a), z(x_a_hat), red, **self.compare),
             "Lt": twist_loss(
                 out_b.rotations,
                 out_a.rotations,
@@ -361,9 +368,16 @@ class RetargetTraining:
                 nkn_height(off_b),
                 self.weights.lambda_g,
                 red,
+                (self.root_scale(off_a), self.root_scale(off_b)),
             ),
             "La": adversarial_loss(
-                h_fake, z(x_a), z(x_b_hat), batch.same_character, gan=self.gan, reduction=red
+                h_fake,
+                z(x_a),
+                z(x_b_hat),
+                batch.same_character,
+                gan=self.gan,
+                reduction=red,
+                **self.compare,
             ),
             "Lr": regularization_loss(out_b.rotations, out_a.rotations, red),
             "Lo": orientation_loss(q_a[:, :, 0], out_b.rotations[:, :, 0], red),

@@ -23,6 +23,7 @@ from .tensors import (
     smooth_l1,
 )
 from .terms import (
+    CODE_END_EFFECTOR_IDS,
     bone_direction_loss,
     cycle_loss,
     height_loss,
@@ -35,6 +36,7 @@ from .terms import (
 from .total import TERM_WEIGHTS, TDCNLossWeights, total_generator_loss
 
 __all__ = [
+    "CODE_END_EFFECTOR_IDS",
     "MotionTensors",
     "NonFiniteLossError",
     "PositionScale",

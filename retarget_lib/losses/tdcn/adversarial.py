@@ -9,6 +9,7 @@ fake = 0: D minimises ``(h_real − 1)² + h_fake²``, G minimises ``(h_fake −
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Literal
 
 import torch
@@ -87,6 +88,8 @@ def adversarial_loss(
     same_character: Tensor,
     gan: Literal["lsgan", "sigmoid_ce"] = "lsgan",
     reduction: Reduction = "mean",
+    quaternion_weight: float = 1.0,
+    joints: Sequence[int] | None = None,
 ) -> Tensor:
     """Generator's ``La`` with Eq. 21's two cases chosen per sample, averaged over the batch.
 
@@ -103,6 +106,7 @@ def adversarial_loss(
         gan: ``"lsgan"`` (TDCN) or ``"sigmoid_ce"`` (NKN baseline).
         reduction: ``"mean"`` or ``"frame_sum"`` (see the module docstring): how each sample's
             reconstruction error is reduced; the GAN scores are one per frame pair either way.
+        quaternion_weight, joints: of the reconstruction (:func:`reconstruction_loss`).
     """
     if reduction not in ("mean", "frame_sum"):
         raise ValueError(f"reduction must be 'mean' or 'frame_sum', got {reduction!r}")
@@ -112,7 +116,7 @@ def adversarial_loss(
         adv = sigmoid_ce_generator_loss(h_fake, "per_sample")
     else:
         raise ValueError(f"gan must be 'lsgan' or 'sigmoid_ce', got {gan!r}")
-    rec = reconstruction_loss(x_a, x_b_hat, per_sample(reduction))
+    rec = reconstruction_loss(x_a, x_b_hat, per_sample(reduction), quaternion_weight, joints)
     same = torch.as_tensor(same_character, dtype=torch.bool, device=rec.device)
     if same.shape != rec.shape:
         raise ValueError(f"same_character must be ({rec.shape[0]},), got {tuple(same.shape)}")

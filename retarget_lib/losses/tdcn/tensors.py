@@ -25,6 +25,7 @@ true`` in a config restore the authors' balance (``configs/tdcn_paper_code_scale
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Literal, NamedTuple
 
 import torch
@@ -176,12 +177,29 @@ def smooth_l1(x: Tensor, reduction: Reduction = "mean") -> Tensor:
     return reduce_elements(torch.where(ax < 1.0, 0.5 * x * x, ax - 0.5), reduction)
 
 
-def motion_mse(x: MotionTensors, y: MotionTensors, reduction: Reduction) -> Tensor:
+def motion_mse(
+    x: MotionTensors,
+    y: MotionTensors,
+    reduction: Reduction,
+    quaternion_weight: float = 1.0,
+    joints: Sequence[int] | None = None,
+) -> Tensor:
+    """``‖p − p'‖² + w_q ‖q − q'‖² + ‖r − r'‖²``, each part reduced on its own, then summed.
+
+    Args:
+        x, y: the two motions (``p (B,T,J,3)``, ``q (B,T,J,4)``, ``r (B,T,3)``).
+        reduction: see :func:`reduce_elements`.
+        quaternion_weight: ``w_q`` (1 as printed in Eq. 7; the authors' released code uses 10,
+            its ``quatW``).
+        joints: compare ``p`` at these joints only (default all; the authors' code compares the
+            end effectors, :data:`~retarget_lib.losses.tdcn.terms.CODE_END_EFFECTOR_IDS`).
+    """
     for name, a, b in (("p", x.p, y.p), ("q", x.q, y.q), ("r", x.r, y.r)):
         if a.shape != b.shape:
             raise ValueError(f"{name}: shapes differ, {tuple(a.shape)} vs {tuple(b.shape)}")
+    dp = x.p - y.p if joints is None else x.p[:, :, list(joints)] - y.p[:, :, list(joints)]
     return (
-        reduce_elements((x.p - y.p) ** 2, reduction)
-        + reduce_elements((x.q - y.q) ** 2, reduction)
+        reduce_elements(dp**2, reduction)
+        + quaternion_weight * reduce_elements((x.q - y.q) ** 2, reduction)
         + reduce_elements((x.r - y.r) ** 2, reduction)
     )

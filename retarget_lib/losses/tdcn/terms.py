@@ -39,6 +39,7 @@ import torch
 
 from ...core.quantities import normalized_joint_displacements, normalized_root_distances
 from ...core.rotations import quat_angle
+from ...core.skeleton import CANONICAL22
 from .tensors import (
     MotionTensors,
     Reduction,
@@ -50,7 +51,20 @@ from .tensors import (
 
 Tensor = torch.Tensor
 
+#: the joints whose positions the authors' released code compares in its reconstruction and cycle
+#: terms (its ``endeffectors``: head, hands, toes)
+CODE_END_EFFECTORS: tuple[str, ...] = (
+    "Head",
+    "LeftHand",
+    "RightHand",
+    "LeftToeBase",
+    "RightToeBase",
+)
+CODE_END_EFFECTOR_IDS: tuple[int, ...] = tuple(CANONICAL22.index(n) for n in CODE_END_EFFECTORS)
+
 __all__ = [
+    "CODE_END_EFFECTORS",
+    "CODE_END_EFFECTOR_IDS",
     "bone_direction_loss",
     "cycle_loss",
     "height_loss",
@@ -67,7 +81,13 @@ __all__ = [
 # --------------------------------------------------------------------------------------------
 
 
-def cycle_loss(x_a: MotionTensors, x_a_hat: MotionTensors, reduction: Reduction = "mean") -> Tensor:
+def cycle_loss(
+    x_a: MotionTensors,
+    x_a_hat: MotionTensors,
+    reduction: Reduction = "mean",
+    quaternion_weight: float = 1.0,
+    joints: Sequence[int] | None = None,
+) -> Tensor:
     """Cycle-consistency loss ``Lc = ‖x^A − x̂^A‖²₂`` (Eq. 7).
 
     ``x`` holds ``p``, ``q`` and ``r``. Reduction: the squared errors of each part are averaged
@@ -83,24 +103,32 @@ def cycle_loss(x_a: MotionTensors, x_a_hat: MotionTensors, reduction: Reduction 
             ``r (B,T,3)``.
         x_a_hat: the motion after the cycle A → B → A (Eq. 5), same shapes.
         reduction: ``"mean"`` → scalar; ``"per_sample"`` → ``(B,)``.
+        quaternion_weight: weight of the ``q`` part (1 as printed; the authors' code 10).
+        joints: compare ``p`` at these joints only (default all; the authors' code
+            :data:`CODE_END_EFFECTOR_IDS`).
     """
-    return motion_mse(x_a, x_a_hat, reduction)
+    return motion_mse(x_a, x_a_hat, reduction, quaternion_weight, joints)
 
 
 def reconstruction_loss(
-    x_a: MotionTensors, x_b_hat: MotionTensors, reduction: Reduction = "mean"
+    x_a: MotionTensors,
+    x_b_hat: MotionTensors,
+    reduction: Reduction = "mean",
+    quaternion_weight: float = 1.0,
+    joints: Sequence[int] | None = None,
 ) -> Tensor:
     """``‖x^A − x̂^B‖²₂`` — Eq. 21's second case, used in place of the GAN term when ``A = B``.
 
     When the sampled target is the source itself, the right answer is known (``x̂^B = x^A``), so
-    La is a direct reconstruction error. Same parts and reduction as :func:`cycle_loss`.
+    La is a direct reconstruction error. Same parts, weights and reduction as :func:`cycle_loss`.
 
     Args:
         x_a: the source motion (``p (B,T,J,3)``, ``q (B,T,J,4)``, ``r (B,T,3)``).
         x_b_hat: the generator's output for target ``B = A``, same shapes.
         reduction: ``"mean"`` → scalar; ``"per_sample"`` → ``(B,)``.
+        quaternion_weight, joints: as in :func:`cycle_loss`.
     """
-    return motion_mse(x_a, x_b_hat, reduction)
+    return motion_mse(x_a, x_b_hat, reduction, quaternion_weight, joints)
 
 
 # --------------------------------------------------------------------------------------------
@@ -199,6 +227,7 @@ def height_loss(
     h_b,
     lambda_g: float = 5.0,
     reduction: Reduction = "mean",
+    root_scales: tuple | None = None,
 ) -> Tensor:
     """Height loss ``Lh`` (Eqs. 9-17): B's motion should be A's, scaled by the height ratio.
 
@@ -230,6 +259,11 @@ def height_loss(
         h_b: ``H(s̄^B)``, float or ``(B,)``, metres.
         lambda_g: weight of the root term (paper: 5).
         reduction: ``"mean"`` → scalar; ``"per_sample"`` → ``(B,)``.
+        root_scales: ``(s_a, s_b)`` to divide the root distances by instead of ``(h_a, h_b)``
+            (Eqs. 15-16 print ``H``). With leg lengths (``loss.root_scale: leg_length``) the root
+            term asks for the source's root scaled by the leg-length ratio, as Mixamo, the
+            synthetic ground truth and the "copy" baseline scale it; with ``H`` it asks for the
+            height ratio, which puts the hips of a long-legged, short-torso character too low.
     """
     if p_a.shape != p_b_hat.shape or r_a.shape != r_b_hat.shape:
         raise ValueError(
@@ -238,8 +272,9 @@ def height_loss(
         )
     l_a = normalized_joint_displacements(p_a, h_a)
     l_b = normalized_joint_displacements(p_b_hat, h_b)
-    m_a = normalized_root_distances(r_a, h_a)[:, 1:]
-    m_b = normalized_root_distances(r_b_hat, h_b)[:, 1:]
+    s_a, s_b = (h_a, h_b) if root_scales is None else root_scales
+    m_a = normalized_root_distances(r_a, s_a)[:, 1:]
+    m_b = normalized_root_distances(r_b_hat, s_b)[:, 1:]
     return smooth_l1(l_a - l_b, reduction) + lambda_g * smooth_l1(m_a - m_b, reduction)
 
 

@@ -151,7 +151,10 @@ def decode(
 ) -> Pose:
     """Decode frame ``t`` from ``h^enc_t`` with ``o_(t−1)`` swapped into ``state`` (``gates``: its
     :meth:`~GeometryConditionedRNN.decoder_gates`), then FK and the LBS of the given ``(U, 3)``
-    rest vertices (none when ``U = 0``)."""
+    rest vertices (none when ``U = 0``). A ``lower_body_from_base`` model keeps the carried
+    ``o_(t−1)`` (ESO's update of it is then zero: no gradient reaches it)."""
+    if model.lower_body_from_base:  # the root path is the base's: o_(t−1) is not a variable
+        o_prev = state.root_velocity
     rot, _, new_state = model.decode_step(
         h_enc, state._replace(root_velocity=o_prev), constants.context, base, gates
     )
