@@ -83,17 +83,25 @@ def test_untrained_residual_tdcn_is_copy_and_same_skeleton_is_identity():
     assert torch.allclose(r_hat, r * 1.3, atol=1e-5)
 
 
+def _georet_inputs(frames, seed):
+    """A random source clip for the geometry-conditioned RNN: rotations ``(1, T, 22, 4)``, its
+    features, rest offsets, a base root velocity, and a 50-vertex mesh with skinning weights."""
+    from retarget_lib.models.georet import motion_features
+
+    q = random_quats(1, frames, 22, seed=seed).float()
+    root = torch.cumsum(torch.randn(1, frames, 3) * 0.01, 1)
+    off = torch.randn(22, 3) * 0.1
+    vel = torch.randn(1, frames, 3) * 0.01
+    verts, weights = torch.randn(1, 50, 3), torch.softmax(torch.randn(1, 50, 22), -1)
+    return q, motion_features(q, root, off), off, vel, verts, weights
+
+
 def test_residual_georet_starts_at_the_source_rotations():
-    from retarget_lib.models.georet import GeometryConditionedRNN, ResidualBase, motion_features
+    from retarget_lib.models.georet import GeometryConditionedRNN, ResidualBase
 
     model = GeometryConditionedRNN(hidden=32, geometry=16, residual=True).eval()  # as initialised
     assert not model.rotation_head.weight.any() and not model.velocity_head.weight.any()
-    q = random_quats(1, 8, 22, seed=4).float()
-    root = torch.cumsum(torch.randn(1, 8, 3) * 0.01, 1)
-    off = torch.randn(22, 3) * 0.1
-    feats = motion_features(q, root, off)
-    vel = torch.randn(1, 8, 3) * 0.01
-    verts, weights = torch.randn(1, 50, 3), torch.softmax(torch.randn(1, 50, 22), -1)
+    q, feats, off, vel, verts, weights = _georet_inputs(8, seed=4)
     with torch.no_grad():
         out = model(feats, off, verts, weights, base=ResidualBase(q, vel))
     from retarget_lib.core.rotations import quat_to_matrix
@@ -243,15 +251,10 @@ def _far_from_identity(model, seed=0):
 
 def test_lower_body_from_base_keeps_the_bases_hips_legs_and_root_path_for_any_weights():
     from retarget_lib.core.rotations import quat_to_matrix
-    from retarget_lib.models.georet import GeometryConditionedRNN, ResidualBase, motion_features
+    from retarget_lib.models.georet import GeometryConditionedRNN, ResidualBase
     from retarget_lib.models.georet.model import LOWER_BODY
 
-    q = random_quats(1, 6, 22, seed=7).float()
-    root = torch.cumsum(torch.randn(1, 6, 3) * 0.01, 1)
-    off = torch.randn(22, 3) * 0.1
-    feats = motion_features(q, root, off)
-    vel = torch.randn(1, 6, 3) * 0.01
-    verts, weights = torch.randn(1, 50, 3), torch.softmax(torch.randn(1, 50, 22), -1)
+    q, feats, off, vel, verts, weights = _georet_inputs(6, seed=7)
     outs = {}
     for kept in (False, True):
         model = GeometryConditionedRNN(
@@ -293,9 +296,7 @@ def test_eso_moves_neither_the_root_nor_the_legs_of_a_lower_body_from_base_netwo
             hidden=32, geometry=16, residual=True, lower_body_from_base=kept
         ).eval()
         _far_from_identity(model, seed=1)
-        results[kept] = retarget_with_eso(
-            model, eso, motion, character, None, eint, compile=False
-        )
+        results[kept] = retarget_with_eso(model, eso, motion, character, None, eint, compile=False)
     lower = list(LOWER_BODY)
     kept = results[True]
     # onto its own skeleton the base is the source itself (leg ratio 1)
