@@ -199,8 +199,10 @@ class RetargetTraining:
         config: merged experiment config (:func:`~retarget_lib.config.load_config`) with sections
             ``model``, ``data`` (``window``, ``same_fraction``, ``scale_range``, ``scale_targets``,
             optional ``mirror``, ``random_yaw``, ``rest_jitter_deg``),
-            ``loss`` (``gan``, ``twist_alpha_deg``, ``lambda_*``) and ``train`` (``batch``, ``lr``,
-            ``betas``).
+            ``loss`` (``gan``, ``twist_alpha_deg``, ``lambda_*``; optional ``reduction``,
+            ``standardize``, and the authors' code's comparison of Lc and La's reconstruction,
+            ``quaternion_weight`` and ``position_joints: end_effectors``; ``root_scale:
+            leg_length`` for Lh's root term) and ``train`` (``batch``, ``lr``, ``betas``).
         clips: training data (default :func:`training_clips`).
         device: where the networks and each step's batch live (default CPU). Batches are drawn on
             the CPU either way, so every device sees the same data.
