@@ -247,7 +247,7 @@ class RetargetTraining:
             quaternion_weight=float(loss.get("quaternion_weight", 1.0)),
             joints=CODE_END_EFFECTOR_IDS if end_effectors_only else None,
         )
-        self.root_scale = leg_length if loss.get("root_scale") == "leg_length" else nkn_height
+        self.root_by_leg = loss.get("root_scale") == "leg_length"  # else Eqs. 15-16's H
         if clips is None:
             source = data.get("source", "synthetic")
             root = str(mixamo_local_dir()) if "mixamo-local" in source.split("+") else None
@@ -370,7 +370,7 @@ class RetargetTraining:
                 nkn_height(off_b),
                 self.weights.lambda_g,
                 red,
-                (self.root_scale(off_a), self.root_scale(off_b)),
+                (leg_length(off_a), leg_length(off_b)) if self.root_by_leg else None,
             ),
             "La": adversarial_loss(
                 h_fake,
