@@ -196,12 +196,11 @@ class Motion:
     def mirror(self) -> Motion:
         """Left/right mirror image across the YZ plane (x -> -x); needs a symmetric joint set.
 
-        Left and right joints swap (names with Left/Right); rotations are reflected
-        (``(w, x, y, z) -> (w, x, -y, -z)``) and the skeleton is mirrored
+        Left and right joints swap (names with Left/Right); rotations and root are reflected
+        (:meth:`~retarget_lib.core.skeleton.Skeleton.mirror_pose`) and the skeleton is mirrored
         (:meth:`~retarget_lib.core.skeleton.Skeleton.mirror`).
         """
-        rot = self.rotations[:, self.skeleton.mirror_swap()] * np.array([1.0, 1.0, -1.0, -1.0])
-        root = self.root_positions * np.array([-1.0, 1.0, 1.0])
+        rot, root = self.skeleton.mirror_pose(self.rotations, self.root_positions)
         return self.copy(
             skeleton=self.skeleton.mirror(),
             rotations=rot,

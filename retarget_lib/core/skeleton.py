@@ -11,10 +11,17 @@ al. 2018) and TDCN (Kim et al. 2020, Sec. 5 "Data preprocessing").
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
+import torch
 
 from ..errors import RetargetInputError
+
+#: the mirror image across the YZ plane: a position's factors (``x -> -x``) and a wxyz quaternion's
+#: (``(w, x, y, z) -> (w, x, -y, -z)``: a rotation about x keeps its sense, about y or z reverses)
+MIRROR_POSITION = (-1.0, 1.0, 1.0)
+MIRROR_QUATERNION = (1.0, 1.0, -1.0, -1.0)
 
 CANONICAL22: tuple[str, ...] = (
     "Hips",
@@ -178,8 +185,29 @@ class Skeleton:
         return Skeleton(
             self.joint_names,
             self.parents,
-            self.offsets[self.mirror_swap()] * np.array([-1.0, 1.0, 1.0]),
+            self.offsets[self.mirror_swap()] * np.array(MIRROR_POSITION),
         )
+
+    def mirror_pose(self, rotations: Any, root_positions: Any) -> tuple[Any, Any]:
+        """The left/right mirror image of poses on this skeleton (or on its :meth:`mirror`: the
+        joint swap is the same).
+
+        Args:
+            rotations: ``(..., J, 4)`` wxyz local rotations, numpy or torch.
+            root_positions: ``(..., 3)`` root positions, the same array type.
+
+        Returns:
+            ``(rotations, root_positions)`` mirrored: joints swapped (:meth:`mirror_swap`), the
+            factors :data:`MIRROR_QUATERNION` and :data:`MIRROR_POSITION` applied.
+        """
+        if isinstance(rotations, torch.Tensor):
+            q_sign, r_sign = (
+                rotations.new_tensor(MIRROR_QUATERNION),
+                root_positions.new_tensor(MIRROR_POSITION),
+            )
+        else:
+            q_sign, r_sign = np.array(MIRROR_QUATERNION), np.array(MIRROR_POSITION)
+        return rotations[..., self.mirror_swap(), :] * q_sign, root_positions * r_sign
 
     def bone_lengths(self) -> np.ndarray:
         """``(J,)`` length of each joint's offset (the root's entry is its rest-position norm)."""

@@ -129,9 +129,7 @@ def mirror_averaged(generator: Any, motion: Motion, target: Skeleton) -> tuple[T
     """
     q_a, r_a = _residual_pass(generator, motion, target)
     q_m, r_m = _residual_pass(generator, motion.mirror(), target.mirror())
-    reflect = q_m.new_tensor([1.0, 1.0, -1.0, -1.0])
-    q_back = q_m[:, target.mirror_swap()] * reflect
-    r_back = r_m * r_m.new_tensor([-1.0, 1.0, 1.0])
+    q_back, r_back = target.mirror_pose(q_m, r_m)
     return quat_slerp(q_a, q_back, 0.5), (r_a + r_back) / 2
 
 
