@@ -213,6 +213,7 @@ TDCN: dict[str, Any] = {
         "causal": BOOL,
         "dense": BOOL,
         "residual": BOOL,
+        "standardized_root": BOOL,
         "normalize_root": BOOL,
         "backbone": TEXT,
         "data": TEXT,

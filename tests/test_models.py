@@ -127,6 +127,36 @@ def test_feature_normalizer_identity_fit_and_checkpoint():
     assert torch.equal(g2.normalizer.mean, g.normalizer.mean)
 
 
+def test_standardized_root_turns_the_head_output_into_metres_with_the_root_statistics():
+    q, r, off_a, off_b = _motion(2, 12, seed=3)
+    plain = TDCNGenerator(channels=SMALL).eval()
+    zs = TDCNGenerator(channels=SMALL, standardized_root=True).eval()
+    zs.load_state_dict(plain.state_dict())
+    # unfitted normalizer: mean 0, std 1, so both read the head in metres
+    assert torch.equal(
+        zs.generate(q, r, off_a, off_b).root_positions,
+        plain.generate(q, r, off_a, off_b).root_positions,
+    )
+    x = generator_features(q, r, off_a, off_b)
+    for g in (plain, zs):
+        g.normalizer.fit(x * 2.0 + 0.5)
+    head = plain.generate(q, r, off_a, off_b).root_positions  # raw head output (z-scores)
+    root = GENERATOR_LAYOUT["r"]
+    expected = head * zs.normalizer.std[root] + zs.normalizer.mean[root]
+    got = zs.generate(q, r, off_a, off_b).root_positions
+    torch.testing.assert_close(got, expected)  # float32: one multiply-add apart at most
+    assert not torch.allclose(got, head)
+    torch.testing.assert_close(zs(x)[1], expected)  # forward agrees with generate
+    with pytest.raises(ValueError, match="normalize_inputs"):
+        build_model({"kind": "tdcn", "channels": 8, "standardized_root": True})
+    with pytest.raises(ValueError, match="paper form"):
+        TDCNGenerator(channels=8, residual=True, standardized_root=True)
+    g, _ = build_model(
+        {"kind": "tdcn", "channels": 8, "standardized_root": True, "normalize_inputs": True}
+    )
+    assert g.standardized_root
+
+
 # ----------------------------------------------------------------------------------- TDCN
 
 

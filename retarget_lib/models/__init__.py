@@ -21,6 +21,8 @@ Model config keys (all optional; a ``"model"`` sub-dict is used if present):
 ``dropout``            generator dropout (TDCN default 0.1, Sec. 5)
 ``normalize_inputs``   ``False`` (default, the paper) or ``True``: the training code fits the
                        generator's :class:`~retarget_lib.models.features.FeatureNormalizer`
+``standardized_root``  TDCN paper form: the root head outputs z-scores (needs
+                       ``normalize_inputs``; :class:`~retarget_lib.models.tdcn.TDCNGenerator`)
 ``height_loss``        NKN only; defaults to ``True`` for ``variant="height"``
 ``dilations``, ``kernel``, ``slope``, ``head_hidden``, ``skip_projection``, ``num_layers``,
 ``disc_norm``, ``causal``, ``dense``  passed to the constructors
@@ -147,6 +149,8 @@ def resolve_config(config: Mapping[str, Any] | None = None) -> dict[str, Any]:
     cfg.setdefault("disc_channels", PROFILE_WIDTHS[profile]["disc"])
     cfg.setdefault("disc_receptive_field", 31)
     cfg.setdefault("normalize_inputs", False)
+    if cfg.get("standardized_root") and not cfg["normalize_inputs"]:
+        raise ValueError("standardized_root needs normalize_inputs: true (the root's mean and std)")
     return cfg
 
 
@@ -177,6 +181,7 @@ def build_model(config: Mapping[str, Any] | None = None) -> ModelPair:
                 "head_hidden",
                 "skip_projection",
                 "residual",
+                "standardized_root",
             ),
         )
         disc = PatchDiscriminator(

@@ -15,6 +15,7 @@ from ...core.rotations import quat_conjugate, quat_mul
 from ...core.skeleton import CANONICAL22_PARENTS
 from ...core.transfer import keep_feet_as_rest
 from ..features import (
+    GENERATOR_LAYOUT,
     NUM_JOINTS,
     FeatureNormalizer,
     generator_features,
@@ -72,6 +73,12 @@ class TDCNGenerator(nn.Module):
             width, the released code's ``out_features``).
         skip_projection: 1×1 conv on the residuals (released code) instead of identity skips.
         parents: skeleton parents for :meth:`generate`'s FK.
+        residual: the residual variant (ours, :meth:`compose_residual`).
+        standardized_root: the root head outputs a z-score of the root position, turned into metres
+            with the input normalizer's root-channel mean and std (the authors' released code: its
+            network's root output is compared with standardised targets and de-standardised for
+            use). Without it the head regresses metres from a bias initialised at 0, which a
+            short run cannot move to the hips' height. The paper does not say; paper form only.
 
     Attributes:
         normalizer: :class:`~retarget_lib.models.features.FeatureNormalizer` applied to the input
@@ -93,10 +100,16 @@ class TDCNGenerator(nn.Module):
         skip_projection: bool = False,
         parents: Sequence[int] = CANONICAL22_PARENTS,
         residual: bool = False,
+        standardized_root: bool = False,
     ):
         super().__init__()
+        if residual and standardized_root:
+            raise ValueError(
+                "standardized_root is for the paper form: the residual root is not learned"
+            )
         self.num_joints = num_joints
         self.residual = bool(residual)
+        self.standardized_root = bool(standardized_root)
         default_in = (residual_input_channels if self.residual else generator_input_channels)(
             num_joints
         )
@@ -161,7 +174,16 @@ class TDCNGenerator(nn.Module):
         Returns:
             ``(q̂ (B, T, J, 4), r̂ (B, T, 3))``; q̂ raw unless ``normalize``.
         """
-        return self._run(self.normalizer(features), normalize)
+        q, r = self._run(self.normalizer(features), normalize)
+        return q, self._root_in_metres(r, self.normalizer)
+
+    def _root_in_metres(self, r: Tensor, normalizer: nn.Module) -> Tensor:
+        """The root head's ``(B, T, 3)`` output in metres: itself, or with ``standardized_root``
+        the z-score times the normalizer's root std plus its mean (the identity while unfitted)."""
+        if not self.standardized_root:
+            return r
+        root = GENERATOR_LAYOUT["r"]
+        return r * normalizer.std[root] + normalizer.mean[root]
 
     def _run(self, x: Tensor, normalize: bool) -> tuple[Tensor, Tensor]:
         h = self.body.forward_time_major(x)  # (B, T, C)
@@ -201,7 +223,7 @@ class TDCNGenerator(nn.Module):
                 rotations, root_positions, offsets_src, offsets_tgt, positions, self.parents
             )
             q, r = self._run(norm(x), normalize=False)
-            return GeneratorOutput(q, r, None)
+            return GeneratorOutput(q, self._root_in_metres(r, norm), None)
         b = rotations.shape[0]
         off_a, off_b = offsets_src.expand(b, -1, -1), offsets_tgt.expand(b, -1, -1)
         # one pass over the batch twice: towards the target, and towards the source itself
