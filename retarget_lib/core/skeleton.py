@@ -200,13 +200,10 @@ class Skeleton:
             ``(rotations, root_positions)`` mirrored: joints swapped (:meth:`mirror_swap`), the
             factors :data:`MIRROR_QUATERNION` and :data:`MIRROR_POSITION` applied.
         """
+        q_sign: Any = np.array(MIRROR_QUATERNION)
+        r_sign: Any = np.array(MIRROR_POSITION)
         if isinstance(rotations, torch.Tensor):
-            q_sign, r_sign = (
-                rotations.new_tensor(MIRROR_QUATERNION),
-                root_positions.new_tensor(MIRROR_POSITION),
-            )
-        else:
-            q_sign, r_sign = np.array(MIRROR_QUATERNION), np.array(MIRROR_POSITION)
+            q_sign, r_sign = rotations.new_tensor(q_sign), root_positions.new_tensor(r_sign)
         return rotations[..., self.mirror_swap(), :] * q_sign, root_positions * r_sign
 
     def bone_lengths(self) -> np.ndarray:

@@ -302,6 +302,10 @@ class FeatureNormalizer(nn.Module):
         min_std: floor for the fitted std.
     """
 
+    mean: Tensor
+    std: Tensor
+    fitted: Tensor
+
     def __init__(self, num_channels: int, min_std: float = 1e-2):
         super().__init__()
         self.min_std = float(min_std)

@@ -177,7 +177,7 @@ class TDCNGenerator(nn.Module):
         q, r = self._run(self.normalizer(features), normalize)
         return q, self._root_in_metres(r, self.normalizer)
 
-    def _root_in_metres(self, r: Tensor, normalizer: nn.Module) -> Tensor:
+    def _root_in_metres(self, r: Tensor, normalizer: FeatureNormalizer) -> Tensor:
         """The root head's ``(B, T, 3)`` output in metres: itself, or with ``standardized_root``
         the z-score times the normalizer's root std plus its mean (the identity while unfitted)."""
         if not self.standardized_root:
@@ -200,7 +200,7 @@ class TDCNGenerator(nn.Module):
         offsets_src: Tensor,
         offsets_tgt: Tensor,
         positions: Tensor | None = None,
-        normalizer: nn.Module | None = None,
+        normalizer: FeatureNormalizer | None = None,
         feet_as_rest: bool = False,
     ) -> GeneratorOutput:
         """Retarget with raw outputs, for training (Eqs. 4-5).
@@ -296,7 +296,7 @@ class TDCNGenerator(nn.Module):
         root_positions: Tensor,
         offsets_src: Tensor,
         offsets_tgt: Tensor,
-        normalizer: nn.Module | None = None,
+        normalizer: FeatureNormalizer | None = None,
         feet_as_rest: bool = False,
     ) -> tuple[Tensor, Tensor]:
         """Features → padding → network → unit quaternions and root positions.
