@@ -325,11 +325,11 @@ def _armature(
     skeleton = Skeleton(tuple(tree.names), tuple(tree.parents), offsets)
     entries, source = read_mapping(mapping)
     user = entries or {}
-    vrm = _vrm_mapping(doc, tree) or _written_mapping(doc)
+    in_file = _vrm_mapping(doc, tree) or _written_mapping(doc)
     joint_map, rig_name = map_joints(
         tree.names,
         tree.parents,
-        vrm | user,
+        in_file | user,
         what=str(doc.path),
         mapping_source=source if user else "the VRM humanoid or the written joint map",
         may_be_absent=MAY_BE_ABSENT,
