@@ -381,6 +381,42 @@ def test_a_mesh_for_a_skeleton_only_method_is_refused(tmp_path, capsys, src):
     )
 
 
+def test_no_eso_for_a_method_without_eso_is_refused(tmp_path, capsys, src):
+    assert_cli_error(
+        capsys,
+        retarget_args(src, tmp_path / "o.bvh", "kato", "tdcn", "--no-eso"),
+        "--no-eso is only used by --method contact",
+        "--method tdcn",
+    )
+    assert not (tmp_path / "o.bvh").exists()
+
+
+def test_no_eso_runs_the_contact_network_without_optimising(tmp_path, monkeypatch):
+    """``--no-eso`` writes the network's output: with ESO made to fail, the same command fails
+    without the flag and succeeds with it, and its pose is the network's."""
+    import retarget_lib.methods.contact as contact
+    from retarget_lib.methods.registry import get_method
+
+    source = clip("kato", frames=20, fps=30.0)  # the methods' rate: no resampling
+    src = tmp_path / "src.bvh"
+    save_bvh(source, src)
+
+    def no_eso(*args, **kwargs):
+        raise AssertionError("ESO ran")
+
+    monkeypatch.setattr(contact, "encoder_space_optimization", no_eso)
+    with pytest.raises(AssertionError, match="ESO ran"):
+        main(retarget_args(src, tmp_path / "eso.bvh", "bram", "contact"))
+    out = tmp_path / "net.bvh"
+    assert main(retarget_args(src, out, "bram", "contact", "--no-eso")) == 0
+    model, _ = contact.load_contact_model(get_method("contact").default_checkpoint())
+    network = contact.retarget_with_network(model, source, make_character("bram"))
+    written = to_canonical22(load_bvh(out)).global_positions()
+    expected = network.global_positions()
+    # root-relative (the ground rule may lift the root); 0.1 mm: BVH text and float32 network
+    np.testing.assert_allclose(written - written[:, :1], expected - expected[:, :1], atol=1e-4)
+
+
 def test_a_mesh_of_another_character_is_refused(tmp_path, capsys, src):
     save_shape_npz(make_character("kato"), tmp_path / "kato.npz")
     target = tmp_path / "gus.bvh"

@@ -5,7 +5,8 @@
     retarget data build|list|verify      build the embedded dataset; list/verify data_manifest.yaml
     retarget retarget --source IN.bvh --target TARGET.bvh|CHARACTER [--target-mesh SHAPE.npz]
                       [--source-mesh SHAPE.npz] --method NAME (from retarget_lib.methods.registry)
-                      [--checkpoint ID|PATH] [--fps N] [--force] [--device auto] --out OUT.bvh
+                      [--checkpoint ID|PATH] [--no-eso] [--fps N] [--force] [--device auto]
+                      --out OUT.bvh
     retarget train    --config configs/NAME.yaml [key=value ...] [--profile fast|paper] [--out DIR]
                       [--resume] [--export MODEL.pt] [--device auto|cpu|cuda|mps] [--amp]
                                          also under ``torchrun --nproc-per-node N -m retarget_lib

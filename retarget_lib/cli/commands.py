@@ -44,6 +44,7 @@ def _cmd_retarget(args: argparse.Namespace) -> int:
         joint_map=args.joint_map,
         source_joint_map=args.source_joint_map,
         device=args.device,
+        eso=not args.no_eso,
     )
     print(f"wrote {out}")
     return 0

@@ -109,6 +109,12 @@ def build_parser() -> argparse.ArgumentParser:
         "interpenetration only)",
     )
     p.add_argument(
+        "--no-eso",
+        action="store_true",
+        help="--method contact: keep the network's output, without encoder-space "
+        "optimisation (faster, smoother on real meshes; no hand contacts pulled together)",
+    )
+    p.add_argument(
         "--checkpoint",
         help="manifest id or path of a checkpoint for a learned method (default: "
         "the method's default in data_manifest.yaml)",

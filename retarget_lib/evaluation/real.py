@@ -44,6 +44,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -76,6 +77,7 @@ __all__ = [
     "REAL_METHODS",
     "RealClip",
     "WorstCase",
+    "jitter_log_ratio",
     "real_clips",
     "real_measures",
     "run_real_evaluation",
@@ -93,7 +95,10 @@ REAL_METHODS: dict[str, tuple[str, str | None]] = {
     "tdcn (paper form)": ("tdcn", "ours"),
     "nkn": ("nkn", "Baseline"),
     "contact": ("contact", None),
+    "contact (no ESO)": ("contact", None),
 }
+#: rows that run the contact network without encoder-space optimisation (``eso=False``)
+WITHOUT_ESO = ("contact (no ESO)",)
 #: frames per clip (30 fps) retargeted onto each character
 CLIP_FRAMES = 60
 #: penetration is measured on every n-th frame (winding numbers on a real mesh cost ~0.1 s a frame)
@@ -229,10 +234,29 @@ def real_measures(result: Motion, clip: RealClip, character: Character) -> dict[
         out["hand_gap_pct"] = 100 * float(np.abs(gap_out - gap_src).mean() / h)
     else:
         out["hand_gap_pct"] = float("nan")
-    accel = lambda p, height: np.linalg.norm(np.diff(p, 2, axis=0), axis=-1).mean() / height  # noqa: E731
-    ratio = accel(out_pos, h) / max(accel(src_pos, src.skeleton.height()), 1e-12)
-    out["jitter_log_ratio"] = float(abs(np.log(max(ratio, 1e-12))))
+    out["jitter_log_ratio"] = jitter_log_ratio(result, src)
     return out
+
+
+def jitter_log_ratio(result: Motion, source: Motion) -> float:
+    """``|ln(a_result / a_source)|``: the mean joint acceleration of ``result`` against the
+    ``source``'s, each over its skeleton's height (per frame², any frame rate alike for both): 0
+    when the result is as smooth as the source, ``ln 2`` for one twice as jittery or smoothed to
+    half.
+
+    Args:
+        result: ``(T, ...)`` motion on the target.
+        source: ``(T, ...)`` the motion it was retargeted from.
+    """
+
+    def acceleration(motion: Motion) -> float:
+        p = motion.global_positions()  # (T, J, 3)
+        return float(
+            np.linalg.norm(np.diff(p, 2, axis=0), axis=-1).mean() / motion.skeleton.height()
+        )
+
+    ratio = acceleration(result) / max(acceleration(source), 1e-12)
+    return float(abs(np.log(max(ratio, 1e-12))))
 
 
 Retarget = Callable[..., Motion]
@@ -266,10 +290,8 @@ def _methods(only: Sequence[str] | None, device: str | None) -> dict[str, tuple[
         ):
             continue
         entry = checkpoints.get(row)
-        methods[row] = (
-            method.retargeter(None if entry is None else entry.id, device),
-            method.needs_mesh,
-        )
+        fn = method.retargeter(None if entry is None else entry.id, device)
+        methods[row] = (partial(fn, eso=False) if row in WITHOUT_ESO else fn, method.needs_mesh)
     return methods
 
 
