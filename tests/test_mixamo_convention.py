@@ -10,6 +10,7 @@ from retarget_lib.config import load_config
 from retarget_lib.core.skeleton import canonical22_skeleton
 from retarget_lib.data.sources.real_characters import REAL_DIR, skeleton_proportions
 from retarget_lib.data.splits import MotionId
+from retarget_lib.data.synthetic import mixamo_convention as mc
 from retarget_lib.data.synthetic.mixamo_convention import (
     N_CHARACTERS,
     RANGE_MARGIN,
@@ -87,6 +88,43 @@ def test_each_character_performs_its_own_version_of_a_clip():
     assert (
         feet.min() > -0.01
     )  # planted on its own floor (1 cm: the toe joint's rest height above the sole)
+
+
+def test_an_evaluation_authors_only_the_versions_it_needs_with_the_cached_values(
+    monkeypatch, tmp_path
+):
+    # two characters stand in for the profile's fourteen (the lazy path builds every character)
+    build = mc._characters
+    monkeypatch.setattr(mc, "_characters", lambda count=2: build(min(count, 2)))
+    monkeypatch.setattr(mc, "data_path", lambda: tmp_path / "mixamo_convention.npz")
+    wanted = [("walk_000", "tp02"), ("clap_001", "tp01"), ("walk_000", "tp02")]
+    mc.load_mixamo_convention.cache_clear()
+    try:
+        authored = mc.mixamo_convention_versions(wanted)  # nothing cached: authored now
+        assert not (tmp_path / "mixamo_convention.npz").exists()  # and not cached
+        assert {c: list(v) for c, v in authored.clips.items()} == {
+            "walk_000": ["tp02"],
+            "clap_001": ["tp01"],
+        }
+        assert list(authored.characters) == ["tp01", "tp02"]
+        mc.save(generate(count=2, clip_ids=[("walk", 0), ("clap", 1)]), mc.data_path())
+        cached = mc.mixamo_convention_versions(wanted)  # now read from the built profile
+        assert set(cached.clips["walk_000"]) == {"tp01", "tp02"}
+        for clip, name in wanted:
+            a, b = authored.clips[clip][name], cached.clips[clip][name]
+            # exactly equal: both went through the cache's float32 storage
+            np.testing.assert_array_equal(a.rotations, b.rotations)
+            np.testing.assert_array_equal(a.root_positions, b.root_positions)
+            np.testing.assert_array_equal(a.meta["foot_contacts"], b.meta["foot_contacts"])
+            np.testing.assert_array_equal(a.skeleton.offsets, b.skeleton.offsets)
+            assert a.name == b.name == clip and a.meta["performer"] == name
+        for name in ("tp01", "tp02"):
+            np.testing.assert_array_equal(
+                authored.characters[name].rest_vertices, cached.characters[name].rest_vertices
+            )
+            assert authored.characters[name].style == cached.characters[name].style
+    finally:
+        mc.load_mixamo_convention.cache_clear()
 
 
 def test_contact_training_takes_the_profile_on_its_own_bodies(monkeypatch, tmp_path):

@@ -23,6 +23,11 @@ class MotionId(NamedTuple):
     def __str__(self) -> str:
         return f"{self.family}/{self.seed}"
 
+    @property
+    def clip(self) -> str:
+        """The clip's name in the synthetic datasets, e.g. ``"walk_003"``."""
+        return f"{self.family}_{self.seed:03d}"
+
 
 class ScenarioPair(NamedTuple):
     """One test case ``source -> target`` on motion ``motion`` (TDCN Table 3's rows)."""

@@ -25,7 +25,10 @@ from pathlib import Path
 
 import pandas as pd
 
-from ..data.synthetic.mixamo_convention import load_mixamo_convention, mixamo_convention_split
+from ..data.synthetic.mixamo_convention import (
+    mixamo_convention_split,
+    mixamo_convention_versions,
+)
 from ..geometry.contacts import transfer_contacts
 from ..methods.contact import contact_clip
 from .contact import (
@@ -59,12 +62,19 @@ CASES_FILE = "contact_mixamo_convention_cases"
 def mixamo_convention_contact_cases(profile: str = "fast") -> list[ContactCase]:
     """The cases of the module docstring for evaluation ``profile`` (``"fast"`` or ``"paper"``)."""
     p = CONTACT_PROFILES[profile]
-    data, split = load_mixamo_convention(), mixamo_convention_split()
+    split = mixamo_convention_split()
+    data = mixamo_convention_versions(
+        (pair.motion.clip, name)
+        for pairs in split.scenarios.values()
+        for pair in pairs
+        if pair.motion.family in p["families"]
+        for name in (pair.source, pair.target)
+    )
     per_family: dict[str, int] = {}
     seen, cases = set(), []
     for pairs in split.scenarios.values():
         for pair in pairs:
-            family, clip = pair.motion.family, f"{pair.motion.family}_{pair.motion.seed:03d}"
+            family, clip = pair.motion.family, pair.motion.clip
             key = (clip, pair.source, pair.target)
             if (
                 family not in p["families"]

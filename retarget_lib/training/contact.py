@@ -114,7 +114,7 @@ def training_clips(config: dict) -> tuple[list[ContactClip], dict[str, Character
         motions = [m for m in split.train_motions if m.seed < held_out]
         for k, m in enumerate(motions):
             performer = split.train_characters[k % len(split.train_characters)]
-            name = f"{m.family}_{m.seed:03d}"
+            name = m.clip
             clips.append(
                 contact_clip(
                     mc.clips[name][performer], mc.characters[performer], f"{key}_{performer}_{name}"

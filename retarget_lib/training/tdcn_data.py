@@ -143,7 +143,7 @@ def stack_clips(
 def _synthetic_clips() -> tuple[dict[str, Skeleton], list[tuple[Motion, dict]]]:
     """The TDCN split's train characters and train clips (every version a ground-truth transfer)."""
     ds, split = load_synthetic(), tdcn_split()
-    clips = [(ds.clip(f"{m.family}_{m.seed:03d}").motion, {}) for m in split.train_motions]
+    clips = [(ds.clip(m.clip).motion, {}) for m in split.train_motions]
     return {n: ds.characters[n].skeleton for n in split.train_characters}, clips
 
 
@@ -154,7 +154,7 @@ def _mixamo_convention_clips() -> tuple[dict[str, Skeleton], list[tuple[Motion, 
     skeletons = {n: data.characters[n].skeleton for n in split.train_characters}
     clips = []
     for m in split.train_motions:
-        versions = data.clips[f"{m.family}_{m.seed:03d}"]
+        versions = data.clips[m.clip]
         own = {n: versions[n] for n in skeletons}
         clips.append((own[split.train_characters[0]], own))
     return skeletons, clips

@@ -29,6 +29,7 @@ from __future__ import annotations
 import hashlib
 import json
 import sys
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -54,6 +55,7 @@ __all__ = [
     "mixamo_convention_names",
     "mixamo_convention_spec",
     "mixamo_convention_split",
+    "mixamo_convention_versions",
 ]
 
 #: the two synthetic profiles: the default data, and this module's
@@ -86,6 +88,9 @@ REAL_RIG_RANGES: dict[str, tuple[float, float]] = {
 #: measured extremes are not the population's)
 RANGE_MARGIN = 0.1
 FORMAT_VERSION = 1
+#: the arrays the cache stores per character and per version of a clip
+CHARACTER_ARRAYS = ("offsets", "vertices", "faces", "weights")
+MOTION_ARRAYS = ("rotations", "root", "foot_contacts")
 
 
 def _specs_key() -> str:
@@ -157,6 +162,32 @@ def _clip_ids() -> list[tuple[str, int]]:
     return [(family, k) for family in MOTION_FAMILIES for k in range(per_family)]
 
 
+def _characters(count: int = N_CHARACTERS) -> dict[str, Character]:
+    """Characters ``tp01 ..`` (the first ``count``), built from their specs."""
+    characters = {}
+    for i in range(count):
+        c = build_character(mixamo_convention_spec(i))
+        c.style = dict(c.style, source="synthetic-mixamo-convention")
+        characters[c.name] = c
+    return characters
+
+
+def _body_radii(characters: dict[str, Character]) -> dict[str, dict[str, float]]:
+    """Each character's body-size hint for authoring (from its own mesh)."""
+    return {
+        n: body_radii_from_mesh(c.skeleton, c.rest_vertices, c.weights)
+        for n, c in characters.items()
+    }
+
+
+def _author(clip: str, character: Character, radii: dict[str, float]) -> Motion:
+    """``character``'s own version of ``clip`` (``"walk_003"``)."""
+    family, k = clip.rsplit("_", 1)
+    m = make_motion(family, character.skeleton, int(k), body_radii=radii)
+    m.name = clip
+    return m
+
+
 def generate(
     count: int = N_CHARACTERS, clip_ids: list[tuple[str, int]] | None = None
 ) -> MixamoConventionData:
@@ -166,29 +197,74 @@ def generate(
         count: characters ``tp01 ..`` to build (the profile has :data:`N_CHARACTERS`).
         clip_ids: ``(family, seed)`` of the clips (default: every clip of the synthetic library).
     """
-    characters = {}
-    for i in range(count):
-        c = build_character(mixamo_convention_spec(i))
-        c.style = dict(c.style, source="synthetic-mixamo-convention")
-        characters[c.name] = c
-    radii = {
-        n: body_radii_from_mesh(c.skeleton, c.rest_vertices, c.weights)
-        for n, c in characters.items()
-    }
+    characters = _characters(count)
+    radii = _body_radii(characters)
     clips: dict[str, dict[str, Motion]] = {}
     for family, k in clip_ids or _clip_ids():
         name = f"{family}_{k:03d}"
-        clips[name] = {}
-        for n, c in characters.items():
-            m = make_motion(family, c.skeleton, k, body_radii=radii[n])
-            m.name = name
-            clips[name][n] = m
+        clips[name] = {n: _author(name, c, radii[n]) for n, c in characters.items()}
     return MixamoConventionData(characters, clips)
 
 
 def data_path() -> Path:
     """Where the built profile lives."""
     return cache_dir("synthetic") / "mixamo_convention.npz"
+
+
+def _character_arrays(c: Character) -> tuple[dict[str, np.ndarray], dict]:
+    """A character as the cache stores it: its arrays and its index entry."""
+    arrays = {
+        "offsets": c.skeleton.offsets,
+        "vertices": c.rest_vertices.astype(np.float32),
+        "faces": c.faces.astype(np.int32),
+        "weights": c.weights.astype(np.float32),
+    }
+    entry = {
+        "name": c.name,
+        "bulk": float(c.bulk),
+        "style": json.loads(json.dumps(c.style, default=float)),
+    }
+    return arrays, entry
+
+
+def _character_from(arrays: Mapping[str, np.ndarray], entry: dict) -> Character:
+    """Inverse of :func:`_character_arrays` (float64 again)."""
+    return Character(
+        entry["name"],
+        canonical22_skeleton(arrays["offsets"]),
+        arrays["vertices"].astype(np.float64),
+        arrays["faces"].astype(np.int64),
+        arrays["weights"].astype(np.float64),
+        entry["bulk"],
+        entry["style"],
+    )
+
+
+def _motion_arrays(m: Motion) -> dict[str, np.ndarray]:
+    """A character's version of a clip as the cache stores it (float32)."""
+    return {
+        "rotations": m.rotations.astype(np.float32),
+        "root": m.root_positions.astype(np.float32),
+        "foot_contacts": np.asarray(m.meta["foot_contacts"], dtype=bool),
+    }
+
+
+def _motion_from(arrays: Mapping[str, np.ndarray], clip: str, character: Character) -> Motion:
+    """Inverse of :func:`_motion_arrays` (float64, unit quaternions again)."""
+    q = arrays["rotations"].astype(np.float64)
+    q /= np.linalg.norm(q, axis=-1, keepdims=True)
+    return Motion(
+        character.skeleton.copy(),
+        q,
+        arrays["root"].astype(np.float64),
+        FPS,
+        name=clip,
+        meta={
+            "family": clip.rsplit("_", 1)[0],
+            "performer": character.name,
+            "foot_contacts": arrays["foot_contacts"],
+        },
+    )
 
 
 def save(data: MixamoConventionData, path: Path) -> None:
@@ -201,24 +277,12 @@ def save(data: MixamoConventionData, path: Path) -> None:
         "clips": list(data.clips),
     }
     for name, c in data.characters.items():
-        arrays[f"char/{name}/offsets"] = c.skeleton.offsets
-        arrays[f"char/{name}/vertices"] = c.rest_vertices.astype(np.float32)
-        arrays[f"char/{name}/faces"] = c.faces.astype(np.int32)
-        arrays[f"char/{name}/weights"] = c.weights.astype(np.float32)
-        index["characters"].append(
-            {
-                "name": name,
-                "bulk": float(c.bulk),
-                "style": json.loads(json.dumps(c.style, default=float)),
-            }
-        )
+        stored, entry = _character_arrays(c)
+        arrays.update({f"char/{name}/{k}": v for k, v in stored.items()})
+        index["characters"].append(entry)
     for clip, versions in data.clips.items():
         for name, m in versions.items():
-            arrays[f"clip/{clip}/{name}/rotations"] = m.rotations.astype(np.float32)
-            arrays[f"clip/{clip}/{name}/root"] = m.root_positions.astype(np.float32)
-            arrays[f"clip/{clip}/{name}/foot_contacts"] = np.asarray(
-                m.meta["foot_contacts"], dtype=bool
-            )
+            arrays.update({f"clip/{clip}/{name}/{k}": v for k, v in _motion_arrays(m).items()})
     arrays["index"] = np.array(json.dumps(index))
     with atomic_write(path) as f:
         np.savez_compressed(f, **arrays)
@@ -233,37 +297,17 @@ def read(path: Path) -> MixamoConventionData:
                 f"{path} has format {index.get('version')}, expected {FORMAT_VERSION}; delete it "
                 "to rebuild"
             )
-        chars = {}
-        for entry in index["characters"]:
-            n = entry["name"]
-            chars[n] = Character(
-                n,
-                canonical22_skeleton(z[f"char/{n}/offsets"]),
-                z[f"char/{n}/vertices"].astype(np.float64),
-                z[f"char/{n}/faces"].astype(np.int64),
-                z[f"char/{n}/weights"].astype(np.float64),
-                entry["bulk"],
-                entry["style"],
-            )
-        clips: dict[str, dict[str, Motion]] = {}
-        for clip in index["clips"]:
-            family = clip.rsplit("_", 1)[0]
-            clips[clip] = {}
-            for n, c in chars.items():
-                q = z[f"clip/{clip}/{n}/rotations"].astype(np.float64)
-                q /= np.linalg.norm(q, axis=-1, keepdims=True)
-                clips[clip][n] = Motion(
-                    c.skeleton.copy(),
-                    q,
-                    z[f"clip/{clip}/{n}/root"].astype(np.float64),
-                    FPS,
-                    name=clip,
-                    meta={
-                        "family": family,
-                        "performer": n,
-                        "foot_contacts": z[f"clip/{clip}/{n}/foot_contacts"],
-                    },
-                )
+        chars = {
+            e["name"]: _character_from({k: z[f"char/{e['name']}/{k}"] for k in CHARACTER_ARRAYS}, e)
+            for e in index["characters"]
+        }
+        clips = {
+            clip: {
+                n: _motion_from({k: z[f"clip/{clip}/{n}/{k}"] for k in MOTION_ARRAYS}, clip, c)
+                for n, c in chars.items()
+            }
+            for clip in index["clips"]
+        }
     return MixamoConventionData(chars, clips)
 
 
@@ -275,7 +319,7 @@ def _built_key(path: Path) -> str | None:
 def build_mixamo_convention(force: bool = False) -> Path:
     """Build the profile into the cache unless it is there and current (``force`` rebuilds)."""
     path = data_path()
-    if path.exists() and not force and _built_key(path) == _specs_key():
+    if not force and _is_built():
         return path
     print(
         "building the Mixamo-convention synthetic profile (once, about 3 minutes) ...",
@@ -290,6 +334,36 @@ def build_mixamo_convention(force: bool = False) -> Path:
 def load_mixamo_convention() -> MixamoConventionData:
     """The built profile (built into the cache on first use; cached in-process)."""
     return read(build_mixamo_convention())
+
+
+def _is_built() -> bool:
+    path = data_path()
+    return path.exists() and _built_key(path) == _specs_key()
+
+
+def mixamo_convention_versions(wanted: Iterable[tuple[str, str]]) -> MixamoConventionData:
+    """Every character of the profile and at least the ``wanted`` ``(clip, character)`` versions.
+
+    From the built profile when the cache holds it (then every version); otherwise only the
+    wanted versions are authored, now, and not cached (about 0.1 s each: an evaluation's 144
+    versions in ~15 s against ~3 minutes for the whole profile, which only training needs).
+    Either way the values are the same: both pass through the cache's float32 storage.
+
+    Args:
+        wanted: ``(clip name, character name)`` pairs, e.g. ``("walk_003", "tp02")``.
+    """
+    if _is_built():
+        return load_mixamo_convention()
+    built = _characters()
+    radii = _body_radii(built)
+    characters = {n: _character_from(*_character_arrays(c)) for n, c in built.items()}
+    clips: dict[str, dict[str, Motion]] = {}
+    for clip, name in sorted(set(wanted)):
+        motion = _author(clip, built[name], radii[name])
+        clips.setdefault(clip, {})[name] = _motion_from(
+            _motion_arrays(motion), clip, characters[name]
+        )
+    return MixamoConventionData(characters, clips)
 
 
 def mixamo_convention_split() -> TDCNSplits:

@@ -16,7 +16,10 @@ from ...core.transfer import retarget_ground_truth
 from ...data.sources.cmu import CMU_CLIPS, load_cmu_clip
 from ...data.splits import tdcn_split
 from ...data.synthetic.dataset import load_synthetic
-from ...data.synthetic.mixamo_convention import load_mixamo_convention, mixamo_convention_split
+from ...data.synthetic.mixamo_convention import (
+    mixamo_convention_split,
+    mixamo_convention_versions,
+)
 
 #: a retargeting method: (source motion, target skeleton) -> motion on the target
 Method = Callable[[Motion, Skeleton], Motion]
@@ -76,7 +79,7 @@ def tdcn_cases() -> list[EvalCase]:
     cases = []
     for scenario, pairs in split.scenarios.items():
         for p in pairs:
-            clip = ds.clip(f"{p.motion.family}_{p.motion.seed:03d}").motion
+            clip = ds.clip(p.motion.clip).motion
             src_skel, tgt_skel = ds.characters[p.source].skeleton, ds.characters[p.target].skeleton
             cases.append(
                 EvalCase(
@@ -97,11 +100,17 @@ def mixamo_convention_cases() -> list[EvalCase]:
     (:mod:`~retarget_lib.data.synthetic.mixamo_convention`): the source clip is the source
     character's own version, the ground truth the target character's own version (authored on it,
     contacts solved on its body), as a Mixamo download of the same motion would be."""
-    data, split = load_mixamo_convention(), mixamo_convention_split()
+    split = mixamo_convention_split()
+    data = mixamo_convention_versions(
+        (p.motion.clip, name)
+        for pairs in split.scenarios.values()
+        for p in pairs
+        for name in (p.source, p.target)
+    )
     cases = []
     for scenario, pairs in split.scenarios.items():
         for p in pairs:
-            versions = data.clips[f"{p.motion.family}_{p.motion.seed:03d}"]
+            versions = data.clips[p.motion.clip]
             cases.append(
                 EvalCase(
                     int(scenario),
