@@ -270,7 +270,7 @@ def retarget_file(
                 motion,
                 tgt.character,
                 source_character=source_character,
-                **({} if eso else {"eso": False}),
+                eso=eso,
             )
         else:
             result = _load_retargeter(chosen, checkpoint, device)(motion, tgt.skeleton)
