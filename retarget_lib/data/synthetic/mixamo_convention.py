@@ -371,6 +371,6 @@ def mixamo_convention_versions(wanted: Iterable[tuple[str, str]]) -> MixamoConve
 
 def mixamo_convention_split() -> TDCNSplits:
     """The TDCN four-scenario split of this profile's characters and clips (the manifest's TDCN
-    split parameters; ``MotionId(family, k)`` is clip ``f"{family}_{k:03d}"``)."""
+    split parameters; a ``MotionId``'s clip is ``MotionId.clip``)."""
     params = dict(source("synthetic")["splits"]["tdcn"]["params"])
     return tdcn_splits(mixamo_convention_names(), MOTION_FAMILIES, **params)
