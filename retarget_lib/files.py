@@ -37,6 +37,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import re
 import secrets
 import signal
 import stat
@@ -366,6 +367,21 @@ class _BoundedLoader(yaml.SafeLoader):
                     )
                 first[key_node.value] = key_node.start_mark
         return super().construct_mapping(node, deep=deep)
+
+
+# YAML 1.2's floats: PyYAML (YAML 1.1) reads ``1e-3`` (no dot) as a string, so ``train.lr=1e-3``
+# or ``lr: 1e-4`` would be refused as "not a number"; this resolver reads them as floats.
+_BoundedLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(
+        r"""^(?:[-+]?(?:[0-9][0-9_]*)(?:\.[0-9_]*)?(?:[eE][-+]?[0-9]+)?
+        |[-+]?\.[0-9_]+(?:[eE][-+]?[0-9]+)?
+        |[-+]?\.(?:inf|Inf|INF)
+        |\.(?:nan|NaN|NAN))$""",
+        re.X,
+    ),
+    list("-+0123456789."),
+)
 
 
 def _expands_beyond(data: Any, limit: int) -> bool:

@@ -8,6 +8,7 @@ import pytest
 import torch
 
 from retarget_lib.config import ConfigError, load_config
+from retarget_lib.files import load_yaml
 from retarget_lib.training.loop import NonFiniteLossError, TrainTask, fit, load_checkpoint
 
 
@@ -37,6 +38,25 @@ def test_config_delta_profile_and_overrides(tmp_path):
     write(tmp_path / "loop.yaml", "base: loop.yaml\nseed: 1\n")
     with pytest.raises(ConfigError, match="cycle"):
         load_config(tmp_path / "loop.yaml")
+
+
+@pytest.mark.parametrize(
+    "text, value",
+    [("1e-3", 0.001), ("-2E+5", -200000.0), (".5e1", 5.0), ("1.0e-4", 1.0e-4), ("3", 3)],
+)
+def test_an_exponent_without_a_dot_is_a_number(text, value):
+    """YAML 1.1 (PyYAML) reads ``1e-3`` as the string "1e-3"; a user typing ``lr: 1e-3`` means the
+    number. Words that only look alike stay strings."""
+    parsed = load_yaml(text, "test", ConfigError)
+    assert parsed == value and type(parsed) is type(value)
+    for word in ("1e", "e5", "1e-3x"):
+        assert load_yaml(word, "test", ConfigError) == word
+
+
+def test_a_learning_rate_override_in_exponent_form(tmp_path):
+    write(tmp_path / "c.yaml", "seed: 1\ntrain: {lr: 1e-4}\n")
+    assert load_config(tmp_path / "c.yaml")["train"]["lr"] == 1e-4
+    assert load_config(tmp_path / "c.yaml", ["train.lr=1e-3"])["train"]["lr"] == 1e-3
 
 
 def regression_task(stop_at=None, nan_at=None):
