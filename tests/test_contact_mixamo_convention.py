@@ -32,7 +32,7 @@ def small_profile():
 @pytest.fixture
 def patched(small_profile, monkeypatch):
     data, split = small_profile
-    monkeypatch.setattr(mcc, "mixamo_convention_versions", lambda wanted: data)
+    monkeypatch.setattr(mcc, "mixamo_convention_versions", lambda pairs: data)
     monkeypatch.setattr(mcc, "mixamo_convention_split", lambda: split)
     monkeypatch.setattr(mcc, "PAIRS_PER_FAMILY", 1)
     return data

@@ -9,7 +9,7 @@ import pytest
 from retarget_lib.config import load_config
 from retarget_lib.core.skeleton import canonical22_skeleton
 from retarget_lib.data.sources.real_characters import REAL_DIR, skeleton_proportions
-from retarget_lib.data.splits import MotionId
+from retarget_lib.data.splits import MotionId, ScenarioPair
 from retarget_lib.data.synthetic import mixamo_convention as mc
 from retarget_lib.data.synthetic.mixamo_convention import (
     N_CHARACTERS,
@@ -97,10 +97,15 @@ def test_an_evaluation_authors_only_the_versions_it_needs_with_the_cached_values
     build = mc._characters
     monkeypatch.setattr(mc, "_characters", lambda count=2: build(min(count, 2)))
     monkeypatch.setattr(mc, "data_path", lambda: tmp_path / "mixamo_convention.npz")
-    wanted = [("walk_000", "tp02"), ("clap_001", "tp01"), ("walk_000", "tp02")]
+    pairs = [
+        ScenarioPair("tp02", "tp02", MotionId("walk", 0)),
+        ScenarioPair("tp01", "tp01", MotionId("clap", 1)),
+        ScenarioPair("tp02", "tp02", MotionId("walk", 0)),
+    ]
+    wanted = [("walk_000", "tp02"), ("clap_001", "tp01")]
     mc.load_mixamo_convention.cache_clear()
     try:
-        authored = mc.mixamo_convention_versions(wanted)  # nothing cached: authored now
+        authored = mc.mixamo_convention_versions(pairs)  # nothing cached: authored now
         assert not (tmp_path / "mixamo_convention.npz").exists()  # and not cached
         assert {c: list(v) for c, v in authored.clips.items()} == {
             "walk_000": ["tp02"],
@@ -108,7 +113,7 @@ def test_an_evaluation_authors_only_the_versions_it_needs_with_the_cached_values
         }
         assert list(authored.characters) == ["tp01", "tp02"]
         mc.save(generate(count=2, clip_ids=[("walk", 0), ("clap", 1)]), mc.data_path())
-        cached = mc.mixamo_convention_versions(wanted)  # now read from the built profile
+        cached = mc.mixamo_convention_versions(pairs)  # now read from the built profile
         assert set(cached.clips["walk_000"]) == {"tp01", "tp02"}
         for clip, name in wanted:
             a, b = authored.clips[clip][name], cached.clips[clip][name]

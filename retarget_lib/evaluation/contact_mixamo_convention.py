@@ -64,11 +64,10 @@ def mixamo_convention_contact_cases(profile: str = "fast") -> list[ContactCase]:
     p = CONTACT_PROFILES[profile]
     split = mixamo_convention_split()
     data = mixamo_convention_versions(
-        (pair.motion.clip, name)
+        pair
         for pairs in split.scenarios.values()
         for pair in pairs
         if pair.motion.family in p["families"]
-        for name in (pair.source, pair.target)
     )
     per_family: dict[str, int] = {}
     seen, cases = set(), []

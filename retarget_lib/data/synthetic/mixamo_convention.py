@@ -45,7 +45,7 @@ from ...core.skeleton import canonical22_skeleton
 from ...files import DataError, atomic_write, cache_dir
 from ..manifest import source
 from ..sources.real_characters import skeleton_proportions
-from ..splits import TDCNSplits, tdcn_splits
+from ..splits import ScenarioPair, TDCNSplits, tdcn_splits
 from .characters import build_character
 from .motions import FPS, MOTION_FAMILIES, body_radii_from_mesh, make_motion
 from .proportions import CharacterSpec, height_scale, unscaled_offsets
@@ -344,24 +344,26 @@ def _is_built() -> bool:
     return path.exists() and _built_key(path) == _specs_key()
 
 
-def mixamo_convention_versions(wanted: Iterable[tuple[str, str]]) -> MixamoConventionData:
-    """Every character of the profile and at least the ``wanted`` ``(clip, character)`` versions.
+def mixamo_convention_versions(pairs: Iterable[ScenarioPair]) -> MixamoConventionData:
+    """Every character of the profile and at least each pair's clip on its source and on its
+    target character (the source clip and the ground truth of an evaluation case).
 
-    From the built profile when the cache holds it (then every version); otherwise only the
-    wanted versions are authored, now, and not cached (about 0.1 s each: an evaluation's 144
-    versions in ~15 s against ~3 minutes for the whole profile, which only training needs).
-    Either way the values are the same: both pass through the cache's float32 storage.
+    From the built profile when the cache holds it (then every version); otherwise only those
+    versions are authored, now, and not cached (about 0.1 s each: an evaluation's 144 versions in
+    ~15 s against ~3 minutes for the whole profile, which only training needs). Either way the
+    values are the same: both pass through the cache's float32 storage.
 
     Args:
-        wanted: ``(clip name, character name)`` pairs, e.g. ``("walk_003", "tp02")``.
+        pairs: evaluation pairs of :func:`mixamo_convention_split` (``ScenarioPair``).
     """
     if _is_built():
         return load_mixamo_convention()
     built = _characters()
     radii = _body_radii(built)
     characters = {n: _character_from(*_character_arrays(c)) for n, c in built.items()}
+    wanted = {(p.motion.clip, name) for p in pairs for name in (p.source, p.target)}
     clips: dict[str, dict[str, Motion]] = {}
-    for clip, name in sorted(set(wanted)):
+    for clip, name in sorted(wanted):
         motion = _author(clip, built[name], radii[name])
         clips.setdefault(clip, {})[name] = _motion_from(
             _motion_arrays(motion), clip, characters[name]

@@ -101,12 +101,7 @@ def mixamo_convention_cases() -> list[EvalCase]:
     character's own version, the ground truth the target character's own version (authored on it,
     contacts solved on its body), as a Mixamo download of the same motion would be."""
     split = mixamo_convention_split()
-    data = mixamo_convention_versions(
-        (p.motion.clip, name)
-        for pairs in split.scenarios.values()
-        for p in pairs
-        for name in (p.source, p.target)
-    )
+    data = mixamo_convention_versions(p for pairs in split.scenarios.values() for p in pairs)
     cases = []
     for scenario, pairs in split.scenarios.items():
         for p in pairs:
