@@ -298,7 +298,14 @@ CONTACT: dict[str, Any] = {
         "checkpoint_every": STEPS,
         "compile": BOOL,
     },
-    "eso": {"iterations": ITERATIONS, "lr": POS_NUM, "reach": POS_NUM, "blend": FRACTION},
+    "eso": {
+        "iterations": ITERATIONS,
+        "lr": POS_NUM,
+        "reach": POS_NUM,
+        "blend": FRACTION,
+        "rho": POS_NUM,
+        "beta_int": POS_NUM,
+    },
 }
 
 

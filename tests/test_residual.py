@@ -305,3 +305,31 @@ def test_eso_moves_neither_the_root_nor_the_legs_of_a_lower_body_from_base_netwo
     b = quat_to_matrix(torch.as_tensor(motion.rotations[:, lower]))
     assert torch.allclose(a, b.to(a.dtype), atol=1e-4)  # float32 network, float64 source
     assert np.abs(results[False].root_positions - motion.root_positions).max() > 1e-3
+
+
+def test_eso_takes_its_rotation_and_interpenetration_weights_from_the_config(monkeypatch):
+    """``eso.rho`` / ``eso.beta_int`` of a checkpoint's config reach ESO's energy; without them
+    ESO keeps App. B.1's relaxed 10 and 1."""
+    from retarget_lib.data.synthetic.characters import make_character
+    from retarget_lib.data.synthetic.motions import make_motion
+    from retarget_lib.geometry.penetration import InterpenetrationEnergy
+    from retarget_lib.methods import contact
+    from retarget_lib.models.georet import GeometryConditionedRNN
+
+    seen = []
+    run = contact.encoder_space_optimization
+
+    def spy(*args, **kwargs):
+        seen.append(kwargs["weights"])
+        return run(*args, **kwargs)
+
+    monkeypatch.setattr(contact, "encoder_space_optimization", spy)
+    character = make_character("ada")
+    motion = make_motion("clap", character.skeleton, 0).slice(0, 2)
+    eint = InterpenetrationEnergy(character.faces, character.rest_vertices)
+    model = GeometryConditionedRNN(hidden=16, geometry=8, residual=True).eval()
+    eso = {"iterations": 1, "lr": 0.01, "reach": 0.15, "blend": 0.3}
+    for config in (eso, {**eso, "rho": 1000.0, "beta_int": 10.0}):
+        contact.retarget_with_eso(model, config, motion, character, None, eint, compile=False)
+    assert (seen[0].rho, seen[0].beta_int, seen[0].lambda_j2j) == (10.0, 1.0, 100.0)
+    assert (seen[1].rho, seen[1].beta_int, seen[1].lambda_j2j) == (1000.0, 10.0, 100.0)

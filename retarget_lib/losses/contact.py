@@ -177,10 +177,12 @@ class ContactEnergyWeights:
         return value / self.length_unit ** LENGTH_POWER[term]
 
     @classmethod
-    def eso(cls) -> ContactEnergyWeights:
-        """App. B.1's relaxed test-time values ``ρ = 10, β = 1, λ = 100``, with ``hold`` and ``γ``
-        as :meth:`relaxed` sets them."""
-        return cls().relaxed()
+    def eso(cls, rho: float = 10.0, beta_int: float = 1.0) -> ContactEnergyWeights:
+        """ESO's weights: App. B.1's relaxed test-time values ``ρ = 10, β = 1, λ = 100``, with
+        ``hold`` and ``γ`` as :meth:`relaxed` sets them; ``rho`` and ``beta_int`` replace App.
+        B.1's ``ρ`` and ``β`` (a checkpoint config's ``eso.rho`` / ``eso.beta_int``, see
+        ``configs/contact_residual.yaml``)."""
+        return replace(cls().relaxed(), rho=float(rho), beta_int=float(beta_int))
 
     @classmethod
     def row(cls, name: str) -> ContactEnergyWeights:

@@ -34,6 +34,7 @@ from ..geometry.contacts import (
     transfer_contacts,
 )
 from ..geometry.penetration import InterpenetrationEnergy
+from ..losses.contact import ContactEnergyWeights
 from ..models.georet import GeometryConditionedRNN, ResidualBase, motion_features, pose_outputs
 from .eso import encoder_space_optimization, eso_source, use_compiled
 
@@ -288,7 +289,9 @@ def retarget_with_eso(
 
     Args:
         model: the geometry-conditioned RNN (eval mode).
-        eso_config: the config's ``eso`` section (``iterations``, ``lr``, ``reach``, ``blend``).
+        eso_config: the config's ``eso`` section (``iterations``, ``lr``, ``reach``, ``blend``;
+            ``rho`` and ``beta_int`` where the config sets them, else App. B.1's 10 and 1:
+            :meth:`~retarget_lib.losses.contact.ContactEnergyWeights.eso`).
         source: canonical-22 source motion.
         target: target ``Character``.
         contacts: the source's hand contacts on the target's mesh, or ``None``.
@@ -311,6 +314,9 @@ def retarget_with_eso(
         src.leg_ratio,
         contacts=contacts,
         interpenetration=interpenetration,
+        weights=ContactEnergyWeights.eso(
+            **{k: float(eso_config[k]) for k in ("rho", "beta_int") if k in eso_config}
+        ),
         iterations=int(eso_config["iterations"]),
         lr=float(eso_config["lr"]),
         reach=float(eso_config["reach"]),
