@@ -369,17 +369,12 @@ class _BoundedLoader(yaml.SafeLoader):
         return super().construct_mapping(node, deep=deep)
 
 
-# YAML 1.2's floats: PyYAML (YAML 1.1) reads ``1e-3`` (no dot) as a string, so ``train.lr=1e-3``
-# or ``lr: 1e-4`` would be refused as "not a number"; this resolver reads them as floats.
+# YAML 1.2's exponent floats: PyYAML (YAML 1.1) reads ``1e-3`` (no dot) as a string, so
+# ``train.lr=1e-3`` or ``lr: 1e-4`` would be refused as "not a number"; this resolver adds only the
+# exponent forms (dotted floats, ``.inf`` and ``.nan`` PyYAML already reads).
 _BoundedLoader.add_implicit_resolver(
     "tag:yaml.org,2002:float",
-    re.compile(
-        r"""^(?:[-+]?(?:[0-9][0-9_]*)(?:\.[0-9_]*)?(?:[eE][-+]?[0-9]+)?
-        |[-+]?\.[0-9_]+(?:[eE][-+]?[0-9]+)?
-        |[-+]?\.(?:inf|Inf|INF)
-        |\.(?:nan|NaN|NAN))$""",
-        re.X,
-    ),
+    re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$"),
     list("-+0123456789."),
 )
 

@@ -278,6 +278,22 @@ def test_weights_training_eso_and_table3_rows():
         ContactEnergyWeights(length_unit=0.0)
 
 
+def test_eso_weights_from_a_config_section_replace_only_what_it_sets():
+    """A checkpoint config's ``eso`` section sets rho and beta (configs/contact_residual.yaml);
+    what it leaves out keeps App. B.1's relaxed value, and the other weights never move."""
+    paper = ContactEnergyWeights.eso()
+    assert ContactEnergyWeights.from_eso_config({"iterations": 30, "reach": 0.15}) == paper
+    only_rho = ContactEnergyWeights.from_eso_config({"rho": 1000})
+    assert (only_rho.rho, only_rho.beta_int) == (1000.0, 1.0)
+    both = ContactEnergyWeights.from_eso_config({"rho": 1000, "beta_int": 10})
+    assert (both.rho, both.beta_int) == (1000.0, 10.0)
+    assert (both.lambda_j2j, both.hold, both.gamma_foot) == (
+        paper.lambda_j2j,
+        paper.hold,
+        paper.gamma_foot,
+    )
+
+
 # ----------------------------------------------------------------------------- combinations
 def _motion(skel, frames=3, seed=0):
     g = torch.Generator().manual_seed(seed)

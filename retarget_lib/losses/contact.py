@@ -63,8 +63,9 @@ the metre values as they are.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 import torch
@@ -177,12 +178,22 @@ class ContactEnergyWeights:
         return value / self.length_unit ** LENGTH_POWER[term]
 
     @classmethod
-    def eso(cls, rho: float = 10.0, beta_int: float = 1.0) -> ContactEnergyWeights:
-        """ESO's weights: App. B.1's relaxed test-time values ``ρ = 10, β = 1, λ = 100``, with
-        ``hold`` and ``γ`` as :meth:`relaxed` sets them; ``rho`` and ``beta_int`` replace App.
-        B.1's ``ρ`` and ``β`` (a checkpoint config's ``eso.rho`` / ``eso.beta_int``, see
-        ``configs/contact_residual.yaml``)."""
-        return replace(cls().relaxed(), rho=float(rho), beta_int=float(beta_int))
+    def eso(cls, rho: float | None = None, beta_int: float | None = None) -> ContactEnergyWeights:
+        """ESO's weights: App. B.1's relaxed test-time values (:meth:`relaxed`), with ``rho`` and
+        ``beta_int`` in place of its ``ρ = 10`` and ``β = 1`` where given."""
+        w = cls().relaxed()
+        return replace(
+            w,
+            rho=w.rho if rho is None else float(rho),
+            beta_int=w.beta_int if beta_int is None else float(beta_int),
+        )
+
+    @classmethod
+    def from_eso_config(cls, section: Mapping[str, Any]) -> ContactEnergyWeights:
+        """ESO's weights for a checkpoint config's ``eso`` section: its ``rho`` and ``beta_int``
+        where it sets them (see ``configs/contact_residual.yaml``), else App. B.1's (:meth:`eso`).
+        """
+        return cls.eso(rho=section.get("rho"), beta_int=section.get("beta_int"))
 
     @classmethod
     def row(cls, name: str) -> ContactEnergyWeights:

@@ -291,7 +291,7 @@ def retarget_with_eso(
         model: the geometry-conditioned RNN (eval mode).
         eso_config: the config's ``eso`` section (``iterations``, ``lr``, ``reach``, ``blend``;
             ``rho`` and ``beta_int`` where the config sets them, else App. B.1's 10 and 1:
-            :meth:`~retarget_lib.losses.contact.ContactEnergyWeights.eso`).
+            :meth:`~retarget_lib.losses.contact.ContactEnergyWeights.from_eso_config`).
         source: canonical-22 source motion.
         target: target ``Character``.
         contacts: the source's hand contacts on the target's mesh, or ``None``.
@@ -314,9 +314,7 @@ def retarget_with_eso(
         src.leg_ratio,
         contacts=contacts,
         interpenetration=interpenetration,
-        weights=ContactEnergyWeights.eso(
-            **{k: float(eso_config[k]) for k in ("rho", "beta_int") if k in eso_config}
-        ),
+        weights=ContactEnergyWeights.from_eso_config(eso_config),
         iterations=int(eso_config["iterations"]),
         lr=float(eso_config["lr"]),
         reach=float(eso_config["reach"]),
