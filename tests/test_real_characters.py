@@ -81,6 +81,25 @@ def test_stands_upright_facing_plus_z_on_the_floor(name):
     assert toes[2] > abs(toes[0])  # toes forward: facing +Z
 
 
+#: canonical joints whose skin may touch the floor in the rest pose (shins hang low on short legs)
+_FLOOR_JOINTS = {"LeftLeg", "LeftFoot", "LeftToeBase", "RightLeg", "RightFoot", "RightToeBase"}
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_only_the_feet_lie_on_the_floor(name):
+    # a part bound through the wrong bone (the goblin's face, the cowboy's hat, which assimp binds
+    # to the root) is drawn at the feet and sets the floor: every vertex within 2 % of the height
+    # of the floor must be skinned mainly to a leg
+    character = load_real_character(name).character()
+    v = character.rest_vertices
+    low = v[:, 1] <= v[:, 1].min() + 0.02 * np.ptp(v[:, 1])
+    names = np.array(character.skeleton.joint_names)
+    owners = {str(n) for n in names[character.weights[low].argmax(1)]}
+    assert owners <= _FLOOR_JOINTS, (
+        f"{name}: vertices on the floor skinned to {owners - _FLOOR_JOINTS}"
+    )
+
+
 @pytest.fixture(scope="module")
 def short_source(tmp_path_factory):
     path = tmp_path_factory.mktemp("cmu") / "01_01_short.bvh"

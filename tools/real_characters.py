@@ -332,6 +332,65 @@ def drop_unskinned(doc: Doc) -> None:
             n.mesh, n.skin = None, None
 
 
+def rebind_misplaced_meshes(doc: Doc, tolerance: float = 0.01) -> list[str]:
+    """Re-bind the skinned meshes that their skin puts somewhere other than their node does.
+
+    In the files assimp converts, a skin's inverse bind matrices carry each mesh node's placement:
+    at the bind pose (these files' rest pose) ``W_j @ IBM_j @ v`` equals the node's ``M @ v``. A
+    mesh bound through a bone assimp merged with another of the same name (the Quaternius cowboy's
+    hat, on a second armature's ``Bone``; the goblin's face) gets the other bone's matrix, and glTF,
+    which ignores a skinned mesh's node transform, draws it at that bone: at the feet. When at
+    least one mesh of the skin agrees with its node, each one that does not (its vertices more
+    than ``tolerance`` x the body's height from where its node puts them) is bound rigidly, with
+    weight 1, to the skin's joint nearest to its centre, its vertices where its node puts them.
+    A file whose meshes all disagree with their nodes (their vertices already in the skin's space,
+    as the DirectX ``BCN_Epileptic.X``) is left as it is.
+
+    Returns:
+        The names of the re-bound mesh nodes.
+    """
+    world = doc.world()
+    placed, skinned = {}, {}
+    for n, node in enumerate(doc.nodes):
+        if node.mesh is None or node.skin is None or not doc.meshes[node.mesh]:
+            continue
+        skin = doc.skins[node.skin]
+        binds = np.stack([world[j] @ skin.ibm[k] for k, j in enumerate(skin.joints)])
+        for p in doc.meshes[node.mesh]:
+            v = np.c_[p.positions, np.ones(len(p.positions))]
+            placed[n, id(p)] = (v @ world[n].T)[:, :3]
+            blend = np.einsum("vk,vkab->vab", p.weights, binds[p.joints])
+            skinned[n, id(p)] = np.einsum("vab,vb->va", blend, v)[:, :3]
+    if not placed:
+        return []
+    everything = np.concatenate(list(placed.values()))
+    height = float(np.ptp(everything[:, 1])) or 1.0
+    off = {
+        key: float(np.median(np.linalg.norm(skinned[key] - placed[key], axis=1))) / height
+        for key in placed
+    }
+    agree = {n for (n, _), o in off.items() if o <= tolerance}
+    moved = []
+    for n, node in enumerate(doc.nodes):
+        if not agree or n in agree or node.mesh is None or node.skin is None:
+            continue
+        skin = doc.skins[node.skin]
+        joint_at = np.stack([world[j][:3, 3] for j in skin.joints])
+        for p in doc.meshes[node.mesh]:
+            where = placed[n, id(p)]
+            k = int(np.argmin(np.linalg.norm(joint_at - where.mean(0), axis=1)))
+            to_bind = np.linalg.inv(world[skin.joints[k]] @ skin.ibm[k])
+            p.positions = where @ to_bind[:3, :3].T + to_bind[:3, 3]
+            if p.normals is not None:
+                p.normals = p.normals @ (to_bind[:3, :3] @ world[n][:3, :3]).T
+            p.joints = np.zeros_like(p.joints)
+            p.joints[:, 0] = k
+            p.weights = np.zeros_like(p.weights)
+            p.weights[:, 0] = 1.0
+        moved.append(f"{node.name} -> {doc.nodes[skin.joints[k]].name}")
+    return moved
+
+
 def decimate(doc: Doc, limit: int = MAX_VERTICES) -> None:
     """Decimate every skinned primitive by one ratio so that the skinned vertices total at most
     ``limit``; a kept vertex takes the weights (and normal) of the nearest original vertex."""
@@ -841,6 +900,8 @@ def build(name: str, src: Path, out_dir: Path = OUT_DIR) -> Path:
     make, _ = RECIPES[name]
     doc = make(Path(src))
     drop_unskinned(doc)
+    for moved in rebind_misplaced_meshes(doc):
+        print(f"{name}: re-bound {moved}")
     decimate(doc)
     out = out_dir / f"{name}.glb"
     write_glb(doc, out, f"{name}: see data_manifest.yaml (real-characters)")
