@@ -4,6 +4,7 @@ been given them (issue 11), with the sections "## Summary", "## Exercises" and "
 this order."""
 
 import base64
+import re
 from pathlib import Path
 
 import nbformat
@@ -60,6 +61,26 @@ def test_outputs_name_no_path_of_the_machine_that_ran_them(path):
                     assert bad not in text, (
                         f"{path.name} code cell {i} prints a machine path ({bad!r})"
                     )
+
+
+#: what changes on every run of the same cell: an object's memory address (``<... at 0x7f...>``,
+#: a cell ending on a call that returns an object), a pandas Styler's random table id, and the
+#: execution times nbclient records in a cell's metadata (checked apart)
+_RUN_NOISE = re.compile(r" at 0x[0-9a-f]{6,}>|\bT_[0-9a-f]{5}_")
+
+
+@pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.name)
+def test_outputs_are_the_same_on_every_run(path):
+    # a re-run that changes no value must not rewrite the committed outputs
+    for i, cell in enumerate(
+        c for c in nbformat.read(path, as_version=4).cells if c.cell_type == "code"
+    ):
+        assert "execution" not in cell.metadata, f"{path.name} code cell {i} keeps run times"
+        for out in cell.get("outputs", []):
+            for text in [out.get("text", "")] + list(out.get("data", {}).values()):
+                text = "".join(text) if isinstance(text, list) else str(text)
+                noise = _RUN_NOISE.search(text)
+                assert noise is None, f"{path.name} code cell {i} shows {noise.group()!r}"
 
 
 def test_notebooks_exist_in_order():
