@@ -370,15 +370,17 @@ def rebind_misplaced_meshes(doc: Doc, tolerance: float = 0.01) -> list[str]:
         for key in placed
     }
     agree = {n for (n, _), o in off.items() if o <= tolerance}
+    misplaced = sorted({n for n, _ in placed} - agree) if agree else []
     moved = []
-    for n, node in enumerate(doc.nodes):
-        if not agree or n in agree or node.mesh is None or node.skin is None:
-            continue
+    for n in misplaced:
+        node = doc.nodes[n]
         skin = doc.skins[node.skin]
         joint_at = np.stack([world[j][:3, 3] for j in skin.joints])
+        to = set()
         for p in doc.meshes[node.mesh]:
             where = placed[n, id(p)]
             k = int(np.argmin(np.linalg.norm(joint_at - where.mean(0), axis=1)))
+            to.add(doc.nodes[skin.joints[k]].name)
             to_bind = np.linalg.inv(world[skin.joints[k]] @ skin.ibm[k])
             p.positions = where @ to_bind[:3, :3].T + to_bind[:3, 3]
             if p.normals is not None:
@@ -387,7 +389,7 @@ def rebind_misplaced_meshes(doc: Doc, tolerance: float = 0.01) -> list[str]:
             p.joints[:, 0] = k
             p.weights = np.zeros_like(p.weights)
             p.weights[:, 0] = 1.0
-        moved.append(f"{node.name} -> {doc.nodes[skin.joints[k]].name}")
+        moved.append(f"{node.name} -> {', '.join(sorted(to))}")
     return moved
 
 
