@@ -7,7 +7,7 @@ import pytest
 import torch
 from skeletons import make_skeleton
 
-from retarget_lib.core.measures import foot_rest_heights
+from retarget_lib.core.measures import foot_rest_heights, skeleton_leg_length
 from retarget_lib.core.quantities import (
     FOOT_CONTACT_IDS,
     MotionQuantities,
@@ -207,7 +207,7 @@ def test_weak_energy_scales_the_source_root_velocity_by_the_leg_ratio():
 def test_leg_length_and_leg_ratio_by_hand():
     skel = make_skeleton(height=1.8, leg_frac=0.5)
     # hips at 0.06 + thigh + shin + ankle (= 0.94 + 0.06 of the 0.9 m leg); toes on the ground
-    assert skel.leg_length() == pytest.approx(0.06 + 0.9)
+    assert skeleton_leg_length(skel) == pytest.approx(0.06 + 0.9)
     assert leg_ratio(skel, skel.scaled(1.25)) == pytest.approx(1.25)
 
 

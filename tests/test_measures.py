@@ -23,6 +23,7 @@ from retarget_lib.core.measures import (
     mesh_standing_height,
     nkn_height,
     rest_ground,
+    skeleton_leg_length,
 )
 from retarget_lib.core.skeleton import J, canonical22_skeleton
 from retarget_lib.geometry.contacts import detect_foot_contacts
@@ -100,7 +101,8 @@ def test_nkn_height_of_tensors_is_differentiable():
 
 def test_leg_length_is_the_hips_above_the_lowest_foot_joint():
     sk = canonical22_skeleton(_offsets())
-    assert sk.leg_length() == pytest.approx(1.0 - 0.01, abs=EXACT)  # the right toe is the lowest
+    # the right toe is the lowest
+    assert skeleton_leg_length(sk) == pytest.approx(1.0 - 0.01, abs=EXACT)
     batch = torch.as_tensor(np.stack([_offsets(), 2 * _offsets()]), dtype=torch.float32)
     torch.testing.assert_close(leg_length(batch), torch.tensor([0.99, 1.98]), rtol=1e-6, atol=0.0)
 

@@ -6,7 +6,7 @@ import pytest
 import torch
 
 from retarget_lib.core.kinematics import align_local_rotations, forward_kinematics
-from retarget_lib.core.measures import leg_length
+from retarget_lib.core.measures import leg_length, skeleton_leg_length
 from retarget_lib.core.rotations import quat_normalize
 from retarget_lib.core.skeleton import CANONICAL22_PARENTS
 from retarget_lib.losses import bone_direction_loss
@@ -57,7 +57,7 @@ def test_leg_length_matches_the_skeleton():
 
     sk = make_character("ada").skeleton
     assert leg_length(torch.as_tensor(sk.offsets)).item() == pytest.approx(
-        sk.leg_length(), rel=1e-12
+        skeleton_leg_length(sk), rel=1e-12
     )
 
 
@@ -136,53 +136,29 @@ def test_residual_tdcn_on_its_own_skeleton_is_the_identity_for_any_weights():
     )  # another target: a change
 
 
-def test_feet_as_rest_keeps_the_sources_foot_rotations_and_nothing_else_changes():
-    """``feet_as_rest`` (what the ``tdcn`` method asks for): the target's feet and toes turn from
-    their rest exactly as the source's do (``G^B_foot = G^A_foot``: flat where the source's are
-    flat); every other joint is the network's answer as before."""
-    from retarget_lib.core.rotations import quat_to_matrix
-    from retarget_lib.core.transfer import FOOT_JOINTS_AS_REST
+def test_untrained_residual_tdcn_is_copy_rest_between_rest_conventions():
+    """The residual network's base is the rest alignment of the two retarget poses: untrained
+    (correction 1), an A-pose source onto a T-pose target is exactly the ``copy-rest`` method."""
+    from skeletons import make_skeleton
 
-    torch.manual_seed(0)
+    from retarget_lib.core.transfer import transfer_rotations
+
     gen, _ = build_model({"row": "ours-residual", "profile": "fast"})
     gen.eval()
+    _zero_head(gen.head.out)
+    a_pose, t_pose = make_skeleton(1.5, arm_deg=45.0), make_skeleton(1.8, arm_deg=0.0)
+    q = random_quats(1, 20, 22, seed=9)
+    r = torch.randn(1, 20, 3)
+    off_a, off_b = (torch.as_tensor(s.offsets, dtype=torch.float32) for s in (a_pose, t_pose))
     with torch.no_grad():
-        gen.head.out.weight.normal_(std=0.5)  # alignments far from the identity
-    q = random_quats(1, 30, 22, seed=7).float()
-    r = torch.randn(1, 30, 3)
-    off_a = torch.randn(22, 3) * 0.1
-    off_b = off_a * torch.tensor([1.2, 0.9, 1.0])
-    with torch.no_grad():
-        plain, _ = gen.retarget(q, r, off_a, off_b)
-        flat, _ = gen.retarget(q, r, off_a, off_b, feet_as_rest=True)
-    g_src = forward_kinematics(q, off_a, PARENTS, None).rotations
-    g_plain = forward_kinematics(plain, off_b, PARENTS, None).rotations
-    g_flat = forward_kinematics(flat, off_b, PARENTS, None).rotations
-    feet = list(FOOT_JOINTS_AS_REST)
-    others = [j for j in range(22) if j not in feet]
-    # float32 products of a few unit quaternions: rounding only
-    assert torch.allclose(
-        quat_to_matrix(g_flat[..., feet, :]), quat_to_matrix(g_src[..., feet, :]), atol=1e-4
-    )
-    assert not torch.allclose(
-        quat_to_matrix(g_plain[..., feet, :]), quat_to_matrix(g_src[..., feet, :]), atol=1e-2
-    )
-    assert torch.allclose(
-        quat_to_matrix(flat[..., others, :]), quat_to_matrix(plain[..., others, :]), atol=1e-5
-    )
+        q_hat, _ = gen.retarget(q.float(), r, off_a, off_b)
+    want = torch.from_numpy(transfer_rotations(q[0].numpy(), a_pose, t_pose))
+    from retarget_lib.core.rotations import quat_to_matrix
 
-
-def test_keep_feet_as_rest_sets_only_the_feet_and_toes():
-    from retarget_lib.core.skeleton import J
-    from retarget_lib.core.transfer import keep_feet_as_rest
-
-    c = random_quats(3, 22, seed=3)
-    out = keep_feet_as_rest(c)
-    feet = [J[n] for n in ("LeftFoot", "RightFoot", "LeftToeBase", "RightToeBase")]
-    assert torch.equal(out[:, feet], torch.tensor([1.0, 0, 0, 0], dtype=c.dtype).expand(3, 4, 4))
-    others = [j for j in range(22) if j not in feet]
-    assert torch.equal(out[:, others], c[:, others])
-    assert not torch.equal(c[:, feet], out[:, feet])  # the input is not changed in place
+    # float32 network path against the float64 method: rounding only
+    assert torch.allclose(quat_to_matrix(q_hat[0].double()), quat_to_matrix(want), atol=1e-5)
+    copied = quat_to_matrix(q[0])
+    assert not torch.allclose(quat_to_matrix(want), copied, atol=1e-2)  # the arms are aligned
 
 
 def test_the_tdcn_method_commutes_with_a_mirror_and_keeps_identity():
@@ -215,7 +191,6 @@ def test_the_tdcn_method_commutes_with_a_mirror_and_keeps_identity():
             *(x[None] for x in clip.mirror().torch()[:2]),
             torch.as_tensor(clip.mirror().skeleton.offsets, dtype=torch.float32),
             torch.as_tensor(target.mirror().offsets, dtype=torch.float32),
-            feet_as_rest=True,
         )
         q_same, r_same = mirror_averaged(gen, clip, source_skeleton)
     result = clip.copy(skeleton=target, rotations=q.double().numpy(), root_positions=r.numpy())

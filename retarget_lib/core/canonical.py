@@ -14,7 +14,9 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import torch
 
+from .kinematics import align_local_rotations
 from .motion import Motion
+from .retarget_pose import pose_offsets, retarget_pose_rotations
 from .rotations import (
     matrix_to_quat,
     quat_between,
@@ -288,34 +290,35 @@ def upright_rotation(
 
 
 def stand_upright(motion: Motion) -> Motion:
-    """A canonical-22 motion whose **rest pose** is turned to stand up (:func:`upright_rotation`),
-    every frame's world pose unchanged.
+    """A canonical-22 motion whose **rest pose** is turned to stand up, every frame's world pose
+    unchanged: the body turn of its retarget pose
+    (:func:`~retarget_lib.core.retarget_pose.retarget_pose_rotations`, joint 0: spine up, hips
+    along +X, facing +Z) applied to the whole rest.
 
     Some mocap files define their rest pose lying down or turned (a BVH whose rest skeleton lies
     along +X, the frames' root rotation standing it up). Rotation-copying methods carry the root
     rotation over, so such a rest pose would lay the target down. With ``R`` the turn, the rest
     offsets become ``R o`` and the global rotations ``G R^-1``: the root's local rotation is
-    ``q_0 R^-1``, every other joint's ``R q_j R^-1``; world positions stay the same.
+    ``q_0 R^-1``, every other joint's ``R q_j R^-1``; world positions stay the same. A rest pose
+    within the retarget pose's tolerance of upright is left alone (the same object is returned).
     """
     if not motion.skeleton.is_canonical22():
         raise JointSetError("stand_upright needs a canonical-22 motion")
-    rest = motion.skeleton.rest_positions()
-    turn = upright_rotation(
-        rest[J["Hips"]], rest[J["Head"]], rest[J["LeftUpLeg"]], rest[J["RightUpLeg"]]
-    )
-    if np.array_equal(turn, np.eye(3)):
+    off = torch.from_numpy(motion.skeleton.offsets.astype(np.float64))
+    turn = retarget_pose_rotations(off)[0]
+    if torch.equal(turn, torch.tensor([1.0, 0.0, 0.0, 0.0], dtype=turn.dtype)):
         return motion
-    q_turn = matrix_to_quat(torch.from_numpy(turn))
-    rot = torch.from_numpy(motion.rotations)
-    turned = quat_mul(quat_mul(q_turn.expand_as(rot), rot), quat_conjugate(q_turn).expand_as(rot))
-    turned[:, 0] = quat_mul(rot[:, 0], quat_conjugate(q_turn).expand_as(rot[:, 0]))
-    offsets = motion.skeleton.offsets @ turn.T
+    turns = turn.expand(22, 4)
+    rotations = align_local_rotations(
+        torch.from_numpy(motion.rotations), quat_conjugate(turns), CANONICAL22_PARENTS
+    )
+    offsets = pose_offsets(off, turns).numpy()
     offsets[0] = 0.0
     offsets[0, 1] = (
         -canonical22_skeleton(offsets).rest_positions()[:, 1].min()
     )  # the turned rest stands on y = 0
     return motion.copy(
         skeleton=canonical22_skeleton(offsets),
-        rotations=turned.numpy(),
+        rotations=quat_canonical(rotations).numpy(),
         meta=dict(motion.meta, rest_turned=turn.tolist()),
     )

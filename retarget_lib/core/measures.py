@@ -4,7 +4,10 @@ definition each, read by every metric, loss, threshold and method.
 The **rest pose** is the skeleton with identity local rotations: its ``(J, 3)`` world joint
 positions are :meth:`Skeleton.rest_positions() <retarget_lib.core.skeleton.Skeleton.rest_positions>`
 (the offsets summed down the tree), and a character's rest mesh is ``Character.rest_vertices``
-in the same frame. Everything below is measured on that pose. Conventions: metres, +Y up.
+in the same frame. Lengths and the rest ground are measured on that pose; what depends on the
+character *standing* (leg length, foot heights, standing height) on its retarget pose
+(:mod:`retarget_lib.core.retarget_pose`), so that a rig's rest convention does not change it.
+Conventions: metres, +Y up.
 
 The papers use three different heights, and they are kept apart here:
 
@@ -20,14 +23,15 @@ The papers use three different heights, and they are kept apart here:
 * **Standing height of the mesh**: :func:`mesh_standing_height`, the rest mesh's vertical
   extent. Scales Sec. 3.4's hand self-contact thresholds ("138 cm") and the PointNet input.
 
-And one length: the **leg length** ``h_legs``, the hips above the lowest rest foot joint
-(:meth:`Skeleton.leg_length() <retarget_lib.core.skeleton.Skeleton.leg_length>`,
-:func:`leg_length` for tensors), the root scale of the ground truth, of Eq. 8 (Villegas et al.
-2021) and of the residual TDCN.
+And one length: the **leg length** ``h_legs``, the hips above the lowest foot joint in the
+retarget pose (:func:`skeleton_leg_length`, :func:`leg_length` for tensors), the root scale of
+the ground truth, of Eq. 8 (Villegas et al. 2021) and of the residual TDCN.
 
 The **rest ground** is :func:`rest_ground` (:func:`mesh_ground` of a mesh), and the **foot rest
-heights** ``ḡ`` above it are :func:`foot_rest_heights`: Efoot's ground (Villegas et al. 2021,
-Eq. 6, Sec. 3.1.1), toe-contact detection, sole heights (:mod:`retarget_lib.core.ground`) and
+heights** ``ḡ`` are :func:`foot_rest_heights` (the feet above the ground in the retarget pose,
+:mod:`retarget_lib.core.retarget_pose`, the sole under them measured at rest): Efoot's ground
+(Villegas et al. 2021, Eq. 6, Sec. 3.1.1), toe-contact detection, sole heights
+(:mod:`retarget_lib.core.ground`) and
 the synthetic clips' planted feet.
 
 ``H`` is not a standing height: it leaves out the skull above the ``Head`` joint and the foot
@@ -42,7 +46,15 @@ from typing import Any, overload
 import numpy as np
 import torch
 
-from .skeleton import CANONICAL22_PARENTS, FOOT_CONTACT_JOINTS, HEIGHT_BONES, J, Skeleton
+from .retarget_pose import pose_offsets, retarget_pose_rotations
+from .skeleton import (
+    CANONICAL22_PARENTS,
+    FOOT_CONTACT_JOINTS,
+    HEIGHT_BONES,
+    J,
+    JointSetError,
+    Skeleton,
+)
 
 Tensor = torch.Tensor
 
@@ -50,6 +62,7 @@ __all__ = [
     "HEAD_TOP_FACTOR",
     "nkn_height",
     "leg_length",
+    "skeleton_leg_length",
     "estimated_standing_height",
     "mesh_standing_height",
     "mesh_ground",
@@ -91,12 +104,14 @@ def nkn_height(offsets: Tensor) -> Tensor:
 
 
 def leg_length(offsets: Tensor) -> Tensor:
-    """``h_legs`` of a batch of canonical-22 rest offsets: the rest height of the hips above the
-    lowest foot joint (Villegas et al. 2021, Eq. 8's leg-length ratio).
+    """``h_legs`` of a batch of canonical-22 rest offsets: the height of the hips above the lowest
+    foot joint **in the retarget pose** (Villegas et al. 2021, Eq. 8's leg-length ratio).
 
-    The tensor form of :meth:`Skeleton.leg_length()
-    <retarget_lib.core.skeleton.Skeleton.leg_length>` (differentiable): the ``y`` offsets summed
-    down each leg chain, the lowest of the four feet joints; the two agree to rounding.
+    Measured in the retarget pose
+    (:func:`~retarget_lib.core.retarget_pose.retarget_pose_rotations`: legs straight down, feet
+    flat), so that a rig's convention does not change it: a rig resting with bent knees, splayed
+    legs or lying down has the leg length it stands with. For a rig that stands straight at rest it
+    is the rest height of the hips above its lowest foot joint.
 
     Args:
         offsets: ``(..., 22, 3)`` rest offsets in canonical-22 order (metres).
@@ -104,29 +119,62 @@ def leg_length(offsets: Tensor) -> Tensor:
     Returns:
         ``(...)`` leg lengths in metres.
     """
+    offsets = pose_offsets(offsets, retarget_pose_rotations(offsets).to(offsets.dtype))
     y = offsets[..., 1]
-    left = y[..., _LEFT_LEG].cumsum(-1)  # rest heights below the hips, down the chain
+    left = y[..., _LEFT_LEG].cumsum(-1)  # heights below the hips, down the chain
     right = y[..., _RIGHT_LEG].cumsum(-1)
     return -torch.cat([left, right], -1).min(-1).values
+
+
+def skeleton_leg_length(skeleton: Skeleton) -> float:
+    """:func:`leg_length` of one canonical-22 skeleton (metres, float64): the scale of root
+    motion (the ground truth's root, Villegas et al. 2021, Eq. 8's leg ratio,
+    :func:`~retarget_lib.core.quantities.leg_ratio`)."""
+    if not skeleton.is_canonical22():
+        raise JointSetError("the leg length needs the canonical 22 joints")
+    return float(leg_length(torch.from_numpy(skeleton.offsets.astype(np.float64))))
+
+
+def _standing(skeleton: Skeleton, rest_vertices: np.ndarray | None) -> tuple[np.ndarray, float]:
+    """The skeleton's joint positions in its retarget pose, ``(J, 3)``, and the ground under them
+    (metres): the lowest foot joint's height minus the sole under it, measured at rest (a rig
+    that is not upright at rest has no sole to measure there: 0)."""
+    off = torch.from_numpy(skeleton.offsets.astype(np.float64))
+    pose = retarget_pose_rotations(off)
+    posed = _positions(pose_offsets(off, pose).numpy())
+    feet = [J[n] for n in FOOT_CONTACT_JOINTS]
+    upright = bool(torch.allclose(pose[0], torch.tensor([1.0, 0.0, 0.0, 0.0], dtype=pose.dtype)))
+    sole = 0.0
+    if upright:
+        rest = skeleton.rest_positions()
+        sole = float(rest[feet, 1].min() - rest_ground(skeleton, rest_vertices))
+    return posed, float(posed[feet, 1].min() - sole)
+
+
+def _positions(offsets: np.ndarray) -> np.ndarray:
+    pos = np.zeros_like(offsets)
+    for j, p in enumerate(CANONICAL22_PARENTS):
+        pos[j] = offsets[j] if p < 0 else pos[p] + offsets[j]
+    return pos
 
 
 # ----------------------------------------------------------------------------- standing heights
 def estimated_standing_height(skeleton: Skeleton) -> float:
     """Standing height (floor to crown, metres) estimated from the skeleton alone: the ``Head``
-    joint's rest height above :func:`rest_ground` times :data:`HEAD_TOP_FACTOR`.
+    joint's height above the ground in the retarget pose times :data:`HEAD_TOP_FACTOR`.
 
     The "character height" that Villegas et al. 2021, Sec. 3.4 scales its foot-contact thresholds
     with (stated for a 180 cm character); about 12 % more than ``H``
     (:meth:`~retarget_lib.core.skeleton.Skeleton.height`).
 
     Args:
-        skeleton: a skeleton with the canonical names ``Head`` and the foot joints.
+        skeleton: a canonical-22 skeleton.
 
     Returns:
         metres.
     """
-    head = skeleton.rest_positions()[skeleton.index("Head"), 1]
-    return HEAD_TOP_FACTOR * float(head - rest_ground(skeleton))
+    posed, ground = _standing(skeleton, None)
+    return HEAD_TOP_FACTOR * float(posed[J["Head"], 1] - ground)
 
 
 @overload
@@ -200,23 +248,27 @@ def rest_ground(skeleton: Skeleton, rest_vertices: np.ndarray | None = None) -> 
 
 
 def foot_rest_heights(skeleton: Skeleton, rest_vertices: np.ndarray | None = None) -> np.ndarray:
-    """``(4,)`` rest heights of the heels and toes above the rest ground (metres), in
-    :data:`~retarget_lib.core.skeleton.FOOT_CONTACT_JOINTS` order (left heel, right heel, left
-    toe, right toe).
+    """``(4,)`` heights of the heels and toes above the ground when the character stands in its
+    retarget pose (metres), in :data:`~retarget_lib.core.skeleton.FOOT_CONTACT_JOINTS` order (left
+    heel, right heel, left toe, right toe).
 
     Efoot's ``ḡ_j^y`` (Villegas et al. 2021, Eq. 6; Sec. 3.1.1: "we get the heel height from
     reference pose ... so that ground height of zero corresponds to contact"): a foot joint at
-    its rest height above the floor is a foot standing on it. Without a mesh the ground is the
-    skeleton's (:func:`rest_ground`), so a flat foot's lowest joint reads 0.
+    this height above the floor is a foot standing on it. The reference pose is the retarget pose
+    (:mod:`retarget_lib.core.retarget_pose`: feet flat), so a rig that rests with bent knees or
+    lying down reads the same heights as when it stands; the sole under the lowest joint is
+    measured at rest (:func:`rest_ground`: the mesh's lowest point where there is a mesh, else
+    the lowest foot joint reads 0).
 
     Args:
-        skeleton: a skeleton with the canonical foot joint names.
+        skeleton: a canonical-22 skeleton.
         rest_vertices: ``(V, 3)`` the character's rest mesh, if it has one (the ground is then
             its lowest point).
 
     Returns:
         ``(4,)`` float64, >= 0 but for a joint below a mesh's lowest point (a real mesh has none).
     """
-    rest = skeleton.rest_positions()
-    feet = rest[[skeleton.index(n) for n in FOOT_CONTACT_JOINTS], 1]
-    return feet - rest_ground(skeleton, rest_vertices)
+    if not skeleton.is_canonical22():
+        raise JointSetError("the foot rest heights need the canonical 22 joints")
+    posed, ground = _standing(skeleton, rest_vertices)
+    return posed[[J[n] for n in FOOT_CONTACT_JOINTS], 1] - ground

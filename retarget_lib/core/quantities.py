@@ -21,6 +21,7 @@ import numpy as np
 import torch
 
 from .kinematics import forward_kinematics
+from .measures import skeleton_leg_length
 from .skeleton import CANONICAL22_PARENTS, FOOT_CONTACT_JOINTS, J, Skeleton
 
 Tensor = torch.Tensor
@@ -156,8 +157,9 @@ FOOT_CONTACT_IDS: tuple[int, ...] = tuple(J[n] for n in FOOT_CONTACT_JOINTS)
 
 def leg_ratio(source: Skeleton, target: Skeleton) -> float:
     """``h_legs_B / h_legs_A``, the factor turning ``o^A`` into ``o^(A→B)`` (Eq. 8), with ``h_legs``
-    the rest leg length :meth:`~retarget_lib.core.skeleton.Skeleton.leg_length`."""
-    return target.leg_length() / source.leg_length()
+    the leg length in the retarget pose
+    (:func:`~retarget_lib.core.measures.skeleton_leg_length`)."""
+    return skeleton_leg_length(target) / skeleton_leg_length(source)
 
 
 def forward_root_velocity(root_positions: Tensor) -> Tensor:

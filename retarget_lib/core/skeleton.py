@@ -247,20 +247,6 @@ class Skeleton:
             )
         )
 
-    def leg_length(self) -> float:
-        """``h_legs``: rest height of the hips above the lowest foot joint (metres), the scale of
-        root motion (the ground truth's root, Villegas et al. 2021, Eq. 8's leg ratio);
-        :func:`~retarget_lib.core.measures.leg_length` is its form for offset tensors."""
-        pos = self.rest_positions()
-        feet = [
-            i
-            for i, n in enumerate(self.joint_names)
-            if n in ("LeftToeBase", "RightToeBase", "LeftFoot", "RightFoot")
-        ]
-        if not feet:
-            raise JointSetError("leg_length() needs foot joints")
-        return float(pos[0, 1] - pos[feet, 1].min())
-
 
 def canonical22_skeleton(offsets: np.ndarray) -> Skeleton:
     """A :class:`Skeleton` on the canonical 22 joints with the given ``(22, 3)`` offsets."""

@@ -32,13 +32,14 @@ from dataclasses import dataclass
 
 import fcl
 import numpy as np
+import torch
 from scipy.spatial import cKDTree
 
 from ..core.ground import REFERENCE_FPS, REFERENCE_HEIGHT_M, STAND_BAND_M, STILL_STEP_M
 from ..core.kinematics import forward_kinematics
 from ..core.measures import foot_rest_heights
+from ..core.retarget_pose import pose_local_rotations, retarget_pose
 from ..core.skeleton import CANONICAL22, CANONICAL22_PARENTS, FOOT_CONTACT_JOINTS, J, Skeleton
-from ..core.transfer import canonical_rest_skeleton, transfer_rotations
 
 __all__ = [
     "FOOT_JOINTS",
@@ -498,13 +499,11 @@ def detect_self_contacts(
 
 # ----------------------------------------------------------------------------- correspondence
 def _canonical_rest_vertices(character) -> tuple[np.ndarray, np.ndarray]:
-    """The character's mesh and joints re-posed into the canonical T-pose
-    (:func:`~retarget_lib.core.transfer.canonical_rest_skeleton`): ``(V, 3)``, ``(22, 3)``."""
+    """The character's mesh and joints re-posed into its retarget pose
+    (:func:`~retarget_lib.core.retarget_pose.retarget_pose`): ``(V, 3)``, ``(22, 3)``."""
     skeleton = character.skeleton
-    canonical = canonical_rest_skeleton(skeleton)
-    identity = np.zeros((22, 4))
-    identity[:, 0] = 1.0
-    rotations = transfer_rotations(identity, canonical, skeleton)
+    pose = retarget_pose(skeleton, character.rest_vertices, character.weights)
+    rotations = pose_local_rotations(torch.from_numpy(pose)).numpy()
     root = skeleton.offsets[0]
     joints = forward_kinematics(rotations[None], skeleton.offsets, skeleton.parents, root[None])[0][
         0
@@ -525,9 +524,9 @@ def correspondence_features(
 
     The paper's Mixamo characters all share the T-pose. Ours do not (A-pose arms, bent knees,
     curved spines), and a world-space offset turns with the bone, so with ``canonical_pose``
-    (default) both are measured with the mesh re-posed into the canonical T-pose
-    (:func:`~retarget_lib.core.transfer.canonical_rest_skeleton`: bones up, down or sideways,
-    same lengths) by linear blend skinning.
+    (default) both are measured with the mesh re-posed into its retarget pose
+    (:func:`~retarget_lib.core.retarget_pose.retarget_pose`: the canonical T-pose, each
+    character's own shape kept) by linear blend skinning.
 
     Args:
         character: a :class:`~retarget_lib.core.character.Character` (``rest_vertices (V, 3)``,

@@ -1,5 +1,5 @@
-"""Method ``copy-rest``: copy with rest-pose compensation (the same global bone directions and
-twists; :mod:`retarget_lib.core.transfer`)."""
+"""Method ``copy-rest``: copy the rotation deltas from the retarget pose (each rig's canonical
+T-pose, :mod:`retarget_lib.core.retarget_pose`; :mod:`retarget_lib.core.transfer`)."""
 
 from __future__ import annotations
 
@@ -13,12 +13,16 @@ __all__ = ["copy_rotations_rest_compensated", "load"]
 
 
 def copy_rotations_rest_compensated(motion: Motion, target_skeleton: Skeleton) -> Motion:
-    """Baseline "copy with rest-pose compensation".
+    """Baseline "copy with rest-pose compensation": the source's rotation deltas from its
+    retarget pose, on the target's retarget pose (``G^B_j = G^A_j (P^A_j)^-1 P^B_j``), the root
+    scaled by the leg ratio.
 
-    This is the same mathematics as :func:`~retarget_lib.core.transfer.retarget_ground_truth`
-    (which is implemented as a rest-compensated copy), so on synthetic pairs it scores zero error
-    by construction; it is listed separately so that evaluation tables can name it. On real Mixamo
-    data the ground truth comes from Mixamo's own retargeter and the two differ.
+    Between two rigs of one T-pose convention (Mixamo's binds) it is ``copy`` exactly, each
+    character keeping its own shape; between conventions (an A-pose, splayed legs, a rig lying at
+    rest) it removes the convention. The same mathematics as
+    :func:`~retarget_lib.core.transfer.retarget_ground_truth`, so on synthetic pairs it scores zero
+    error by construction; it is listed separately so that evaluation tables can name it. On real
+    Mixamo data the ground truth comes from Mixamo's own retargeter.
     """
     out = retarget_ground_truth(motion, target_skeleton)
     out.meta["retargeted"] = "copy_rest_compensated"

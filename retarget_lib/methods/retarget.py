@@ -32,7 +32,9 @@ warning, beyond :data:`MESH_WARN`), target joint names the output format cannot 
 :func:`~retarget_lib.files.input_ledger`: every file it reads (the inputs, a ``.gltf``'s buffers,
 joint maps, meshes, checkpoints) is recorded by inode and no output replaces one. An error while
 reading an input names that input. A result that is non-finite or implausibly far away (a corrupt
-checkpoint) is refused, not written.
+checkpoint) is refused, not written, and so is one whose body lies, stands on its head or sinks
+under the floor where the source stands (:func:`check_posture`: what a wrong joint map, up axis
+or rest convention gives).
 """
 
 from __future__ import annotations
@@ -47,6 +49,7 @@ import numpy as np
 from ..core.canonical import unfold_from_canonical22
 from ..core.character import Character
 from ..core.ground import clip_floor, floor_offset, foot_positions, ground_contacts, sole_heights
+from ..core.measures import estimated_standing_height, mesh_standing_height
 from ..core.motion import Motion
 from ..core.skeleton import Skeleton
 from ..errors import CheckpointError, OutputPathError, RetargetInputError
@@ -70,12 +73,23 @@ __all__ = [
     "output_count",
     "at_output_rate",
     "on_the_ground",
+    "check_posture",
 ]
 
 #: the frame rate every method works at (the models were trained on 30 fps windows)
 METHOD_FPS = 30.0
 #: what ``out`` can be
 OUTPUT_SUFFIXES = (".bvh", ".glb", ".fbx")
+#: a result body is *lying* where its spine (hips -> neck) is more than 60 degrees from vertical,
+#: *upside down* where more than 120, in frames where the source's is within 30 of it
+LYING_COS, UPSIDE_DOWN_COS, UPRIGHT_COS = 0.5, -0.5, np.cos(np.radians(30.0))
+#: ... in more than this fraction of those frames (a roll or a handstand in the source is not one)
+POSTURE_FRACTION = 0.5
+#: a result whose lowest point is more than this fraction of its standing height under the floor
+#: in a frame where the source stands is refused
+UNDER_FLOOR_FRACTION = 0.05
+#: at most this many standing frames are skinned for the floor check
+FLOOR_CHECK_FRAMES = 60
 #: a result whose root goes further from the origin than this many times the source's range
 #: (scaled to the target's size) plus the target's height is refused: no retargeting moves a root
 #: that far; a corrupt checkpoint does
@@ -281,12 +295,9 @@ def retarget_file(
             if result.num_frames == src.motion.num_frames
             else at_output_rate(motion, times, src.motion, out_fps)
         )
-        _write(
-            on_the_ground(result, source_out, tgt.character, src.character),
-            tgt,
-            src.meta,
-            Path(out),
-        )
+        grounded = on_the_ground(result, source_out, tgt.character, src.character)
+        check_posture(grounded, source_out, tgt.character, method, source)
+        _write(grounded, tgt, src.meta, Path(out))
     return Path(out)
 
 
@@ -367,6 +378,73 @@ def on_the_ground(
     out.root_positions[:, 1] += shift
     out.meta["floor_offset_m"] = shift
     return out
+
+
+def _spine_up(positions: np.ndarray, skeleton: Skeleton) -> np.ndarray:
+    """``(T,)`` the vertical component of each frame's unit hips -> neck direction."""
+    spine = positions[:, skeleton.index("Neck")] - positions[:, skeleton.index("Hips")]
+    return spine[:, 1] / np.maximum(np.linalg.norm(spine, axis=-1), 1e-9)
+
+
+def check_posture(
+    result: Motion, source: Motion, target: Character | None, method: str, source_path
+) -> None:
+    """Refuse a grounded result that no retargeting of ``source`` should give (one line, the
+    command's exit code 2): a body lying or upside down where the source stands
+    (:data:`LYING_COS`, :data:`POSTURE_FRACTION`), or, in a frame where the source stands on its
+    floor, a lowest point (the mesh's, else the lowest of the joints and the feet's soles) more than
+    :data:`UNDER_FLOOR_FRACTION` of the target's standing height under ``y = 0``. Both are what a
+    wrong joint map, up axis or rest convention gives.
+
+    Args:
+        result: the canonical-22 result after :func:`on_the_ground`.
+        source: the canonical-22 source, frame for frame with ``result``.
+        target: the target character when it has a mesh.
+        method: the method's name (for the message).
+        source_path: the source file (for the message).
+    """
+    res_pos, src_pos = result.global_positions(), source.global_positions()
+    upright = _spine_up(src_pos, source.skeleton) > UPRIGHT_COS
+    if upright.any():
+        up = _spine_up(res_pos, result.skeleton)[upright]
+        for limit, what in ((UPSIDE_DOWN_COS, "upside down"), (LYING_COS, "lying")):
+            share = float(np.mean(up < limit))
+            if share > POSTURE_FRACTION:
+                raise RetargetInputError(
+                    f"{source_path}: --method {method} puts the target's body {what} in "
+                    f"{100 * share:.0f} % of the frames where the source stands upright; check "
+                    "the joint map (--source-joint-map / --joint-map) and the files' up axis, or "
+                    "try --method copy-rest"
+                )
+    src_soles = sole_heights(src_pos, source.skeleton)
+    standing = ground_contacts(
+        foot_positions(src_pos, source.skeleton),
+        src_soles,
+        clip_floor(src_soles),
+        source.skeleton.height(),
+        source.fps,
+    ).any(axis=1)
+    frames = np.flatnonzero(standing)
+    if len(frames) == 0:
+        return
+    frames = frames[
+        np.linspace(0, len(frames) - 1, min(len(frames), FLOOR_CHECK_FRAMES)).astype(int)
+    ]
+    if target is not None:
+        low = target.skinned(result.rotations[frames], result.root_positions[frames])[..., 1]
+        lowest, height = low.min(axis=-1), mesh_standing_height(target.rest_vertices)
+    else:
+        soles = sole_heights(res_pos[frames], result.skeleton).min(axis=-1)
+        lowest = np.minimum(soles, res_pos[frames, :, 1].min(axis=-1))  # a head under the floor
+        height = estimated_standing_height(result.skeleton)
+    depth = float(-lowest.min())
+    if depth > UNDER_FLOOR_FRACTION * height:
+        raise RetargetInputError(
+            f"{source_path}: --method {method} puts the target's lowest point {100 * depth:.0f} cm "
+            f"under the floor ({100 * depth / height:.0f} % of its height) where the source "
+            "stands; check the joint map (--source-joint-map / --joint-map) and the files' up "
+            "axis, or try another --method"
+        )
 
 
 def _check_result_size(motion: Motion, tgt: Target, out_fps: float, source) -> None:

@@ -98,12 +98,11 @@ def _frame_windows(x: Tensor, left: int, right: int) -> Tensor:
 
 
 def _residual_pass(generator: Any, motion: Motion, target: Skeleton) -> tuple[Tensor, Tensor]:
-    """``(T, 22, 4)`` rotations and ``(T, 3)`` root of a residual generator on a whole clip, the
-    feet's alignments the identity (:func:`~retarget_lib.core.transfer.keep_feet_as_rest`)."""
+    """``(T, 22, 4)`` rotations and ``(T, 3)`` root of a residual generator on a whole clip."""
     device = module_device(generator)
     q, r, off_a = (x.to(device) for x in motion.torch())
     off_b = torch.as_tensor(target.offsets, dtype=torch.float32, device=device)
-    q_b, r_b = generator.retarget(q[None], r[None], off_a, off_b, feet_as_rest=True)
+    q_b, r_b = generator.retarget(q[None], r[None], off_a, off_b)
     return q_b[0], r_b[0]
 
 
@@ -144,10 +143,9 @@ def retarget_motion_with(
     """Retarget a whole clip with a trained TDCN/NKN generator (any length).
 
     A residual generator (``ours-residual``) has translation-invariant inputs and the source's
-    leg-scaled root as its root: it runs on the clip as it is (``windowed`` is not needed), with
-    the feet's alignments the identity (flat where the source's are flat,
-    :func:`~retarget_lib.core.transfer.keep_feet_as_rest`), once on the clip and once on its
-    mirror image, averaged (:func:`mirror_averaged`; ``mirror_average=False``: one pass).
+    leg-scaled root as its root: it runs on the clip as it is (``windowed`` is not needed), on top
+    of the copy-rest base (the rotation deltas from the retarget pose), once on the clip and once
+    on its mirror image, averaged (:func:`mirror_averaged`; ``mirror_average=False``: one pass).
 
     ``windowed=False`` (the paper, Sec. 3.1): the clip is centred like the training windows
     (:func:`centre_root`) and run through the network in one pass; the removed horizontal shift

@@ -77,6 +77,7 @@ from pathlib import Path
 import torch
 
 from ..core.measures import leg_length, nkn_height
+from ..core.transfer import transfer_rotations_tensor
 from ..data.checkpoints import save_state
 from ..data.manifest import mixamo_local_dir
 from ..devices import autocast
@@ -321,6 +322,13 @@ class RetargetTraining:
         q_unit = normalize_quaternions(out.rotations)
         return out, q_unit, source_local_positions(q_unit, off_tgt)
 
+    def _reference(self, q_a: Tensor, off_a: Tensor, off_b: Tensor) -> Tensor:
+        """``(B, W, J, 3)`` positions of Ld's reference: the source's rotation deltas from the
+        retarget pose on the target (copy-rest,
+        :func:`~retarget_lib.core.transfer.transfer_rotations_tensor`)."""
+        with torch.no_grad():
+            return source_local_positions(transfer_rotations_tensor(q_a, off_a, off_b), off_b)
+
     def generator_terms(self, batch: TrainingBatch) -> tuple[dict[str, Tensor], MotionTensors]:
         """The six loss terms of Eq. 6 for one batch (D is used but not updated).
 
@@ -383,7 +391,9 @@ class RetargetTraining:
             ),
             "Lr": regularization_loss(out_b.rotations, out_a.rotations, red),
             "Lo": orientation_loss(q_a[:, :, 0], out_b.rotations[:, :, 0], red),
-            "Ld": bone_direction_loss(p_a, p_b, self.generator.parents, red),
+            "Ld": bone_direction_loss(
+                self._reference(q_a, off_a, off_b), p_b, self.generator.parents, red
+            ),
         }
         return terms, x_b_hat
 

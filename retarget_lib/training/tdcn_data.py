@@ -48,9 +48,14 @@ import torch
 
 from ..config_schema import DATA_SOURCES
 from ..core.motion import Motion
+from ..core.retarget_pose import pose_offsets
 from ..core.rotations import quat_from_axis_angle, quat_mul, quat_rotate
 from ..core.skeleton import J, Skeleton
-from ..core.transfer import change_rest_pose, random_rest_rotations, retarget_ground_truth
+from ..core.transfer import (
+    random_rest_rotations,
+    retarget_ground_truth,
+    transfer_rotations_tensor,
+)
 from ..data.mixamo_splits import mixamo_training_set
 from ..data.splits import tdcn_split
 from ..data.synthetic.dataset import load_synthetic
@@ -247,11 +252,12 @@ class WindowSampler:
         rest_jitter_deg: our augmentation, not the paper's (0 = off): half the source skeletons
             and, independently, half the target skeletons get a random rest pose
             (:func:`~retarget_lib.core.transfer.random_rest_rotations`, swings up to this angle)
-            with their windows re-expressed on it
-            (:func:`~retarget_lib.core.transfer.change_rest_pose`: every joint stays where it was).
-            The synthetic characters mostly share straight-leg rest poses, real files do not (CMU's
-            legs are splayed by 20°), and a network that must compensate rest poses has to see them
-            vary. ``A = B`` pairs share one rest pose.
+            with their windows performed on it as the ground truth would
+            (:func:`~retarget_lib.core.transfer.transfer_rotations_tensor`: the rotation deltas
+            from the retarget pose, so a turn beyond the pose's tolerance is a convention and
+            compensated, one within it is the character's shape and kept). The synthetic
+            characters mostly share straight-leg rest poses, real files do not (CMU's legs are
+            splayed by 20°). ``A = B`` pairs share one rest pose.
         rest_arm_drop_deg: our augmentation (0 = off): a skeleton that gets a random rest pose
             also has both upper arms lowered from their rest by an angle uniform in
             ``[0, rest_arm_drop_deg]`` (about the forward axis). Real rigs rest with their arms
@@ -333,8 +339,8 @@ class WindowSampler:
             turn_a, turn_b = (self._rest_turns(o, generator) for o in (off_a, off_b))
             turn_b = torch.where(same[:, None, None], turn_a, turn_b)
             (q_a, off_a), (q_real, off_b) = (
-                change_rest_pose(q_a, off_a, turn_a),
-                change_rest_pose(q_real, off_b, turn_b),
+                _re_rested(q_a, off_a, turn_a),
+                _re_rested(q_real, off_b, turn_b),
             )
         return TrainingBatch(
             q_a, r_a, off_a, off_b, same, q_real, r_real, source, target, scale_a, scale_b
@@ -359,3 +365,11 @@ class WindowSampler:
                 turns[:, arm] = quat_mul(lower, turns[:, arm])
         keep = torch.rand(len(offsets), generator=generator) < 0.5
         return torch.where(keep[:, None, None], torch.tensor([1.0, 0.0, 0.0, 0.0]), turns)
+
+
+def _re_rested(rotations: Tensor, offsets: Tensor, turns: Tensor) -> tuple[Tensor, Tensor]:
+    """Windows of characters given another rest pose (``turns``, :func:`random_rest_rotations`):
+    ``(rotations (B, W, J, 4), offsets (B, J, 3))`` of the re-rested characters performing the
+    windows by the ground truth's rule (the rotation deltas from the retarget pose)."""
+    moved = pose_offsets(offsets, turns)
+    return transfer_rotations_tensor(rotations, offsets, moved), moved

@@ -7,9 +7,12 @@ and hands where they touch). The default synthetic data
 A-poses, T-poses, bent knees and swept arms, so that copying local rotations is wrong there; this
 profile is the easier, paper-like one:
 
-* **Characters** ``tp01 .. tp14``: T-pose rest (arms horizontal, straight legs, feet forward,
-  straight spine; all encoded in the offsets' directions, rest rotations identity), segment length
-  factors, heights and girths drawn at random (deterministic by index), kept only when their
+* **Characters** ``tp01 .. tp14``: T-pose rest (arms about horizontal, straight legs, feet
+  forward, spine up; all encoded in the offsets' directions, rest rotations identity) with each
+  bind's own shape within the retarget pose's tolerance (arms -4 to 8 degrees below the
+  horizontal, forearms drooping up to 7 more, the spine bent -8 to 12 degrees, toe bones 12-30
+  degrees below the horizontal, feet turned out up to 12), which the ground truth keeps; segment
+  length factors, heights and girths drawn at random (deterministic by index), kept only when their
   proportions lie within the ranges measured on the real rigs of ``data/real_characters``
   (:data:`REAL_RIG_RANGES`, from ``proportions.csv``, widened by :data:`RANGE_MARGIN`).
 * **Motions**: every clip of the synthetic library (same families, same seeds, so the same
@@ -33,7 +36,7 @@ import hashlib
 import json
 import sys
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import lru_cache
 from pathlib import Path
 
@@ -118,9 +121,27 @@ def _within_real_ranges(spec: CharacterSpec) -> bool:
     return True
 
 
+def _bind_shape(index: int) -> dict[str, float]:
+    """The rest bones' own shape of T-pose bind ``index``, each within the retarget pose's
+    tolerance (:data:`~retarget_lib.core.retarget_pose.TOLERANCE_DEG`), so that it is shape and
+    not convention: real T-pose binds differ so (Mixamo's: forearms 6 degrees below the
+    horizontal, spines tilted 7 degrees, steep toes), and their ground truth keeps it. Drawn from
+    its own stream, so the proportions are those of the profile before these were added."""
+    rng = np.random.default_rng([index, 20_21, 7])
+    return dict(
+        arm_angle=float(rng.uniform(-4.0, 8.0)),
+        forearm_droop=float(rng.uniform(0.0, 7.0)),
+        spine_curve=float(rng.uniform(-8.0, 12.0)),
+        toe_slope=float(rng.uniform(12.0, 30.0)),
+        feet_out=float(rng.uniform(0.0, 12.0)),
+        arm_forward=float(rng.uniform(-4.0, 6.0)),
+    )
+
+
 def mixamo_convention_spec(index: int) -> CharacterSpec:
     """Character ``index`` (0-based) of the profile: a T-pose :class:`CharacterSpec` whose
-    proportions lie within :data:`REAL_RIG_RANGES` (rejection sampling, deterministic by index).
+    proportions lie within :data:`REAL_RIG_RANGES` (rejection sampling, deterministic by index)
+    and whose bones carry a bind's own shape (:func:`_bind_shape`).
 
     Args:
         index: ``0 .. N_CHARACTERS - 1`` (any non-negative integer gives a character).
@@ -141,7 +162,7 @@ def mixamo_convention_spec(index: int) -> CharacterSpec:
             limbs=float(rng.uniform(0.9, 1.2)),
         )
         if _within_real_ranges(spec):
-            return spec
+            return replace(spec, **_bind_shape(index))
     raise RuntimeError(
         f"no character within the real rigs' ranges after 10000 draws (index {index})"
     )

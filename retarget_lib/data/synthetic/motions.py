@@ -24,7 +24,6 @@ import numpy as np
 
 from ...core.motion import Motion
 from ...core.skeleton import Skeleton
-from ...core.transfer import canonical_rest_skeleton
 from .authoring import (
     FPS,
     HandContact,
@@ -45,7 +44,6 @@ __all__ = [
     "HandContact",
     "default_body_radii",
     "body_radii_from_mesh",
-    "canonical_rest_skeleton",
     "make_motion",
     "motion_library",
 ]

@@ -48,6 +48,11 @@ class CharacterSpec:
         spine_curve: total forward bend of the spine-neck-head chain in degrees (negative = back).
         knee_bend: rest knee flexion in degrees.
         feet_out: toes turned outwards in degrees.
+        forearm_droop: forearm below the upper arm's direction in degrees (a T-pose bind's shape:
+            Mixamo's forearms droop about 6 degrees).
+        toe_slope: the ankle -> toe bone below the horizontal in degrees, its length kept
+            (``None``: the reference foot's 21 degrees); at most 30 keeps the toe joint above the
+            sole.
         bulk: overall girth (0.7 skinny - 1.6 bulky).
         belly: belly size (0 = none, 1 = large).
         chest: chest breadth and depth factor.
@@ -72,6 +77,8 @@ class CharacterSpec:
     spine_curve: float = 0.0
     knee_bend: float = 0.0
     feet_out: float = 0.0
+    forearm_droop: float = 0.0
+    toe_slope: float | None = None
     bulk: float = 1.0
     belly: float = 0.0
     chest: float = 1.0
@@ -144,11 +151,18 @@ def unscaled_offsets(spec: CharacterSpec) -> np.ndarray:
     thigh = r["thigh"] * spec.thigh * np.array([0.0, -math.cos(knee), math.sin(knee)])
     shin = r["shin"] * spec.shin * np.array([0.0, -math.cos(knee), -math.sin(knee)])
     out = math.radians(spec.feet_out)
-    toe = spec.foot * np.array(
-        [r["toe_fwd"] * math.sin(out), -r["toe_drop"], r["toe_fwd"] * math.cos(out)]
-    )
-    a, f = math.radians(spec.arm_angle), math.radians(spec.arm_forward)
-    arm_dir = np.array([math.cos(a) * math.cos(f), -math.sin(a), math.cos(a) * math.sin(f)])
+    toe_fwd, toe_drop = r["toe_fwd"], r["toe_drop"]
+    if spec.toe_slope is not None:
+        slope, length = math.radians(spec.toe_slope), math.hypot(toe_fwd, toe_drop)
+        toe_fwd, toe_drop = length * math.cos(slope), length * math.sin(slope)
+    toe = spec.foot * np.array([toe_fwd * math.sin(out), -toe_drop, toe_fwd * math.cos(out)])
+
+    def arm_direction(down_deg: float) -> np.ndarray:
+        a, f = math.radians(down_deg), math.radians(spec.arm_forward)
+        return np.array([math.cos(a) * math.cos(f), -math.sin(a), math.cos(a) * math.sin(f)])
+
+    a = math.radians(spec.arm_angle)
+    arm_dir = arm_direction(spec.arm_angle)
     a_clav = 0.25 * a  # the clavicle follows the arm a little
     clav_dir = np.array([math.cos(a_clav), -math.sin(a_clav), 0.0])
     shoulder = 0.7 * off[J["Neck"]] + np.array([r["clavicle_x"] * spec.shoulders, 0.0, 0.0])
@@ -160,7 +174,7 @@ def unscaled_offsets(spec: CharacterSpec) -> np.ndarray:
         "Shoulder": shoulder,
         "Arm": clav_dir * r["arm"] * spec.shoulders,
         "ForeArm": arm_dir * r["upper_arm"] * spec.upper_arm,
-        "Hand": arm_dir * r["forearm"] * spec.forearm,
+        "Hand": arm_direction(spec.arm_angle + spec.forearm_droop) * r["forearm"] * spec.forearm,
     }
     for part, v in left.items():
         off[J["Left" + part]] = v

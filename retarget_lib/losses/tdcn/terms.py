@@ -281,19 +281,23 @@ def height_loss(
 def bone_direction_loss(
     p_a: Tensor, p_b_hat: Tensor, parents: Sequence[int], reduction: Reduction = "mean"
 ) -> Tensor:
-    """Bone-direction term ``Ld = mean_j ‖u^B_j − u^A_j‖²`` — not in the TDCN paper (weight 0
+    """Bone-direction term ``Ld = mean_j ‖u^B_j − ũ^B_j‖²`` — not in the TDCN paper (weight 0
     there).
 
     ``u_j = (p_j − p_parent(j)) / ‖p_j − p_parent(j)‖`` is the world direction of the bone that ends
-    at joint ``j`` (root-relative positions, root rotation applied). It is the skeleton-level
-    "weak supervision" of Villegas et al. 2021 (their Eq. 8 keeps local rotations close to the
-    source's) written on global bone *directions*, so that it holds between characters whose rest
-    poses differ (an A-pose and a T-pose): none of the TDCN terms can see a rest-pose difference
-    (they compare magnitudes, Eqs. 9-18, or the same character, Eqs. 7, 21), so without such a
-    term copying local rotations is a minimum of Eq. 6. Lengths and proportions are untouched.
+    at joint ``j`` (root-relative positions, root rotation applied). ``ũ`` are the directions of a
+    reference on the target: the trainer passes the source's rotation deltas from the retarget
+    pose (copy-rest, :func:`~retarget_lib.core.transfer.transfer_rotations_tensor`), so the term
+    is the skeleton-level "weak supervision" of Villegas et al. 2021 (their Eq. 8 keeps local
+    rotations close to the source's) written so that it holds between characters whose rest
+    conventions differ (an A-pose and a T-pose) and keeps each character's own shape (a T-pose
+    bind's drooping forearm). None of the TDCN terms can see a rest-pose difference (they compare
+    magnitudes, Eqs. 9-18, or the same character, Eqs. 7, 21). Lengths and proportions are
+    untouched.
 
     Args:
-        p_a: ``(B, T, J, 3)`` source root-relative positions.
+        p_a: ``(B, T, J, 3)`` the reference's root-relative positions (any skeleton: only
+            directions are compared).
         p_b_hat: ``(B, T, J, 3)`` retargeted root-relative positions.
         parents: ``J`` parents (root first, ``-1``).
         reduction: ``"mean"`` → scalar; ``"per_sample"`` → ``(B,)``.

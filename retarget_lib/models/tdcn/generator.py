@@ -11,9 +11,9 @@ from torch import nn
 
 from ...core.kinematics import align_local_rotations
 from ...core.measures import leg_length
+from ...core.retarget_pose import retarget_alignment
 from ...core.rotations import quat_conjugate, quat_mul
 from ...core.skeleton import CANONICAL22_PARENTS
-from ...core.transfer import keep_feet_as_rest
 from ..features import (
     GENERATOR_LAYOUT,
     NUM_JOINTS,
@@ -201,7 +201,6 @@ class TDCNGenerator(nn.Module):
         offsets_tgt: Tensor,
         positions: Tensor | None = None,
         normalizer: FeatureNormalizer | None = None,
-        feet_as_rest: bool = False,
     ) -> GeneratorOutput:
         """Retarget with raw outputs, for training (Eqs. 4-5).
 
@@ -212,7 +211,6 @@ class TDCNGenerator(nn.Module):
             offsets_tgt: ``(B, J, 3)`` or ``(J, 3)`` target rest offsets.
             positions: optional precomputed ``(B, T, J, 3)`` source ``p``.
             normalizer: overrides ``self.normalizer``.
-            feet_as_rest: see :meth:`retarget`.
 
         Returns:
             :class:`GeneratorOutput` with raw q̂ ``(B, T, J, 4)``, r̂ ``(B, T, 3)``, no velocities.
@@ -236,9 +234,9 @@ class TDCNGenerator(nn.Module):
             self.parents,
         )
         raw, _ = self._run(norm(x), normalize=False)
-        align = quat_mul(raw[:b], quat_conjugate(normalize_quaternions(raw[b:])))
-        if feet_as_rest:
-            align = keep_feet_as_rest(align)
+        correction = quat_mul(raw[:b], quat_conjugate(normalize_quaternions(raw[b:])))
+        base = retarget_alignment(off_a, off_b).to(correction.dtype)  # (B, J, 4): copy-rest
+        align = quat_mul(base.unsqueeze(1), correction)
         q, r = self.compose_residual(align, rotations, root_positions, offsets_src, offsets_tgt)
         return GeneratorOutput(q, r, None)
 
@@ -250,22 +248,24 @@ class TDCNGenerator(nn.Module):
         offsets_src: Tensor,
         offsets_tgt: Tensor,
     ) -> tuple[Tensor, Tensor]:
-        """The residual variant's output: a correction of "copy" (our variant, not the paper).
+        """The residual variant's output: a correction of copy-rest (our variant, not the paper).
 
-        The alignments are ``C_j(t) = N_j(x, s̄A → s̄B) ⊗ unit(N_j(x, s̄A → s̄A))⁻¹``: the head's
-        raw quaternion for the target, "minus" the one it gives for the source's own skeleton
-        (both from one batched pass, :meth:`generate`). Retargeting onto the source's own skeleton
-        is therefore the identity for *any* input, by construction, and whatever the network does
-        regardless of the target cancels. The output is
+        The alignments are ``C_j(t) = R_j(s̄A, s̄B) ⊗ N_j(x, s̄A → s̄B) ⊗ unit(N_j(x, s̄A → s̄A))⁻¹``
+        (:meth:`generate`): ``R = (P^A)⁻¹ P^B`` is the rest alignment of the two retarget poses
+        (:func:`~retarget_lib.core.retarget_pose.retarget_alignment`, the ``copy-rest`` method),
+        and the network's correction is its head's raw quaternion for the target "minus" the one it
+        gives for the source's own skeleton (both from one batched pass). Retargeting onto the
+        source's own skeleton is therefore the identity for *any* input, by construction
+        (``R = 1`` there too), and whatever the network does regardless of the target cancels. The
+        output is
 
         ``q̂_j = unit(C_p(j))⁻¹ ⊗ q^A_j ⊗ C_j``  and  ``r̂ = r^A · leg(s̄B) / leg(s̄A)``
 
-        (:func:`~retarget_lib.core.kinematics.align_local_rotations`). With ``C = 1`` — the head's
-        initialisation — this is the "copy" baseline, and the same-skeleton case (``A = B``) is
-        already the identity. A constant ``C_j`` is exactly a rest-pose alignment
-        (:func:`retarget_lib.core.transfer.transfer_rotations`), so the rest-pose difference of two
-        characters is a constant for the network to learn. Since ``‖q̂_j‖ = ‖C_j‖`` the
-        regulariser Eq. 22 still sees the raw norm.
+        (:func:`~retarget_lib.core.kinematics.align_local_rotations`). With the correction 1 — the
+        head's initialisation — this is the copy-rest baseline (the rotation deltas from the
+        retarget pose, :func:`retarget_lib.core.transfer.transfer_rotations`): the rig conventions
+        are removed analytically, and the network learns only what the motion and the body need on
+        top. Since ``‖q̂_j‖ = ‖C_j‖`` the regulariser Eq. 22 still sees the raw norm.
 
         The root is not learned: it is the source's trajectory scaled by the leg-length ratio, as
         Mixamo, the synthetic ground truth and Villegas et al.'s ``o^(A→B)`` (Eq. 8) scale it.
@@ -297,7 +297,6 @@ class TDCNGenerator(nn.Module):
         offsets_src: Tensor,
         offsets_tgt: Tensor,
         normalizer: FeatureNormalizer | None = None,
-        feet_as_rest: bool = False,
     ) -> tuple[Tensor, Tensor]:
         """Features → padding → network → unit quaternions and root positions.
 
@@ -309,9 +308,6 @@ class TDCNGenerator(nn.Module):
             offsets_src: ``(B, J, 3)`` or ``(J, 3)`` source rest offsets.
             offsets_tgt: ``(B, J, 3)`` or ``(J, 3)`` target rest offsets.
             normalizer: overrides ``self.normalizer``.
-            feet_as_rest: residual form only: the feet's alignments are the identity
-                (:func:`~retarget_lib.core.transfer.keep_feet_as_rest`: flat where the source's
-                are flat); the ``tdcn`` method asks for it, training does not.
 
         Returns:
             ``(q̂ (B, T, J, 4) unit, r̂ (B, T, 3))`` for the target skeleton.
@@ -322,6 +318,5 @@ class TDCNGenerator(nn.Module):
             offsets_src,
             offsets_tgt,
             normalizer=normalizer,
-            feet_as_rest=feet_as_rest,
         )
         return normalize_quaternions(out.rotations), out.root_positions

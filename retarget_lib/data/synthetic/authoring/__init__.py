@@ -8,11 +8,13 @@ curves, :mod:`.timing`; the canonical pose, :mod:`.pose`; footstep plans, :mod:`
 
 How a clip is made (so that it is physically consistent *for the given character*):
 
-1. **Author on the canonical rest pose.** Joint angles are written for a reference copy of the
-   character whose bones point in canonical directions (:func:`canonical_rest_skeleton`: spine up,
-   legs down, arms sideways in a T-pose, own feet), so "arm lowered 80 degrees" means the same
-   world pose for an A-pose and a T-pose character. The angles are moved onto the real character
-   with the ground-truth rest compensation (:func:`~retarget_lib.core.transfer.transfer_rotations`).
+1. **Author in the retarget pose.** Joint angles are written for the character re-rested in its
+   retarget pose (:func:`~retarget_lib.core.retarget_pose.retarget_pose_skeleton`: the canonical
+   T-pose, spine up, legs down, arms sideways, feet flat, each character's own shape within the
+   pose's tolerance kept), so "arm lowered 80 degrees" means the same world pose for an A-pose and
+   a T-pose character. The angles are moved onto the real character with the ground-truth
+   transfer (:func:`~retarget_lib.core.transfer.transfer_rotations`, exact here: every joint stays
+   where it was authored).
    Conventions for the angles (degrees): ``fwd`` swings a limb to the front, ``down`` lowers an
    arm from the T-pose, ``bend`` flexes the spine/head forward, ``twist``/``yaw`` turn towards
    the character's left (+X).

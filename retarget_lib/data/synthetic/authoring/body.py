@@ -10,8 +10,8 @@ from typing import NamedTuple
 import numpy as np
 
 from ....core.measures import foot_rest_heights
+from ....core.retarget_pose import retarget_pose_skeleton
 from ....core.skeleton import J, Skeleton
-from ....core.transfer import canonical_rest_skeleton
 
 FPS = 30.0
 
@@ -122,7 +122,7 @@ class Rig:
 
     def __post_init__(self) -> None:
         sk = self.skeleton
-        self.ref = canonical_rest_skeleton(sk)
+        self.ref = retarget_pose_skeleton(sk)
         ref_rest = self.ref.rest_positions()
         feet = [J[n] for n in ("LeftFoot", "RightFoot", "LeftToeBase", "RightToeBase")]
         self.ankle_h, self.toe_h = np.split(foot_rest_heights(sk), 2)  # Efoot's ḡ (Eq. 6)
