@@ -47,7 +47,8 @@ CONFIGS = REPO_ROOT / "configs"
 def clip(name="kato", frames=60, fps=60.0, seed=0):
     """A short random-pose clip on a synthetic character (no built data needed)."""
     sk = make_character(name).skeleton
-    angles = torch.from_numpy(np.random.default_rng(seed).normal(0.0, 10.0, (frames, 22, 3)))
+    # small random poses: a plausible body that `retarget retarget` writes (check_posture)
+    angles = torch.from_numpy(np.random.default_rng(seed).normal(0.0, 3.0, (frames, 22, 3)))
     rot = quat_from_euler(angles, "ZXY", degrees=True).numpy()
     return Motion(sk, rot, np.tile(sk.offsets[0], (frames, 1)), fps, name=name)
 

@@ -1,12 +1,16 @@
 """The Mixamo-convention synthetic profile (retarget_lib/data/synthetic/mixamo_convention.py)."""
 
 import csv
+from dataclasses import replace
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
+import torch
 
 from retarget_lib.config import load_config
+from retarget_lib.core.retarget_pose import retarget_pose
+from retarget_lib.core.rotations import quat_angle
 from retarget_lib.core.skeleton import canonical22_skeleton
 from retarget_lib.data.sources.real_characters import REAL_DIR, skeleton_proportions
 from retarget_lib.data.splits import MotionId, ScenarioPair
@@ -39,18 +43,22 @@ def test_the_ranges_are_those_measured_on_the_real_rigs():
 
 @pytest.mark.parametrize("index", range(N_CHARACTERS))
 def test_every_character_is_in_a_t_pose_with_real_proportions(index):
+    """One T-pose convention (each retarget pose is the identity: copying rotations between them
+    is the ground truth's rule), each bind with its own shape, proportions of the real rigs."""
     spec = mixamo_convention_spec(index)
-    assert (spec.arm_angle, spec.arm_forward, spec.spine_curve, spec.knee_bend, spec.feet_out) == (
-        0,
-        0,
-        0,
-        0,
-        0,
-    )
+    skeleton = canonical22_skeleton(unscaled_offsets(spec) * height_scale(spec))
+    pose = torch.from_numpy(retarget_pose(skeleton))
+    assert float(quat_angle(pose).max()) < 1e-9  # float64 rounding of an exact identity
+    shape = (spec.arm_angle, spec.forearm_droop, spec.spine_curve, spec.toe_slope, spec.feet_out)
+    assert all(abs(v) > 0 for v in shape) and spec.knee_bend == 0
     measured = skeleton_proportions(
         canonical22_skeleton(unscaled_offsets(spec) * height_scale(spec))
     )
-    assert abs(measured["arm_angle_deg"]) < 1e-6
+    assert abs(measured["arm_angle_deg"] - spec.arm_angle) < 1e-6
+    flat = replace(spec, arm_angle=0.0, arm_forward=0.0, spine_curve=0.0, feet_out=0.0)
+    measured = skeleton_proportions(
+        canonical22_skeleton(unscaled_offsets(flat) * height_scale(flat))
+    )
     for key, (lo, hi) in REAL_RIG_RANGES.items():
         pad = RANGE_MARGIN * (hi - lo)
         assert lo - pad <= measured[key] <= hi + pad, key

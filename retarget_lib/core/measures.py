@@ -135,20 +135,32 @@ def skeleton_leg_length(skeleton: Skeleton) -> float:
     return float(leg_length(torch.from_numpy(skeleton.offsets.astype(np.float64))))
 
 
-def _standing(skeleton: Skeleton, rest_vertices: np.ndarray | None) -> tuple[np.ndarray, float]:
-    """The skeleton's joint positions in its retarget pose, ``(J, 3)``, and the ground under them
-    (metres): the lowest foot joint's height minus the sole under it, measured at rest (a rig
-    that is not upright at rest has no sole to measure there: 0)."""
+def _retarget_positions(skeleton: Skeleton) -> tuple[np.ndarray, bool]:
+    """``(J, 3)`` the skeleton's joint positions in its retarget pose, and whether it is upright at
+    rest (the pose leaves its body as it is)."""
     off = torch.from_numpy(skeleton.offsets.astype(np.float64))
     pose = retarget_pose_rotations(off)
-    posed = _positions(pose_offsets(off, pose).numpy())
-    feet = [J[n] for n in FOOT_CONTACT_JOINTS]
     upright = bool(torch.allclose(pose[0], torch.tensor([1.0, 0.0, 0.0, 0.0], dtype=pose.dtype)))
-    sole = 0.0
-    if upright:
-        rest = skeleton.rest_positions()
-        sole = float(rest[feet, 1].min() - rest_ground(skeleton, rest_vertices))
-    return posed, float(posed[feet, 1].min() - sole)
+    return _positions(pose_offsets(off, pose).numpy()), upright
+
+
+#: the two feet's columns in :data:`~retarget_lib.core.skeleton.FOOT_CONTACT_JOINTS` order
+_FOOT_SIDES = ((0, 2), (1, 3))
+
+
+def _feet_above_ground(skeleton: Skeleton, rest_vertices: np.ndarray | None) -> np.ndarray:
+    """``(4,)`` each foot joint above the ground when the character stands in its retarget pose:
+    each foot stands flat on its own sole, measured at rest (the rest foot joints above the rest
+    ground; a rig that is not upright at rest has no sole to measure there: 0)."""
+    posed, upright = _retarget_positions(skeleton)
+    feet = np.array([J[n] for n in FOOT_CONTACT_JOINTS])
+    rest, ground = skeleton.rest_positions(), rest_ground(skeleton, rest_vertices)
+    out = np.empty(4)
+    for cols in _FOOT_SIDES:
+        idx = feet[list(cols)]
+        sole = float(rest[idx, 1].min() - ground) if upright else 0.0
+        out[list(cols)] = posed[idx, 1] - posed[idx, 1].min() + sole
+    return out
 
 
 def _positions(offsets: np.ndarray) -> np.ndarray:
@@ -173,7 +185,9 @@ def estimated_standing_height(skeleton: Skeleton) -> float:
     Returns:
         metres.
     """
-    posed, ground = _standing(skeleton, None)
+    posed, _ = _retarget_positions(skeleton)
+    feet = [J[n] for n in FOOT_CONTACT_JOINTS]
+    ground = float((posed[feet, 1] - _feet_above_ground(skeleton, None)).min())
     return HEAD_TOP_FACTOR * float(posed[J["Head"], 1] - ground)
 
 
@@ -255,10 +269,11 @@ def foot_rest_heights(skeleton: Skeleton, rest_vertices: np.ndarray | None = Non
     Efoot's ``ḡ_j^y`` (Villegas et al. 2021, Eq. 6; Sec. 3.1.1: "we get the heel height from
     reference pose ... so that ground height of zero corresponds to contact"): a foot joint at
     this height above the floor is a foot standing on it. The reference pose is the retarget pose
-    (:mod:`retarget_lib.core.retarget_pose`: feet flat), so a rig that rests with bent knees or
-    lying down reads the same heights as when it stands; the sole under the lowest joint is
-    measured at rest (:func:`rest_ground`: the mesh's lowest point where there is a mesh, else
-    the lowest foot joint reads 0).
+    (:mod:`retarget_lib.core.retarget_pose`: legs straight, feet flat), each foot standing on its
+    own sole: a rig that rests with bent knees, splayed legs or lying down reads the heights it
+    stands with. The sole under each foot's lowest joint is measured at rest (:func:`rest_ground`:
+    the mesh's lowest point where there is a mesh, else the lowest foot joint reads 0); for a rig
+    upright at rest this is the rest foot joints' height above the rest ground.
 
     Args:
         skeleton: a canonical-22 skeleton.
@@ -270,5 +285,4 @@ def foot_rest_heights(skeleton: Skeleton, rest_vertices: np.ndarray | None = Non
     """
     if not skeleton.is_canonical22():
         raise JointSetError("the foot rest heights need the canonical 22 joints")
-    posed, ground = _standing(skeleton, rest_vertices)
-    return posed[[J[n] for n in FOOT_CONTACT_JOINTS], 1] - ground
+    return _feet_above_ground(skeleton, rest_vertices)
