@@ -9,7 +9,7 @@ import pytest
 import torch
 
 from retarget_lib.config import load_config
-from retarget_lib.core.retarget_pose import retarget_pose
+from retarget_lib.core.retarget_pose import rest_alignment, retarget_pose
 from retarget_lib.core.rotations import quat_angle
 from retarget_lib.core.skeleton import canonical22_skeleton
 from retarget_lib.data.sources.real_characters import REAL_DIR, skeleton_proportions
@@ -160,3 +160,16 @@ def test_contact_training_takes_the_profile_on_its_own_bodies(monkeypatch, tmp_p
     assert sorted(targets) == sorted(names)
     assert [(c.name, c.character.name) for c in clips] == [("walk_000", names[0])]
     assert clips[0].motion is tiny.clips["walk_000"][names[0]]
+
+
+def test_between_the_t_pose_binds_copy_rest_is_copy():
+    """Mixamo's own rule (it copies local rotations between its T-pose binds): the rest alignment
+    of every pair of the profile's characters is the identity, so copy-rest copies."""
+    skeletons = [
+        canonical22_skeleton(unscaled_offsets(s) * height_scale(s))
+        for s in map(mixamo_convention_spec, range(N_CHARACTERS))
+    ]
+    for a in skeletons[:4]:
+        for b in skeletons:
+            c = torch.from_numpy(rest_alignment(a, b))
+            assert float(quat_angle(c).max()) < 1e-9  # float64 rounding of an exact identity

@@ -75,16 +75,32 @@ def test_an_a_pose_gets_its_arms_out_and_nothing_else_moves():
     )
 
 
+def drooped(left_deg: float, right_deg: float) -> Skeleton:
+    """The T-pose rig with its forearms drooping by these angles below the horizontal."""
+    off = T_POSE.offsets.copy()
+    for side, sx, deg in (("Left", 1.0, left_deg), ("Right", -1.0, right_deg)):
+        a = math.radians(deg)
+        off[J[f"{side}Hand"]] = np.linalg.norm(off[J[f"{side}Hand"]]) * np.array(
+            [sx * math.cos(a), -math.sin(a), 0.0]
+        )
+    return canonical22_skeleton(off)
+
+
 def test_a_bone_within_the_tolerance_keeps_its_own_direction_and_one_beyond_turns():
     for droop, turns in ((TOLERANCE_DEG - 3, False), (TOLERANCE_DEG + 3, True)):
-        off = T_POSE.offsets.copy()
-        a = math.radians(droop)
-        off[J["LeftHand"]] = np.linalg.norm(off[J["LeftHand"]]) * np.array(
-            [math.cos(a), -math.sin(a), 0.0]
-        )
-        pose = retarget_pose(canonical22_skeleton(off))
+        pose = retarget_pose(drooped(droop, droop))
         assert (angles_deg(pose)[J["LeftForeArm"]] > 1.0) == turns
+        assert (angles_deg(pose)[J["RightForeArm"]] > 1.0) == turns
         assert angles_deg(pose)[J["LeftArm"]] < EXACT  # the chain's root stays
+
+
+def test_left_and_right_turn_together_by_their_mean_angle():
+    """A convention is symmetric: a rig is never turned on one side alone (it would stand
+    crooked); the two sides decide by the mean of their angles."""
+    for left, right, turns in ((TOLERANCE_DEG + 4, TOLERANCE_DEG - 2, True), (20.0, 0.0, False)):
+        angles = angles_deg(retarget_pose(drooped(left, right)))
+        assert angles[J["LeftForeArm"]] > 1.0 if turns else angles[J["LeftForeArm"]] < EXACT
+        assert angles[J["RightForeArm"]] > 1.0 if turns else angles[J["RightForeArm"]] < EXACT
 
 
 @pytest.mark.parametrize(

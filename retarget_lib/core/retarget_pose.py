@@ -16,7 +16,9 @@ few joints as possible:
 * the **body** (``Hips``) turns, as a whole frame, so that the spine (hips -> neck) points up
   (+Y), the hips' left-right axis along +X and so the character faces +Z;
 * down each chain, a chain's root first, a bone whose direction (after its parents' turns) is more
-  than :data:`TOLERANCE_DEG` from its canonical direction turns onto it by the shortest arc:
+  than :data:`TOLERANCE_DEG` from its canonical direction turns onto it by the shortest arc (a
+  left bone and its right partner decide together, by the mean of their two angles: a convention
+  is symmetric, and a rig turned on one side only would stand crooked):
   spine, chest and neck bones up, thighs and shins down, upper arms and forearms sideways (+X on
   the left); the chest turns as a frame (its neck bone up, its shoulders along +X), and the
   clavicles only beyond :data:`CLAVICLE_TOLERANCE_DEG` (a raised or swept clavicle is shape). A
@@ -146,6 +148,12 @@ _BONES: dict[int, tuple[tuple[float, float, float], float]] = {
     J["RightForeArm"]: (_RIGHT, TOLERANCE_DEG),
 }
 _FEET = (J["LeftFoot"], J["RightFoot"])
+#: each left joint that turns and its right partner: a rig's convention is symmetric, so the two
+#: sides are turned or kept together (by the mean of their two angles), never one alone
+_MIRRORED: dict[int, int] = {
+    J[f"Left{part}"]: J[f"Right{part}"]
+    for part in ("UpLeg", "Leg", "Foot", "Shoulder", "Arm", "ForeArm")
+}
 _SPINE_TO_NECK = [J[n] for n in ("Spine", "Spine1", "Spine2", "Neck")]
 #: a bone shorter than this (metres) has no direction (CMU's zero-length neck and hip bones)
 _MIN_BONE = 1e-6
@@ -199,6 +207,20 @@ def retarget_pose_rotations(offsets: Tensor) -> Tensor:
     body = _turn_if_beyond(_frame_turn(up, across), TOLERANCE_DEG)
     out[0] = body
     flat = _flat_foot_direction(dtype)
+
+    def candidate(j: int) -> tuple[Tensor, Tensor, Tensor, float]:
+        """Joint ``j``'s shortest-arc turn, the frame it turns (its parent's, or the body's for a
+        foot), whether its bone has a direction, and its tolerance."""
+        if j in _FEET:  # flat: the rest orientation relative to the body, unless far from flat
+            base, direction, tolerance = body, flat, FOOT_TOLERANCE_DEG
+        else:
+            base = out[CANONICAL22_PARENTS[j]]
+            direction = torch.tensor(_BONES[j][0], dtype=dtype)
+            tolerance = _BONES[j][1]
+        bone = quat_rotate(base, off[..., PRIMARY_CHILD[j], :])
+        turn = quat_between(bone, direction.expand_as(bone))
+        return turn, base, bone.norm(dim=-1) > _MIN_BONE, tolerance
+
     for j in range(1, 22):
         parent = out[CANONICAL22_PARENTS[j]]
         if j == J["Spine2"]:  # the chest, as a frame: its neck bone up, its shoulders along +X
@@ -210,18 +232,28 @@ def retarget_pose_rotations(offsets: Tensor) -> Tensor:
             wide = chest_across.norm(dim=-1) > _MIN_BONE
             turn = _frame_turn(quat_rotate(parent, neck), quat_rotate(parent, chest_across))
             out[j] = quat_mul(_turn_if_beyond(turn, TOLERANCE_DEG, wide), parent)
-        elif j in _BONES:
-            direction, tolerance = _BONES[j]
-            bone = quat_rotate(parent, off[..., PRIMARY_CHILD[j], :])
-            turn = quat_between(bone, torch.tensor(direction, dtype=dtype).expand_as(bone))
-            valid = bone.norm(dim=-1) > _MIN_BONE
-            out[j] = quat_mul(_turn_if_beyond(turn, tolerance, valid), parent)
-        elif j in _FEET:  # flat: the rest orientation relative to the body, unless far from flat
-            bone = quat_rotate(body, off[..., PRIMARY_CHILD[j], :])
-            turn = quat_between(bone, flat.expand_as(bone))
-            valid = bone.norm(dim=-1) > _MIN_BONE
-            out[j] = quat_mul(_turn_if_beyond(turn, FOOT_TOLERANCE_DEG, valid), body)
-        else:  # Hips' children are handled above; leaves follow their parent
+        elif j in _MIRRORED:  # a left joint and its right partner: one decision for both
+            k = _MIRRORED[j]
+            (turn_l, base_l, valid_l, tolerance), (turn_r, base_r, valid_r, _) = (
+                candidate(j),
+                candidate(k),
+            )
+            angles = torch.stack((quat_angle(turn_l), quat_angle(turn_r)), -1)
+            valid = torch.stack((valid_l, valid_r), -1)
+            mean = (angles * valid).sum(-1) / valid.sum(-1).clamp_min(1)
+            beyond = mean > math.radians(tolerance)
+            for joint, turn, base, ok in (
+                (j, turn_l, base_l, valid_l),
+                (k, turn_r, base_r, valid_r),
+            ):
+                keep = torch.where((beyond & ok)[..., None], turn, quat_identity(dtype=dtype))
+                out[joint] = quat_mul(keep, base)
+        elif j in _MIRRORED.values():  # a right joint: decided with its left partner
+            continue
+        elif j in _BONES:  # the spine and neck
+            turn, base, valid, tolerance = candidate(j)
+            out[j] = quat_mul(_turn_if_beyond(turn, tolerance, valid), base)
+        else:  # a leaf follows its parent
             out[j] = parent
     return quat_canonical(torch.stack(out, -2))
 
