@@ -174,11 +174,11 @@ def eweak_rotations(
 
     The paper's network: the source's local rotations as they are. A residual network (our variant,
     ``model.residual``): the same rotations re-expressed on the target's rest pose
-    (:func:`~retarget_lib.core.transfer.transfer_rotations`, the rest-compensated copy), so that
-    an untrained residual network reproduces every global bone direction of the source rather than
-    its local angles. Mixamo's characters share one T-pose, so there the two coincide (the
-    alignment is the identity); ours do not (A-pose, T-pose, bent elbows), and comparing raw local
-    angles would ask the network to keep each rest-pose difference as a pose error.
+    (:func:`~retarget_lib.core.transfer.transfer_rotations`, the rest-compensated copy: the
+    rotation deltas from the retarget pose), so that an untrained residual network is copy-rest.
+    Mixamo's characters share one T-pose, so there the two coincide (the alignment is the
+    identity); ours do not (A-pose, T-pose, bent knees), and comparing raw local angles would ask
+    the network to keep each rest convention's difference as a pose error.
 
     Args:
         model: the network (only ``model.residual`` is read).

@@ -86,7 +86,7 @@ REGISTRY: dict[str, Method] = {
         Method("copy", "copy the local rotations, root scaled by the leg-length ratio", copy.load),
         Method(
             "copy-rest",
-            "copy with rest-pose compensation (same global bone directions)",
+            "copy the rotation deltas from each rig's retarget pose (its canonical T-pose)",
             copy_rest.load,
         ),
         Method("tdcn", "the TDCN generator (Kim et al. 2020)", tdcn.load, needs_checkpoint=True),

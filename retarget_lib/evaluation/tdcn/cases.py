@@ -122,8 +122,8 @@ def mixamo_convention_cases() -> list[EvalCase]:
 
 def cmu_cases(characters: Sequence[str] | None = None) -> list[EvalCase]:
     """The real CMU clips (never trained on) onto the TDCN test characters, against the ground-truth
-    convention (:func:`~retarget_lib.core.transfer.retarget_ground_truth`: the same global bone
-    directions, the root scaled by the leg ratio). Source name ``"CMU"``, scenario 0.
+    convention (:func:`~retarget_lib.core.transfer.retarget_ground_truth`: the rotation deltas
+    from the retarget pose, the root scaled by the leg ratio). Source name ``"CMU"``, scenario 0.
 
     The CMU skeletons' rest poses differ from every synthetic character's (01_01 and 01_03 stand
     with their legs splayed by 20°), so this is where a learned rest-pose compensation is tested
