@@ -1,9 +1,10 @@
 """The solutions files (notebooks/solutions/NN_name.py) and putting answers in the student cells
-(retarget_lib/notebook/solutions.py)."""
+(retarget_lib/notebook/solutions.py), and the reference of a value exercise read from them."""
 
 import nbformat
 import pytest
 
+from retarget_lib.notebook.exercises import ExerciseAuthoringError, solution_value
 from retarget_lib.notebook.solutions import (
     inject,
     parse_solutions,
@@ -102,3 +103,31 @@ def test_a_solutions_file_must_answer_every_exercise(tmp_path):
     path.write_text("# exercise 07.1\ntotal = sum(values)\n")
     with pytest.raises(ValueError, match="07.2"):
         with_solutions(notebook(), path)
+
+
+def test_solution_value_runs_the_block_in_a_copy_of_the_namespace():
+    import numpy as np
+    import torch
+
+    from retarget_lib.core import rotations as R
+    from retarget_lib.core.kinematics import forward_kinematics
+
+    namespace = {
+        "np": np,
+        "torch": torch,
+        "R": R,
+        "forward_kinematics": forward_kinematics,
+        "parents": (-1, 0, 1),
+        "offsets": torch.tensor([[0, 0, 0], [0.3, 0, 0], [0.25, 0, 0]], dtype=torch.float64),
+        "bend": R.quat_from_axis_angle(torch.tensor([0, 0, np.pi / 2], dtype=torch.float64)),
+        "wrist": "the student's own",
+    }
+    value = solution_value("01.1", "wrist", namespace)
+    assert np.allclose(value, [0.3, 0.25, 0.0])
+    assert namespace["wrist"] == "the student's own"
+    with pytest.raises(ExerciseAuthoringError, match="does not set"):
+        solution_value("01.1", "no_such_name", namespace)
+    with pytest.raises(ExerciseAuthoringError, match="01.99"):
+        solution_value("01.99", "wrist", namespace)
+    with pytest.raises(ExerciseAuthoringError, match="solutions"):
+        solution_value("99.1", "wrist", namespace)
