@@ -6,6 +6,8 @@
 #               benchmarks' rows, torchrun, sweeps); CI runs them after `make test`
 #   make workshop   the workshop notebooks (notebooks/learning_path.yaml) two at a time, then the book
 #   make book   the HTML book alone, from what is executed (build/notebooks/) or committed (notebooks/)
+#   make book-teacher   the book with the exercises' reference answers (notebooks/solutions/) in the
+#               exercise cells, into build/book-teacher/ (never hand it to students)
 #   make unit-fast   the library tests that need neither the built data nor minutes (a bare checkout)
 #   make tables      every table of both papers, recomputed into results/ with provenance (the seconds each part took: results/*.provenance.json)
 # Both are idempotent: stamps and the data cache make a second run reuse what is built.
@@ -25,7 +27,7 @@ STEP   := @$(PYTHON) .ci/step_times.py $(RUN_ID)
 JOBS   ?= 2
 ONE_THREAD := OMP_NUM_THREADS=1 MKL_NUM_THREADS=1
 
-.PHONY: all setup system-deps data notebooks book workshop test test-slow unit unit-fast unit-threads lint nbval bench tables clean-build
+.PHONY: all setup system-deps data notebooks book book-teacher workshop test test-slow unit unit-fast unit-threads lint nbval bench tables clean-build
 
 all: notebooks
 	$(STEP) report make
@@ -68,6 +70,15 @@ notebooks: data
 # outputs committed in notebooks/ (each page says which)
 book: $(STAMP)
 	$(BIN)/python -m retarget_lib.notebook.book --executed build/notebooks --out build/book
+
+# the notebooks with a solutions file executed with their reference answers in the exercise cells
+# (build/notebooks-teacher/), the others as `make`/`make book` show them plus their old solution cells
+book-teacher: data
+	@mkdir -p build/notebooks-teacher
+	$(ONE_THREAD) $(BIN)/python -m retarget_lib.notebook.runner --out build/notebooks-teacher \
+		--solutions --jobs $(JOBS) $(NOTEBOOKS)
+	$(BIN)/python -m retarget_lib.notebook.book --teacher --executed build/notebooks-teacher \
+		--executed build/notebooks --out build/book-teacher
 
 # the workshop path (docs/book-and-workshop.md, docs/teachers_guide.md): the notebooks marked `workshop: yes`
 # in notebooks/learning_path.yaml, fast profile, two at a time with one thread each on a 2-core laptop;

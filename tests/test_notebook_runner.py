@@ -21,3 +21,19 @@ def test_a_rerun_that_computes_the_same_values_writes_the_same_file(tmp_path):
     cell = nbformat.reads(written[0].decode(), as_version=4).cells[0]
     assert cell.outputs[0]["text"] == "45\n"
     assert "execution" not in cell.metadata
+
+
+def test_solutions_are_put_in_before_executing(tmp_path):
+    """``--solutions`` (the teacher's book): the student cells hold the reference answers."""
+    nb = nbformat.v4.new_notebook()
+    nb.cells = [nbformat.v4.new_code_cell("# exercise 07.1: your code here\nx = None\nprint(x)")]
+    source = tmp_path / "07_tiny.ipynb"
+    nbformat.write(nb, source)
+    (tmp_path / "solutions").mkdir()
+    (tmp_path / "solutions" / "07_tiny.py").write_text("# exercise 07.1\nx = 6 * 7\nprint(x)\n")
+    out = tmp_path / "teacher"
+    out.mkdir()
+    assert run_notebook(source, out, force=True, solutions=True) is not None
+    cell = nbformat.read(out / "07_tiny.ipynb", as_version=4).cells[0]
+    assert cell.source.startswith("# exercise 07.1: reference answer\nx = 6 * 7")
+    assert cell.outputs[0]["text"] == "42\n"

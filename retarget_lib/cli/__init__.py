@@ -29,6 +29,10 @@
                                          mixamo-local: the papers' protocols on a reviewer's Mixamo
                                          folder (retarget_lib.evaluation.mixamo, .mixamo_contact)
     retarget bench [--quick]             speed table (ratios against references in the same run)
+    retarget exercises NN [--notebook MINE.ipynb] [--solutions]
+                                         a notebook's exercises checked outside Jupyter, one line
+                                         each (retarget_lib.notebook.grading); exit 1 if one is
+                                         wrong
 
 Each command imports what it runs inside its ``_cmd_*`` function: the library below this module
 loads torch (about 3 s here), which ``retarget --help`` (0.2 s) does without.

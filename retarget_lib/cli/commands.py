@@ -1,5 +1,5 @@
-"""The ``data``, ``retarget``, ``train``, ``sweep`` and ``bench`` subcommands: each imports what it
-runs inside its function (see :mod:`retarget_lib.cli`)."""
+"""The ``data``, ``retarget``, ``train``, ``sweep``, ``bench`` and ``exercises`` subcommands: each
+imports what it runs inside its function (see :mod:`retarget_lib.cli`)."""
 
 from __future__ import annotations
 
@@ -126,3 +126,16 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         with atomic_write(args.out, "w") as f:
             f.write(table + "\n")
     return 0
+
+
+def _cmd_exercises(args: argparse.Namespace) -> int:
+    from ..notebook.grading import WRONG, grade, prepare
+
+    nb, cwd = prepare(args.number, args.notebook, solutions=args.solutions)
+    print(f"retarget exercises: executing notebook {args.number} ...", file=sys.stderr, flush=True)
+    results, other = grade(nb, cwd)
+    for r in results:
+        print(r.line)
+    for line in other:
+        print(f"retarget exercises: {line} (not an exercise) raised an error", file=sys.stderr)
+    return 1 if other or any(r.status == WRONG for r in results) else 0

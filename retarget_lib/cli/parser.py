@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import argparse
 
-from .commands import _cmd_bench, _cmd_data, _cmd_retarget, _cmd_sweep, _cmd_train
+from .commands import _cmd_bench, _cmd_data, _cmd_exercises, _cmd_retarget, _cmd_sweep, _cmd_train
 from .evaluate import _cmd_evaluate
 
 
@@ -300,4 +300,21 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--only", nargs="*", help="names of benchmarks to run (default: all)")
     p.add_argument("--out", help="also write the Markdown table to this file")
     p.set_defaults(func=_cmd_bench)
+
+    p = sub.add_parser(
+        "exercises",
+        help="check a notebook's exercises outside Jupyter: one line each (correct, not answered "
+        "yet, or wrong and why); exit 1 if one is wrong",
+    )
+    p.add_argument("number", help="the notebook's number, e.g. 01 or 08b")
+    p.add_argument(
+        "--notebook",
+        help="your copy of the notebook (default: notebooks/NN_*.ipynb, the one Jupyter edits)",
+    )
+    p.add_argument(
+        "--solutions",
+        action="store_true",
+        help="put the reference answers (notebooks/solutions/) in the exercise cells first",
+    )
+    p.set_defaults(func=_cmd_exercises)
     return parser

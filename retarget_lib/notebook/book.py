@@ -22,6 +22,13 @@ line, its pages also load MathJax, require.js and the widget manager from CDNs u
 and it would add about 90 packages (Sphinx 7, myst-nb, and markdown-it-py held below 4) for what
 nbconvert, already a dependency, does with one template and an index page.
 
+No page shows an exercise's answer: the solutions live in ``notebooks/solutions/`` (see
+:mod:`.solutions`), and the collapsed solution cells of the notebooks not yet converted to it
+(cells tagged ``solution``) are left out of the pages with their outputs. The **teacher's book**
+(``--teacher``, ``make book-teacher``) is the opposite: each notebook with a solutions file has
+its reference answers put in its student cells (executed so by ``runner --solutions`` into
+``build/notebooks-teacher/``), and the old solution cells stay.
+
 Usage::
 
     python -m retarget_lib.notebook.book --out build/book            # after `make` executed them
@@ -40,12 +47,14 @@ import re
 import shutil
 import sys
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import yaml
 
 from ..files import REPO_ROOT, atomic_write
+from .solutions import solutions_file, with_solutions
 from .viewer import VIEWER_METHODS, VIEWER_PAGE, write_viewer
 
 NOTEBOOKS_DIR = REPO_ROOT / "notebooks"
@@ -166,6 +175,23 @@ def offline_outputs(nb):
                 )
     nb.metadata.pop("widgets", None)
     return nb
+
+
+def without_solutions(nb):
+    """Drop the cells tagged ``solution`` (the old exercises' collapsed answers, shown with their
+    outputs by nbconvert whatever their collapsed state); in place, returns ``nb``."""
+    nb.cells = [c for c in nb.cells if "solution" not in c.get("metadata", {}).get("tags", [])]
+    return nb
+
+
+def for_readers(nb, notebook: Path, teacher: bool):
+    """The notebook as a book shows it: for students without any answer
+    (:func:`without_solutions`), for the teacher with the reference answers of
+    ``solutions/<stem>.py`` in the student cells when the notebook has such a file."""
+    if not teacher:
+        return without_solutions(nb)
+    solutions = solutions_file(notebook)
+    return with_solutions(nb, solutions) if solutions.exists() else nb
 
 
 def widget_only_outputs(nb) -> list[int]:
@@ -323,9 +349,17 @@ playing side by side; turn and zoom the characters in the browser.</p>
 
 
 # -------------------------------------------------------------------------------------------- build
-def _source_for(lesson: Lesson, executed: Path | None, committed: Path) -> tuple[Path, str]:
-    if executed is not None:
-        run = executed / lesson.file
+def _folders(executed: Path | Sequence[Path] | None) -> list[Path]:
+    if executed is None:
+        return []
+    return [Path(executed)] if isinstance(executed, (str, Path)) else [Path(p) for p in executed]
+
+
+def _source_for(
+    lesson: Lesson, executed: Path | Sequence[Path] | None, committed: Path
+) -> tuple[Path, str]:
+    for folder in _folders(executed):
+        run = folder / lesson.file
         if run.exists():
             stamp = dt.datetime.fromtimestamp(run.stat().st_mtime, dt.UTC).strftime(
                 "%Y-%m-%d %H:%M UTC"
@@ -334,31 +368,36 @@ def _source_for(lesson: Lesson, executed: Path | None, committed: Path) -> tuple
     return committed / lesson.file, "outputs as committed in notebooks/ (not re-executed)"
 
 
-def read_timings(executed: Path | None) -> dict[str, dict]:
-    if executed is None or not (executed / TIMINGS_FILE).exists():
-        return {}
-    return json.loads((executed / TIMINGS_FILE).read_text())
+def read_timings(executed: Path | Sequence[Path] | None) -> dict[str, dict]:
+    timings: dict[str, dict] = {}
+    for folder in reversed(_folders(executed)):  # the first folder's timings win
+        if (folder / TIMINGS_FILE).exists():
+            timings.update(json.loads((folder / TIMINGS_FILE).read_text()))
+    return timings
 
 
 def build_book(
     out: Path,
-    executed: Path | None = REPO_ROOT / "build" / "notebooks",
+    executed: Path | Sequence[Path] | None = REPO_ROOT / "build" / "notebooks",
     committed: Path = NOTEBOOKS_DIR,
     path: LearningPath | None = None,
-    extra: list[Path] = (),
+    extra: Sequence[Path] = (),
     verbose: bool = True,
+    teacher: bool = False,
 ) -> list[Path]:
     """Write the book: one page per learning-path notebook, the index, the local MathJax, and the
     3-D viewer page (:mod:`.viewer`).
 
     Args:
         out: destination folder (``build/book``).
-        executed: folder of executed notebooks (``build/notebooks``); a notebook missing there is
-            taken from ``committed`` with the outputs it was committed with.
+        executed: folder(s) of executed notebooks (``build/notebooks``), looked in in order; a
+            notebook missing there is taken from ``committed`` with the outputs it was committed
+            with.
         committed: the notebooks folder.
         path: the learning path (default: ``committed/learning_path.yaml``).
         extra: notebooks outside the path to add as pages (no index row).
         verbose: print one line per page.
+        teacher: the teacher's book, with the answers (:func:`for_readers`).
 
     Returns:
         the pages written, index first.
@@ -374,7 +413,8 @@ def build_book(
     todo += [(None, Path(p), "outputs as given") for p in extra]
     for lesson, src, note in todo:
         t0 = time.perf_counter()
-        nb = nbformat.read(src, as_version=4)
+        notebook = committed / lesson.file if lesson is not None else src
+        nb = for_readers(nbformat.read(src, as_version=4), notebook, teacher)
         blank = widget_only_outputs(nb)
         if blank:
             print(
@@ -410,13 +450,20 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--executed",
         type=Path,
-        default=REPO_ROOT / "build" / "notebooks",
-        help="folder of executed notebooks; missing ones come from notebooks/ as committed",
+        action="append",
+        help="folder of executed notebooks (repeatable, looked in in order; default "
+        "build/notebooks); missing ones come from notebooks/ as committed",
     )
     parser.add_argument("--notebooks", type=Path, default=NOTEBOOKS_DIR)
+    parser.add_argument(
+        "--teacher",
+        action="store_true",
+        help="the teacher's book: the reference answers in the exercise cells",
+    )
     args = parser.parse_args(argv)
     t0 = time.perf_counter()
-    pages = build_book(args.out, args.executed, args.notebooks)
+    executed = args.executed or [REPO_ROOT / "build" / "notebooks"]
+    pages = build_book(args.out, executed, args.notebooks, teacher=args.teacher)
     bad = {p.name: remote_references(p.read_text()) for p in pages}
     bad = {k: v for k, v in bad.items() if v}
     if bad:

@@ -47,15 +47,22 @@ A number that survives is a *violation*: render it from the computed value with
 **The closing sections** (:func:`section_problems`): every notebook has ``## Summary`` (with a line
 ``Equations covered: ...``), ``## Exercises`` and ``## References`` headings, in that order, as its
 last ``##`` sections; between Exercises and References, 3-5 exercises labelled ``**Exercise N.k**``
-(N the notebook's number as in its file name), each followed, before the next exercise, by a code
-cell tagged ``solution`` (collapsed: ``metadata.jupyter.source_hidden``) that calls
-``check_answer("N.k", ...)`` with the same label.
+(N the notebook's number as in its file name), each followed, before the next exercise, by either
+
+- (the exercises of docs/notebooks.md, "Writing an exercise") a student cell whose first line is
+  ``# exercise N.k: your code here`` and, after it, a code cell calling ``check_function``,
+  ``check_value`` or ``check_prediction`` with ``"N.k"``; no cell tagged ``solution`` (the answers
+  live in ``notebooks/solutions/``); or
+- (the old exercises, until each notebook is converted) a code cell tagged ``solution``
+  (collapsed: ``metadata.jupyter.source_hidden``) that calls ``check_answer("N.k", ...)``.
 """
 
 from __future__ import annotations
 
 import re
 from dataclasses import dataclass
+
+from .solutions import STUDENT_HEADER
 
 __all__ = ["Violation", "scan_markdown", "notebook_violations", "section_problems"]
 
@@ -263,6 +270,9 @@ def section_problems(nb, number: str) -> list[str]:
         if label.split(".")[0] != number:
             problems.append(f"Exercise {label} is not numbered {number}.k")
         end = exercises[k + 1][0] if k + 1 < len(exercises) else r
+        if _is_new_exercise(nb.cells[i + 1 : end], label):
+            problems += _new_exercise_problems(nb.cells[i + 1 : end], label)
+            continue
         solutions = [
             c
             for c in nb.cells[i + 1 : end]
@@ -282,4 +292,35 @@ def section_problems(nb, number: str) -> list[str]:
             problems.append(
                 f"Exercise {label}: its solution cell is not collapsed (jupyter.source_hidden)"
             )
+    return problems
+
+
+_NEW_CHECK = r"check_(?:function|value|prediction)\(\s*['\"]{label}['\"]"
+
+
+def _is_new_exercise(cells, label: str) -> bool:
+    """Whether an exercise has a student cell ``# exercise N.k: ...`` (the new kind)."""
+    return any(c.cell_type == "code" and c.source.startswith(f"# exercise {label}:") for c in cells)
+
+
+def _new_exercise_problems(cells, label: str) -> list[str]:
+    header = STUDENT_HEADER.format(label=label)
+    student = next(
+        (
+            i
+            for i, c in enumerate(cells)
+            if c.cell_type == "code" and c.source.split("\n")[0] == header
+        ),
+        None,
+    )
+    if student is None:
+        return [f"Exercise {label}: its student cell does not start with '{header}'"]
+    problems = []
+    check = re.compile(_NEW_CHECK.format(label=re.escape(label)))
+    if not any(c.cell_type == "code" and check.search(c.source) for c in cells[student + 1 :]):
+        problems.append(
+            f"Exercise {label}: no check_function/check_value/check_prediction after it"
+        )
+    if any("solution" in c.metadata.get("tags", []) for c in cells):
+        problems.append(f"Exercise {label}: a cell tagged 'solution' (answers go to solutions/)")
     return problems

@@ -10,6 +10,11 @@ Usage::
 
     python -m retarget_lib.notebook.runner --out build/notebooks notebooks/00_overview.ipynb ...
     python -m retarget_lib.notebook.runner --out build/notebooks --workshop --jobs 2
+    python -m retarget_lib.notebook.runner --out build/notebooks-teacher --solutions notebooks/0*
+
+``--solutions`` executes the notebooks with their reference answers (``notebooks/solutions/``) in
+the student cells, for the teacher's book (``make book-teacher``); a notebook without a solutions
+file (still on the old exercises) is left out, and says so.
 """
 
 from __future__ import annotations
@@ -27,6 +32,7 @@ from pathlib import Path
 from ..config import active_profile
 from ..files import REPO_ROOT, atomic_write
 from .book import load_learning_path
+from .solutions import solutions_file, with_solutions
 
 TIMINGS_FILE = "timings.json"
 #: per-notebook seconds of the last measured fresh-clone run (benchmarks/two_commands.py writes it):
@@ -36,7 +42,7 @@ _TIMING_PREFIX = "RUNNER-TIMING "
 
 
 def _newest_input(notebook: Path) -> float:
-    inputs = [notebook, REPO_ROOT / "data_manifest.yaml"]
+    inputs = [notebook, solutions_file(notebook), REPO_ROOT / "data_manifest.yaml"]
     for folder in ("retarget_lib", "configs"):
         inputs += list((REPO_ROOT / folder).rglob("*.py")) + list(
             (REPO_ROOT / folder).rglob("*.yaml")
@@ -59,7 +65,7 @@ def is_up_to_date(notebook: Path, out_dir: Path) -> bool:
 
 
 def run_notebook(
-    notebook: Path, out_dir: Path, timeout: int = 900, force: bool = False
+    notebook: Path, out_dir: Path, timeout: int = 900, force: bool = False, solutions: bool = False
 ) -> dict | None:
     """Execute one notebook; write ``out_dir/<name>.ipynb``.
 
@@ -68,6 +74,8 @@ def run_notebook(
         out_dir: destination folder.
         timeout: per-cell timeout in seconds.
         force: run even if the output is up to date.
+        solutions: put the reference answers (:func:`.solutions.solutions_file`) in the student
+            cells first.
 
     Returns:
         ``{"seconds": wall, "cpu_seconds": cpu, "finished": iso time}`` if it was executed, ``None``
@@ -82,6 +90,8 @@ def run_notebook(
 
     t0, c0 = time.perf_counter(), _cpu_seconds()
     nb = nbformat.read(notebook, as_version=4)
+    if solutions:
+        nb = with_solutions(nb, solutions_file(notebook))
     for cell in nb.cells:  # no execution times: a re-run that changes no value changes no line
         cell.metadata.pop("execution", None)
     client = NotebookClient(
@@ -102,19 +112,25 @@ def run_notebook(
     }
 
 
-def _run_in_subprocess(notebook: Path, out_dir: Path, force: bool) -> dict | None:
+def _run_in_subprocess(
+    notebook: Path, out_dir: Path, force: bool, solutions: bool = False
+) -> dict | None:
     """:func:`run_notebook` in a fresh process (for ``--jobs``); its CPU time is that process's."""
-    cmd = [
-        sys.executable,
-        "-m",
-        "retarget_lib.notebook.runner",
-        "--out",
-        str(out_dir),
-        "--jobs",
-        "1",
-        "--no-timings",
-        str(notebook),
-    ] + (["--force"] if force else [])
+    cmd = (
+        [
+            sys.executable,
+            "-m",
+            "retarget_lib.notebook.runner",
+            "--out",
+            str(out_dir),
+            "--jobs",
+            "1",
+            "--no-timings",
+            str(notebook),
+        ]
+        + (["--force"] if force else [])
+        + (["--solutions"] if solutions else [])
+    )
     proc = subprocess.run(cmd, capture_output=True, text=True)
     if proc.returncode != 0:
         raise RuntimeError(f"{notebook.name} failed:\n{proc.stdout[-4000:]}\n{proc.stderr[-4000:]}")
@@ -164,6 +180,12 @@ def main(argv: list[str] | None = None) -> int:
         action="store_true",
         help="execute the notebooks marked `workshop: yes` in notebooks/learning_path.yaml",
     )
+    parser.add_argument(
+        "--solutions",
+        action="store_true",
+        help="execute with the reference answers in the student cells (notebooks/solutions/); "
+        "notebooks without a solutions file are left out",
+    )
     parser.add_argument("--jobs", type=int, default=1, help="notebooks executed at the same time")
     parser.add_argument("--no-timings", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
@@ -180,6 +202,12 @@ def main(argv: list[str] | None = None) -> int:
             )
     if not notebooks:
         parser.error("no notebooks given (and no --workshop)")
+    if args.solutions:
+        for nb in [nb for nb in notebooks if not solutions_file(nb).exists()]:
+            print(
+                f"{nb.name}: no {solutions_file(nb).name} in solutions/ (old exercises); left out"
+            )
+            notebooks.remove(nb)
 
     t0, c0 = time.perf_counter(), _cpu_seconds()
     timings: dict[str, dict] = {}
@@ -200,11 +228,11 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if args.jobs <= 1:
             for nb in notebooks:
-                report(nb, run_notebook(nb, args.out, force=args.force))
+                report(nb, run_notebook(nb, args.out, force=args.force, solutions=args.solutions))
         else:
             with concurrent.futures.ThreadPoolExecutor(args.jobs) as pool:
                 futures = {
-                    pool.submit(_run_in_subprocess, nb, args.out, args.force): nb
+                    pool.submit(_run_in_subprocess, nb, args.out, args.force, args.solutions): nb
                     for nb in longest_first(notebooks, args.out)
                 }
                 for fut in concurrent.futures.as_completed(futures):

@@ -1,10 +1,11 @@
-"""Teaching helpers shared by every notebook: prose rendered from computed values, and exercise
-checks.
+"""Teaching helpers shared by every notebook: prose rendered from computed values, and the old
+exercise check.
 
 Numbers in a notebook's prose must come from the cells, never be typed by hand (a typed number goes
 stale the day a checkpoint changes). :func:`prose` renders a Markdown paragraph from an f-string of
-computed values; :func:`check_answer` judges the student's ``answer`` at the end of every exercise's
-solution cell::
+computed values; :func:`check_answer` (the **old** exercise API, kept until every notebook is
+converted to :mod:`retarget_lib.notebook.exercises`) judges the student's ``answer`` at the end of
+every exercise's solution cell::
 
     prose(f"Copy's mean error is **{copy_err:.2f} m**, {ratio:.0f}x the network's.")
     check_answer("01.4", answer, expected, solution=solution, hint="H counts spine and one leg",
@@ -82,6 +83,11 @@ def check_answer(
     atol: float = 1e-6,
 ) -> bool:
     """Check the student's answer to an exercise against a value computed independently.
+
+    The **old** exercise API: its solution cells show the answer in the book. New and converted
+    exercises use :mod:`retarget_lib.notebook.exercises` (``check_function``, ``check_value``,
+    ``check_prediction``; docs/notebooks.md, "Writing an exercise"); this stays until the notebooks
+    still calling it are converted.
 
     The student cell ends with ``answer = None`` until the student computes ``answer``; the
     exercise's collapsed solution cell computes ``solution`` (the reference solution, in the

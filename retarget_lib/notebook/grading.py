@@ -1,0 +1,197 @@
+"""Grade one notebook's exercises outside Jupyter (``retarget exercises NN``).
+
+The notebook (the student's copy, or the committed one with its solutions injected) is executed
+headless with every cell run even after an error; each exercise's result is read back from what its
+check printed (``Exercise NN.K: correct`` / ``not answered yet``) or raised
+(:class:`~retarget_lib.notebook.exercises.ExerciseError`, one line). A student cell that raised, or
+a check that raised anything else, makes the exercise wrong with that exception's type.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from .book import NOTEBOOKS_DIR
+from .solutions import inject, solutions_file, student_cells, with_solutions
+
+__all__ = [
+    "Result",
+    "CORRECT",
+    "NOT_ANSWERED",
+    "WRONG",
+    "find_notebook",
+    "prepare",
+    "grade",
+    "grade_notebook",
+]
+
+CORRECT, NOT_ANSWERED, WRONG = "correct", "not answered yet", "wrong"
+_NUMBER = re.compile(r"^\d{1,2}[a-z]?$")
+
+
+@dataclass(frozen=True)
+class Result:
+    """One exercise's outcome.
+
+    Attributes:
+        label: ``"NN.K"``.
+        status: ``"correct"``, ``"not answered yet"`` or ``"wrong"``.
+        line: the line to print (for a wrong answer, the check's own line: why, and the hint).
+    """
+
+    label: str
+    status: str
+    line: str
+
+
+def find_notebook(number: str, notebooks_dir: Path = NOTEBOOKS_DIR) -> Path:
+    """The notebook numbered ``number`` (``"01"``, ``"1"``, ``"08b"``).
+
+    Raises:
+        ValueError: no such notebook, or one whose exercises are still the old kind (no student
+            cells ``# exercise NN.K: your code here``).
+    """
+    text = str(number).strip()
+    if not _NUMBER.match(text):
+        raise ValueError(f"{number!r} is not a notebook number (e.g. 01 or 08b)")
+    digits = re.match(r"\d+", text)
+    assert digits is not None
+    text = digits.group().zfill(2) + text[digits.end() :]
+    found = sorted(notebooks_dir.glob(f"{text}_*.ipynb"))
+    if not found:
+        raise ValueError(f"no notebook numbered {text} in {notebooks_dir.name}/")
+    return found[0]
+
+
+def _outputs_text(cell: Any) -> list[str]:
+    lines: list[str] = []
+    for out in cell.get("outputs", []):
+        if out.get("output_type") == "stream":
+            text = out.get("text", "")
+            lines += ("".join(text) if isinstance(text, list) else text).splitlines()
+    return lines
+
+
+def _errors(cell: Any) -> list[Any]:
+    return [o for o in cell.get("outputs", []) if o.get("output_type") == "error"]
+
+
+def _read_results(nb: Any, labels: list[str]) -> tuple[list[Result], list[str]]:
+    """Each exercise's result, and one line per other cell that raised."""
+    students = student_cells(nb)
+    owner: dict[int, str] = {}
+    results = []
+    for label in labels:
+        line = re.compile(rf"^Exercise {re.escape(label)}: (correct|not answered yet)$")
+        result = None
+        student_error = _errors(nb.cells[students[label]])
+        if student_error:
+            e = student_error[0]
+            result = Result(label, WRONG, f"Exercise {label}: wrong: your cell raised {e.ename}")
+        for i, cell in enumerate(nb.cells):
+            if cell.cell_type != "code" or result is not None:
+                continue
+            errors = _errors(cell)
+            for e in errors:
+                if e.ename == "ExerciseError" and e.evalue.startswith(f"Exercise {label}: "):
+                    result, owner[i] = Result(label, WRONG, e.evalue), label
+            for text in _outputs_text(cell):
+                m = line.match(text)
+                if m and result is None:
+                    result, owner[i] = Result(label, m.group(1), text), label
+            if (
+                result is None
+                and errors
+                and re.search(rf"check_\w+\(\s*['\"]{re.escape(label)}['\"]", cell.source)
+            ):
+                owner[i] = label
+                result = Result(
+                    label, WRONG, f"Exercise {label}: wrong: its check raised {errors[0].ename}"
+                )
+        if result is None:
+            result = Result(label, WRONG, f"Exercise {label}: wrong: its check did not run")
+        results.append(result)
+    other = [
+        f"cell {i}: {_errors(cell)[0].ename}"
+        for i, cell in enumerate(nb.cells)
+        if cell.cell_type == "code"
+        and _errors(cell)
+        and i not in owner
+        and i not in set(students.values())
+    ]
+    return results, other
+
+
+def grade(nb: Any, cwd: Path, timeout: int = 900) -> tuple[list[Result], list[str]]:
+    """Execute a notebook (in place, every cell even after an error) and read its exercises.
+
+    Args:
+        nb: the notebook (``nbformat.NotebookNode``), with the answers to grade in its cells.
+        cwd: the folder the kernel runs in (the notebooks' folder, for relative paths).
+        timeout: seconds per cell.
+
+    Returns:
+        ``(one Result per exercise in notebook order, "cell N: ExceptionType" for each other
+        cell that raised)``.
+    """
+    from nbclient import NotebookClient  # the dev extra, as in runner.py
+
+    labels = list(student_cells(nb))
+    NotebookClient(
+        nb,
+        timeout=timeout,
+        kernel_name="python3",
+        allow_errors=True,
+        record_timing=False,
+        resources={"metadata": {"path": str(cwd)}},
+    ).execute()
+    return _read_results(nb, labels)
+
+
+def prepare(
+    number: str,
+    notebook: str | Path | None = None,
+    solutions: bool = False,
+    answers: Mapping[str, str] | None = None,
+    notebooks_dir: Path = NOTEBOOKS_DIR,
+) -> tuple[Any, Path]:
+    """The notebook to grade, and the folder its kernel runs in: notebook ``number``'s student copy
+    (``notebook``, default the one in ``notebooks/``), optionally with the reference answers
+    (``solutions``) or the given ``answers`` put in its student cells.
+
+    Raises:
+        ValueError: an unknown notebook, one without exercises of this kind, or answers for
+            exercises it does not have.
+        OSError: ``notebook`` cannot be read.
+    """
+    import nbformat
+
+    committed = find_notebook(number, notebooks_dir)
+    path = Path(notebook) if notebook is not None else committed
+    nb = nbformat.read(path, as_version=4)
+    if not student_cells(nb):
+        raise ValueError(
+            f"{path.name} has no exercise cells '# exercise NN.K: your code here' (its exercises "
+            "are still the old kind: open the notebook and run its solution cells)"
+        )
+    if solutions:
+        nb = with_solutions(nb, solutions_file(committed))
+    if answers:
+        nb = inject(nb, answers, note="answer under test")
+    return nb, committed.parent
+
+
+def grade_notebook(
+    number: str,
+    notebook: str | Path | None = None,
+    solutions: bool = False,
+    answers: Mapping[str, str] | None = None,
+    notebooks_dir: Path = NOTEBOOKS_DIR,
+    timeout: int = 900,
+) -> tuple[list[Result], list[str]]:
+    """:func:`grade` what :func:`prepare` (same arguments) gives."""
+    return grade(*prepare(number, notebook, solutions, answers, notebooks_dir), timeout=timeout)
