@@ -431,19 +431,26 @@ def check_posture(
         np.linspace(0, len(frames) - 1, min(len(frames), FLOOR_CHECK_FRAMES)).astype(int)
     ]
     if target is not None:
-        low = target.skinned(result.rotations[frames], result.root_positions[frames])[..., 1]
-        lowest, height = low.min(axis=-1), mesh_standing_height(target.rest_vertices)
+        verts = target.skinned(result.rotations[frames], result.root_positions[frames])
+        lowest = verts[..., 1].min(axis=-1)
+        height = mesh_standing_height(target.rest_vertices)
+        k = int(np.argmin(lowest))
+        part = int(np.argmax(target.weights[int(np.argmin(verts[k, :, 1]))]))
     else:
         soles = sole_heights(res_pos[frames], result.skeleton).min(axis=-1)
-        lowest = np.minimum(soles, res_pos[frames, :, 1].min(axis=-1))  # a head under the floor
+        joints = res_pos[frames, :, 1]
+        lowest = np.minimum(soles, joints.min(axis=-1))  # a head under the floor
         height = estimated_standing_height(result.skeleton)
-    depth = float(-lowest.min())
+        k = int(np.argmin(lowest))
+        part = int(np.argmin(joints[k]))
+    depth = float(-lowest[k])
     if depth > UNDER_FLOOR_FRACTION * height:
         raise RetargetInputError(
-            f"{source_path}: --method {method} puts the target's lowest point {100 * depth:.0f} cm "
-            f"under the floor ({100 * depth / height:.0f} % of its height) where the source "
-            "stands; check the joint map (--source-joint-map / --joint-map) and the files' up "
-            "axis, or try another --method"
+            f"{source_path}: --method {method} puts the target's "
+            f"{result.skeleton.joint_names[part]} {100 * depth:.0f} cm under the floor "
+            f"({100 * depth / height:.0f} % of its height) at {frames[k] / result.fps:.1f} s, "
+            "where the source stands; check the joint map (--source-joint-map / --joint-map) and "
+            "the files' up axis, or try another --method or a shorter clip"
         )
 
 
