@@ -18,12 +18,14 @@ few joints as possible:
 * down each chain, a chain's root first, a bone whose direction (after its parents' turns) is more
   than :data:`TOLERANCE_DEG` from its canonical direction turns onto it by the shortest arc (a
   left bone and its right partner decide together, by the mean of their two angles: a convention
-  is symmetric, and a rig turned on one side only would stand crooked):
-  spine, chest and neck bones up, thighs and shins down, upper arms and forearms sideways (+X on
-  the left); the chest turns as a frame (its neck bone up, its shoulders along +X), and the
-  clavicles only beyond :data:`CLAVICLE_TOLERANCE_DEG` (a raised or swept clavicle is shape). A
-  bone within the tolerance **keeps its own direction**, so Mixamo's T-pose binds keep their shape
-  and need no turn at all;
+  is symmetric, and a rig turned on one side only would stand crooked): the neck bone up, thighs
+  and shins down, upper arms and forearms sideways (+X on the left); the chest turns as a frame
+  (its neck bone up, its shoulders along +X), and the clavicles only beyond
+  :data:`CLAVICLE_TOLERANCE_DEG` (a raised or swept clavicle is shape). The lower spine's
+  segments are never turned one by one: the body turn already stands the hips -> neck line up,
+  and a spine's S-curve (SMPL-X's lumbar bone leans 17 degrees back, MakeHuman's 20) is shape;
+  turning one segment of it would lean the whole upper body. A bone within the tolerance **keeps
+  its own direction**, so Mixamo's T-pose binds keep their shape and need no turn at all;
 * the **feet** stand flat: each foot keeps its rest orientation relative to the body (undoing the
   turns of thigh and shin: a rig that stands at rest stands on flat feet), unless its foot bone is
   more than :data:`FOOT_TOLERANCE_DEG` from a flat foot's (:data:`FOOT_SLOPE_DEG` below the
@@ -133,8 +135,6 @@ _LEFT = (1.0, 0.0, 0.0)
 _RIGHT = (-1.0, 0.0, 0.0)
 #: the bones turned onto a canonical direction: joint -> (direction of its primary bone, tolerance)
 _BONES: dict[int, tuple[tuple[float, float, float], float]] = {
-    J["Spine"]: (_UP, TOLERANCE_DEG),
-    J["Spine1"]: (_UP, TOLERANCE_DEG),
     J["Neck"]: (_UP, TOLERANCE_DEG),
     J["LeftUpLeg"]: (_DOWN, TOLERANCE_DEG),
     J["LeftLeg"]: (_DOWN, TOLERANCE_DEG),
@@ -250,7 +250,7 @@ def retarget_pose_rotations(offsets: Tensor) -> Tensor:
                 out[joint] = quat_mul(keep, base)
         elif j in _MIRRORED.values():  # a right joint: decided with its left partner
             continue
-        elif j in _BONES:  # the spine and neck
+        elif j in _BONES:  # the neck
             turn, base, valid, tolerance = candidate(j)
             out[j] = quat_mul(_turn_if_beyond(turn, tolerance, valid), base)
         else:  # a leaf follows its parent
