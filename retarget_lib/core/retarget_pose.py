@@ -16,9 +16,10 @@ few joints as possible:
 * the **body** (``Hips``) turns, as a whole frame, so that the spine (hips -> neck) points up
   (+Y), the hips' left-right axis along +X and so the character faces +Z;
 * down each chain, a chain's root first, a bone whose direction (after its parents' turns) is more
-  than :data:`TOLERANCE_DEG` from its canonical direction turns onto it by the shortest arc (a
-  left bone and its right partner decide together, by the mean of their two angles: a convention
-  is symmetric, and a rig turned on one side only would stand crooked): the neck bone up, thighs
+  than :data:`TOLERANCE_DEG` (legs: :data:`LEG_TOLERANCE_DEG`) from its canonical direction
+  turns onto it by the shortest arc (a left bone and its right partner decide together, by the
+  mean of their two angles: a convention is symmetric, and a rig turned on one side only would
+  stand crooked): the neck bone up, thighs
   and shins down, upper arms and forearms sideways (+X on the left); the chest turns as a frame
   (its neck bone up, its shoulders along +X), and the clavicles only beyond
   :data:`CLAVICLE_TOLERANCE_DEG` (a raised or swept clavicle is shape). The lower spine's
@@ -78,6 +79,7 @@ Tensor = torch.Tensor
 
 __all__ = [
     "TOLERANCE_DEG",
+    "LEG_TOLERANCE_DEG",
     "CLAVICLE_TOLERANCE_DEG",
     "FOOT_TOLERANCE_DEG",
     "FOOT_SLOPE_DEG",
@@ -96,6 +98,11 @@ __all__ = [
 #: forearm 6 degrees below the horizontal, a spine tilted 7 degrees; A-poses rest 25-50 degrees
 #: below it, CMU's legs splay 20 degrees)
 TOLERANCE_DEG = 15.0
+#: the legs' tighter tolerance: legs carry the body, and a standing rig's feet are under its hips.
+#: A thigh that splays or a knee that bends 7-12 degrees at rest (MakeHuman, Quaternius, the
+#: mannequin's 7-degree shin) is the modelling pose, not the body: kept, it would walk with its
+#: feet that much apart or its knees bent, where a rig authored standing straight does not
+LEG_TOLERANCE_DEG = 5.0
 #: the clavicle's wider tolerance: shoulders are raised, lowered or swept by build, not convention
 CLAVICLE_TOLERANCE_DEG = 45.0
 #: a flat foot's ankle -> toe bone points forward and this far below the horizontal (real rigs lie
@@ -136,10 +143,10 @@ _RIGHT = (-1.0, 0.0, 0.0)
 #: the bones turned onto a canonical direction: joint -> (direction of its primary bone, tolerance)
 _BONES: dict[int, tuple[tuple[float, float, float], float]] = {
     J["Neck"]: (_UP, TOLERANCE_DEG),
-    J["LeftUpLeg"]: (_DOWN, TOLERANCE_DEG),
-    J["LeftLeg"]: (_DOWN, TOLERANCE_DEG),
-    J["RightUpLeg"]: (_DOWN, TOLERANCE_DEG),
-    J["RightLeg"]: (_DOWN, TOLERANCE_DEG),
+    J["LeftUpLeg"]: (_DOWN, LEG_TOLERANCE_DEG),
+    J["LeftLeg"]: (_DOWN, LEG_TOLERANCE_DEG),
+    J["RightUpLeg"]: (_DOWN, LEG_TOLERANCE_DEG),
+    J["RightLeg"]: (_DOWN, LEG_TOLERANCE_DEG),
     J["LeftShoulder"]: (_LEFT, CLAVICLE_TOLERANCE_DEG),
     J["LeftArm"]: (_LEFT, TOLERANCE_DEG),
     J["LeftForeArm"]: (_LEFT, TOLERANCE_DEG),

@@ -111,6 +111,7 @@ class Rig:
     ref: Skeleton = field(init=False)
     stand: float = field(init=False)  # root height with straight vertical legs, feet flat
     hip_w: float = field(init=False)  # half distance between the hip joints
+    stance_w: float = field(init=False)  # half distance between the ankles, retarget pose
     ankle_h: np.ndarray = field(init=False)  # (2,) rest ankle heights above the ground
     toe_h: np.ndarray = field(init=False)  # (2,) rest toe-joint heights above the ground
     toe: np.ndarray = field(init=False)  # (2, 3) toe offsets from the ankles (rest = flat foot)
@@ -132,6 +133,9 @@ class Rig:
         self.arm_reach = float(lens[J["LeftForeArm"]] + lens[J["LeftHand"]])
         self.stand = float(ref_rest[0, 1] - ref_rest[feet[:2], 1].max() + self.ankle_h.max())
         self.hip_w = 0.5 * float(ref_rest[J["LeftUpLeg"], 0] - ref_rest[J["RightUpLeg"], 0])
+        # the feet are placed relative to the rig's own stance: legs that splay a few degrees at
+        # rest are shape (the retarget pose keeps them), so they splay as much when walking
+        self.stance_w = 0.5 * float(ref_rest[feet[0], 0] - ref_rest[feet[1], 0])
         self.scale = sk.height() / 1.75
         self.shoulder = ref_rest[J["LeftArm"]] - ref_rest[J["Spine2"]]
         clear = self.radii["hip"] + self.radii["hand"] + 0.02 * self.scale

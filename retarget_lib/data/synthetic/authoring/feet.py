@@ -139,14 +139,14 @@ def _swing(
 
 
 def still_plants(rig: Rig, duration: float, width: float, toe_out: float) -> list[list[Plant]]:
-    """Both feet planted for the whole clip, ``width`` x hip width apart, toes out ``toe_out``
+    """Both feet planted for the whole clip, ``width`` x the rest stance apart, toes out ``toe_out``
     degrees."""
     return [
         [
             Plant(
                 0.0,
                 duration + 1.0,
-                np.array([sign * width * rig.hip_w, 0.0]),
+                np.array([sign * width * rig.stance_w, 0.0]),
                 sign * np.radians(toe_out),
             )
         ]

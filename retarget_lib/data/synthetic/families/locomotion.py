@@ -115,7 +115,7 @@ def _gait_feet(
     cycle, dur = style["cycle"], t[-1]
     toe_out = np.radians(style["toe_out"])
     plants = [
-        [Plant(0.0, 0.0, np.array([sign * 0.9 * rig.hip_w, 0.0]), sign * toe_out)]
+        [Plant(0.0, 0.0, np.array([sign * 0.9 * rig.stance_w, 0.0]), sign * toe_out)]
         for _, sign in SIDES
     ]
     tau0 = t[np.argmax(go > 1e-3)] + 0.69 * cycle
@@ -125,7 +125,7 @@ def _gait_feet(
         yaw = float(np.interp(tau, t, heading))
         sign = SIDES[f][1]
         xz = np.array([np.interp(tau, t, path[:, 0]), np.interp(tau, t, path[:, 1])])
-        xz = xz + yaw_xz(yaw, np.array([sign * style["width"] * rig.hip_w, 0.0]))
+        xz = xz + yaw_xz(yaw, np.array([sign * style["width"] * rig.stance_w, 0.0]))
         if g < 0.05 and np.linalg.norm(xz - plants[f][-1].xz) < 0.02 * rig.stand:
             break
         stance = (0.62 + (style["duty"] - 0.62) * g) * cycle
@@ -169,7 +169,7 @@ def turn(rig: Rig, rng: np.random.Generator, t: np.ndarray) -> Plan:
     heading = np.zeros(T)
     toe_out = np.radians(style["toe_out"])
     plants = [
-        [Plant(0.0, 0.0, np.array([sign * style["width"] * rig.hip_w, 0.0]), sign * toe_out)]
+        [Plant(0.0, 0.0, np.array([sign * style["width"] * rig.stance_w, 0.0]), sign * toe_out)]
         for _, sign in SIDES
     ]
     total = 0.0
@@ -184,7 +184,7 @@ def turn(rig: Rig, rng: np.random.Generator, t: np.ndarray) -> Plan:
             progress = float(minjerk(np.array((lift_off + swing - a) / (b - a - 0.2))))
             yaw = np.radians(total + ang * progress)
             sign = SIDES[f][1]
-            xz = yaw_xz(yaw, np.array([sign * style["width"] * rig.hip_w, 0.0]))
+            xz = yaw_xz(yaw, np.array([sign * style["width"] * rig.stance_w, 0.0]))
             plants[f][-1].t1 = lift_off
             plants[f].append(Plant(lift_off + swing, dur + 1.0, xz, yaw + sign * toe_out))
         total += ang
@@ -211,7 +211,7 @@ def jump(rig: Rig, rng: np.random.Generator, t: np.ndarray) -> Plan:
     heading = np.zeros(T)
     arm_fwd, spine_bend, elbow = np.full(T, 4.0), np.zeros(T), np.full(T, 15.0)
     plants = [
-        [Plant(0.0, 0.0, np.array([sign * style["width"] * rig.hip_w, 0.0]), sign * toe_out)]
+        [Plant(0.0, 0.0, np.array([sign * style["width"] * rig.stance_w, 0.0]), sign * toe_out)]
         for _, sign in SIDES
     ]
     jumps = []
@@ -256,7 +256,7 @@ def jump(rig: Rig, rng: np.random.Generator, t: np.ndarray) -> Plan:
         for f, (_, sign) in enumerate(SIDES):
             plants[f][-1].t1 = t_off
             plants[f][-1].pivot, plants[f][-1].pivot_deg = 0.35 * jp["prep"], rng.uniform(30, 45)
-            xz = x1 + yaw_xz(yaw1, np.array([sign * style["width"] * rig.hip_w, 0.0]))
+            xz = x1 + yaw_xz(yaw1, np.array([sign * style["width"] * rig.stance_w, 0.0]))
             plants[f].append(Plant(t_land, dur + 1.0, xz, yaw1 + sign * toe_out))
         arm_fwd += keyframes(
             t, [a, t_low, t_off, t_land, t_absorb + 0.2, b], [0, -50, 150, 60, 35, 0]
