@@ -199,43 +199,42 @@ def spoiled_answers(solutions: dict[str, str]) -> dict[str, str]:
     return out
 
 
-def _grade(path, **kw):
-    from retarget_lib.notebook.grading import grade_notebook
-
-    results, other = grade_notebook(path.name.split("_", 1)[0], **kw)
-    assert not other, f"cells that are not exercises raised: {other}"
-    return results
-
-
 @pytest.mark.slow
 @pytest.mark.data
 @pytest.mark.parametrize("path", CONVERTED, ids=lambda p: p.name)
-class TestConvertedChecks:
-    """Each notebook executed four times: unanswered, with its solutions, with constants, with the
-    reference answers spoiled (about 20 s each for notebook 01 on 2 cores)."""
+def test_every_check_says_not_answered_passes_the_solutions_and_fails_wrong_answers(path):
+    """Each notebook's lesson executed once, then its exercises four times in the same kernel
+    (:func:`~retarget_lib.notebook.grading.grade_variants`): unanswered, with constants, with the
+    reference answers spoiled, with the solutions."""
+    from retarget_lib.notebook.grading import grade_variants
 
-    def test_unanswered_every_check_says_so(self, path):
-        results = _grade(path)
-        assert [r.line for r in results] == [
-            f"Exercise {r.label}: not answered yet" for r in results
-        ]
-
-    def test_with_the_solutions_every_check_passes(self, path):
-        results = _grade(path, solutions=True)
-        assert [r.line for r in results] == [f"Exercise {r.label}: correct" for r in results]
-
-    @pytest.mark.parametrize(
-        "wrong", [constant_answers, spoiled_answers], ids=["constant", "spoiled"]
+    solutions = read_solutions(solutions_file(path))
+    graded = grade_variants(
+        path.name.split("_", 1)[0],
+        {
+            "unanswered": {},
+            "constant": constant_answers(solutions),
+            "spoiled": spoiled_answers(solutions),
+            "solutions": None,
+        },
     )
-    def test_a_wrong_answer_fails_every_check_naming_the_exercise(self, path, wrong):
-        answers = wrong(read_solutions(solutions_file(path)))
-        for r in _grade(path, answers=answers):
-            assert r.status == "wrong", f"{r.label}: a wrong answer passed: {r.line}"
+    for name, (results, other) in graded.items():
+        assert not other, f"{name}: cells that are not exercises raised: {other}"
+        assert {r.label for r in results} == set(solutions), name
+    assert [r.line for r in graded["unanswered"][0]] == [
+        f"Exercise {r.label}: not answered yet" for r in graded["unanswered"][0]
+    ]
+    assert [r.line for r in graded["solutions"][0]] == [
+        f"Exercise {r.label}: correct" for r in graded["solutions"][0]
+    ]
+    for name in ("constant", "spoiled"):
+        for r in graded[name][0]:
+            assert r.status == "wrong", f"{name} {r.label}: a wrong answer passed: {r.line}"
             assert r.line.startswith(f"Exercise {r.label}: wrong"), r.line
             assert "your cell raised" not in r.line, (
-                f"{r.label}: the answer itself failed: {r.line}"
+                f"{name} {r.label}: the answer itself failed: {r.line}"
             )
-            assert "check raised" not in r.line, f"{r.label}: the check broke: {r.line}"
+            assert "check raised" not in r.line, f"{name} {r.label}: the check broke: {r.line}"
             # nothing of the reference: no digit but the label's
             assert not re.search(r"\d", r.line.replace(f"Exercise {r.label}", "")), r.line
 

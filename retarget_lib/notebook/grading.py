@@ -27,6 +27,7 @@ __all__ = [
     "prepare",
     "grade",
     "grade_notebook",
+    "grade_variants",
 ]
 
 CORRECT, NOT_ANSWERED, WRONG = "correct", "not answered yet", "wrong"
@@ -195,3 +196,60 @@ def grade_notebook(
 ) -> tuple[list[Result], list[str]]:
     """:func:`grade` what :func:`prepare` (same arguments) gives."""
     return grade(*prepare(number, notebook, solutions, answers, notebooks_dir), timeout=timeout)
+
+
+def grade_variants(
+    number: str,
+    variants: Mapping[str, Mapping[str, str] | None],
+    notebooks_dir: Path = NOTEBOOKS_DIR,
+    timeout: int = 900,
+) -> dict[str, tuple[list[Result], list[str]]]:
+    """Grade several sets of answers with one execution of the notebook's lesson.
+
+    The cells above the first student cell (the lesson, and the exercises' setup) run once; then,
+    for each variant in turn, the cells from the first student cell to the end run again with
+    that variant's answers in the student cells, in the same kernel. A variant's exercise cells
+    therefore see what earlier variants defined: list the unanswered variant (``{}``) first, and
+    the reference answers (``None``) last. The checks' own tests grade four variants of every
+    notebook this way, at the cost of one run of the lesson.
+
+    Args:
+        number: the notebook (``"01"``).
+        variants: ``{name: answers}``; ``answers`` is ``{label: code}`` as for :func:`prepare`
+            (``{}`` leaves the placeholders), or ``None`` for the solutions file's answers.
+        notebooks_dir: where the notebooks are.
+        timeout: seconds per cell.
+
+    Returns:
+        ``{name: (results, other cells that raised)}`` as :func:`grade` returns them.
+    """
+    from nbclient import NotebookClient  # the dev extra, as in runner.py
+
+    base, cwd = prepare(number, notebooks_dir=notebooks_dir)
+    committed = find_notebook(number, notebooks_dir)
+    labels = list(student_cells(base))
+    first = min(student_cells(base).values())
+    client = NotebookClient(
+        base,
+        timeout=timeout,
+        kernel_name="python3",
+        allow_errors=True,
+        record_timing=False,
+        resources={"metadata": {"path": str(cwd)}},
+    )
+    out: dict[str, tuple[list[Result], list[str]]] = {}
+    with client.setup_kernel():
+        for i in range(first):
+            client.execute_cell(base.cells[i], i)
+        for name, answers in variants.items():
+            nb = (
+                with_solutions(base, solutions_file(committed))
+                if answers is None
+                else inject(base, answers, note="answer under test")
+            )
+            for i in range(first, len(nb.cells)):
+                if nb.cells[i].cell_type == "code":
+                    nb.cells[i].outputs = []
+                    client.execute_cell(nb.cells[i], i)
+            out[name] = _read_results(nb, labels)
+    return out
