@@ -23,6 +23,8 @@ method's result.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from .measures import foot_rest_heights
@@ -41,6 +43,8 @@ __all__ = [
     "touching_feet",
     "ground_contacts",
     "floor_offset",
+    "ClipGround",
+    "clip_ground",
 ]
 
 #: the foot joints the ground rule reads: heels then toes (left, right)
@@ -141,6 +145,50 @@ def ground_contacts(
     """
     standing = standing_feet(feet, soles, floor, height, fps)
     return standing if standing.any() else touching_feet(soles, floor, height)
+
+
+@dataclass(frozen=True)
+class ClipGround:
+    """Where a clip's feet meet its floor (:func:`clip_ground`).
+
+    Attributes:
+        soles: ``(T, 4)`` sole heights (:func:`sole_heights`), metres.
+        floor: the clip's floor (:func:`clip_floor`), metres.
+        standing: ``(T, 4)`` bool, the foot joints standing on it (:func:`standing_feet`).
+        contacts: ``(T, 4)`` bool, the ones the ground rule holds (:func:`ground_contacts`).
+    """
+
+    soles: np.ndarray
+    floor: float
+    standing: np.ndarray
+    contacts: np.ndarray
+
+
+def clip_ground(
+    positions: np.ndarray,
+    skeleton: Skeleton,
+    fps: float,
+    rest_vertices: np.ndarray | None = None,
+) -> ClipGround:
+    """A clip's soles, floor, standing and held foot joints, its thresholds at the skeleton's
+    height ``H``: what the ground rule, the posture check and the real table read of a source.
+
+    Args:
+        positions: ``(T, 22, 3)`` global joint positions (metres, +Y up).
+        skeleton: their canonical-22 skeleton.
+        fps: the clip's frame rate.
+        rest_vertices: the performer's rest mesh, if any (its soles).
+    """
+    soles = sole_heights(positions, skeleton, rest_vertices)
+    floor = clip_floor(soles)
+    feet = foot_positions(positions, skeleton)
+    height = skeleton.height()
+    return ClipGround(
+        soles,
+        floor,
+        standing_feet(feet, soles, floor, height, fps),
+        ground_contacts(feet, soles, floor, height, fps),
+    )
 
 
 def floor_offset(

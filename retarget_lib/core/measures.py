@@ -46,7 +46,12 @@ from typing import Any, overload
 import numpy as np
 import torch
 
-from .retarget_pose import pose_offsets, retarget_pose_rotations
+from .retarget_pose import (
+    pose_offsets,
+    retarget_pose,
+    retarget_pose_rotations,
+    retarget_pose_skeleton,
+)
 from .skeleton import (
     CANONICAL22_PARENTS,
     FOOT_CONTACT_JOINTS,
@@ -138,10 +143,9 @@ def skeleton_leg_length(skeleton: Skeleton) -> float:
 def _retarget_positions(skeleton: Skeleton) -> tuple[np.ndarray, bool]:
     """``(J, 3)`` the skeleton's joint positions in its retarget pose, and whether it is upright at
     rest (the pose leaves its body as it is)."""
-    off = torch.from_numpy(skeleton.offsets.astype(np.float64))
-    pose = retarget_pose_rotations(off)
-    upright = bool(torch.allclose(pose[0], torch.tensor([1.0, 0.0, 0.0, 0.0], dtype=pose.dtype)))
-    return _positions(pose_offsets(off, pose).numpy()), upright
+    pose = retarget_pose(skeleton)
+    upright = bool(np.allclose(pose[0], (1.0, 0.0, 0.0, 0.0)))
+    return retarget_pose_skeleton(skeleton, pose).rest_positions(), upright
 
 
 #: the two feet's columns in :data:`~retarget_lib.core.skeleton.FOOT_CONTACT_JOINTS` order
@@ -161,13 +165,6 @@ def _feet_above_ground(skeleton: Skeleton, rest_vertices: np.ndarray | None) -> 
         sole = float(rest[idx, 1].min() - ground) if upright else 0.0
         out[list(cols)] = posed[idx, 1] - posed[idx, 1].min() + sole
     return out
-
-
-def _positions(offsets: np.ndarray) -> np.ndarray:
-    pos = np.zeros_like(offsets)
-    for j, p in enumerate(CANONICAL22_PARENTS):
-        pos[j] = offsets[j] if p < 0 else pos[p] + offsets[j]
-    return pos
 
 
 # ----------------------------------------------------------------------------- standing heights

@@ -51,7 +51,7 @@ import numpy as np
 import pandas as pd
 
 from ..core.character import Character
-from ..core.ground import clip_floor, foot_positions, sole_heights, standing_feet
+from ..core.ground import clip_ground, foot_positions, sole_heights
 from ..core.measures import estimated_standing_height
 from ..core.motion import Motion
 from ..core.skeleton import J
@@ -188,14 +188,7 @@ def real_measures(result: Motion, clip: RealClip, character: Character) -> dict[
     src = clip.motion
     src_pos, out_pos = src.global_positions(), result.global_positions()
     src_mesh = None if clip.character is None else clip.character.rest_vertices
-    src_soles = sole_heights(src_pos, src.skeleton, src_mesh)
-    standing = standing_feet(
-        foot_positions(src_pos, src.skeleton),
-        src_soles,
-        clip_floor(src_soles),
-        src.skeleton.height(),
-        src.fps,
-    )
+    standing = clip_ground(src_pos, src.skeleton, src.fps, src_mesh).standing
     feet = foot_positions(out_pos, result.skeleton)
     speed = np.linalg.norm(np.diff(feet[..., [0, 2]], axis=0), axis=-1) * result.fps  # (T-1, 4) m/s
     stand_steps = standing[1:] & standing[:-1]

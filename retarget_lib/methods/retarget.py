@@ -48,7 +48,7 @@ import numpy as np
 
 from ..core.canonical import unfold_from_canonical22
 from ..core.character import Character
-from ..core.ground import clip_floor, floor_offset, foot_positions, ground_contacts, sole_heights
+from ..core.ground import clip_ground, floor_offset, sole_heights
 from ..core.measures import estimated_standing_height, mesh_standing_height
 from ..core.motion import Motion
 from ..core.skeleton import Skeleton
@@ -363,16 +363,14 @@ def on_the_ground(
         )
     src_mesh = None if source_character is None else source_character.rest_vertices
     tgt_mesh = None if target is None else target.rest_vertices
-    src_pos = source.global_positions()
-    src_soles = sole_heights(src_pos, source.skeleton, src_mesh)
-    floor = clip_floor(src_soles)
-    src_height = source.skeleton.height()
-    standing = ground_contacts(
-        foot_positions(src_pos, source.skeleton), src_soles, floor, src_height, source.fps
-    )
+    ground = clip_ground(source.global_positions(), source.skeleton, source.fps, src_mesh)
     tgt_soles = sole_heights(result.global_positions(), result.skeleton, tgt_mesh)
     shift = floor_offset(
-        tgt_soles, src_soles, floor, standing, result.skeleton.height() / src_height
+        tgt_soles,
+        ground.soles,
+        ground.floor,
+        ground.contacts,
+        result.skeleton.height() / source.skeleton.height(),
     )
     out = result.copy()
     out.root_positions[:, 1] += shift
@@ -416,14 +414,7 @@ def check_posture(
                     "the joint map (--source-joint-map / --joint-map) and the files' up axis, or "
                     "try --method copy-rest"
                 )
-    src_soles = sole_heights(src_pos, source.skeleton)
-    standing = ground_contacts(
-        foot_positions(src_pos, source.skeleton),
-        src_soles,
-        clip_floor(src_soles),
-        source.skeleton.height(),
-        source.fps,
-    ).any(axis=1)
+    standing = clip_ground(src_pos, source.skeleton, source.fps).contacts.any(axis=1)
     frames = np.flatnonzero(standing)
     if len(frames) == 0:
         return
