@@ -242,6 +242,8 @@ TDCN: dict[str, Any] = {
         "gan": choice("lsgan", "sigmoid_ce"),
         "twist_alpha_deg": NONNEG_NUM,
         "twist_exclude_root": BOOL,
+        "twist_measure": choice("angle", "about_bone"),
+        "gan_weight": NONNEG_NUM,
         "reduction": choice("mean", "frame_sum"),
         "standardize": BOOL,
         "quaternion_weight": POS_NUM,
@@ -257,6 +259,7 @@ TDCN: dict[str, Any] = {
         "checkpoint_every": STEPS,
         "decay_from": DECAY_FROM,
         "compile": BOOL,
+        "clip_grad_norm": POS_NUM,
     },
 }
 

@@ -17,7 +17,11 @@ from retarget_lib.evaluation.tdcn import (
     tdcn_table,
     write_table,
 )
-from retarget_lib.methods.copy import copy_rotations
+from retarget_lib.core.motion import Motion
+from retarget_lib.core.skeleton import canonical22_skeleton
+from retarget_lib.data.synthetic.characters import make_character
+from retarget_lib.evaluation.tdcn.cases import EvalCase, evaluate_case, short_chunks
+from retarget_lib.methods.copy import copy_rotations, copy_unscaled
 
 
 def test_normalized_mse_known_values():
@@ -31,6 +35,50 @@ def test_normalized_mse_known_values():
     assert normalized_mse(half, truth, 2.0) == pytest.approx(50 / 200)
     with pytest.raises(ValueError, match="differ"):
         normalized_mse(pred[:3], truth, 1.5)
+
+
+def _half_size_case(root_z_cm: np.ndarray) -> EvalCase:
+    """A source of ``H`` = 160 cm standing still in its rest pose while its root moves along +z
+    by ``root_z_cm``, and a target with every bone half as long (``H`` = 80 cm) whose ground
+    truth is the same motion at half the size."""
+    template = make_character("ada").skeleton
+    source = canonical22_skeleton(template.offsets * (1.6 / template.height()))
+    target = canonical22_skeleton(source.offsets * 0.5)
+    frames = len(root_z_cm)
+    rotations = np.tile([1.0, 0.0, 0.0, 0.0], (frames, 22, 1))
+    root = np.zeros((frames, 3))
+    root[:, 1] = source.offsets[0, 1]
+    root[:, 2] = root_z_cm / 100.0
+    motion = Motion(source, rotations, root, 30.0)
+    truth = Motion(target, rotations, root * 0.5, 30.0)
+    return EvalCase(1, "a", "b", "hand", motion, target, truth)
+
+
+def test_the_papers_copy_row_on_a_hand_case():
+    """NKN's copy moves a half-size target as far as the source: off by (1 - s) v t at every
+    joint, so short = (1 - s)^2 v^2 (T - 1)(2T - 1) / (6 H) with s = 1/2, v = 1 cm per frame,
+    H = 80 cm (T = 120: 14.8130; the whole 250 frames: 64.7141); the leg-scaled copy is exact."""
+    case = _half_size_case(np.arange(250.0))
+    assert case.target.height() == pytest.approx(0.8)
+    got = evaluate_case(copy_unscaled, case)
+    assert got["long"] == pytest.approx(0.25 * 249 * 499 / 6 / 80, rel=1e-9)
+    assert got["long"] == pytest.approx(64.7141, abs=1e-4)
+    short = evaluate_case(copy_unscaled, _half_size_case(np.arange(120.0)))["short"]
+    assert short == pytest.approx(14.8130, abs=1e-4)
+    assert evaluate_case(copy_rotations, case)["long"] == pytest.approx(0.0, abs=1e-12)
+
+
+def test_short_windows_are_the_authors():
+    """The authors' code adds an overlapping last window where 120 does not divide the clip:
+    [0, 120), [120, 240), [130, 250) for 250 frames; a root that moves only after frame 200 then
+    scores (0 + 0.53490 + 1.05273) / 3 = 0.52921 short (dropping the remainder: 0.26745)."""
+    assert short_chunks(250) == [(0, 120), (120, 240), (130, 250)]
+    assert short_chunks(240) == [(0, 120), (120, 240)]
+    assert short_chunks(60) == [(0, 60)]
+    case = _half_size_case(np.maximum(0.0, np.arange(250.0) - 200.0))
+    got = evaluate_case(copy_unscaled, case)
+    assert got["short"] == pytest.approx(0.52921, abs=1e-5)
+    assert got["long"] == pytest.approx(0.50531, abs=1e-5)
 
 
 @pytest.fixture(scope="module")

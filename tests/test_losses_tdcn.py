@@ -11,6 +11,7 @@ import pytest
 import torch
 
 from retarget_lib.core.quantities import discriminator_inputs
+from retarget_lib.core.rotations import quat_mul
 from retarget_lib.losses import (
     MotionTensors,
     NonFiniteLossError,
@@ -18,6 +19,7 @@ from retarget_lib.losses import (
     adversarial_loss,
     adversarial_loss_discriminator,
     adversarial_loss_generator,
+    bone_axes,
     check_finite,
     cycle_loss,
     height_loss,
@@ -28,6 +30,7 @@ from retarget_lib.losses import (
     sigmoid_ce_generator_loss,
     smooth_l1,
     total_generator_loss,
+    twist_angle,
     twist_loss,
 )
 
@@ -131,6 +134,52 @@ def test_twist_loss_literal_reading_differs():
     ident = t([[[QID]]])
     assert approx(twist_loss(ident, ident), 0.0)
     assert approx(twist_loss(ident, None, reading="literal"), (100 * math.pi / 180) ** 2)
+
+
+def test_twist_about_the_bone_leaves_a_bending_elbow_free():
+    x = t([1.0, 0.0, 0.0])
+    # 120° about the bone (x): all twist; 120° about y swings the bone: no twist about x
+    assert approx(twist_angle(t(quat_deg(120.0, (1.0, 0.0, 0.0))), x), math.radians(120.0))
+    assert approx(twist_angle(t(Q120), x), 0.0)
+    # a swing of 90° about y after a twist of 30° about x: the twist is still 30°
+    q = quat_mul(t(quat_deg(90.0, (0.0, 1.0, 0.0))), t(quat_deg(30.0, (1.0, 0.0, 0.0))))
+    assert approx(twist_angle(q, x), math.radians(30.0))
+    # the double cover: -q is the same rotation
+    assert approx(twist_angle(-q, x), math.radians(30.0))
+    # Eq. 8 on the twist: a 120° elbow bend (about y, the bone along x) costs nothing, a 120°
+    # twist about the bone costs (20°)^2 as the whole-angle reading does
+    bend, spin = t([[[Q120]]]), t([[[quat_deg(120.0, (1.0, 0.0, 0.0))]]])
+    along_x = t([[[1.0, 0.0, 0.0]]])  # (B, J, 3)
+    assert approx(twist_loss(bend, None, axes_b=along_x), 0.0)
+    assert approx(twist_loss(spin, None, axes_b=along_x), EXCESS20)
+    assert approx(twist_loss(bend, None), EXCESS20)
+    with pytest.raises(ValueError, match="both skeletons"):
+        twist_loss(bend, bend, axes_b=along_x)
+
+
+def test_bone_axes_point_along_each_joints_bone():
+    from retarget_lib.core.skeleton import J
+    from retarget_lib.data.synthetic.characters import make_character
+
+    off = torch.from_numpy(make_character("ada").skeleton.offsets)
+    axes = bone_axes(off)
+    assert axes.shape == (22, 3)
+    assert torch.allclose(axes.norm(dim=-1), torch.ones(22, dtype=axes.dtype))
+    # the elbow's bone is the forearm: it points at the hand
+    forearm = off[J["LeftHand"]] / off[J["LeftHand"]].norm()
+    assert torch.allclose(axes[J["LeftForeArm"]], forearm)
+    # a leaf (the hand) takes its own bone
+    assert torch.allclose(axes[J["LeftHand"]], forearm)
+
+
+def test_gan_weight_scales_only_the_gan_case():
+    x_a = motion([[[[0.0, 0, 0]]]] * 2, [[[[1.0, 0, 0, 0]]]] * 2, [[[0.0, 0, 0]]] * 2)
+    x_b = motion([[[[0.0, 0, 0]]]] * 2, [[[[1.0, 0, 0, 0]]]] * 2, [[[3.0, 0, 0]], [[0.0, 0.3, 0]]])
+    same = torch.tensor([False, True])
+    h_fake = t([[0.25], [0.0]])
+    # NKN's code weight 0.001: (0.001 * 0.5625 + 0.03) / 2
+    got = adversarial_loss(h_fake, x_a, x_b, same, gan_weight=0.001)
+    assert approx(got, (0.001 * 0.5625 + 0.03) / 2)
 
 
 # ------------------------------------------------------------------------------ Eqs. 9-17

@@ -25,6 +25,7 @@ from .tdcn import (
     adversarial_loss,
     adversarial_loss_discriminator,
     adversarial_loss_generator,
+    bone_axes,
     bone_direction_loss,
     check_finite,
     cycle_loss,
@@ -36,6 +37,7 @@ from .tdcn import (
     sigmoid_ce_generator_loss,
     smooth_l1,
     total_generator_loss,
+    twist_angle,
     twist_loss,
     twist_penalty,
 )
@@ -71,5 +73,7 @@ __all__ = [
     "smooth_l1",
     "total_generator_loss",
     "twist_loss",
+    "twist_angle",
+    "bone_axes",
     "twist_penalty",
 ]

@@ -85,6 +85,11 @@ REGISTRY: dict[str, Method] = {
     for m in (
         Method("copy", "copy the local rotations, root scaled by the leg-length ratio", copy.load),
         Method(
+            "copy-unscaled",
+            "copy the local rotations and the root's displacements unscaled (the papers' copy row)",
+            copy.load_unscaled,
+        ),
+        Method(
             "copy-rest",
             "copy the rotation deltas from each rig's retarget pose (its canonical T-pose)",
             copy_rest.load,

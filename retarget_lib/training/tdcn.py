@@ -88,6 +88,7 @@ from ..losses import (
     adversarial_loss,
     adversarial_loss_discriminator,
     adversarial_loss_generator,
+    bone_axes,
     bone_direction_loss,
     check_finite,
     cycle_loss,
@@ -242,6 +243,9 @@ class RetargetTraining:
             int(train["batch"]),
         )
         self.twist_exclude_root = bool(loss.get("twist_exclude_root", False))
+        self.twist_about_bone = loss.get("twist_measure", "angle") == "about_bone"
+        self.gan_weight = float(loss.get("gan_weight", 1.0))
+        self.clip_grad_norm = train.get("clip_grad_norm")
         self.reduction = loss.get("reduction", "mean")
         end_effectors_only = loss.get("position_joints") == "end_effectors"
         self.compare = dict(  # how Lc and La's reconstruction compare two motions
@@ -368,6 +372,8 @@ class RetargetTraining:
                 self.alpha_deg,
                 exclude_root=self.twist_exclude_root,
                 reduction=red,
+                axes_b=bone_axes(off_b) if self.twist_about_bone else None,
+                axes_a=bone_axes(off_a) if self.twist_about_bone else None,
             ),
             "Lh": height_loss(
                 p_a,
@@ -387,6 +393,7 @@ class RetargetTraining:
                 batch.same_character,
                 gan=self.gan,
                 reduction=red,
+                gan_weight=self.gan_weight,
                 **self.compare,
             ),
             "Lr": regularization_loss(out_b.rotations, out_a.rotations, red),
@@ -449,6 +456,10 @@ class RetargetTraining:
                 self.opt_g.zero_grad(set_to_none=True)
                 total.backward()
                 self.layout.average_gradients(self.generator)
+                if self.clip_grad_norm is not None:  # NKN's code clips G and D at 25
+                    torch.nn.utils.clip_grad_norm_(
+                        self.generator.parameters(), float(self.clip_grad_norm)
+                    )
                 self.opt_g.step()
             finally:
                 self.discriminator.requires_grad_(True)
@@ -457,6 +468,10 @@ class RetargetTraining:
             self.opt_d.zero_grad(set_to_none=True)
             d_loss.backward()
             self.layout.average_gradients(self.discriminator)
+            if self.clip_grad_norm is not None:
+                torch.nn.utils.clip_grad_norm_(
+                    self.discriminator.parameters(), float(self.clip_grad_norm)
+                )
             self.opt_d.step()
         log["D"] = float(d_loss.detach())
         return log

@@ -164,11 +164,18 @@ def table4_scores(pred: np.ndarray, truth: np.ndarray, height: float) -> dict[st
 
 
 def short_chunks(frames: int, short_frames: int = SHORT_FRAMES) -> list[tuple[int, int]]:
-    """The "short" protocol's ``[start, stop)`` chunks of a ``frames``-frame clip: consecutive
-    ``short_frames``-frame chunks (a remainder shorter than a chunk is dropped); a clip shorter than
-    one chunk is one chunk."""
+    """The "short" protocol's ``[start, stop)`` chunks of a ``frames``-frame clip, as the authors'
+    evaluation code cuts them (``evaluate.py`` of medialab-ku/retargetting-tdcn, ``load_testdata``
+    of rubenvillegas/cvpr2018nkn): consecutive ``short_frames``-frame chunks, and where a remainder
+    is left, one more chunk of the last ``short_frames`` frames (overlapping the one before). A clip
+    shorter than one chunk is one chunk (the authors' code skips such clips; the synthetic split
+    has clips of 2 s)."""
+    if frames <= short_frames:
+        return [(0, frames)]
     chunks = [(s, s + short_frames) for s in range(0, frames - short_frames + 1, short_frames)]
-    return chunks or [(0, frames)]
+    if chunks[-1][1] < frames:
+        chunks.append((frames - short_frames, frames))
+    return chunks
 
 
 def truth_frames(

@@ -147,12 +147,19 @@ def write_table(
     return csv_path, md_path
 
 
+#: the registry's copy baselines in every Table 4: ours (root scaled by the leg ratio), the papers'
+#: row (root displacements unscaled, :func:`~retarget_lib.methods.copy.copy_unscaled`) and the
+#: rest-compensated copy
+COPY_ROWS = ("copy", "copy-unscaled", "copy-rest")
+
+
 def tdcn_methods(
     only: Sequence[str] | None = None,
     device: str | None = None,
     runs: Mapping[str, Path] | None = None,
 ) -> tuple[dict[str, Method], list[str]]:
-    """The methods to put in Table 4: the registry's two copy baselines, every Table 4 row whose
+    """The methods to put in Table 4: the registry's copy baselines (:data:`COPY_ROWS`), every
+    Table 4 row whose
     checkpoint is shipped (``table: tdcn`` in the manifest; loaded once, by the registry method its
     entry names), then our shipped variants that are not rows of the paper (e.g. ``ours-residual``,
     no paper numbers); and the paper's rows still without one (reported, never faked).
@@ -166,7 +173,7 @@ def tdcn_methods(
     """
     keep = (lambda row: True) if only is None else (lambda row: row in only)
     methods: dict[str, Method] = {
-        name: get_method(name).retargeter() for name in ("copy", "copy-rest") if keep(name)
+        name: get_method(name).retargeter() for name in COPY_ROWS if keep(name)
     }
     shipped = table_checkpoints("tdcn")
     runs = runs or {}
@@ -201,11 +208,9 @@ def mixamo_convention_checkpoints() -> dict[str, CheckpointEntry]:
 
 
 def mixamo_convention_methods(device: str | None = None) -> dict[str, Method]:
-    """The methods of the Mixamo-convention Table 4: ``copy``, ``copy-rest`` and
+    """The methods of the Mixamo-convention Table 4: :data:`COPY_ROWS` and
     :func:`mixamo_convention_checkpoints`, each through the registry method its entry names."""
-    methods: dict[str, Method] = {
-        name: get_method(name).retargeter() for name in ("copy", "copy-rest")
-    }
+    methods: dict[str, Method] = {name: get_method(name).retargeter() for name in COPY_ROWS}
     for row, entry in mixamo_convention_checkpoints().items():
         methods[row] = get_method(entry.method).retargeter(entry.id, device)
     return methods
@@ -317,6 +322,9 @@ def run_tdcn_evaluation(
         "Normalised MSE of global joint positions (cm² / H in cm; NKN/TDCN definition) on the "
         "synthetic four-scenario split; 'paper' columns are Kim et al. 2020, Table 4 (Mixamo). "
         "copy-rest is the synthetic ground truth's own definition, so it scores 0 by construction. "
+        "copy-unscaled is the papers' copy row (NKN's 'copy input quaternions and velocities': "
+        "the root's displacements not scaled); copy scales them by the leg ratio. "
+        "Short: 120-frame windows as the authors' code cuts them (the last one overlapping). "
         + (f"Rows without a trained checkpoint yet: {', '.join(missing)}." if missing else "")
     )
     write_table(table, out_dir, "table4", note)

@@ -24,12 +24,14 @@ from .tensors import (
 )
 from .terms import (
     CODE_END_EFFECTOR_IDS,
+    bone_axes,
     bone_direction_loss,
     cycle_loss,
     height_loss,
     orientation_loss,
     reconstruction_loss,
     regularization_loss,
+    twist_angle,
     twist_loss,
     twist_penalty,
 )
@@ -49,6 +51,8 @@ __all__ = [
     "reconstruction_loss",
     "twist_penalty",
     "twist_loss",
+    "twist_angle",
+    "bone_axes",
     "height_loss",
     "adversarial_loss_generator",
     "adversarial_loss_discriminator",

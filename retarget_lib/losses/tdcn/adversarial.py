@@ -90,6 +90,7 @@ def adversarial_loss(
     reduction: Reduction = "mean",
     quaternion_weight: float = 1.0,
     joints: Sequence[int] | None = None,
+    gan_weight: float = 1.0,
 ) -> Tensor:
     """Generator's ``La`` with Eq. 21's two cases chosen per sample, averaged over the batch.
 
@@ -107,6 +108,8 @@ def adversarial_loss(
         reduction: ``"mean"`` or ``"frame_sum"`` (see the module docstring): how each sample's
             reconstruction error is reduced; the GAN scores are one per frame pair either way.
         quaternion_weight, joints: of the reconstruction (:func:`reconstruction_loss`).
+        gan_weight: multiplies the GAN case only (NKN's released code weighs its GAN 0.001
+            against its reconstruction; Eq. 21 and TDCN's code: 1).
     """
     if reduction not in ("mean", "frame_sum"):
         raise ValueError(f"reduction must be 'mean' or 'frame_sum', got {reduction!r}")
@@ -120,7 +123,7 @@ def adversarial_loss(
     same = torch.as_tensor(same_character, dtype=torch.bool, device=rec.device)
     if same.shape != rec.shape:
         raise ValueError(f"same_character must be ({rec.shape[0]},), got {tuple(same.shape)}")
-    return torch.where(same, rec, adv).mean()
+    return torch.where(same, rec, gan_weight * adv).mean()
 
 
 # --------------------------------------------------------------------------------------------

@@ -38,6 +38,7 @@ from typing import Literal
 import torch
 
 from ...core.quantities import normalized_joint_displacements, normalized_root_distances
+from ...core.retarget_pose import PRIMARY_CHILD
 from ...core.rotations import quat_angle
 from ...core.skeleton import CANONICAL22
 from .tensors import (
@@ -65,12 +66,14 @@ CODE_END_EFFECTOR_IDS: tuple[int, ...] = tuple(CANONICAL22.index(n) for n in COD
 __all__ = [
     "CODE_END_EFFECTORS",
     "CODE_END_EFFECTOR_IDS",
+    "bone_axes",
     "bone_direction_loss",
     "cycle_loss",
     "height_loss",
     "orientation_loss",
     "reconstruction_loss",
     "regularization_loss",
+    "twist_angle",
     "twist_loss",
     "twist_penalty",
 ]
@@ -150,8 +153,41 @@ def _sum_over_rotations(
     return total
 
 
+def bone_axes(offsets: Tensor) -> Tensor:
+    """Each canonical-22 joint's rest bone direction in its own rest frame: the unit offset of its
+    primary child (:data:`~retarget_lib.core.retarget_pose.PRIMARY_CHILD`), a leaf's own offset
+    (rest local rotations are the identity, so the joint's frame is the skeleton's at rest).
+
+    Args:
+        offsets: ``(..., 22, 3)`` rest offsets.
+
+    Returns:
+        ``(..., 22, 3)`` unit vectors (a zero-length bone gives the zero vector: no twist).
+    """
+    child = [c if c >= 0 else j for j, c in enumerate(PRIMARY_CHILD)]
+    bones = offsets[..., child, :]
+    return bones / bones.norm(dim=-1, keepdim=True).clamp_min(1e-9)
+
+
+def twist_angle(q: Tensor, axis: Tensor) -> Tensor:
+    """The angle in ``[0, π]`` of the twist of ``q`` about ``axis`` (swing-twist decomposition:
+    ``q = swing ⊗ twist``, the twist ``∝ (w, (v·a) a)``): how far a joint turns its bone about
+    itself, whatever it swings.
+
+    Args:
+        q: ``(..., 4)`` wxyz (any norm).
+        axis: ``(..., 3)`` unit axes, broadcast against ``q``.
+    """
+    q = q / q.norm(dim=-1, keepdim=True).clamp_min(1e-12)
+    along = (q[..., 1:] * axis).sum(-1)
+    return 2.0 * torch.atan2(along.abs(), q[..., 0].abs() + 1e-12)
+
+
 def twist_penalty(
-    q: Tensor, alpha_deg: float = 100.0, reading: Literal["intended", "literal"] = "intended"
+    q: Tensor,
+    alpha_deg: float = 100.0,
+    reading: Literal["intended", "literal"] = "intended",
+    axes: Tensor | None = None,
 ) -> Tensor:
     """Element-wise joint-twist penalty of Eq. 8 (before reduction), for plots.
 
@@ -159,11 +195,14 @@ def twist_penalty(
         q: ``(..., 4)`` wxyz (any norm; :func:`quat_angle` normalises).
         alpha_deg: the threshold α in degrees (paper: 100°).
         reading: ``"intended"`` → ``max(0, E(q) − α)²``; ``"literal"`` → ``max(0, |E(q) − α|)²``.
+        axes: ``(..., 3)`` bone axes (:func:`bone_axes`, broadcast against ``q``): measure the
+            twist about the bone (:func:`twist_angle`) instead of ``E(q)``, the whole rotation.
 
     Returns:
         ``(...)`` squared excess angle in **radians²**.
     """
-    excess = quat_angle(q) - math.radians(alpha_deg)
+    angle = quat_angle(q) if axes is None else twist_angle(q, axes)
+    excess = angle - math.radians(alpha_deg)
     if reading == "intended":
         return torch.clamp(excess, min=0.0) ** 2
     if reading == "literal":
@@ -178,6 +217,8 @@ def twist_loss(
     reading: Literal["intended", "literal"] = "intended",
     exclude_root: bool = False,
     reduction: Reduction = "mean",
+    axes_b: Tensor | None = None,
+    axes_a: Tensor | None = None,
 ) -> Tensor:
     """Joint-twist loss ``Lt`` (Eq. 8): penalise joint rotation angles beyond α.
 
@@ -192,8 +233,9 @@ def twist_loss(
     ``reading="literal"`` gives the printed form for comparison (notebook 03).
 
     (The authors' released code differs again: it excludes the root and measures one Euler
-    component instead of ``E``. ``exclude_root=True`` gives the first difference; we keep ``E`` as
-    printed.)
+    component instead of ``E``. ``exclude_root=True`` gives the first difference. ``E`` as printed
+    penalises the ground truth itself, whose elbows and knees bend beyond 100°: ``axes_b`` /
+    ``axes_a`` measure the *twist* about each bone instead, which is what Eq. 8 names.)
 
     Reduction: the squared excess is averaged over B·T·J (or B·T·(J−1)) for each of ``q̂^B`` and
     ``q̂^A``; the two means are summed, as Eq. 8 sums two norms.
@@ -205,12 +247,26 @@ def twist_loss(
         reading: ``"intended"`` (default) or ``"literal"``, see above.
         exclude_root: skip joint 0 (the root's orientation is the heading, not a twist).
         reduction: ``"mean"`` → scalar; ``"per_sample"`` → ``(B,)``.
+        axes_b, axes_a: ``(B, J, 3)`` bone axes of the B and A skeletons (:func:`bone_axes`):
+            the twist about each bone instead of the whole rotation angle; ``None``: ``E(q)``.
     """
+    first = 1 if exclude_root else 0
 
-    def penalty(q: Tensor) -> Tensor:
-        return twist_penalty(q[:, :, 1:] if exclude_root else q, alpha_deg, reading)
+    def penalty_with(axes: Tensor | None):
+        def penalty(q: Tensor) -> Tensor:
+            a = None if axes is None else axes[:, None, first:]
+            return twist_penalty(q[:, :, first:], alpha_deg, reading, a)
 
-    return _sum_over_rotations(penalty, q_b_hat, q_a_hat, reduction)
+        return penalty
+
+    if axes_b is None and axes_a is None:
+        return _sum_over_rotations(penalty_with(None), q_b_hat, q_a_hat, reduction)
+    if axes_b is None or (q_a_hat is not None and axes_a is None):
+        raise ValueError("give the bone axes of both skeletons (axes_b and axes_a)")
+    total = _sum_over_rotations(penalty_with(axes_b), q_b_hat, None, reduction)
+    if q_a_hat is not None:
+        total = total + _sum_over_rotations(penalty_with(axes_a), q_a_hat, None, reduction)
+    return total
 
 
 # --------------------------------------------------------------------------------------------

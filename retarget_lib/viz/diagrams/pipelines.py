@@ -127,6 +127,7 @@ _WRITE = [
 ]
 _METHOD_STAGES: dict[str, list[Stage]] = {
     "copy": [Stage("copy q; root x leg ratio", "methods.copy.copy_rotations", "fk")],
+    "copy-unscaled": [Stage("copy q; root steps unscaled", "methods.copy.copy_unscaled", "fk")],
     "copy-rest": [
         Stage("rest-pose alignment C_j", "core.transfer.rest_alignment", "fk"),
         Stage("C⁻¹ q C, root x leg ratio", "core.transfer.retarget_ground_truth", "fk"),
