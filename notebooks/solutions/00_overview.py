@@ -19,6 +19,6 @@ run_metres = sum(float(np.hypot(s[:, 0], s[:, 1]).sum()) for s in steps)
 run_speed = run_metres / sum(c.motion.duration for c in run_clips)
 
 # exercise 00.4
-# up: the 30 fps frames are every fourth frame of the file, and a path through more points of the
-# same curve is never shorter (the triangle inequality); between two 30 fps frames the root sways
-path_at_file_rate = "up"
+# the 30 fps frames are every fourth frame of the file, and a path through more points of the same
+# curve is never shorter (the triangle inequality); between two 30 fps frames the root sways
+path_at_file_rate = "up"  # longer: more samples of the same swaying path

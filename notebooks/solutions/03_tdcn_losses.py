@@ -32,16 +32,15 @@ def height_loss_lab(p_a, p_b_hat, r_a, r_b_hat, h_a, h_b, lambda_g=5.0):
     return mean_smooth_l1(l_a - l_b) + lambda_g * mean_smooth_l1(m_a - m_b)
 
 # exercise 03.2
-# up: the leg ratio is smaller than the height ratio here, so copy's m_B runs below the source's m_A
-# (the height-loss section); the root term lengthens the whole root vector r_B, its height included,
+# the leg ratio is smaller than the height ratio here, so copy's m_B runs below the source's m_A (the
+# height-loss section); the root term lengthens the whole root vector r_B, its height included,
 # until |r_B| / H_B matches |r_A| / H_A: the hips rise (and the jumps grow). Without it (lambda_g = 0)
 # nothing moves the root.
-hips_move = "up"
+hips_move = "up"  # the root term lifts the hips with the whole root vector
 
 # exercise 03.3
 excess = np.radians(angles - 100.0)  # E(q) - alpha for every joint and frame, radians
 literal_lt = float(np.mean(excess**2))
 
 # exercise 03.4
-# (1 - 1.01)^2 = 1e-4: a one percent error in the norm costs its square
-lr_power = -4
+lr_power = -4  # (1 - 1.01)**2 = 1e-4: a one percent error in the norm costs its square
