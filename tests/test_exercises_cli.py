@@ -71,7 +71,6 @@ def test_a_wrong_answer_or_a_broken_cell_exits_one_with_why(tmp_path, capsys):
     [
         (["99"], "no notebook numbered 99"),
         (["x1"], "not a notebook number"),
-        (["02"], "old kind"),  # a notebook not converted yet
         (["01", "--notebook", "/nonexistent/mine.ipynb"], "mine.ipynb"),
     ],
 )
@@ -81,3 +80,16 @@ def test_bad_input_exits_two_with_one_line(argv, says, capsys):
     err_lines = [e for e in err.splitlines() if "executing" not in e]
     assert len(err_lines) == 1 and "Traceback" not in err, err
     assert err_lines[0].startswith("retarget exercises: error: ") and says in err_lines[0], err
+
+
+def test_a_copy_with_old_exercises_exits_two_with_one_line(tmp_path, capsys):
+    """A notebook whose exercises are still the old kind (no student cell): its own file, since
+    every notebook of the suite is being converted."""
+    nb = nbformat.v4.new_notebook()
+    nb.cells = [
+        nbformat.v4.new_markdown_cell("**Exercise 01.1** Double it."),
+        nbformat.v4.new_code_cell("# your code here\nanswer = None"),
+    ]
+    path = tmp_path / "old.ipynb"
+    nbformat.write(nb, path)
+    test_bad_input_exits_two_with_one_line(["01", "--notebook", str(path)], "old kind", capsys)
