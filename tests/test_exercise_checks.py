@@ -368,3 +368,78 @@ def test_lab_shows_both_or_the_reference_alone(which, monkeypatch):
         assert caption.startswith("library reference alone")
         assert ("not answered yet" in caption) == (which == "not answered")
         assert ("KeyError" in caption) == (which == "raises")
+
+
+# ------------------------------------------------------------ labs on a mesh, or on flagged joints
+def _fake_animate(monkeypatch):
+    import retarget_lib.notebook.exercises as ex
+
+    drawn = {}
+
+    def fake_animate(frames, path, fps, max_kb, titles, side_by_side, **kw):
+        drawn.update(frames=frames, titles=titles)
+        path.write_bytes(b"GIF89a")
+        return path
+
+    monkeypatch.setattr(ex, "animate", fake_animate)
+    return drawn
+
+
+def test_mesh_lab_draws_both_meshes(monkeypatch):
+    drawn = _fake_animate(monkeypatch)
+    rest = np.random.default_rng(0).normal(size=(5, 3))
+    faces = np.array([[0, 1, 2], [2, 3, 4]])
+    shift = np.linspace(0.0, 1.0, 8)[:, None] * [1.0, 0.5, 0.0]
+
+    def posed(shift):  # (T, V, 3) a mesh carried along a path
+        return rest[None] + shift[:, None]
+
+    def mirrored(shift):
+        return posed(-shift)
+
+    lab_animation("05.1", mirrored, posed, (shift,), None, faces=faces, every=2)
+    assert len(drawn["frames"]) == 4
+    ref, yours = drawn["frames"][1]
+    assert ref.positions is None and np.array_equal(ref.faces, faces)
+    assert ref.vertices.shape == (5, 3) and not np.allclose(ref.vertices, yours.vertices)
+    lab_animation("05.1", NotAnswered, posed, (shift,), None, faces=faces, every=2)
+    assert len(drawn["frames"][0]) == 1 and "not answered yet" in drawn["titles"][0]
+
+
+@pytest.mark.parametrize("which", ["right", "wrong", "wrong shape"])
+def test_flag_lab_colours_the_marked_joints(which, monkeypatch):
+    drawn = _fake_animate(monkeypatch)
+    args = random_pose(5, 12, 6)
+    positions = fk(*args)
+
+    def high(rotations, offsets, parents, root):  # (T, 2) flags of joints 1 and 2
+        return fk(rotations, offsets, parents, root)[:, 1:3, 1].numpy() > 0
+
+    student = {
+        "right": high,
+        "wrong": lambda *a: ~high(*a),
+        "wrong shape": lambda *a: high(*a)[:, :1],
+    }[which]
+    lab_animation(
+        "05b.1",
+        student,
+        high,
+        args,
+        args[2],
+        to_positions=lambda flags: positions,
+        marks=lambda flags: flags,
+        marked=(1, 2),
+        every=4,
+    )
+    if which == "wrong shape":
+        assert len(drawn["frames"][0]) == 1
+        assert "cannot be drawn" in drawn["titles"][0]
+        return
+    ref, yours = drawn["frames"][1]
+    assert np.allclose(ref.positions, yours.positions)  # the same skeleton, other colours
+    assert len(ref.vertices) % 2 == 0 and ref.scalars.shape == (len(ref.vertices),)
+    balls = ref.vertices.reshape(2, -1, 3).mean(axis=1)
+    assert np.allclose(balls, ref.positions[1:3])  # one ball on each marked joint
+    expected = np.repeat(high(*args)[4], len(ref.vertices) // 2)
+    assert np.array_equal(ref.scalars, expected)
+    assert np.array_equal(yours.scalars, expected) == (which == "right")

@@ -43,7 +43,7 @@ import types
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import imageio.v3 as iio
 import numpy as np
@@ -859,7 +859,7 @@ def lab_animation(
     student_fn: Any,
     reference_fn: Callable[..., Any],
     args: tuple,
-    parents: Sequence[int],
+    parents: Sequence[int] | None,
     to_positions: Callable[[Any], Any] | None = None,
     frames: slice = slice(None),
     target: Any = None,
@@ -869,6 +869,9 @@ def lab_animation(
     view: str = "front_side",
     window_size: tuple[int, int] = (420, 260),
     max_kb: float = MAX_KB,
+    faces: Any = None,
+    marks: Callable[[Any], Any] | None = None,
+    marked: Sequence[int] = (),
 ) -> Any:
     """The student's function in the real pipeline, animated beside the library's reference.
 
@@ -891,25 +894,38 @@ def lab_animation(
         centre: keep the character in view: the reference's root is moved to ``x = z = 0`` in
             every frame (the same shift for both, so a wrong root still shows).
         view: camera preset; window_size: ``(width, height)``; max_kb: GIF size budget.
+        faces, marks, marked: a mesh or flagged joints (:func:`_lab_scene`): ``faces`` ``(F, 3)``
+            makes ``to_positions`` give ``(T, V, 3)`` mesh vertices (``parents`` unused);
+            ``marks`` gives a result's ``(T, K)`` flags of the ``K`` joints ``marked``.
 
     Returns:
         an ``IPython.display.Image`` (the GIF; the first frame as PNG if it cannot fit).
     """
     _check_label(label)
     convert = to_positions or (lambda x: x)
-    reference = _positions(convert(reference_fn(*_copied(args))))
+    reference_out = reference_fn(*_copied(args))
+    reference = _positions(convert(reference_out))
     if reference is None:
         raise ExerciseAuthoringError(
             f"exercise {label}: the reference gives no (T, J, 3) positions"
         )
+    reference_flags = _lab_flags(marks, reference_out, reference, marked)
+    if marks is not None and reference_flags is None:
+        raise ExerciseAuthoringError(f"exercise {label}: the reference gives no (T, K) flags")
     name = getattr(student_fn, "__name__", "function")
-    student, why = None, ""
+    student, student_flags, why = None, None, ""
     if is_not_answered(student_fn):
         why = "is not answered yet"
     else:
         try:
-            student = _positions(convert(student_fn(*_copied(args))))
-            if student is None or student.shape != reference.shape:
+            student_out = student_fn(*_copied(args))
+            student = _positions(convert(student_out))
+            student_flags = _lab_flags(marks, student_out, student, marked)
+            if (
+                student is None
+                or student.shape != reference.shape
+                or (marks is not None and student_flags is None)
+            ):
                 student, why = None, "gives a result that cannot be drawn"
         except NotImplementedError:
             why = "is not answered yet"
@@ -917,10 +933,13 @@ def lab_animation(
             why = f"raised {type(e).__name__}"
     shift = np.zeros_like(reference[:, :1])
     if centre:
-        shift[..., [0, 2]] = -reference[:, :1, [0, 2]]
+        anchor = reference.mean(axis=1, keepdims=True) if faces is not None else reference[:, :1]
+        shift[..., [0, 2]] = -anchor[..., [0, 2]]
     goal = None if target is None else _as_array(target)
     shown = range(len(reference))[frames][:: max(1, every)]
     draws = [reference] + ([student] if student is not None else [])
+    flags = [reference_flags, student_flags]
+    radius = 0.04 * float(np.ptp(reference[0], axis=0).max())
     titles = (
         ["library reference", f"your {name}"]
         if student is not None
@@ -934,10 +953,8 @@ def lab_animation(
             pairs = np.stack([point, point])[None]
         scenes.append(
             [
-                Scene(
-                    positions=p[t] + shift[t], parents=parents, point_pairs=pairs, pair_radius=0.03
-                )
-                for p in draws
+                _lab_scene(p[t] + shift[t], parents, pairs, faces, marked, f, t, radius)
+                for p, f in zip(draws, flags[: len(draws)], strict=True)
             ]
         )
     with tempfile.TemporaryDirectory() as tmp:
@@ -961,3 +978,86 @@ def lab_animation(
 def show_lab(*args: Any, **kwargs: Any) -> None:
     """Display :func:`lab_animation` (same arguments) in the notebook."""
     ipython_display.display(lab_animation(*args, **kwargs))
+
+
+# ------------------------------------------------------------- labs on a mesh, or on flagged joints
+# A lab whose result is a skinned mesh (notebook 05: ``faces``) or per-joint flags such as foot
+# contacts (notebook 05b: ``marks`` and ``marked``); :func:`lab_animation` draws each picture with
+# :func:`_lab_scene`.
+
+#: the colours of a marked joint's ball: its flag not set, set (e.g. a foot off / on the ground)
+MARK_COLORS = ("#d0d0d0", "#2ca02c")
+
+
+def _ball(rings: int = 5, segments: int = 8) -> tuple[np.ndarray, np.ndarray]:
+    """A unit sphere: ``(N, 3)`` vertices and ``(F, 3)`` counter-clockwise triangles."""
+    polar = np.linspace(0.0, np.pi, rings + 1)[1:-1]
+    azimuth = np.linspace(0.0, 2 * np.pi, segments, endpoint=False)
+    ring = np.stack(
+        [
+            np.sin(polar)[:, None] * np.cos(azimuth),
+            np.repeat(np.cos(polar)[:, None], segments, 1),
+            np.sin(polar)[:, None] * np.sin(azimuth),
+        ],
+        axis=-1,
+    ).reshape(-1, 3)
+    vertices = np.concatenate([[[0.0, 1.0, 0.0]], ring, [[0.0, -1.0, 0.0]]])
+    bottom = len(vertices) - 1
+    faces = []
+    for a in range(segments):
+        b = (a + 1) % segments
+        faces.append((0, 1 + b, 1 + a))
+        for r in range(rings - 2):
+            p, q = 1 + r * segments, 1 + (r + 1) * segments
+            faces += [(p + a, p + b, q + a), (p + b, q + b, q + a)]
+        last = 1 + (rings - 2) * segments
+        faces.append((bottom, last + a, last + b))
+    return vertices, np.asarray(faces, dtype=np.int64)
+
+
+def _lab_flags(
+    marks: Callable[[Any], Any] | None, result: Any, positions: Any, marked: Sequence[int]
+) -> np.ndarray | None:
+    """``(T, K)`` bool flags ``marks(result)`` of the ``K`` joints ``marked``, or ``None`` (no
+    ``marks``, or flags that cannot be drawn: another shape, not numbers, an exception)."""
+    if marks is None or positions is None:
+        return None
+    try:
+        a = _as_array(marks(result))
+    except Exception:
+        return None
+    if isinstance(a, str) or a.shape != (len(positions), len(marked)) or not np.isfinite(a).all():
+        return None
+    return a != 0
+
+
+def _lab_scene(
+    points: np.ndarray,
+    parents: Sequence[int] | None,
+    pairs: np.ndarray | None,
+    faces: Any,
+    marked: Sequence[int],
+    flags: np.ndarray | None,
+    t: int,
+    radius: float,
+) -> Scene:
+    """One picture of a lab at frame ``t``: a mesh (``faces`` given: ``points`` are its vertices),
+    else a skeleton with, when ``flags`` are given, a ball at each joint of ``marked`` coloured by
+    its flag at ``t`` (:data:`MARK_COLORS`); ``pairs``: the target point, if any."""
+    if faces is not None:
+        return Scene(vertices=points, faces=faces, point_pairs=pairs, pair_radius=0.03)
+    if flags is None or not len(marked):
+        return Scene(positions=points, parents=parents, point_pairs=pairs, pair_radius=0.03)
+    ball, ball_faces = _ball()
+    return Scene(
+        positions=points,
+        parents=parents,
+        point_pairs=pairs,
+        pair_radius=0.03,
+        vertices=(points[list(marked)][:, None] + radius * ball).reshape(-1, 3),
+        faces=(ball_faces + len(ball) * np.arange(len(marked))[:, None, None]).reshape(-1, 3),
+        scalars=np.repeat(flags[t].astype(np.float64), len(ball)),
+        cmap=cast(Any, list(MARK_COLORS)),  # two colours: PyVista takes a list as a colormap
+        clim=(0.0, 1.0),
+        mesh_opacity=1.0,
+    )
