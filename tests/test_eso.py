@@ -473,3 +473,30 @@ def test_an_eso_step_is_torch_adam_on_the_frame_energy(monkeypatch):
         for ours, theirs in zip(variables, reference, strict=False):
             torch.testing.assert_close(ours, theirs.detach(), rtol=0, atol=1e-5)
     assert (variables[0] - start[0]).abs().max() > 0.2  # it moved towards the minimum
+
+
+def test_eso_takes_the_step_it_is_given():
+    # a notebook's own step (exercise 07b.1) runs in place of the library's: called once per
+    # iteration and once more per frame for the final terms, and the library's step given by hand
+    # changes nothing
+    character = _point_character()
+    model = _model(rotation_std=0.1)
+    feats, source = _rest_source(character.skeleton, 2)
+    _, _, verts = _initial_vertices(model, character, feats)
+    pairs, _ = _pair_at(verts[0], character, 0.05)
+    calls = []
+
+    def counted(*args):
+        calls.append(1)
+        return eso_step.adam_step(*args)
+
+    kwargs = dict(contacts=[pairs, pairs], weights=ONLY_J2J, iterations=4)
+    plain = encoder_space_optimization(
+        model, feats, character, source, np.zeros((2, 4), bool), 1.0, **kwargs
+    )
+    given = encoder_space_optimization(
+        model, feats, character, source, np.zeros((2, 4), bool), 1.0, step=counted, **kwargs
+    )
+    assert len(calls) == 2 * (4 + 1)
+    torch.testing.assert_close(given.rotations, plain.rotations, rtol=0, atol=0)
+    torch.testing.assert_close(given.energies, plain.energies, rtol=0, atol=0)

@@ -149,6 +149,7 @@ def encoder_space_optimization(
     num_threads: int | None = 1,
     keep_iterates: bool = False,
     compile: bool = False,
+    step: Callable[..., tuple[tuple[Tensor, Tensor], AdamState, Tensor, Pose]] | None = None,
 ) -> EsoResult:
     """Retarget with the RNN and refine every frame by ESO (Sec. 3.3, Eqs. 10-11, App. B.1).
 
@@ -186,6 +187,10 @@ def encoder_space_optimization(
             faster per step, after a one-off compilation (about half a minute, then cached on
             disk); contact and colliding pairs are padded to at least two with zero weight.
             Always on one thread (``num_threads`` is ignored): the compiled kernels crashed on two.
+        step: the step to take instead of the library's
+            (:func:`~retarget_lib.methods.eso.step.adam_step`, or its compiled form): a function
+            with ``adam_step``'s arguments and results, e.g. a notebook exercise's own update.
+            ``compile`` then only pads the pairs.
 
     Runs on the model's device (move the model with ``.to(device)``); the per-frame contact and
     collision detection stay on the CPU; the result's tensors are on the CPU.
@@ -214,7 +219,8 @@ def encoder_space_optimization(
     )
     if start is None:
         start = problem.leg_ratio * problem.source.positions[0, 0]
-    step = compiled_step() if compile else adam_step
+    if step is None:
+        step = compiled_step() if compile else adam_step
     # inductor's parallel kernels for these dynamic sizes corrupt memory on 2 threads (torch 2.13)
     if compile:
         num_threads = 1
