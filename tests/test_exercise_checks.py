@@ -443,3 +443,73 @@ def test_flag_lab_colours_the_marked_joints(which, monkeypatch):
     expected = np.repeat(high(*args)[4], len(ref.vertices) // 2)
     assert np.array_equal(ref.scalars, expected)
     assert np.array_equal(yours.scalars, expected) == (which == "right")
+
+
+# ------------------------------------------------------------------- labs of a whole pipeline
+@pytest.mark.parametrize("which", ["right", "wrong", "not answered", "raises", "nan"])
+def test_pipeline_lab_shows_both_or_the_reference_alone(which, monkeypatch):
+    import retarget_lib.notebook.exercises as ex
+    from retarget_lib.viz.scene import Scene
+
+    drawn = {}
+
+    def fake_animate(frames, path, fps, max_kb, titles, side_by_side, **kw):
+        drawn.update(frames=frames, titles=titles, side_by_side=side_by_side)
+        path.write_bytes(b"GIF89a")
+        return path
+
+    monkeypatch.setattr(ex, "animate", fake_animate)
+
+    def energy(x):
+        return (x - 1.0) ** 2
+
+    def descend(fn, steps=5):
+        """The pipeline: a few gradient steps on fn from x = 0, one point per step."""
+        x, path = torch.zeros(3, requires_grad=True), []
+        for _ in range(steps):
+            (grad,) = torch.autograd.grad(fn(x).sum(), x)
+            x = (x - 0.3 * grad).detach().requires_grad_(True)
+            path.append(x.detach().numpy().copy())
+        return path
+
+    def to_scenes(path):
+        return [Scene(positions=np.stack([p, p + 1.0]), parents=(-1, 0)) for p in path]
+
+    def wrong(x):
+        return -energy(x)
+
+    def raises(x):
+        raise KeyError("x")
+
+    def nan(x):
+        return energy(x) * float("nan")
+
+    student = {
+        "right": energy,
+        "wrong": wrong,
+        "not answered": NotAnswered,
+        "raises": raises,
+        "nan": nan,
+    }[which]
+    image = ex.pipeline_lab_animation("06.1", student, energy, descend, to_scenes)
+    assert image.format == "gif"
+    assert len(drawn["frames"]) == 5
+    if which in ("right", "wrong"):
+        assert drawn["titles"] == ["library reference", f"your {student.__name__}"]
+        assert drawn["side_by_side"]
+        ref, yours = (s.positions for s in drawn["frames"][-1])
+        assert np.allclose(ref, yours) == (which == "right")  # a wrong function looks wrong
+    else:
+        assert len(drawn["frames"][0]) == 1 and not drawn["side_by_side"]
+        caption = drawn["titles"][0]
+        assert caption.startswith("library reference alone")
+        assert ("not answered yet" in caption) == (which == "not answered")
+        assert ("KeyError" in caption) == (which == "raises")
+        assert ("cannot be drawn" in caption) == (which == "nan")
+
+
+def test_pipeline_lab_refuses_a_reference_it_cannot_draw():
+    import retarget_lib.notebook.exercises as ex
+
+    with pytest.raises(ExerciseAuthoringError):
+        ex.pipeline_lab_animation("06.1", NotAnswered, None, lambda fn: [], lambda r: r)

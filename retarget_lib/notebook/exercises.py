@@ -1061,3 +1061,120 @@ def _lab_scene(
         clim=(0.0, 1.0),
         mesh_opacity=1.0,
     )
+
+
+# ------------------------------------------------------------------- labs of a whole pipeline
+# (notebooks 06, 07 and 07b) A lab whose picture is not the skeleton one function returns but a
+# pipeline run with the student's function plugged in (gradient steps on the student's energy, a
+# root path optimised with it, a few ESO iterations with the student's step), drawn as any scenes:
+# meshes, skeletons, contact pairs.
+__all__ += ["pipeline_lab_animation", "show_pipeline_lab"]
+
+
+def _drawable(frames: Any, count: int | None = None) -> bool:
+    """Whether ``frames`` is a list of scenes (``count`` of them, when given) with finite points,
+    as many in every frame."""
+    if not isinstance(frames, (list, tuple)) or not frames:
+        return False
+    if count is not None and len(frames) != count:
+        return False
+    shapes = set()
+    for scene in frames:
+        if not isinstance(scene, Scene):
+            return False
+        points = np.asarray(scene.points(), dtype=np.float64)
+        if not np.all(np.isfinite(points)):
+            return False
+        shapes.add(points.shape)
+    return len(shapes) == 1
+
+
+def pipeline_lab_animation(
+    label: str,
+    student_fn: Any,
+    reference_fn: Callable[..., Any],
+    run: Callable[[Callable[..., Any]], Any],
+    to_scenes: Callable[[Any], Sequence[Scene]],
+    *,
+    fps: float = 8.0,
+    view: Any = "front",
+    window_size: tuple[int, int] = (460, 300),
+    stand: bool = False,
+    max_kb: float = MAX_KB,
+) -> Any:
+    """The student's function at work in a pipeline, animated beside the library's.
+
+    Like :func:`lab_animation`, for what a skeleton of the function's own result cannot show: the
+    pipeline ``run`` is executed once with the library's function and once with the student's,
+    and each result becomes one scene per animation frame (``to_scenes``; a mesh, a skeleton,
+    contact pairs), drawn side by side as a looping GIF. When the student's function is not
+    answered, raises (in the pipeline or while drawing), or gives something that cannot be drawn
+    (NaN, another number of frames), the reference plays alone and its caption says why. Never
+    raises for the student's sake (the check after it does).
+
+    Args:
+        label: the exercise, ``"NN.K"``.
+        student_fn: the student's function (or :data:`NotAnswered`).
+        reference_fn: the library's function, same signature.
+        run: ``fn -> result``, the pipeline with ``fn`` plugged in (e.g. gradient steps on the
+            energy ``fn`` computes).
+        to_scenes: ``result -> [Scene, ...]``, one scene per animation frame, the same structure
+            (vertex and face counts, which attributes are set) in every frame; a scene's
+            ``scalars`` may change from frame to frame, its ``highlight_faces`` may not.
+        fps: playback rate; view: camera preset or ``(azimuth, elevation)``; window_size:
+            ``(width, height)``; stand: put each side's lowest point on the floor; max_kb: GIF
+            size budget.
+
+    Returns:
+        an ``IPython.display.Image`` (the GIF; the first frame as PNG if it cannot fit).
+    """
+    _check_label(label)
+    reference = list(to_scenes(run(reference_fn)))
+    if not _drawable(reference):
+        raise ExerciseAuthoringError(
+            f"exercise {label}: the reference pipeline gives no scenes with finite points"
+        )
+    name = getattr(student_fn, "__name__", "function")
+    student, why = None, ""
+    if is_not_answered(student_fn):
+        why = "is not answered yet"
+    else:
+        try:
+            student = list(to_scenes(run(student_fn)))
+            if not _drawable(student, len(reference)):
+                student, why = None, "gives a result that cannot be drawn"
+        except NotImplementedError:
+            student, why = None, "is not answered yet"
+        except Exception as e:
+            student, why = None, f"raised {type(e).__name__}"
+    titles = (
+        ["library reference", f"your {name}"]
+        if student is not None
+        else [f"library reference alone: your {name} {why}"]
+    )
+    frames = [
+        [r] if student is None else [r, s]
+        for r, s in zip(reference, student or reference, strict=True)
+    ]
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / f"exercise_{label}.gif"
+        animate(
+            frames,
+            path,
+            fps=fps,
+            max_kb=max_kb,
+            titles=titles,
+            side_by_side=student is not None,
+            view=view,
+            window_size=window_size,
+            stand=stand,
+        )
+        data = path.read_bytes()
+    if len(data) > max_kb * 1024:
+        return show(iio.imread(data, index=0)[..., :3], max_kb)
+    return ipython_display.Image(data=data, format="gif")
+
+
+def show_pipeline_lab(*args: Any, **kwargs: Any) -> None:
+    """Display :func:`pipeline_lab_animation` (same arguments) in the notebook."""
+    ipython_display.display(pipeline_lab_animation(*args, **kwargs))
