@@ -336,16 +336,8 @@ def test_random_pose_shapes_and_identity():
 # ---------------------------------------------------------------------------------------- the labs
 @pytest.mark.parametrize("which", ["right", "wrong", "not answered", "raises"])
 def test_lab_shows_both_or_the_reference_alone(which, monkeypatch):
-    import retarget_lib.notebook.exercises as ex
 
-    drawn = {}
-
-    def fake_animate(frames, path, fps, max_kb, titles, side_by_side, **kw):
-        drawn.update(frames=frames, titles=titles)
-        path.write_bytes(b"GIF89a")
-        return path
-
-    monkeypatch.setattr(ex, "animate", fake_animate)
+    drawn = _fake_animate(monkeypatch)
     args = random_pose(5, 12, 6)
 
     def wrong(rotations, offsets, parents, root):

@@ -139,18 +139,23 @@ def grade(nb: Any, cwd: Path, timeout: int = 900) -> tuple[list[Result], list[st
         ``(one Result per exercise in notebook order, "cell N: ExceptionType" for each other
         cell that raised)``.
     """
+    labels = list(student_cells(nb))
+    _client(nb, cwd, timeout).execute()
+    return _read_results(nb, labels)
+
+
+def _client(nb: Any, cwd: Path, timeout: int) -> Any:
+    """A kernel client that runs ``nb``'s cells in ``cwd`` and keeps going after an error."""
     from nbclient import NotebookClient  # the dev extra, as in runner.py
 
-    labels = list(student_cells(nb))
-    NotebookClient(
+    return NotebookClient(
         nb,
         timeout=timeout,
         kernel_name="python3",
         allow_errors=True,
         record_timing=False,
         resources={"metadata": {"path": str(cwd)}},
-    ).execute()
-    return _read_results(nb, labels)
+    )
 
 
 def prepare(
@@ -223,20 +228,11 @@ def grade_variants(
     Returns:
         ``{name: (results, other cells that raised)}`` as :func:`grade` returns them.
     """
-    from nbclient import NotebookClient  # the dev extra, as in runner.py
-
     base, cwd = prepare(number, notebooks_dir=notebooks_dir)
     committed = find_notebook(number, notebooks_dir)
     labels = list(student_cells(base))
     first = min(student_cells(base).values())
-    client = NotebookClient(
-        base,
-        timeout=timeout,
-        kernel_name="python3",
-        allow_errors=True,
-        record_timing=False,
-        resources={"metadata": {"path": str(cwd)}},
-    )
+    client = _client(base, cwd, timeout)
     out: dict[str, tuple[list[Result], list[str]]] = {}
     with client.setup_kernel():
         for i in range(first):
