@@ -4,8 +4,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from retarget_lib.core.motion import Motion
+from retarget_lib.core.skeleton import canonical22_skeleton
 from retarget_lib.core.transfer import retarget_ground_truth
 from retarget_lib.data.manifest import table_checkpoints
+from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.data.synthetic.mixamo_convention import generate
 from retarget_lib.evaluation.paper import PAPER_TABLE4, TABLE4_COLUMNS
 from retarget_lib.evaluation.tdcn import (
@@ -17,9 +20,6 @@ from retarget_lib.evaluation.tdcn import (
     tdcn_table,
     write_table,
 )
-from retarget_lib.core.motion import Motion
-from retarget_lib.core.skeleton import canonical22_skeleton
-from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.evaluation.tdcn.cases import EvalCase, evaluate_case, short_chunks
 from retarget_lib.methods.copy import copy_rotations, copy_unscaled
 
