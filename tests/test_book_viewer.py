@@ -52,9 +52,11 @@ WINDOW = (1280, 1100)
 
 @pytest.fixture(scope="module")
 def book(tmp_path_factory):
-    """A viewer of the page's characters and methods, each panel a synthetic motion written as a
-    GLB (the retargeting itself is the book build's, slow: ``test_book.py``)."""
-    folder = tmp_path_factory.mktemp("book")
+    """A viewer of the page's characters and methods in ``REPO/build/book``, each panel a
+    synthetic motion written as a GLB (the retargeting itself is the book build's, slow:
+    ``test_book.py``)."""
+    folder = tmp_path_factory.mktemp("repo") / "build" / "book"
+    folder.mkdir(parents=True)
     models = {}
     for name in CHARACTERS:
         rig = (
@@ -149,29 +151,65 @@ def test_one_row_per_character_one_panel_per_method_each_with_its_root_track(boo
     assert np.linalg.norm(walk[-1] - walk[0]) > 1.0  # the fixture's walk travels
 
 
-def test_a_notebook_shows_the_same_viewer_loading_its_files_from_the_book(book, monkeypatch):
-    notebooks = book.parent / "notebooks"
+def _notebook_cell(book: Path) -> tuple[Path, object]:
+    """``(REPO/notebooks, show_viewer's output there)``."""
+    notebooks = book.parent.parent / "notebooks"
     notebooks.mkdir(exist_ok=True)
-    monkeypatch.chdir(notebooks)
-    cell = show_viewer(book, build=False)
-    rel = f"../{book.name}/"
-    assert cell.page == f"{rel}{VIEWER_PAGE}"
+    cwd = os.getcwd()
+    os.chdir(notebooks)
+    try:
+        return notebooks, show_viewer(book, build=False)
+    finally:
+        os.chdir(cwd)
+
+
+@pytest.fixture(scope="module")
+def notebook_page(book):
+    """The book's page of a notebook in ``notebooks/`` that links to the viewer and shows it."""
+    import nbformat
+
+    from retarget_lib.notebook.book import copy_mathjax, export_page
+
+    _, cell = _notebook_cell(book)
+    nb = nbformat.v4.new_notebook()
+    shown = nbformat.v4.new_output(
+        "execute_result", {"text/html": cell._repr_html_(), "text/plain": repr(cell)}
+    )
+    shown.execution_count = 1
+    nb.cells = [
+        nbformat.v4.new_markdown_cell(f"See [the 3-D viewer]({VIEWER_LINK})."),
+        nbformat.v4.new_code_cell("show_viewer()", execution_count=1, outputs=[shown]),
+    ]
+    copy_mathjax(book)  # as the book's build does: the page loads it
+    page = book / "notebook.html"
+    page.write_text(export_page(nb, None, None, "test"))
+    return page
+
+
+def test_a_notebook_shows_the_same_viewer_loading_its_files_from_the_book(book):
+    notebooks, cell = _notebook_cell(book)
+    assert cell.page == VIEWER_LINK  # ../build/book/viewer.html
     out = cell._repr_html_()
     assert remote_references(out) == [] and "<iframe" not in out
     page = (book / VIEWER_PAGE).read_text()
-    assert out.count("<model-viewer") == page.count("<model-viewer") == len(_glb_names())
+    assert out.count("<model-viewer data-glb") == page.count("<model-viewer data-glb") == 6
     assert len(out) < 60_000  # the models and scripts are not in it: it loads them
     assets = re.findall(r'<a class="rv-asset"[^>]*href="([^"]+)"', out)
     assert len(assets) == 1 + len(_glb_names())
     for href in assets + re.findall(r'href="([^"]+\.glb)"', out):
-        assert href.startswith(rel) and (notebooks / href).is_file(), href
-    # the book's page of that notebook sits in the book folder: the same files, from there
-    exported = book_links(out.replace(rel, "../build/book/"))
-    assert set(re.findall(r'href="([^"]+)"', exported)) <= {VIEWER_PAGE} | set(
-        re.findall(r'href="([^"]+)"', page)
-    )
+        assert href.startswith("../build/book/_static/") and (notebooks / href).is_file(), href
     with pytest.raises(FileNotFoundError):
         show_viewer(book.parent / "nowhere", build=False)
+
+
+def test_the_book_page_of_that_notebook_finds_the_viewer_and_its_files(book, notebook_page):
+    page = notebook_page.read_text()
+    assert remote_references(page) == [] and "build/book" not in page
+    assert '<a href="viewer.html">the 3-D viewer</a>' in page
+    local = set(re.findall(r'(?:src|href)="([^"#:]+)"', page)) - {"index.html"}
+    assert {"viewer.html", "_static/model-viewer/model-viewer-umd.min.js"} <= local
+    for ref in local:
+        assert (book / ref).is_file(), ref
 
 
 def test_the_book_rewrites_a_notebooks_links_into_the_book():
@@ -414,10 +452,11 @@ LOADED = (
 
 
 @pytest.fixture(scope="module")
-def browsed(book, proxy, tmp_path_factory):
+def browsed(book, notebook_page, proxy, tmp_path_factory):
     """What a reader sees: the page paused at T1 (through ``#t=``), then at the moment a click on
     the slider near T2 gives, then playing for a second; a copy of the page without one model
-    (``gus_contact``), at T1. ``{key: (screenshot, state)}``, and ``"requested"``: every URL."""
+    (``gus_contact``), at T1; the book's page of a notebook showing the viewer, at T1.
+    ``{key: (screenshot, state)}``, and ``"requested"``: every URL."""
     if _chromium() is None:
         if os.environ.get("RETARGET_REQUIRE_BROWSER"):
             pytest.fail("no Chromium: .ci/browser-deps.sh installs it")
@@ -457,6 +496,10 @@ def browsed(book, proxy, tmp_path_factory):
         )
         time.sleep(2.0)  # the missing model would have loaded by now
         shots["blank"] = (browser.screenshot(), browser.state())
+        # the book's page of a notebook showing the viewer: its script loads the files itself
+        browser.open(f"{notebook_page.as_uri()}#t={T1}")
+        browser.wait_for(LOADED)
+        shots["notebook"] = (None, browser.state())
         shots["requested"] = browser.requested()
         browser.evaluate("fetch('http://example.invalid/probe.glb').then(() => 1, () => 0)")
         shots["probe"] = browser.requested()[len(shots["requested"]) :]
@@ -507,6 +550,7 @@ def test_one_clock_moves_every_panel(browsed):
     assert len(set(playing["times"])) == 1 and float(playing["times"][0]) != float(t2[0])
     assert len(set(paused["times"])) == 1
     assert browsed["blank"][1]["times"][-1] == "-"  # never loaded
+    assert browsed["notebook"][1]["times"] == [f"{T1:.3f}"] * n  # a notebook's page: the same
     for name, a, b in zip(
         _glb_names(), _panels(browsed["t1"]), _panels(browsed["t2"]), strict=True
     ):

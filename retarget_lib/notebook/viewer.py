@@ -235,6 +235,7 @@ async function load() {  // the page has them all; a notebook's output loads the
   await Promise.all(missing.map(a => settled(a).then(script)));
 }
 function follow(viewer, t) {  // the camera's target on the hips' floor point at time t
+  if (!viewer.jumpCameraToGoal) return;  // <model-viewer> did not load
   const track = viewer.track, f = Math.min(track.length - 1, Math.max(0, t * viewer.dataset.fps));
   const i = Math.floor(f), j = Math.min(i + 1, track.length - 1), a = f - i;
   const x = track[i][0] * (1 - a) + track[j][0] * a, z = track[i][1] * (1 - a) + track[j][1] * a;
@@ -483,7 +484,9 @@ def show_viewer(book: Path | None = None, build: bool = True) -> ViewerCell:
     begin, end = text.find(_BEGIN), text.find(_END)
     if begin < 0 or end < 0:
         raise FileNotFoundError(f"{page}: not a viewer page of this version; run `make book`")
-    base = Path(os.path.relpath(book.resolve(), Path.cwd().resolve())).as_posix()
+    base = Path(
+        os.path.relpath(os.path.abspath(book), os.getcwd())
+    ).as_posix()  # no symlink followed
     prefix = "" if base == "." else f"{base}/"
     fragment = re.sub(
         r'(?<=\bhref=")(?=_static/)', prefix, text[begin : end + len(_END)]
