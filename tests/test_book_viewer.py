@@ -202,6 +202,25 @@ def test_a_notebook_shows_the_same_viewer_loading_its_files_from_the_book(book):
         show_viewer(book.parent / "nowhere", build=False)
 
 
+def test_show_viewer_writes_a_missing_or_older_viewer(book, tmp_path, monkeypatch):
+    import retarget_lib.notebook.viewer as viewer
+
+    written = []
+
+    def write(out: Path) -> Path:  # the fixture's page in place of a minute of retargeting
+        written.append(out)
+        return Path(shutil.copy(book / VIEWER_PAGE, out / VIEWER_PAGE))
+
+    monkeypatch.setattr(viewer, "write_viewer", write)
+    monkeypatch.chdir(tmp_path)
+    target = tmp_path / "build" / "book"
+    assert show_viewer(target).page == "build/book/viewer.html"  # missing: written
+    (target / VIEWER_PAGE).write_text("<!DOCTYPE html><p>an older viewer</p>")
+    show_viewer(target)  # older: written again
+    show_viewer(target)  # current: kept
+    assert written == [target, target]
+
+
 def test_the_book_page_of_that_notebook_finds_the_viewer_and_its_files(book, notebook_page):
     page = notebook_page.read_text()
     assert remote_references(page) == [] and "build/book" not in page

@@ -44,6 +44,8 @@ import os
 import re
 import shutil
 import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -429,6 +431,30 @@ def book_links(page: str) -> str:
     return _BOOK_PREFIX.sub("", page)
 
 
+def _current(page: Path) -> bool:
+    """A viewer page of this module's version (with the element :func:`show_viewer` takes)."""
+    text = page.read_text() if page.is_file() else ""
+    return _BEGIN in text and _END in text
+
+
+@contextmanager
+def _building(book: Path) -> Iterator[None]:
+    """Hold ``book/.viewer.lock`` while the viewer is written: notebooks executed two at a time
+    (``make``, nbval's workers) write it once (no lock where ``fcntl`` is missing)."""
+    book.mkdir(parents=True, exist_ok=True)
+    try:
+        import fcntl
+    except ImportError:  # not POSIX
+        yield
+        return
+    with open(book / ".viewer.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(lock, fcntl.LOCK_UN)
+
+
 class ViewerCell:
     """What :func:`show_viewer` returns: the book's viewer as a notebook cell's output (its
     ``_repr_html_``), the models and scripts loaded from the book's folder.
@@ -463,27 +489,28 @@ def show_viewer(book: Path | None = None, build: bool = True) -> ViewerCell:
 
     Args:
         book: the book folder (default ``build/book``, where ``make book`` writes it).
-        build: write the viewer into ``book`` when it is not there (:func:`write_viewer`: every
-            method retargets the clip, about a minute on a CPU core).
+        build: write the viewer into ``book`` when it is not there, or is an older page
+            (:func:`write_viewer`: every method retargets the clip, a minute or two on a CPU
+            core; one notebook at a time writes it).
 
     Returns:
         a :class:`ViewerCell`, its links relative to the working directory (the notebook's
         folder).
 
     Raises:
-        FileNotFoundError: no viewer page in ``book`` and ``build`` is False.
+        FileNotFoundError: no viewer page of this version in ``book`` and ``build`` is False.
     """
     book = Path(book) if book is not None else BOOK_DIR
     page = book / VIEWER_PAGE
-    if not page.is_file():
+    if not _current(page):
         if not build:
-            raise FileNotFoundError(f"{page}: no viewer yet; run `make book` or show_viewer()")
-        print(f"writing {page} (every method retargets the clip: about a minute)", flush=True)
-        write_viewer(book)
+            raise FileNotFoundError(f"{page}: no viewer of this version; run `make book`")
+        with _building(book):
+            if not _current(page):  # another notebook may have written it meanwhile
+                print(f"writing {page} (every method retargets the clip: a minute or two)")
+                write_viewer(book)
     text = page.read_text()
     begin, end = text.find(_BEGIN), text.find(_END)
-    if begin < 0 or end < 0:
-        raise FileNotFoundError(f"{page}: not a viewer page of this version; run `make book`")
     base = Path(
         os.path.relpath(os.path.abspath(book), os.getcwd())
     ).as_posix()  # no symlink followed
