@@ -95,8 +95,8 @@ VIEWER_METHODS = {
 }
 #: the characters (one row each), real first: a GLB of ``data/real_characters`` or a synthetic name
 VIEWER_CHARACTERS = {
-    "quaternius_male_casual": "a real character (Quaternius, CC0-1.0; its own 33-joint Blender "
-    "rig, read through data/real_characters/quaternius.joints.yaml)",
+    "quaternius_male_casual": "a real character (Quaternius' 2019 characters; its own 33-joint "
+    "Blender rig, read through data/real_characters/quaternius.joints.yaml)",
     "gus": "a synthetic character of the training set",
 }
 #: the clip: CMU 01_01 from START seconds, SECONDS long (two forward jumps), retargeted at FPS
@@ -172,7 +172,8 @@ def root_track(glb: Path, joint_map: Path | None = None) -> tuple[np.ndarray, fl
 def _caption(character: str) -> str:
     if character in real_character_names():
         entry = real_character_entry(character)
-        return f"{VIEWER_CHARACTERS.get(character, 'a real character')}; licence {entry['license']}"
+        licence = str(entry["license"]).split(" (")[0]  # the manifest's, without its note
+        return f"{VIEWER_CHARACTERS.get(character, 'a real character')}; licence {licence}"
     return VIEWER_CHARACTERS.get(character, "a character")
 
 
