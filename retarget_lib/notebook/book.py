@@ -14,7 +14,9 @@ file with every TeX extension and SVG output, so no web fonts and nothing loaded
 export each notebook goes through :func:`offline_outputs`: a widget view is dropped where the output
 also carries a picture or HTML (the motion player's still image or offline scrubber), and GIFs
 become inline ``<img>`` tags (nbconvert would otherwise show their ``text/plain``). Images are
-embedded as ``data:`` URIs.
+embedded as ``data:`` URIs. A notebook's links into ``../build/book/`` (the 3-D viewer page, and
+the files :func:`.viewer.show_viewer`'s output loads) are made relative to the book's folder,
+where the pages sit (:func:`.viewer.book_links`).
 
 Why nbconvert and not Jupyter Book: Jupyter Book 2 (mystmd) downloads its site theme from
 api.mystmd.org at build time and fails offline; Jupyter Book 1 builds offline but is the legacy
@@ -55,7 +57,7 @@ import yaml
 
 from ..files import REPO_ROOT, atomic_write
 from .solutions import solutions_file, with_solutions
-from .viewer import VIEWER_METHODS, VIEWER_PAGE, write_viewer
+from .viewer import VIEWER_CHARACTERS, VIEWER_METHODS, VIEWER_PAGE, book_links, write_viewer
 
 NOTEBOOKS_DIR = REPO_ROOT / "notebooks"
 LEARNING_PATH = NOTEBOOKS_DIR / "learning_path.yaml"
@@ -247,7 +249,7 @@ def export_page(
         }
     }
     body, _ = exporter.from_notebook_node(offline_outputs(nb), resources=resources)
-    return body
+    return book_links(body)  # a notebook's links into build/book/ (the 3-D viewer) from here
 
 
 def remote_references(page: str) -> list[str]:
@@ -330,8 +332,10 @@ a {{ color: #1a5fb4; }}
 <p>Read the notebooks in this order. Each page is the notebook executed headless, with every
 picture inline; it opens from disk without a network. To change a value and re-run a cell, open the
 notebook itself: <code>.venv/bin/jupyter lab notebooks/</code>.</p>
-<p><b><a href="{VIEWER_PAGE}">The 3-D viewer</a></b>: one real clip retargeted by several methods,
-playing side by side; turn and zoom the characters in the browser.</p>
+<p><b><a href="{VIEWER_PAGE}">The 3-D viewer</a></b>: one real clip retargeted by
+{", ".join(VIEWER_METHODS)} onto a real and a synthetic character
+({", ".join(VIEWER_CHARACTERS)}), playing side by side on one clock; turn and zoom the characters
+in the browser.</p>
 <p><b>Study time</b> is an estimate for a student who reads, runs and does the exercises
 (the whole path: {total} min; the workshop notebooks: {total_ws} min).
 <b>Run time</b> is measured: how long the notebook took to execute headless on this machine
@@ -434,7 +438,8 @@ def build_book(
     viewer = write_viewer(out)
     if verbose:
         print(
-            f"book: {viewer.name} (3-D viewer: {', '.join(VIEWER_METHODS)}) in "
+            f"book: {viewer.name} (3-D viewer: {', '.join(VIEWER_METHODS)} on "
+            f"{', '.join(VIEWER_CHARACTERS)}) in "
             f"{time.perf_counter() - t0:.1f} s",
             flush=True,
         )
