@@ -107,27 +107,29 @@ def _judge(
     table: str,
     what: str,
     a: tuple[str, float],
-    b: tuple[str, float | None],
+    b: tuple[str, float],
     data: str,
     ours: tuple[float | None, float | None],
     higher_better: bool = False,
-    cause_row: str | None = None,
 ) -> Claim:
-    """The claim "a against b on ``what``" as the paper orders them, judged on ``ours``."""
+    """The claim "a against b on ``what``" as the paper orders them, judged on ``ours``
+    (:func:`_value`: ``None`` where a row has no stored number)."""
     (name_a, pa), (name_b, pb) = a, b
-    said = _order(pa, pb, higher_better) if pb is not None else None
-    better = "better than" if higher_better else "below"
-    words = {"<": better, ">": "worse than", "≈": "about equal to"}
-    claim = f"{name_a} {words[said] if said else 'better than'} {name_b} ({what})"
-    paper_values = f"{pa:.2f} / {pb:.2f}" if pb is not None else f"{pa:.2f} / -"
+    said = _order(pa, pb, higher_better)
+    words = {
+        "<": "better than" if higher_better else "below",
+        ">": "worse than",
+        "≈": "about equal to",
+    }
+    claim = f"{name_a} {words[said]} {name_b} ({what})"
+    paper_values = f"{pa:.2f} / {pb:.2f}"
     oa, ob = ours
-    if said is None or oa is None or ob is None or pd.isna(oa) or pd.isna(ob):
+    if oa is None or ob is None:
         return Claim(
             paper, table, claim, paper_values, data, "not measured", "cannot be measured here"
         )
-    got = _order(oa, ob, higher_better)
-    status = "reproduces" if got == said else "does not"
-    cause = "" if status == "reproduces" else CAUSES.get((table, cause_row or name_b), "unknown")
+    status = "reproduces" if _order(oa, ob, higher_better) == said else "does not"
+    cause = "" if status == "reproduces" else CAUSES.get((table, name_b), "unknown")
     return Claim(paper, table, claim, paper_values, data, f"{oa:.3g} / {ob:.3g}", status, cause)
 
 
@@ -163,7 +165,6 @@ def tdcn_claims(table4: pd.DataFrame | None, data: str) -> list[Claim]:
                     (row, values[index[what]]),
                     data,
                     (_value(table4, "ours", col), _value(table4, row, col)),
-                    cause_row=row,
                 )
             )
     # NKN's own claim (its Table 1), which TDCN's Baseline row inherits: the network below the
