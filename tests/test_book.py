@@ -246,33 +246,30 @@ def test_player_bundle_carries_an_offline_scrubber():
 
 
 def test_pages_show_no_answer_and_the_teachers_show_them(tmp_path):
-    """A student's page leaves out the old solution cells (code and outputs) and has no answer of
-    the new exercises; the teacher's page has both (``make book-teacher``)."""
+    """A student's page has no answer (they live in ``solutions/``); the teacher's page has them
+    in the student cells (``make book-teacher``)."""
     md, code = nbformat.v4.new_markdown_cell, nbformat.v4.new_code_cell
     nb = nbformat.v4.new_notebook()
-    old_solution = code("SECRET_OLD = 6 * 7\ncheck_answer('07.1', answer, SECRET_OLD)")
-    old_solution.metadata.update({"tags": ["solution"], "jupyter": {"source_hidden": True}})
-    old_solution.outputs = [
-        nbformat.v4.new_output("stream", text="the reference solution gives SHOWN_OLD\n")
-    ]
     nb.cells = [
-        md("**Exercise 07.1** Old kind."),
-        code("# your code here\nanswer = None"),
-        old_solution,
-        md("**Exercise 07.2** New kind."),
+        md("**Exercise 07.1** Write it."),
+        code("# exercise 07.1: your code here\ny = NotAnswered"),
+        code('check_value("07.1", y, solution_value("07.1", "y", globals()))'),
+        md("**Exercise 07.2** And this."),
         code("# exercise 07.2: your code here\nx = NotAnswered"),
         code('check_value("07.2", x, solution_value("07.2", "x", globals()))'),
     ]
     path = tmp_path / "07_fixture.ipynb"
     nbformat.write(nb, path)
     (tmp_path / "solutions").mkdir()
-    (tmp_path / "solutions" / "07_fixture.py").write_text("# exercise 07.2\nx = SECRET_NEW\n")
+    (tmp_path / "solutions" / "07_fixture.py").write_text(
+        "# exercise 07.1\ny = SECRET_OLD\n# exercise 07.2\nx = SECRET_NEW\n"
+    )
 
     def page(teacher):
         readers = book.for_readers(nbformat.read(path, as_version=4), path, teacher)
         return book.export_page(readers, None, None, "fixture")
 
     student, teacher = page(False), page(True)
-    for secret in ("SECRET_OLD", "SHOWN_OLD", "SECRET_NEW"):
+    for secret in ("SECRET_OLD", "SECRET_NEW"):
         assert secret not in student and secret in teacher, secret
     assert "Exercise 07.1" in student and "your code here" in student

@@ -19,7 +19,6 @@ from retarget_lib.notebook.solutions import read_solutions, solutions_file, stud
 NOTEBOOK_DIR = Path(__file__).resolve().parents[1] / "notebooks"
 NOTEBOOKS = sorted(NOTEBOOK_DIR.glob("[0-9][0-9]*_*.ipynb"))
 CONVERTED = [p for p in NOTEBOOKS if solutions_file(p).exists()]
-LABEL = re.compile(r"check_answer\(\s*[\"']([^\"']+)[\"']")
 EXERCISE = re.compile(r"\*\*Exercise\s+(\d+[a-z]?\.\d+)\.?\*\*")
 NEW_CHECK = re.compile(r"check_(?:function|value|prediction)\(\s*[\"']([^\"']+)[\"']")
 

@@ -1,6 +1,6 @@
 """No hand-typed result numbers in the notebooks' Markdown, and every notebook closes with Summary,
-Exercises (3-5, each a student cell `# exercise N.k: your code here` and a check after it, or, in a
-notebook not converted yet, a collapsed `solution` cell calling check_answer) and References.
+Exercises (3-5, each a student cell `# exercise N.k: your code here` and a check after it) and
+References.
 
 The rule (what counts as a hand-typed number, what is allowed) is documented in
 `retarget_lib/notebook/prose_lint.py`. A measured value belongs in a code cell's
@@ -89,17 +89,21 @@ def test_outputs_are_not_scanned():
     assert notebook_violations(nb) == []
 
 
-def _closing(n_exercises=3, tag=True, label="05"):
+def _closing(
+    n_exercises=3, header="# exercise {label}.{k}: your code here", check="check_value", label="05"
+):
+    """Closing sections: each exercise a student cell, then a check cell."""
     md, code = nbformat.v4.new_markdown_cell, nbformat.v4.new_code_cell
     cells = [
         md("## Summary\n- key idea\n\nEquations covered: Kim et al. Eqs. 4-8"),
         md("## Exercises"),
     ]
     for k in range(1, n_exercises + 1):
-        sol = code(f'check_answer("{label}.{k}", a, b, atol=1e-6)')
-        if tag:
-            sol.metadata.update({"tags": ["solution"], "jupyter": {"source_hidden": True}})
-        cells += [md(f"**Exercise {label}.{k}** Do it."), code("# your code here"), sol]
+        cells += [
+            md(f"**Exercise {label}.{k}** Do it."),
+            code(header.format(label=label, k=k) + "\nx = NotAnswered"),
+            code(f'{check}("{label}.{k}", x, solution_value("{label}.{k}", "x", globals()))'),
+        ]
     cells.append(md("## References\n- Kim et al. 2020"))
     nb = nbformat.v4.new_notebook()
     nb.cells = cells
@@ -108,44 +112,18 @@ def _closing(n_exercises=3, tag=True, label="05"):
 
 def test_closing_sections_rule():
     assert section_problems(_closing(), "05") == []
+    assert section_problems(_closing(check="check_function"), "05") == []
     assert any("2 exercises" in p for p in section_problems(_closing(2), "05"))
-    assert any("no code cell tagged" in p for p in section_problems(_closing(tag=False), "05"))
     assert any("not numbered 05.k" in p for p in section_problems(_closing(label="06"), "05"))
-    nb = _closing()
-    nb.cells = nb.cells[-1:] + nb.cells[:-1]
-    assert section_problems(nb, "05")
-
-
-def _closing_new(n_exercises=3, header="# exercise 05.{k}: your code here", check="check_value"):
-    """Closing sections whose exercises are the new kind: a student cell, then a check cell."""
-    md, code = nbformat.v4.new_markdown_cell, nbformat.v4.new_code_cell
-    cells = [
-        md("## Summary\n- key idea\n\nEquations covered: Kim et al. Eqs. 4-8"),
-        md("## Exercises"),
-    ]
-    for k in range(1, n_exercises + 1):
-        cells += [
-            md(f"**Exercise 05.{k}** Do it."),
-            code(header.format(k=k) + "\nx = NotAnswered"),
-            code(f'{check}("05.{k}", x, solution_value("05.{k}", "x", globals()))'),
-        ]
-    cells.append(md("## References\n- Kim et al. 2020"))
-    nb = nbformat.v4.new_notebook()
-    nb.cells = cells
-    return nb
-
-
-def test_closing_sections_rule_for_the_new_exercises():
-    assert section_problems(_closing_new(), "05") == []
-    assert section_problems(_closing_new(check="check_function"), "05") == []
     assert any(
         "does not start with" in p
-        for p in section_problems(_closing_new(header="# exercise 05.{k}: write here"), "05")
+        for p in section_problems(_closing(header="# exercise 05.{k}: write here"), "05")
     )
-    assert any(
-        "no check_function" in p for p in section_problems(_closing_new(check="print"), "05")
-    )
-    nb = _closing_new()
+    assert any("no check_function" in p for p in section_problems(_closing(check="print"), "05"))
+    moved = _closing()
+    moved.cells = moved.cells[-1:] + moved.cells[:-1]
+    assert section_problems(moved, "05")
+    nb = _closing()
     nb.cells[3].metadata["tags"] = ["solution"]
     assert any("tagged 'solution'" in p for p in section_problems(nb, "05"))
 

@@ -25,11 +25,10 @@ and it would add about 90 packages (Sphinx 7, myst-nb, and markdown-it-py held b
 nbconvert, already a dependency, does with one template and an index page.
 
 No page shows an exercise's answer: the solutions live in ``notebooks/solutions/`` (see
-:mod:`.solutions`), and the collapsed solution cells of the notebooks not yet converted to it
-(cells tagged ``solution``) are left out of the pages with their outputs. The **teacher's book**
+:mod:`.solutions`). The **teacher's book**
 (``--teacher``, ``make book-teacher``) is the opposite: each notebook with a solutions file has
 its reference answers put in its student cells (executed so by ``runner --solutions`` into
-``build/notebooks-teacher/``), and the old solution cells stay.
+``build/notebooks-teacher/``).
 
 Usage::
 
@@ -179,19 +178,12 @@ def offline_outputs(nb):
     return nb
 
 
-def without_solutions(nb):
-    """Drop the cells tagged ``solution`` (the old exercises' collapsed answers, shown with their
-    outputs by nbconvert whatever their collapsed state); in place, returns ``nb``."""
-    nb.cells = [c for c in nb.cells if "solution" not in c.get("metadata", {}).get("tags", [])]
-    return nb
-
-
 def for_readers(nb, notebook: Path, teacher: bool):
-    """The notebook as a book shows it: for students without any answer
-    (:func:`without_solutions`), for the teacher with the reference answers of
+    """The notebook as a book shows it: for students as it is (its student cells hold no answer;
+    the answers live in ``solutions/``), for the teacher with the reference answers of
     ``solutions/<stem>.py`` in the student cells when the notebook has such a file."""
     if not teacher:
-        return without_solutions(nb)
+        return nb
     solutions = solutions_file(notebook)
     return with_solutions(nb, solutions) if solutions.exists() else nb
 

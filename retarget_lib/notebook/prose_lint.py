@@ -47,14 +47,11 @@ A number that survives is a *violation*: render it from the computed value with
 **The closing sections** (:func:`section_problems`): every notebook has ``## Summary`` (with a line
 ``Equations covered: ...``), ``## Exercises`` and ``## References`` headings, in that order, as its
 last ``##`` sections; between Exercises and References, 3-5 exercises labelled ``**Exercise N.k**``
-(N the notebook's number as in its file name), each followed, before the next exercise, by either
-
-- (the exercises of docs/notebooks.md, "Writing an exercise") a student cell whose first line is
-  ``# exercise N.k: your code here`` and, after it, a code cell calling ``check_function``,
-  ``check_value`` or ``check_prediction`` with ``"N.k"``; no cell tagged ``solution`` (the answers
-  live in ``notebooks/solutions/``); or
-- (the old exercises, until each notebook is converted) a code cell tagged ``solution``
-  (collapsed: ``metadata.jupyter.source_hidden``) that calls ``check_answer("N.k", ...)``.
+(N the notebook's number as in its file name), each followed, before the next exercise, by a
+student cell whose first line is ``# exercise N.k: your code here`` (docs/notebooks.md, "Writing an
+exercise") and, after it, a code cell calling ``check_function``, ``check_value`` or
+``check_prediction`` with ``"N.k"``; no cell tagged ``solution`` (the answers live in
+``notebooks/solutions/``).
 """
 
 from __future__ import annotations
@@ -270,40 +267,14 @@ def section_problems(nb, number: str) -> list[str]:
         if label.split(".")[0] != number:
             problems.append(f"Exercise {label} is not numbered {number}.k")
         end = exercises[k + 1][0] if k + 1 < len(exercises) else r
-        if _is_new_exercise(nb.cells[i + 1 : end], label):
-            problems += _new_exercise_problems(nb.cells[i + 1 : end], label)
-            continue
-        solutions = [
-            c
-            for c in nb.cells[i + 1 : end]
-            if c.cell_type == "code" and "solution" in c.metadata.get("tags", [])
-        ]
-        if not solutions:
-            problems.append(f"Exercise {label} has no code cell tagged 'solution'")
-            continue
-        if not any(
-            re.search(rf"check_answer\(\s*['\"]{re.escape(label)}['\"]", c.source)
-            for c in solutions
-        ):
-            problems.append(
-                f'Exercise {label}: its solution cell does not call check_answer("{label}", ...)'
-            )
-        if not all(c.metadata.get("jupyter", {}).get("source_hidden") for c in solutions):
-            problems.append(
-                f"Exercise {label}: its solution cell is not collapsed (jupyter.source_hidden)"
-            )
+        problems += _exercise_problems(nb.cells[i + 1 : end], label)
     return problems
 
 
-_NEW_CHECK = r"check_(?:function|value|prediction)\(\s*['\"]{label}['\"]"
+_CHECK = r"check_(?:function|value|prediction)\(\s*['\"]{label}['\"]"
 
 
-def _is_new_exercise(cells, label: str) -> bool:
-    """Whether an exercise has a student cell ``# exercise N.k: ...`` (the new kind)."""
-    return any(c.cell_type == "code" and c.source.startswith(f"# exercise {label}:") for c in cells)
-
-
-def _new_exercise_problems(cells, label: str) -> list[str]:
+def _exercise_problems(cells, label: str) -> list[str]:
     header = STUDENT_HEADER.format(label=label)
     student = next(
         (
@@ -316,7 +287,7 @@ def _new_exercise_problems(cells, label: str) -> list[str]:
     if student is None:
         return [f"Exercise {label}: its student cell does not start with '{header}'"]
     problems = []
-    check = re.compile(_NEW_CHECK.format(label=re.escape(label)))
+    check = re.compile(_CHECK.format(label=re.escape(label)))
     if not any(c.cell_type == "code" and check.search(c.source) for c in cells[student + 1 :]):
         problems.append(
             f"Exercise {label}: no check_function/check_value/check_prediction after it"

@@ -78,7 +78,7 @@ def read_solutions(path: str | Path) -> dict[str, str]:
 
 def solutions_file(notebook: str | Path) -> Path:
     """Where a notebook's solutions live: ``solutions/<stem>.py`` beside it (it may not exist: a
-    notebook still on the old exercises, :func:`~retarget_lib.notebook.teaching.check_answer`)."""
+    notebook of the reader's own, without exercises)."""
     notebook = Path(notebook)
     return notebook.parent / SOLUTIONS_FOLDER / f"{notebook.stem}.py"
 
