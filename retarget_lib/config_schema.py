@@ -232,6 +232,8 @@ TDCN: dict[str, Any] = {
         "rest_arm_drop_deg": Rule(
             "a number of degrees in [0, 180]", lambda v: _is_num(v) and 0 <= v <= 180
         ),
+        "max_clips": up_to(100_000),
+        "max_characters": up_to(1_000),
         "source": lazy_choice(
             "synthetic, mixamo-convention, synthetic+mixamo-convention, mixamo-local "
             "($RETARGET_MIXAMO) or mixamo-local+synthetic",

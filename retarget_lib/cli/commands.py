@@ -1,4 +1,5 @@
-"""The ``data``, ``retarget``, ``train``, ``sweep``, ``bench`` and ``exercises`` subcommands: each
+"""The ``data``, ``retarget``, ``train``, ``sweep``, ``capacity``, ``bench`` and ``exercises``
+subcommands: each
 imports what it runs inside its function (see :mod:`retarget_lib.cli`)."""
 
 from __future__ import annotations
@@ -115,6 +116,38 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
             ).rstrip()
         )
     return 1 if any(s.state == "failed" for s in statuses) else 0
+
+
+def _cmd_capacity(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    import yaml
+
+    from ..errors import RetargetInputError
+    from ..evaluation.capacity import capacity_cases, capacity_check, capacity_clips
+    from ..methods.registry import get_method
+
+    run = Path(args.run)
+    config_path, checkpoint = run / "config.yaml", run / args.checkpoint
+    for path in (config_path, checkpoint):
+        if not path.is_file():
+            raise RetargetInputError(f"{path}: not found (a `retarget train --out` folder?)")
+    config = yaml.safe_load(config_path.read_text())
+    data = config.get("data", {}) if isinstance(config, dict) else {}
+    if config.get("method", "tdcn") == "contact" or "max_clips" not in data:
+        raise RetargetInputError(
+            f"{config_path}: not a TDCN/NKN capacity run (needs data.max_clips, e.g. "
+            "configs/capacity/nkn.yaml)"
+        )
+    method = "nkn" if str(config["model"].get("row", "")).startswith("Baseline") else "tdcn"
+    result = capacity_check(
+        get_method(method).retargeter(checkpoint), capacity_cases(capacity_clips(config))
+    )
+    print(f"{run.name} ({method}, {checkpoint.name}): {result.summary()}")
+    if args.out:
+        with atomic_write(args.out, "w") as f:
+            result.per_case.to_csv(f, index=False)
+    return 0 if result.passed else 1
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:

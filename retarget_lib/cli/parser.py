@@ -5,7 +5,15 @@ from __future__ import annotations
 
 import argparse
 
-from .commands import _cmd_bench, _cmd_data, _cmd_exercises, _cmd_retarget, _cmd_sweep, _cmd_train
+from .commands import (
+    _cmd_bench,
+    _cmd_capacity,
+    _cmd_data,
+    _cmd_exercises,
+    _cmd_retarget,
+    _cmd_sweep,
+    _cmd_train,
+)
 from .evaluate import _cmd_evaluate
 
 
@@ -294,6 +302,16 @@ def build_parser() -> argparse.ArgumentParser:
         "--amp", action="store_true", help="mixed precision (bfloat16 autocast; CUDA only)"
     )
     p.set_defaults(func=_cmd_sweep)
+
+    p = sub.add_parser(
+        "capacity",
+        help="a paper-form model's capacity check: its error on the tiny set it was trained on "
+        "against the protocol copy row, and its identity (exit 1 if it fails)",
+    )
+    p.add_argument("run", help="a `retarget train --out` folder trained from configs/capacity/*")
+    p.add_argument("--checkpoint", default="final.pt", help="file in the run folder (last.pt)")
+    p.add_argument("--out", help="also write the per-case scores here (CSV)")
+    p.set_defaults(func=_cmd_capacity)
 
     p = sub.add_parser("bench", help="speed benchmarks (ratios against same-run references)")
     p.add_argument("--quick", action="store_true", help="fewer repeats (CI smoke run)")

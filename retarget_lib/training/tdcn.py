@@ -256,7 +256,9 @@ class RetargetTraining:
         if clips is None:
             source = data.get("source", "synthetic")
             root = str(mixamo_local_dir()) if "mixamo-local" in source.split("+") else None
-            clips = training_clips(bool(data.get("mirror", False)), source, root)
+            clips = training_clips(bool(data.get("mirror", False)), source, root).subset(
+                data.get("max_clips"), data.get("max_characters")
+            )
         self.sampler = WindowSampler(
             clips,
             data["window"],

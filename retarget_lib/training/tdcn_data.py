@@ -50,7 +50,7 @@ from ..config_schema import DATA_SOURCES
 from ..core.motion import Motion
 from ..core.retarget_pose import pose_offsets
 from ..core.rotations import quat_from_axis_angle, quat_mul, quat_rotate
-from ..core.skeleton import J, Skeleton
+from ..core.skeleton import J, Skeleton, canonical22_skeleton
 from ..core.transfer import (
     random_rest_rotations,
     retarget_ground_truth,
@@ -60,6 +60,7 @@ from ..data.mixamo_splits import mixamo_training_set
 from ..data.splits import tdcn_split
 from ..data.synthetic.dataset import load_synthetic
 from ..data.synthetic.mixamo_convention import load_mixamo_convention, mixamo_convention_split
+from ..methods.retarget import METHOD_FPS
 from ..methods.tdcn import centre_root
 
 Tensor = torch.Tensor
@@ -106,6 +107,33 @@ class TrainingClips:
         if starts.numel() == 0:
             raise ValueError(f"no training clip has {window} frames")
         return starts
+
+    def subset(self, clips: int | None = None, characters: int | None = None) -> TrainingClips:
+        """The first ``clips`` clips performed by the first ``characters`` characters (``None``:
+        all): a capacity check's tiny training set (``data.max_clips``, ``data.max_characters``)."""
+        k, c = len(self.clip_names), len(self.characters)
+        k = k if clips is None else min(int(clips), k)
+        c = c if characters is None else min(int(characters), c)
+        end = int(self.clip_bounds[k])
+        return TrainingClips(
+            self.characters[:c],
+            self.clip_names[:k],
+            self.clip_bounds[: k + 1],
+            self.offsets[:c],
+            self.rotations[:c, :end],
+            self.root_positions[:c, :end],
+        )
+
+    def motion(self, character: int, clip: int, fps: float = METHOD_FPS) -> Motion:
+        """Character ``character``'s version of clip ``clip`` as a :class:`Motion` (float64)."""
+        a, b = int(self.clip_bounds[clip]), int(self.clip_bounds[clip + 1])
+        return Motion(
+            canonical22_skeleton(self.offsets[character].double().numpy()),
+            self.rotations[character, a:b].double().numpy(),
+            self.root_positions[character, a:b].double().numpy(),
+            fps,
+            name=f"{self.clip_names[clip]}@{self.characters[character]}",
+        )
 
 
 def stack_clips(

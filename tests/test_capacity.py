@@ -1,0 +1,97 @@
+"""Capacity checks (retarget_lib.evaluation.capacity): the tiny training set, its cases, and a
+verdict that a model which has learnt the set passes and one that has not fails."""
+
+import numpy as np
+import torch
+from skeletons import make_skeleton
+
+from retarget_lib.cli import main
+from retarget_lib.core.motion import Motion
+from retarget_lib.core.rotations import quat_from_axis_angle
+from retarget_lib.evaluation.capacity import (
+    PROTOCOL_COPY,
+    capacity_cases,
+    capacity_check,
+)
+from retarget_lib.methods.registry import get_method
+from retarget_lib.training.tdcn_data import stack_clips
+
+
+def _clips():
+    """Three characters performing two clips (130 frames: two short chunks; 40 frames: one)."""
+    rng = np.random.default_rng(0)
+    skeletons = {
+        "tall": make_skeleton(1.9),
+        "short": make_skeleton(1.5, leg_frac=0.45),
+        "apose": make_skeleton(1.7, arm_deg=45.0),
+    }
+    clips = []
+    for k, frames in enumerate((130, 40)):
+        versions = {}
+        for name, skeleton in skeletons.items():
+            axis = rng.normal(size=(frames, 22, 3))
+            angle = 0.3 * np.sin(np.linspace(0, 3, frames))[:, None] * rng.uniform(0.5, 1, 22)
+            unit = axis / np.linalg.norm(axis, axis=-1, keepdims=True)
+            rot = quat_from_axis_angle(torch.from_numpy(unit * angle[..., None])).numpy()
+            root = np.cumsum(np.full((frames, 3), [0.01, 0.0, 0.02]), 0) + [0, 0.9, 0]
+            versions[name] = Motion(skeleton, rot, root, 30.0, name=f"clip_{k}")
+        clips.append((versions["tall"], versions))
+    return stack_clips(skeletons, clips)
+
+
+def test_subset_keeps_the_first_clips_of_the_first_characters():
+    clips = _clips()
+    small = clips.subset(clips=1, characters=2)
+    assert small.characters == ("tall", "short") and small.clip_names == ("clip_0",)
+    assert small.rotations.shape[:2] == (2, 130) and small.offsets.shape[0] == 2
+    again = small.motion(1, 0)
+    np.testing.assert_array_equal(again.rotations, clips.motion(1, 0).rotations)
+    assert clips.subset(None, None).rotations.shape == clips.rotations.shape
+
+
+def test_cases_are_every_ordered_pair_with_the_identity_pairs_marked():
+    cases = capacity_cases(_clips())
+    assert len(cases) == 2 * 3 * 3
+    same = [c for c in cases if c.scenario == 0]
+    assert len(same) == 6 and all(c.source_name == c.target_name for c in same)
+
+
+def _oracle(cases):
+    """A model that has learnt the set: the truth of whichever case and chunk it is given."""
+
+    def retarget(source, target):
+        for c in cases:
+            if c.target is not target:
+                continue
+            r, n = c.source.rotations, source.num_frames
+            for s in range(len(r) - n + 1):
+                if np.array_equal(r[s], source.rotations[0]) and np.array_equal(
+                    r[s + n - 1], source.rotations[-1]
+                ):
+                    return c.truth.slice(s, s + n)
+        raise AssertionError("not a case of the set")
+
+    return retarget
+
+
+def test_a_model_that_learnt_the_set_passes_and_the_copy_row_itself_fails():
+    cases = capacity_cases(_clips())
+    learnt = capacity_check(_oracle(cases), cases)
+    assert learnt.model_short == 0.0 and learnt.identity_pct == 0.0
+    assert learnt.copy_short > 0 and learnt.passed  # the characters differ: copying is not exact
+    copy = capacity_check(get_method(PROTOCOL_COPY).retargeter(), cases)
+    # a model no better than the copy row fails (strictly below is asked), however exact its
+    # identity (copying a clip onto its own performer is exact)
+    assert copy.model_short == copy.copy_short and copy.identity_pct < 1e-9 and not copy.passed
+    assert "FAIL" in copy.summary() and "PASS" in learnt.summary()
+
+
+def test_cli_refuses_a_folder_that_is_not_a_capacity_run(tmp_path, capsys):
+    assert main(["capacity", str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "config.yaml" in err[0] and "Traceback" not in err[0]
+    (tmp_path / "config.yaml").write_text("method: tdcn\nmodel: {row: ours}\ndata: {window: 81}\n")
+    (tmp_path / "final.pt").write_bytes(b"")
+    assert main(["capacity", str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "max_clips" in err[0]
