@@ -251,6 +251,7 @@ TDCN: dict[str, Any] = {
         "quaternion_weight": POS_NUM,
         "position_joints": choice("all", "end_effectors"),
         "root_scale": choice("height", "leg_length"),
+        "root_term": choice("position", "velocity"),
         **{f"lambda_{k}": NONNEG_NUM for k in "ctharogd"},
     },
     "train": {

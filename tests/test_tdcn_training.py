@@ -349,3 +349,23 @@ def test_cli_export_writes_a_slim_generator_that_loads(tmp_path, capsys):
         assert b.dtype == a.dtype and torch.equal(
             b, a.half().to(a.dtype) if a.is_floating_point() else a
         )
+
+
+def test_root_steps_and_a_capacity_subset():
+    """``loss.root_term: velocity`` z-scores the root's per-frame steps (centimetres a frame), not
+    its path (tens of centimetres); ``data.max_clips`` / ``max_characters`` cut the training set."""
+
+    def cut(root_term):
+        c = config("tdcn_baseline_mixamo_convention")
+        c["data"].update(max_clips=2, max_characters=2)
+        c["loss"]["root_term"] = root_term
+        return RetargetTraining(c)
+
+    path, steps = cut("position"), cut("velocity")
+    clips = steps.sampler.clips
+    assert len(clips.characters) == 2 and len(clips.clip_names) == 2
+    # horizontal channels: a walk's steps spread a few cm (the 1 cm floor aside), its path metres
+    assert float(steps.position_scale.r_std[[0, 2]].max()) < 0.1
+    assert float(path.position_scale.r_std[[0, 2]].min()) > 0.2
+    log = steps.step(0)
+    assert all(np.isfinite(v) for v in log.values()), log

@@ -204,7 +204,11 @@ class RetargetTraining:
             ``loss`` (``gan``, ``twist_alpha_deg``, ``lambda_*``; optional ``reduction``,
             ``standardize``, and the authors' code's comparison of Lc and La's reconstruction,
             ``quaternion_weight`` and ``position_joints: end_effectors``; ``root_scale:
-            leg_length`` for Lh's root term) and ``train`` (``batch``, ``lr``, ``betas``).
+            leg_length`` for Lh's root term; ``root_term: velocity`` to compare the root's per-frame
+            steps ``r_t - r_{t-1}`` in Lc and La instead of its path, as NKN's authors' losses
+            compare their network's root output, with ``standardize`` z-scored on the steps) and
+            ``train`` (``batch``, ``lr``, ``betas``, optional ``decay_from``, ``max_clips`` and
+            ``max_characters`` in ``data`` for a capacity check).
         clips: training data (default :func:`training_clips`).
         device: where the networks and each step's batch live (default CPU). Batches are drawn on
             the CPU either way, so every device sees the same data.
@@ -253,6 +257,8 @@ class RetargetTraining:
             joints=CODE_END_EFFECTOR_IDS if end_effectors_only else None,
         )
         self.root_by_leg = loss.get("root_scale") == "leg_length"  # else Eqs. 15-16's H
+        # Lc and La compare the root's per-frame steps instead of its path (NKN's own losses)
+        self.root_steps = loss.get("root_term", "position") == "velocity"
         if clips is None:
             source = data.get("source", "synthetic")
             root = str(mixamo_local_dir()) if "mixamo-local" in source.split("+") else None
@@ -317,9 +323,8 @@ class RetargetTraining:
         b = self.sampler.sample(
             _NORMALIZER_WINDOWS, torch.Generator().manual_seed(int(self.config["seed"]) + 1)
         )
-        return PositionScale.fit(
-            source_local_positions(b.rotations, b.offsets_source), b.root_positions
-        )
+        r = root_velocities(b.root_positions) if self.root_steps else b.root_positions
+        return PositionScale.fit(source_local_positions(b.rotations, b.offsets_source), r)
 
     def _retarget(self, q: Tensor, r: Tensor, p: Tensor, off_src: Tensor, off_tgt: Tensor):
         """``G(x, s̄_tgt)`` (Eqs. 4-5) → (raw output, unit q̂ ``(B,W,J,4)``, ``p̂ = f_FK(q̂,
@@ -356,13 +361,14 @@ class RetargetTraining:
         out_a, _, p_a_hat = self._retarget(
             q_b_unit, out_b.root_positions, p_b, off_b, off_a
         )  # Eq. 5
-        x_a = MotionTensors(p_a, q_a, r_a)
+        steps = root_velocities if self.root_steps else (lambda r: r)
+        x_a = MotionTensors(p_a, q_a, steps(r_a))
         x_b_hat = MotionTensors(p_b, out_b.rotations, out_b.root_positions)
         if out_b.root_velocities is None:
             root_a, root_b = r_a, out_b.root_positions
         else:  # NKN predicts root offsets: Lh on offsets (Baseline-height, Sec. 6 (iv))
             root_a, root_b = root_velocities(r_a), out_b.root_velocities
-        x_a_hat = MotionTensors(p_a_hat, out_a.rotations, out_a.root_positions)
+        x_a_hat = MotionTensors(p_a_hat, out_a.rotations, steps(out_a.root_positions))
         d, red = self.discriminator, self.reduction
         h_fake = d(d.features(p_b, out_b.root_positions, off_b))
         z = self.position_scale.apply if self.position_scale is not None else (lambda x: x)
@@ -391,7 +397,7 @@ class RetargetTraining:
             "La": adversarial_loss(
                 h_fake,
                 z(x_a),
-                z(x_b_hat),
+                z(x_b_hat._replace(r=steps(x_b_hat.r))),
                 batch.same_character,
                 gan=self.gan,
                 reduction=red,
