@@ -7,7 +7,7 @@ from skeletons import make_skeleton
 
 from retarget_lib.core.kinematics import forward_kinematics
 from retarget_lib.core.motion import Motion
-from retarget_lib.core.rotations import quat_from_axis_angle, quat_mul
+from retarget_lib.core.rotations import quat_from_axis_angle, quat_mul, quat_rotate
 from retarget_lib.core.skeleton import J
 from retarget_lib.geometry.ik import (
     apply_foot_contact_ik,
@@ -209,3 +209,32 @@ def test_foot_contact_ik_toe_only_contact_pins_toe():
     assert np.abs(pos[10:30, J["LeftFoot"]] - pos[10, J["LeftFoot"]]).max() > 1e-3  # heel free
     with pytest.raises(ValueError, match="contacts"):
         apply_foot_contact_ik(m, contacts[:, :3])
+
+
+def test_a_nearly_straight_leg_turns_without_twisting_its_thigh():
+    """A rest thigh leaning 3 degrees outwards (mannequin-x's SMPL-X calibration) bends the
+    straight leg in the frontal plane; a knee sent forward must not twist the thigh about its bone
+    (it did by 110 degrees: the frontal plane carried onto the sagittal one)."""
+    sk = make_skeleton()
+    for side, sx in (("Left", 1.0), ("Right", -1.0)):
+        thigh = sk.offsets[J[f"{side}Leg"]]
+        length = np.linalg.norm(thigh)
+        lean = np.radians(3.0)
+        sk.offsets[J[f"{side}Leg"]] = length * np.array([sx * np.sin(lean), -np.cos(lean), 0.0])
+    q = np.zeros((1, 22, 4))
+    q[..., 0] = 1.0
+    root = np.array([[0.0, sk.offsets[0, 1], 0.0]])
+    pos = forward_kinematics(q, sk.offsets, sk.parents, root).positions
+    chain = limb_chain(sk, "left_leg")
+    hip, ankle = pos[0, chain[0]], pos[0, chain[2]]
+    target = (ankle + 0.12 * (hip - ankle))[None]  # the ankle raised: the knee bends ~40 degrees
+    out = two_bone_ik(q, sk.offsets, sk.parents, root, chain, target, np.array([[0.0, 0.0, 1.0]]))
+    g = forward_kinematics(out, sk.offsets, sk.parents, root)
+    kneecap = quat_rotate(torch.from_numpy(g.rotations[0, chain[0]]), torch.tensor([0.0, 0, 1]))
+    bone = g.positions[0, chain[1]] - g.positions[0, chain[0]]
+    bone /= np.linalg.norm(bone)
+    kneecap = kneecap.numpy() - (kneecap.numpy() @ bone) * bone
+    # the kneecap (the thigh's rest +Z) stays forward: within the knee's forward swing, far from 110
+    twist = np.degrees(np.arctan2(kneecap[0], kneecap[2]))
+    assert abs(twist) < 5.0, twist
+    np.testing.assert_allclose(g.positions[0, chain[2]], target[0], atol=1e-9)  # and it reaches

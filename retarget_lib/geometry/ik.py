@@ -20,6 +20,7 @@ Rotations are local, unit wxyz; ``quat_mul(a, b)`` applies ``b`` first (see
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 
 import numpy as np
@@ -47,6 +48,7 @@ __all__ = [
     "limb_chain",
     "two_bone_positions",
     "two_bone_ik",
+    "MIN_BEND_PLANE_DEG",
     "solve_ik",
     "foot_contact_targets",
     "apply_foot_contact_ik",
@@ -104,11 +106,22 @@ def _perpendicular_part(v: Tensor, n: Tensor, fallback: Tensor) -> Tensor:
     return torch.where(ok, _unit(p), fallback)
 
 
-def _normal(u: Tensor, v: Tensor) -> tuple[Tensor, Tensor]:
-    """Unit ``u x v`` and whether it is well defined (``v`` not parallel to unit ``u``)."""
+def _normal(u: Tensor, v: Tensor, min_sin: float = 1e-7) -> tuple[Tensor, Tensor]:
+    """Unit ``u x v`` and whether it is well defined: the angle between unit ``u`` and ``v`` has a
+    sine above ``min_sin``."""
     n = torch.linalg.cross(u, v, dim=-1)
-    ok = n.norm(dim=-1, keepdim=True) > 1e-7 * v.norm(dim=-1, keepdim=True).clamp_min(_EPS)
+    ok = n.norm(dim=-1, keepdim=True) > min_sin * v.norm(dim=-1, keepdim=True).clamp_min(_EPS)
     return _unit(n), ok
+
+
+#: a limb bent less than this (degrees) has no bend plane :func:`two_bone_ik` can carry over: the
+#: plane of a nearly straight limb is the rig's modelling noise, not a knee's direction. Measured on
+#: mannequin-x (an SMPL-X calibration whose thigh leans 3 degrees outwards at rest): the synthetic
+#: walk's stance leg, bent 3.3 degrees before the solve, had its plane (the frontal one) carried
+#: onto the pole's (the sagittal one), and every thigh and shin came out twisted 110 degrees about
+#: the bone with the kneecap facing sideways (joint positions exact; the skinned thighs of a bulky
+#: target crossing each other when the clip was copied onto it).
+MIN_BEND_PLANE_DEG = 10.0
 
 
 # ----------------------------------------------------------------------------- two-bone IK
@@ -165,7 +178,9 @@ def two_bone_ik(
 
     The middle joint bends as a hinge: its rotation changes only about the axis normal to the
     limb's plane, and the upper joint rotates the whole (re-bent) limb rigidly so that the middle
-    joint points to the ``pole`` side (:func:`two_bone_positions`). Joints outside the chain keep
+    joint points to the ``pole`` side (:func:`two_bone_positions`). A limb bent less than
+    :data:`MIN_BEND_PLANE_DEG` before the solve has no plane to carry: its upper joint takes the
+    minimal swing onto the new direction (no twist about the bone). Joints outside the chain keep
     their local rotations.
 
     Args:
@@ -194,10 +209,11 @@ def two_bone_ik(
     a, b, c = pos[..., up, :], pos[..., mid, :], pos[..., end, :]
     b_new, c_new = two_bone_positions(a, b, c, target, None if pole is None else _to_torch(pole))
     u0, u1 = _unit(b - a), _unit(b_new - a)
-    # limb-plane normals, oriented like upper x lower, before and after; a straight limb borrows
-    # the other configuration's normal carried over by the minimal swing u0 -> u1
+    # limb-plane normals, oriented like upper x lower, before and after; a straight limb (before:
+    # bent less than MIN_BEND_PLANE_DEG) borrows the other configuration's normal carried over by
+    # the minimal swing u0 -> u1, so the upper bone turns without a twist
     swing = quat_between(u0, u1)
-    n0, ok0 = _normal(u0, c - b)
+    n0, ok0 = _normal(u0, c - b, math.sin(math.radians(MIN_BEND_PLANE_DEG)))
     n1, ok1 = _normal(u1, c_new - b_new)
     h0 = torch.where(
         ok0, n0, torch.where(ok1, quat_rotate(quat_conjugate(swing), n1), _any_perpendicular(u0))
