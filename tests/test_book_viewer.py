@@ -198,8 +198,12 @@ def test_a_notebook_shows_the_same_viewer_loading_its_files_from_the_book(book):
     assert len(assets) == 1 + len(_glb_names())
     for href in assets + re.findall(r'href="([^"]+\.glb)"', out):
         assert href.startswith("../build/book/_static/") and (notebooks / href).is_file(), href
-    with pytest.raises(FileNotFoundError):
-        show_viewer(book.parent / "nowhere", build=False)
+    missing = show_viewer(book.parent / "nowhere", build=False)  # not built: a link and a note
+    assert not missing.built and "make book" in missing._repr_html_()
+    assert (
+        missing.page.endswith("nowhere/viewer.html")
+        and "<model-viewer" not in missing._repr_html_()
+    )
 
 
 def test_show_viewer_writes_a_missing_or_older_viewer(book, tmp_path, monkeypatch):
@@ -229,6 +233,27 @@ def test_the_book_page_of_that_notebook_finds_the_viewer_and_its_files(book, not
     assert {"viewer.html", "_static/model-viewer/model-viewer-umd.min.js"} <= local
     for ref in local:
         assert (book / ref).is_file(), ref
+
+
+def test_the_book_puts_its_viewer_in_place_of_a_not_built_note(book):
+    """``make`` runs the notebooks with ``show_viewer(build=False)`` (a link and a note when the
+    viewer is not written yet); the book, which writes the viewer, shows it in those cells."""
+    import nbformat
+
+    from retarget_lib.notebook.book import with_viewer
+    from retarget_lib.notebook.viewer import viewer_cell
+
+    note = show_viewer(book.parent / "nowhere", build=False)
+    shown = nbformat.v4.new_output("display_data", {"text/html": note._repr_html_()})
+    nb = nbformat.v4.new_notebook()
+    nb.cells = [
+        nbformat.v4.new_code_cell("x = 1", outputs=[shown]),
+        nbformat.v4.new_code_cell("show_viewer(build=False)", outputs=[shown]),
+    ]
+    with_viewer(nb, viewer_cell(book, book))
+    assert nb.cells[0].outputs[0]["data"]["text/html"] == note._repr_html_()  # not a viewer cell
+    page = nb.cells[1].outputs[0]["data"]["text/html"]
+    assert "<model-viewer" in page and 'href="viewer.html"' in page and "not built" not in page
 
 
 def test_the_book_rewrites_a_notebooks_links_into_the_book():
@@ -585,3 +610,22 @@ def test_the_page_asks_no_other_host_for_anything(browsed):
     assert [u for u in requested if not u.startswith(("file:", "blob:", "data:"))] == []
     # ... and it can fail: the page's fetch of another host, made at the end, is recorded
     assert browsed["probe"] == ["http://example.invalid/probe.glb"]
+
+
+#: the notebooks that link to the viewer and show it inline (issue: "notebooks 04, 07b, 08 and 10")
+VIEWER_NOTEBOOKS = ("04", "07b", "08", "10")
+
+
+@pytest.mark.parametrize("number", VIEWER_NOTEBOOKS)
+def test_the_notebooks_link_to_the_viewer_and_show_it(number):
+    import nbformat
+
+    (path,) = (Path(__file__).resolve().parents[1] / "notebooks").glob(f"{number}_*.ipynb")
+    nb = nbformat.read(path, as_version=4)
+    links = [c for c in nb.cells if c.cell_type == "markdown" and f"]({VIEWER_LINK})" in c.source]
+    shows = [
+        c
+        for c in nb.cells
+        if c.cell_type == "code" and re.search(r"^show_viewer\(", c.source, re.M)
+    ]
+    assert links and shows, f"{path.name}: a link to {VIEWER_LINK} and a show_viewer() cell"

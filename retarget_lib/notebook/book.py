@@ -56,7 +56,14 @@ import yaml
 
 from ..files import REPO_ROOT, atomic_write
 from .solutions import solutions_file, with_solutions
-from .viewer import VIEWER_CHARACTERS, VIEWER_METHODS, VIEWER_PAGE, book_links, write_viewer
+from .viewer import (
+    VIEWER_CHARACTERS,
+    VIEWER_METHODS,
+    VIEWER_PAGE,
+    book_links,
+    viewer_cell,
+    write_viewer,
+)
 
 NOTEBOOKS_DIR = REPO_ROOT / "notebooks"
 LEARNING_PATH = NOTEBOOKS_DIR / "learning_path.yaml"
@@ -175,6 +182,28 @@ def offline_outputs(nb):
                     f'<img src="data:image/gif;base64,{"".join(gif.split())}" alt="animation">'
                 )
     nb.metadata.pop("widgets", None)
+    return nb
+
+
+#: a code cell that shows the 3-D viewer (its output is replaced by the book's own viewer)
+_SHOWS_VIEWER = re.compile(r"^show_viewer\(", re.M)
+
+
+def with_viewer(nb, cell):
+    """The notebook with every ``show_viewer(...)`` cell's output replaced by ``cell`` (the book's
+    viewer, :func:`.viewer.viewer_cell`): executed by ``make``, such a cell shows only a link
+    (``build=False``: the viewer is written by the book, not by every notebook run). In place;
+    returns ``nb``."""
+    import nbformat
+
+    for c in nb.cells:
+        if c.cell_type == "code" and _SHOWS_VIEWER.search(c.source):
+            c.outputs = [
+                nbformat.v4.new_output(
+                    "display_data",
+                    data={"text/html": cell._repr_html_(), "text/plain": repr(cell)},
+                )
+            ]
     return nb
 
 
@@ -404,13 +433,23 @@ def build_book(
     out.mkdir(parents=True, exist_ok=True)
     copy_mathjax(out)
     exporter = _exporter()
+    t0 = time.perf_counter()
+    viewer = write_viewer(out)
+    if verbose:
+        print(
+            f"book: {viewer.name} (3-D viewer: {', '.join(VIEWER_METHODS)} on "
+            f"{', '.join(VIEWER_CHARACTERS)}) in "
+            f"{time.perf_counter() - t0:.1f} s",
+            flush=True,
+        )
+    shown = viewer_cell(out, out)
     sources, pages = {}, []
     todo = [(les, *_source_for(les, executed, committed)) for les in path.lessons]
     todo += [(None, Path(p), "outputs as given") for p in extra]
     for lesson, src, note in todo:
         t0 = time.perf_counter()
         notebook = committed / lesson.file if lesson is not None else src
-        nb = for_readers(nbformat.read(src, as_version=4), notebook, teacher)
+        nb = with_viewer(for_readers(nbformat.read(src, as_version=4), notebook, teacher), shown)
         blank = widget_only_outputs(nb)
         if blank:
             print(
@@ -426,15 +465,6 @@ def build_book(
         pages.append(page)
         if verbose:
             print(f"book: {page.name} ({note}) in {time.perf_counter() - t0:.1f} s", flush=True)
-    t0 = time.perf_counter()
-    viewer = write_viewer(out)
-    if verbose:
-        print(
-            f"book: {viewer.name} (3-D viewer: {', '.join(VIEWER_METHODS)} on "
-            f"{', '.join(VIEWER_CHARACTERS)}) in "
-            f"{time.perf_counter() - t0:.1f} s",
-            flush=True,
-        )
     index = out / "index.html"
     with atomic_write(index, "w") as f:
         f.write(index_html(path, sources, read_timings(executed)))

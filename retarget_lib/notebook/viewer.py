@@ -465,17 +465,24 @@ class ViewerCell:
         page: the viewer's page, relative to the notebook's folder.
     """
 
-    def __init__(self, html: str, page: str):
-        self.html, self.page = html, page
+    def __init__(self, html: str, page: str, built: bool = True):
+        self.html, self.page, self.built = html, page, built
 
     def _repr_html_(self) -> str:
+        link = f'<a href="{html.escape(self.page)}" target="_blank">'
+        if not self.built:
+            return (
+                "<p>The 3-D viewer is not built yet: `make book` writes it (every method "
+                f"retargets the clip, a minute or two), then re-run this cell, or {link}open it on "
+                "its own page</a>.</p>"
+            )
         return (
-            f'{self.html}\n<p><a href="{html.escape(self.page)}" target="_blank">Open the 3-D '
-            "viewer on its own page</a> (in the book folder; a browser opens it from disk).</p>"
+            f"{self.html}\n<p>{link}Open the 3-D viewer on its own page</a> (in the book folder; a "
+            "browser opens it from disk).</p>"
         )
 
     def __repr__(self) -> str:
-        return f"3-D viewer: {self.page}"
+        return f"3-D viewer: {self.page}" + ("" if self.built else " (not built yet: make book)")
 
 
 def show_viewer(book: Path | None = None, build: bool = True) -> ViewerCell:
@@ -492,30 +499,36 @@ def show_viewer(book: Path | None = None, build: bool = True) -> ViewerCell:
         book: the book folder (default ``build/book``, where ``make book`` writes it).
         build: write the viewer into ``book`` when it is not there, or is an older page
             (:func:`write_viewer`: every method retargets the clip, a minute or two on a CPU
-            core; one notebook at a time writes it).
+            core; one notebook at a time writes it); ``False``: show a note with the link
+            instead (the notebooks do: ``make`` stays short, ``make book`` writes the viewer).
 
     Returns:
         a :class:`ViewerCell`, its links relative to the working directory (the notebook's
         folder).
-
-    Raises:
-        FileNotFoundError: no viewer page of this version in ``book`` and ``build`` is False.
     """
     book = Path(book) if book is not None else BOOK_DIR
     page = book / VIEWER_PAGE
-    if not _current(page):
-        if not build:
-            raise FileNotFoundError(f"{page}: no viewer of this version; run `make book`")
+    if not _current(page) and build:
         with _building(book):
             if not _current(page):  # another notebook may have written it meanwhile
                 print(f"writing {page} (every method retargets the clip: a minute or two)")
                 write_viewer(book)
-    text = page.read_text()
-    begin, end = text.find(_BEGIN), text.find(_END)
+    return viewer_cell(book)
+
+
+def viewer_cell(book: Path, relative_to: Path | None = None) -> ViewerCell:
+    """The viewer of ``book`` as a cell output, its links relative to ``relative_to`` (default the
+    working directory); a note with the link when ``book`` has no viewer of this version (the
+    book's pages put it in place of a ``show_viewer()`` cell's output, :mod:`.book`)."""
+    page = Path(book) / VIEWER_PAGE
     base = Path(
-        os.path.relpath(os.path.abspath(book), os.getcwd())
+        os.path.relpath(os.path.abspath(book), os.path.abspath(relative_to or os.getcwd()))
     ).as_posix()  # no symlink followed
     prefix = "" if base == "." else f"{base}/"
+    if not _current(page):
+        return ViewerCell("", f"{prefix}{VIEWER_PAGE}", built=False)
+    text = page.read_text()
+    begin, end = text.find(_BEGIN), text.find(_END)
     fragment = re.sub(
         r'(?<=\bhref=")(?=_static/)', prefix, text[begin : end + len(_END)]
     )  # the models' and scripts' links, from the notebook's folder
