@@ -1,6 +1,5 @@
 """The ``data``, ``retarget``, ``train``, ``sweep``, ``capacity``, ``bench`` and ``exercises``
-subcommands: each
-imports what it runs inside its function (see :mod:`retarget_lib.cli`)."""
+subcommands: each imports what it runs inside its function (see :mod:`retarget_lib.cli`)."""
 
 from __future__ import annotations
 

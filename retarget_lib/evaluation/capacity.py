@@ -25,7 +25,7 @@ import numpy as np
 import pandas as pd
 
 from ..methods.registry import get_method
-from ..training.tdcn_data import TrainingClips, training_clips
+from ..training.tdcn_data import TrainingClips, config_training_clips
 from .tdcn.cases import EvalCase, Method, evaluate_case, short_chunks
 
 __all__ = [
@@ -45,12 +45,10 @@ PROTOCOL_COPY = "copy-unscaled"
 
 def capacity_clips(config: Mapping) -> TrainingClips:
     """The training set of a capacity config: its ``data.source`` cut to ``data.max_clips`` clips
-    of ``data.max_characters`` characters (what
-    :class:`~retarget_lib.training.tdcn.RetargetTraining` trains on; the mirror images are not
-    added, a capacity config sets no augmentation)."""
-    data = config["data"]
-    source = data.get("source", "synthetic")
-    return training_clips(False, source).subset(data.get("max_clips"), data.get("max_characters"))
+    of ``data.max_characters`` characters, exactly what
+    :class:`~retarget_lib.training.tdcn.RetargetTraining` trains on
+    (:func:`~retarget_lib.training.tdcn_data.config_training_clips`)."""
+    return config_training_clips(config["data"])
 
 
 def capacity_cases(clips: TrainingClips) -> list[EvalCase]:

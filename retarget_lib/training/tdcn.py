@@ -79,7 +79,6 @@ import torch
 from ..core.measures import leg_length, nkn_height
 from ..core.transfer import transfer_rotations_tensor
 from ..data.checkpoints import save_state
-from ..data.manifest import mixamo_local_dir
 from ..devices import autocast
 from ..losses import (
     MotionTensors,
@@ -112,7 +111,7 @@ from ..models.features import (
 )
 from .distributed import SINGLE, Distributed, prepare_module
 from .loop import TrainTask, load_checkpoint, seed_everything
-from .tdcn_data import TrainingBatch, TrainingClips, WindowSampler, training_clips
+from .tdcn_data import TrainingBatch, TrainingClips, WindowSampler, config_training_clips
 
 Tensor = torch.Tensor
 
@@ -209,7 +208,7 @@ class RetargetTraining:
             compare their network's root output, with ``standardize`` z-scored on the steps) and
             ``train`` (``batch``, ``lr``, ``betas``, optional ``decay_from``, ``max_clips`` and
             ``max_characters`` in ``data`` for a capacity check).
-        clips: training data (default :func:`training_clips`).
+        clips: training data (default :func:`config_training_clips` of ``data``).
         device: where the networks and each step's batch live (default CPU). Batches are drawn on
             the CPU either way, so every device sees the same data.
         amp: bfloat16 autocast for the forward passes (CUDA only,
@@ -260,11 +259,7 @@ class RetargetTraining:
         # Lc and La compare the root's per-frame steps instead of its path (NKN's own losses)
         self.root_steps = loss.get("root_term", "position") == "velocity"
         if clips is None:
-            source = data.get("source", "synthetic")
-            root = str(mixamo_local_dir()) if "mixamo-local" in source.split("+") else None
-            clips = training_clips(bool(data.get("mirror", False)), source, root).subset(
-                data.get("max_clips"), data.get("max_characters")
-            )
+            clips = config_training_clips(data)
         self.sampler = WindowSampler(
             clips,
             data["window"],

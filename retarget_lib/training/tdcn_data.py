@@ -56,6 +56,7 @@ from ..core.transfer import (
     retarget_ground_truth,
     transfer_rotations_tensor,
 )
+from ..data.manifest import mixamo_local_dir
 from ..data.mixamo_splits import mixamo_training_set
 from ..data.splits import tdcn_split
 from ..data.synthetic.dataset import load_synthetic
@@ -65,7 +66,14 @@ from ..methods.tdcn import centre_root
 
 Tensor = torch.Tensor
 
-__all__ = ["TrainingBatch", "TrainingClips", "WindowSampler", "stack_clips", "training_clips"]
+__all__ = [
+    "TrainingBatch",
+    "TrainingClips",
+    "WindowSampler",
+    "config_training_clips",
+    "stack_clips",
+    "training_clips",
+]
 
 
 @dataclass(frozen=True)
@@ -232,6 +240,17 @@ def training_clips(
     if mirror:
         clips += [(ref.mirror(), {k: v.mirror() for k, v in own.items()}) for ref, own in clips]
     return stack_clips(skeletons, clips)
+
+
+def config_training_clips(data: Mapping) -> TrainingClips:
+    """The training set a config's ``data`` section names: :func:`training_clips` of its
+    ``source`` (a ``mixamo-local`` part read from ``$RETARGET_MIXAMO``) and ``mirror``, cut to its
+    ``max_clips`` / ``max_characters`` (:meth:`TrainingClips.subset`; a capacity check's set)."""
+    source = data.get("source", "synthetic")
+    root = str(mixamo_local_dir()) if "mixamo-local" in source.split("+") else None
+    return training_clips(bool(data.get("mirror", False)), source, root).subset(
+        data.get("max_clips"), data.get("max_characters")
+    )
 
 
 class TrainingBatch(NamedTuple):
