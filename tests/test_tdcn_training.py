@@ -14,6 +14,7 @@ import torch
 from retarget_lib.cli import main
 from retarget_lib.config import load_config
 from retarget_lib.core.measures import nkn_height
+from retarget_lib.core.quantities import leg_ratio
 from retarget_lib.data.splits import tdcn_split
 from retarget_lib.data.synthetic.dataset import load_synthetic
 from retarget_lib.losses import NonFiniteLossError
@@ -306,6 +307,17 @@ def test_load_generator_round_trip_and_retarget_200_frames(tmp_path, stem):
     assert out.num_frames == 200 and np.allclose(out.skeleton.offsets, target.offsets)
     assert np.isfinite(out.root_positions).all()
     np.testing.assert_allclose(np.linalg.norm(out.rotations, axis=-1), 1.0, atol=1e-5)
+    # a clip moved by d on the floor comes out moved by leg_ratio * d, the ground truth's path
+    # scale (not H's); float32 network, metres: 1e-4 m
+    d = np.array([2.0, 0.0, -1.5])
+    moved = retarget_motion_with(
+        generator, clip.copy(root_positions=clip.root_positions + d), target
+    )
+    np.testing.assert_allclose(
+        moved.root_positions - out.root_positions,
+        np.broadcast_to(leg_ratio(clip.skeleton, target) * d, out.root_positions.shape),
+        atol=1e-4,
+    )
     if not isinstance(generator, TDCNGenerator):
         with pytest.raises(ValueError, match="TDCNGenerator"):
             retarget_motion_with(generator, clip, target, windowed=True)

@@ -17,8 +17,8 @@ from typing import Any
 
 import torch
 
-from ..core.measures import nkn_height
 from ..core.motion import Motion
+from ..core.quantities import leg_ratio
 from ..core.rotations import quat_slerp
 from ..core.skeleton import Skeleton
 from ..data.checkpoints import load_state
@@ -149,8 +149,13 @@ def retarget_motion_with(
 
     ``windowed=False`` (the paper, Sec. 3.1): the clip is centred like the training windows
     (:func:`centre_root`) and run through the network in one pass; the removed horizontal shift
-    is added back scaled by ``H(s̄B) / H(s̄A)``. A long travelling clip then feeds root positions
-    far outside the ±(half a window's travel) seen in training.
+    is added back scaled by the leg ratio ``h_legs_B / h_legs_A``
+    (:func:`~retarget_lib.core.quantities.leg_ratio`), the scale of the ground truth's root path
+    (and of ``copy``'s). The network's own root inside the window is what it learned (``H``-scaled
+    under Eqs. 15-16); scaling the shift by ``H(s̄B) / H(s̄A)`` too put a travelling clip metres
+    from its ground truth, since the two ratios differ by up to 10% between characters. A long
+    travelling clip feeds root positions far outside the ±(half a window's travel) seen in
+    training.
 
     ``windowed=True`` (TDCN only, our variant): every output frame ``t`` is computed from its own
     receptive field (81 frames around ``t``, the past 81 for the causal A5), centred exactly like
@@ -176,7 +181,7 @@ def retarget_motion_with(
     device = module_device(generator)
     q, r, off_a = (x.to(device) for x in motion.torch())
     off_b = torch.as_tensor(target.offsets, dtype=torch.float32, device=device)
-    ratio = nkn_height(off_b) / nkn_height(off_a)
+    ratio = leg_ratio(motion.skeleton, target)  # the ground truth's path scale, as `copy`'s
     with torch.inference_mode():
         if getattr(
             generator, "residual", False
