@@ -215,6 +215,7 @@ TDCN: dict[str, Any] = {
         "residual": BOOL,
         "standardized_root": BOOL,
         "normalize_root": BOOL,
+        "root_frame": choice("world", "facing"),
         "backbone": TEXT,
         "data": TEXT,
         "loss": TEXT,

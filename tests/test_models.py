@@ -28,10 +28,13 @@ from retarget_lib.models.features import (
     FeatureNormalizer,
     discriminator_features,
     discriminator_input_channels,
+    from_facing_frame,
     generator_features,
     generator_input_channels,
+    hip_facing,
     source_local_positions,
     split_generator_features,
+    to_facing_frame,
 )
 
 J = 22
@@ -313,6 +316,44 @@ def test_nkn_root_is_cumulative_sum_of_velocities(normalize_root):
     expected = start[:, None] + torch.cumsum(out.root_velocities, 1)
     assert torch.allclose(out.root_positions, expected, atol=1e-12)
     assert torch.allclose(out.root_positions.diff(dim=1), out.root_velocities[:, 1:], atol=1e-12)
+
+
+def test_facing_frame_round_trip_and_the_hips_rule():
+    g = torch.Generator().manual_seed(3)
+    v = torch.randn(5, 7, 3, generator=g, dtype=torch.float64)
+    yaw = torch.rand(5, 7, generator=g, dtype=torch.float64) * 6.283
+    facing = torch.stack((yaw.sin(), yaw.cos()), -1)
+    back = from_facing_frame(to_facing_frame(v, facing), facing)
+    assert torch.allclose(back, v, atol=1e-12)  # an orthonormal map and its transpose
+    # a step along the facing direction is pure +z in the facing frame, lengths kept
+    step = torch.cat((facing[..., :1], torch.zeros_like(yaw)[..., None], facing[..., 1:]), -1)
+    local = to_facing_frame(step, facing)
+    assert torch.allclose(local, torch.tensor([0.0, 0.0, 1.0], dtype=torch.float64), atol=1e-12)
+    # the hips' rule: the rest pose faces +z (left hip at +x); a quarter turn left faces +x
+    p = torch.zeros(J, 3)
+    p[6], p[10] = (
+        torch.tensor([0.1, -0.05, 0.0]),
+        torch.tensor([-0.1, -0.05, 0.0]),
+    )  # Left/RightUpLeg
+    assert torch.allclose(hip_facing(p), torch.tensor([0.0, 1.0]), atol=1e-6)
+    turn = torch.tensor([[0.0, 0, 1], [0, 1, 0], [-1, 0, 0]])  # +90 degrees about +Y: +z -> +x
+    assert torch.allclose(hip_facing(p @ turn.T), torch.tensor([1.0, 0.0]), atol=1e-6)
+
+
+def test_a_facing_frame_nkn_steps_along_the_sources_heading():
+    """A head that outputs one forward step a frame walks wherever the source faces."""
+    g = NKNGenerator(hidden=SMALL, backbone="dilated", root_frame="facing").eval()
+    with torch.no_grad():
+        g.out.weight[-3:] = 0.0
+        g.out.bias[-3:] = torch.tensor([0.0, 0.0, 0.01])
+    q, r, oa, ob = _motion(2, 40)
+    with torch.no_grad():
+        out = g(q, r, oa, ob)
+    f = hip_facing(source_local_positions(q, oa))
+    expected = 0.01 * torch.stack((f[..., 0], torch.zeros_like(f[..., 0]), f[..., 1]), -1)
+    assert torch.allclose(out.root_velocities, expected, atol=1e-6)
+    with pytest.raises(ValueError, match="root_frame"):
+        NKNGenerator(hidden=SMALL, root_frame="heading")
 
 
 def test_nkn_gru_decoder_is_online():

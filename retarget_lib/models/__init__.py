@@ -24,6 +24,7 @@ Model config keys (all optional; a ``"model"`` sub-dict is used if present):
 ``standardized_root``  TDCN paper form: the root head outputs z-scores (needs
                        ``normalize_inputs``; :class:`~retarget_lib.models.tdcn.TDCNGenerator`)
 ``height_loss``        NKN only; defaults to ``True`` for ``variant="height"``
+``root_frame``         NKN only: ``"world"`` (default) or ``"facing"`` root offsets
 ``dilations``, ``kernel``, ``slope``, ``head_hidden``, ``skip_projection``, ``num_layers``,
 ``disc_norm``, ``causal``, ``dense``  passed to the constructors
 =====================  ====================================================================
@@ -196,6 +197,7 @@ def build_model(config: Mapping[str, Any] | None = None) -> ModelPair:
             **pick(
                 "backbone",
                 "normalize_root",
+                "root_frame",
                 "height_loss",
                 "dropout",
                 "dilations",

@@ -49,7 +49,7 @@ from torch import nn
 from ..core.kinematics import forward_kinematics
 from ..core.measures import nkn_height
 from ..core.quantities import discriminator_inputs
-from ..core.skeleton import CANONICAL22_PARENTS
+from ..core.skeleton import CANONICAL22, CANONICAL22_PARENTS
 
 Tensor = torch.Tensor
 
@@ -65,6 +65,9 @@ __all__ = [
     "split_generator_features",
     "root_velocities",
     "nkn_source_features",
+    "hip_facing",
+    "to_facing_frame",
+    "from_facing_frame",
     "discriminator_features",
     "FeatureNormalizer",
     "residual_input_channels",
@@ -72,6 +75,7 @@ __all__ = [
 ]
 
 NUM_JOINTS = 22
+_LEFT_UP_LEG, _RIGHT_UP_LEG = CANONICAL22.index("LeftUpLeg"), CANONICAL22.index("RightUpLeg")
 
 
 def residual_input_channels(num_joints: int = NUM_JOINTS) -> int:
@@ -242,8 +246,48 @@ def root_velocities(root_positions: Tensor) -> Tensor:
     return torch.cat([torch.zeros_like(root_positions[:, :1]), root_positions.diff(dim=1)], 1)
 
 
+def hip_facing(positions: Tensor) -> Tensor:
+    """Horizontal facing direction per frame from the hips: ``forward = (left − right hip) × up``
+    (the rule of :meth:`~retarget_lib.core.motion.Motion.facing`).
+
+    Args:
+        positions: ``(..., J, 3)`` canonical-22 joint positions (root-relative or world).
+
+    Returns:
+        ``(..., 2)`` unit ``(f_x, f_z)``.
+    """
+    across = positions[..., _LEFT_UP_LEG, :] - positions[..., _RIGHT_UP_LEG, :]
+    fwd = torch.stack((-across[..., 2], across[..., 0]), -1)  # (a × +Y) in the xz plane
+    return fwd / fwd.norm(dim=-1, keepdim=True).clamp_min(1e-9)
+
+
+def to_facing_frame(v: Tensor, facing: Tensor) -> Tensor:
+    """World vectors into the facing frame (``+z`` forward, ``+x`` to the character's left).
+
+    Args:
+        v: ``(..., 3)`` world vectors (metres).
+        facing: ``(..., 2)`` unit ``(f_x, f_z)`` (:func:`hip_facing`).
+
+    Returns:
+        ``(..., 3)``; :func:`from_facing_frame` inverts it.
+    """
+    fx, fz = facing.unbind(-1)
+    x, y, z = v.unbind(-1)
+    return torch.stack((x * fz - z * fx, y, x * fx + z * fz), -1)
+
+
+def from_facing_frame(v: Tensor, facing: Tensor) -> Tensor:
+    """Facing-frame vectors back to world axes (inverse of :func:`to_facing_frame`)."""
+    fx, fz = facing.unbind(-1)
+    x, y, z = v.unbind(-1)
+    return torch.stack((x * fz + z * fx, y, z * fz - x * fx), -1)
+
+
 def nkn_source_features(
-    positions: Tensor, root_positions: Tensor, height: Tensor | None = None
+    positions: Tensor,
+    root_positions: Tensor,
+    height: Tensor | None = None,
+    facing: Tensor | None = None,
 ) -> Tensor:
     """The NKN encoder input per frame: local joint positions and root velocity (Villegas 2018).
 
@@ -252,12 +296,17 @@ def nkn_source_features(
         root_positions: ``(B, T, 3)`` root positions.
         height: optional ``(B,)`` source heights ``H(s̄A)``; when given the root velocity is divided
             by it ("normalised root offsets", TDCN Sec. 6 Baseline-height).
+        facing: optional ``(B, T, 2)`` facing directions (:func:`hip_facing`); when given the root
+            velocity is expressed in each frame's facing frame (:func:`to_facing_frame`, the
+            authors' NKN code's root representation) instead of world axes.
 
     Returns:
         ``(B, 3J + 3, T)`` channels-first.
     """
     b, t, j, _ = positions.shape
     v = root_velocities(root_positions)
+    if facing is not None:
+        v = to_facing_frame(v, facing)
     if height is not None:
         v = v / height.view(b, 1, 1)
     return torch.cat([positions.reshape(b, t, 3 * j), v], -1).transpose(1, 2)

@@ -54,6 +54,8 @@ from .features import (
     NUM_JOINTS,
     FeatureNormalizer,
     batched_offsets,
+    from_facing_frame,
+    hip_facing,
     nkn_input_channels,
     nkn_source_features,
     root_velocities,
@@ -70,9 +72,16 @@ from .tdcn import (
 
 Tensor = torch.Tensor
 
-__all__ = ["NKNGenerator", "NKNDiscriminator", "nkn_discriminator_features", "NKN_BACKBONES"]
+__all__ = [
+    "NKNGenerator",
+    "NKNDiscriminator",
+    "nkn_discriminator_features",
+    "NKN_BACKBONES",
+    "NKN_ROOT_FRAMES",
+]
 
 NKN_BACKBONES = ("gru", "dense", "dilated")
+NKN_ROOT_FRAMES = ("world", "facing")
 
 
 class NKNGenerator(nn.Module):
@@ -84,6 +93,10 @@ class NKNGenerator(nn.Module):
             (Baseline-dilated).
         num_layers: stacked GRU layers per RNN (GRU backbone only).
         normalize_root: root offsets divided by the character height (Baseline-height).
+        root_frame: ``"world"`` (root offsets in world axes) or ``"facing"``: in and out in each
+            frame's facing frame (:func:`~retarget_lib.models.features.to_facing_frame`, from the
+            source's hips; the target keeps the source's heading), so a walk is the same numbers
+            whichever way it heads (the authors' code; audit N1).
         height_loss: flag for the training code: add TDCN's ``L_h`` (Baseline-height).
         dropout: dropout (GRU: on the decoder input and between stacked layers; conv: after
             every layer). Default 0 for the GRU, 0.1 for the conv backbones (TDCN's rate).
@@ -102,6 +115,7 @@ class NKNGenerator(nn.Module):
         backbone: str = "gru",
         num_layers: int = 1,
         normalize_root: bool = False,
+        root_frame: str = "world",
         height_loss: bool = False,
         dropout: float | None = None,
         dilations: Sequence[int] = (3, 9, 27),
@@ -114,7 +128,10 @@ class NKNGenerator(nn.Module):
             raise ValueError(f"backbone must be one of {NKN_BACKBONES}, got {backbone!r}")
         self.backbone, self.hidden, self.num_joints = backbone, hidden, num_joints
         self.parents = tuple(parents)
+        if root_frame not in NKN_ROOT_FRAMES:
+            raise ValueError(f"root_frame must be one of {NKN_ROOT_FRAMES}, got {root_frame!r}")
         self.normalize_root, self.height_loss = bool(normalize_root), bool(height_loss)
+        self.root_frame = root_frame
         dropout = (0.0 if backbone == "gru" else 0.1) if dropout is None else float(dropout)
         c_in, c_skel, c_out = nkn_input_channels(num_joints), 3 * num_joints, 4 * num_joints + 3
         self.normalizer = FeatureNormalizer(c_in)
@@ -177,19 +194,45 @@ class NKNGenerator(nn.Module):
         if positions is None:
             positions = source_local_positions(rotations, off_src, self.parents)
         h_src, h_tgt = nkn_height(off_src), nkn_height(off_tgt)
-        x = self.normalizer(
-            nkn_source_features(positions, root_positions, h_src if self.normalize_root else None)
-        )
+        facing = hip_facing(positions) if self.root_frame == "facing" else None
+        x = self.normalizer(self.source_features(positions, root_positions, off_src, facing))
         if self.backbone == "gru":
             q, v = self._decode_gru(x, off_tgt)
         else:
             q, v = self._decode_conv(x, off_tgt)
         if self.normalize_root:
             v = v * h_tgt.view(b, 1, 1)
+        if facing is not None:
+            v = from_facing_frame(v, facing)
         start = root_positions[:, 0] * (h_tgt / h_src).view(b, 1)
         return GeneratorOutput(q, start.unsqueeze(1) + v.cumsum(1), v)
 
     generate = forward
+
+    def source_features(
+        self,
+        positions: Tensor,
+        root_positions: Tensor,
+        offsets_src: Tensor,
+        facing: Tensor | None = None,
+    ) -> Tensor:
+        """The encoder input before the normaliser (:func:`nkn_source_features` with this model's
+        root options).
+
+        Args:
+            positions: ``(B, T, J, 3)`` source ``p``.
+            root_positions: ``(B, T, 3)``.
+            offsets_src: ``(B, J, 3)`` source offsets.
+            facing: ``(B, T, 2)`` (:func:`hip_facing` of ``positions``); computed when the model
+                works in the facing frame and it is not given.
+
+        Returns:
+            ``(B, 3J + 3, T)``.
+        """
+        if self.root_frame == "facing" and facing is None:
+            facing = hip_facing(positions)
+        height = nkn_height(offsets_src) if self.normalize_root else None
+        return nkn_source_features(positions, root_positions, height, facing)
 
     def _split(self, out: Tensor) -> tuple[Tensor, Tensor]:
         j = self.num_joints

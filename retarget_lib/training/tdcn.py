@@ -104,7 +104,6 @@ from ..methods.tdcn import model_config
 from ..models import build_model, normalize_quaternions, resolve_config
 from ..models.features import (
     generator_features,
-    nkn_source_features,
     residual_generator_features,
     root_velocities,
     source_local_positions,
@@ -307,8 +306,7 @@ class RetargetTraining:
             )
             x = features(b.rotations, b.root_positions, b.offsets_source, b.offsets_target, p)
         else:
-            h = nkn_height(b.offsets_source) if self.generator.normalize_root else None
-            x = nkn_source_features(p, b.root_positions, h)
+            x = self.generator.source_features(p, b.root_positions, b.offsets_source)
         self.generator.normalizer.fit(x)
 
     @torch.no_grad()
