@@ -11,7 +11,7 @@ import pytest
 import torch
 
 from retarget_lib.core.kinematics import forward_kinematics
-from retarget_lib.core.measures import nkn_height
+from retarget_lib.core.measures import leg_length, nkn_height
 from retarget_lib.core.rotations import quat_normalize
 from retarget_lib.core.skeleton import CANONICAL22_PARENTS, canonical22_skeleton
 from retarget_lib.models import (
@@ -312,7 +312,7 @@ def test_nkn_root_is_cumulative_sum_of_velocities(normalize_root):
     g.double()
     with torch.no_grad():
         out = g(q, r, oa, ob)
-    start = r[:, 0] * (nkn_height(ob) / nkn_height(oa))[:, None]
+    start = r[:, 0] * (leg_length(ob) / leg_length(oa))[:, None]
     expected = start[:, None] + torch.cumsum(out.root_velocities, 1)
     assert torch.allclose(out.root_positions, expected, atol=1e-12)
     assert torch.allclose(out.root_positions.diff(dim=1), out.root_velocities[:, 1:], atol=1e-12)

@@ -12,8 +12,10 @@ Generator (:class:`NKNGenerator`, "Baseline")::
 ``v_t = r_t - r_{t-1}`` (``v_1 = 0``) is the root *offset* per frame. Because NKN predicts offsets
 and integrates them, root errors accumulate over long clips — the reason TDCN gives for the
 baselines' degradation on long sequences (Sec. 6.1). The start point ``r̂_0`` is the source's
-first root position scaled by ``H(s̄B) / H(s̄A)`` (NKN leaves the first frame's placement to the
-data; this choice makes the test-time start consistent with the height-scaled ground truth).
+first root position scaled by the leg ratio ``h_legs_B / h_legs_A``
+(:func:`~retarget_lib.core.measures.leg_length`; NKN leaves the first frame's placement to the
+data; this choice puts it where the ground truth, which scales the root path by the leg ratio,
+starts).
 
 Variants (Sec. 6, all with ``backbone`` / ``normalize_root``):
 
@@ -47,7 +49,7 @@ import torch
 from torch import nn
 
 from ..core.kinematics import forward_kinematics
-from ..core.measures import nkn_height
+from ..core.measures import leg_length, nkn_height
 from ..core.skeleton import CANONICAL22_PARENTS
 from .compiling import compile_frame_step
 from .features import (
@@ -193,7 +195,7 @@ class NKNGenerator(nn.Module):
         off_tgt = batched_offsets(offsets_tgt.to(rotations.dtype), b)
         if positions is None:
             positions = source_local_positions(rotations, off_src, self.parents)
-        h_src, h_tgt = nkn_height(off_src), nkn_height(off_tgt)
+        h_tgt = nkn_height(off_tgt)
         facing = hip_facing(positions) if self.root_frame == "facing" else None
         x = self.normalizer(self.source_features(positions, root_positions, off_src, facing))
         if self.backbone == "gru":
@@ -204,7 +206,7 @@ class NKNGenerator(nn.Module):
             v = v * h_tgt.view(b, 1, 1)
         if facing is not None:
             v = from_facing_frame(v, facing)
-        start = root_positions[:, 0] * (h_tgt / h_src).view(b, 1)
+        start = root_positions[:, 0] * (leg_length(off_tgt) / leg_length(off_src)).view(b, 1)
         return GeneratorOutput(q, start.unsqueeze(1) + v.cumsum(1), v)
 
     generate = forward
