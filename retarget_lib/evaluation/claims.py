@@ -51,7 +51,7 @@ TIE = 0.02
 CAUSES: dict[tuple[str, str], str] = {
     ("Table 4", "Baseline"): (
         "our NKN baseline's root drifts (world-frame root steps in metres, no yaw rate, no "
-        "per-frame loss; the root is 86-96 % of its Mixamo-convention error): docs/reproduction.md"
+        "per-frame loss; the root is 78-96 % of its Mixamo-convention error): docs/reproduction.md"
     ),
     ("Table 4", "Baseline-height"): "as Baseline (the same root representation)",
     ("Table 4", "Baseline-dense"): "as Baseline (the same root representation)",
