@@ -193,8 +193,10 @@ def write(runs: list[dict]) -> None:
             ),
         )
         for s in steps:
-            median = statistics.median(r[f"{cmd} steps"][s] for r in runs if s in r[f"{cmd} steps"])
-            lines.append(f"| {cmd} | {s} | {median:.0f} |")
+            seconds = statistics.median(
+                r[f"{cmd} steps"][s] for r in runs if s in r[f"{cmd} steps"]
+            )
+            lines.append(f"| {cmd} | {s} | {seconds:.0f} |")
     workshop = {
         nb: statistics.median(
             r["workshop notebooks"][nb] for r in runs if nb in r["workshop notebooks"]
