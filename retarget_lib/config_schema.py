@@ -216,6 +216,7 @@ TDCN: dict[str, Any] = {
         "standardized_root": BOOL,
         "normalize_root": BOOL,
         "root_frame": choice("world", "facing"),
+        "root_height": choice("step", "floor"),
         "backbone": TEXT,
         "data": TEXT,
         "loss": TEXT,
@@ -292,6 +293,7 @@ CONTACT: dict[str, Any] = {
     "data": {
         "window": WINDOW,
         "held_out_seed": NONNEG_INT,
+        "max_clips": up_to(100_000),
         "train_characters": NAMES,
         "source": choice(*CONTACT_DATA_SOURCES),
     },

@@ -9,9 +9,12 @@ from retarget_lib.cli import main
 from retarget_lib.core.motion import Motion
 from retarget_lib.core.rotations import quat_from_axis_angle
 from retarget_lib.evaluation.capacity import (
+    CONTACT_COPY,
     PROTOCOL_COPY,
     capacity_cases,
     capacity_check,
+    contact_capacity_cases,
+    contact_capacity_check,
 )
 from retarget_lib.methods.registry import get_method
 from retarget_lib.training.tdcn_data import stack_clips
@@ -95,3 +98,37 @@ def test_cli_refuses_a_folder_that_is_not_a_capacity_run(tmp_path, capsys):
     assert main(["capacity", str(tmp_path)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "max_clips" in err[0]
+
+
+def test_the_contact_check_passes_a_network_that_learnt_its_clips_and_fails_the_copy_row():
+    """The contact network's check on a real tiny set (the first training clip of two training
+    characters, onto both): a model returning each case's ground truth passes; the copy row as the
+    model fails (not strictly below itself), and a model that walks one centimetre off the truth in
+    every frame misses identity by 1 cm / H, measured."""
+    config = {
+        "data": {"train_characters": ["ada", "dex"], "held_out_seed": 8, "max_clips": 1},
+    }
+    cases = contact_capacity_cases(config)
+    assert [(c.source_character.name, c.target.name) for c in cases] == [
+        ("ada", "ada"),
+        ("ada", "dex"),
+    ]
+    assert np.array_equal(cases[0].truth.rotations, cases[0].source.rotations)  # identity's truth
+
+    def truth_of(source, target):
+        return next(c.truth for c in cases if c.target is target and c.source is source)
+
+    learnt = contact_capacity_check(truth_of, cases)
+    assert learnt.model_short == 0.0 and learnt.identity_pct == 0.0
+    assert learnt.copy_short > 0 and learnt.passed and "PASS" in learnt.summary()
+    copy = get_method(CONTACT_COPY).retargeter()
+    as_copy = contact_capacity_check(lambda s, t: copy(s, t.skeleton), cases)
+    assert as_copy.model_short == as_copy.copy_short and not as_copy.passed
+
+    def off_by_a_centimetre(source, target):
+        truth = truth_of(source, target)
+        return truth.copy(root_positions=truth.root_positions + [0.01, 0.0, 0.0])
+
+    shifted = contact_capacity_check(off_by_a_centimetre, cases)
+    h = cases[0].target.skeleton.height()
+    assert abs(shifted.identity_pct - 1.0 / h) < 1e-9  # every joint 1 cm off, in % of H (m)

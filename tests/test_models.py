@@ -356,6 +356,34 @@ def test_a_facing_frame_nkn_steps_along_the_sources_heading():
         NKNGenerator(hidden=SMALL, root_frame="heading")
 
 
+def test_a_floor_height_nkn_scales_the_sources_hip_height_and_cannot_drift():
+    """root_height="floor": a zero vertical output gives the source's hip height times the leg
+    ratio in every frame (the ground truth's root height), and a constant vertical output lifts
+    every frame by the same amount instead of climbing frame after frame as an integrated step."""
+    g = NKNGenerator(hidden=SMALL, backbone="dilated", root_height="floor").eval().double()
+    q, r, oa, ob = _motion(2, 40, dtype=torch.float64)
+    r = r.clone()
+    r[..., 1] = 0.9 + 0.1 * torch.linspace(0, 6.283, 40, dtype=torch.float64).sin()  # a bob
+    ratio = (leg_length(ob) / leg_length(oa))[:, None]
+    with torch.no_grad():
+        g.out.weight[-3:] = 0.0
+        g.out.bias[-3:] = 0.0
+        zero = g(q, r, oa, ob)
+        g.out.bias[-2] = 0.05  # five hundredths of a leg length, every frame
+        lifted = g(q, r, oa, ob)
+    assert torch.allclose(zero.root_positions[..., 1], r[..., 1] * ratio, atol=1e-12)
+    lift = lifted.root_positions[..., 1] - zero.root_positions[..., 1]
+    assert torch.allclose(lift, 0.05 * leg_length(ob)[:, None].expand_as(lift), atol=1e-12)
+    # the returned steps are the path's vertical steps (0 at the first frame)
+    assert torch.allclose(zero.root_velocities[:, 1:, 1], zero.root_positions[..., 1].diff(dim=1))
+    assert (zero.root_velocities[:, 0, 1] == 0).all()
+    # and the source's height enters the encoder in place of its vertical step
+    x = g.source_features(source_local_positions(q, oa), r, oa)
+    assert torch.allclose(x[:, -2], r[..., 1] / leg_length(oa)[:, None], atol=1e-12)
+    with pytest.raises(ValueError, match="root_height"):
+        NKNGenerator(hidden=SMALL, root_height="absolute")
+
+
 def test_nkn_gru_decoder_is_online():
     """The GRU baseline is causal: later source frames do not change earlier outputs."""
     g = NKNGenerator(hidden=SMALL).eval()

@@ -123,7 +123,15 @@ def _cmd_capacity(args: argparse.Namespace) -> int:
     import yaml
 
     from ..errors import RetargetInputError
-    from ..evaluation.capacity import capacity_cases, capacity_check, capacity_clips
+    from ..evaluation.capacity import (
+        capacity_cases,
+        capacity_check,
+        capacity_clips,
+        contact_capacity_cases,
+        contact_capacity_check,
+        contact_network_method,
+    )
+    from ..methods.contact import load_contact_model
     from ..methods.registry import get_method
 
     run = Path(args.run)
@@ -133,15 +141,24 @@ def _cmd_capacity(args: argparse.Namespace) -> int:
             raise RetargetInputError(f"{path}: not found (a `retarget train --out` folder?)")
     config = yaml.safe_load(config_path.read_text())
     data = config.get("data", {}) if isinstance(config, dict) else {}
-    if config.get("method", "tdcn") == "contact" or "max_clips" not in data:
+    if "max_clips" not in data or (
+        config.get("method") == "contact" and data.get("source", "synthetic") != "synthetic"
+    ):
         raise RetargetInputError(
-            f"{config_path}: not a TDCN/NKN capacity run (needs data.max_clips, e.g. "
-            "configs/capacity/nkn.yaml)"
+            f"{config_path}: not a capacity run (needs data.max_clips, and a synthetic source for "
+            "a contact run; e.g. configs/capacity/nkn.yaml, configs/capacity/contact.yaml)"
         )
-    method = "nkn" if str(config["model"].get("row", "")).startswith("Baseline") else "tdcn"
-    result = capacity_check(
-        get_method(method).retargeter(checkpoint), capacity_cases(capacity_clips(config))
-    )
+    if config.get("method") == "contact":
+        method = "contact"
+        model, _ = load_contact_model(checkpoint)
+        result = contact_capacity_check(
+            contact_network_method(model), contact_capacity_cases(config)
+        )
+    else:
+        method = "nkn" if str(config["model"].get("row", "")).startswith("Baseline") else "tdcn"
+        result = capacity_check(
+            get_method(method).retargeter(checkpoint), capacity_cases(capacity_clips(config))
+        )
     print(f"{run.name} ({method}, {checkpoint.name}): {result.summary()}")
     if args.out:
         with atomic_write(args.out, "w") as f:

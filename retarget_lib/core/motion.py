@@ -14,6 +14,7 @@ import torch
 
 from ..errors import LimitError
 from .kinematics import FKResult, forward_kinematics
+from .quantities import hip_facing
 from .rotations import quat_canonical, quat_from_axis_angle, quat_mul, quat_rotate, quat_slerp
 from .skeleton import Skeleton
 
@@ -211,14 +212,16 @@ class Motion:
     def facing(self) -> np.ndarray:
         """``(T, 3)`` horizontal facing direction (unit, y = 0) of the root frame at each frame.
 
-        Uses the right->left hip axis when both up-legs exist (forward = left x up), else the
-        root's rotated +Z.
+        Uses the hips when both up-legs exist (:func:`~retarget_lib.core.quantities.hip_facing`),
+        else the root's rotated +Z.
         """
         pos, grot = self.fk()
         names = self.skeleton.joint_names
         if "LeftUpLeg" in names and "RightUpLeg" in names:
-            across = pos[:, names.index("LeftUpLeg")] - pos[:, names.index("RightUpLeg")]
-            fwd = np.cross(across, np.array([0.0, 1.0, 0.0]))  # left (+X) x up (+Y) = +Z
+            f = hip_facing(
+                _t(pos[:, names.index("LeftUpLeg")]), _t(pos[:, names.index("RightUpLeg")])
+            ).numpy()
+            fwd = np.stack((f[:, 0], np.zeros(len(f)), f[:, 1]), -1)
         else:
             fwd = quat_rotate(
                 _t(cast(np.ndarray, grot)[:, 0]), _t(np.array([0.0, 0.0, 1.0]))

@@ -35,6 +35,7 @@ __all__ = [
     "discriminator_inputs",
     "FOOT_CONTACT_IDS",
     "leg_ratio",
+    "hip_facing",
     "forward_root_velocity",
     "frame_velocities",
     "MotionQuantities",
@@ -160,6 +161,24 @@ def leg_ratio(source: Skeleton, target: Skeleton) -> float:
     the leg length in the retarget pose
     (:func:`~retarget_lib.core.measures.skeleton_leg_length`)."""
     return skeleton_leg_length(target) / skeleton_leg_length(source)
+
+
+def hip_facing(left_hip: Tensor, right_hip: Tensor) -> Tensor:
+    """A body's horizontal facing direction from its hips: ``forward = (left − right hip) × up``,
+    in the ground plane (+Y up; a body whose left hip is at +X faces +Z). The one facing rule,
+    read by :meth:`Motion.facing() <retarget_lib.core.motion.Motion.facing>` and the NKN
+    baseline's facing frame (:func:`~retarget_lib.models.features.to_facing_frame`).
+
+    Args:
+        left_hip: ``(..., 3)`` left up-leg joint positions (metres; root-relative or world).
+        right_hip: ``(..., 3)`` right up-leg joint positions, same frame.
+
+    Returns:
+        ``(..., 2)`` unit ``(f_x, f_z)`` (a zero hip axis gives a zero vector).
+    """
+    across = left_hip - right_hip
+    fwd = torch.stack((-across[..., 2], across[..., 0]), -1)  # (a × +Y) in the xz plane
+    return fwd / fwd.norm(dim=-1, keepdim=True).clamp_min(1e-9)
 
 
 def forward_root_velocity(root_positions: Tensor) -> Tensor:

@@ -14,19 +14,35 @@ pair of its characters on every clip, the pairs of a character with itself being
 Scores follow the protocol of Table 4 (:func:`~retarget_lib.evaluation.tdcn.cases.evaluate_case`,
 short: 120-frame windows, ``||x - x̂||²`` summed over x, y, z, averaged over joints and frames,
 divided by the target's height).
+
+The contact network (Villegas et al. 2021) gets the same check on its own protocol
+(:func:`contact_capacity_check`): trained on ``data.max_clips`` synthetic clips of its
+``data.train_characters``, every clip retargeted by the network alone (no ESO) onto every training
+character; its Table 1 position error (``global position MSE``, the same normalised squared error
+on whole clips) on the pairs of two characters must fall below Table 1's copy row on those pairs,
+and its identity below the same bar. The ground truth is each clip authored on the target
+(:func:`~retarget_lib.data.synthetic.motions.make_motion` with the clip's family and seed), as in
+Table 1.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
 
+from ..core.character import Character
+from ..core.motion import Motion
+from ..data.synthetic.dataset import dataset_path, fingerprint_of, load_synthetic
+from ..data.synthetic.motions import body_radii_from_mesh, make_motion
+from ..methods.contact import contact_clip, retarget_with_network
 from ..methods.registry import get_method
+from ..training.contact import synthetic_clip_key, synthetic_training_clips
 from ..training.tdcn_data import TrainingClips, config_training_clips
-from .tdcn.cases import EvalCase, Method, evaluate_case, short_chunks
+from .contact.cases import foot_contact_accuracy
+from .tdcn.cases import EvalCase, Method, evaluate_case, normalized_mse, short_chunks
 
 __all__ = [
     "IDENTITY_BAR_PCT",
@@ -35,12 +51,18 @@ __all__ = [
     "capacity_cases",
     "capacity_clips",
     "capacity_check",
+    "CONTACT_COPY",
+    "contact_capacity_cases",
+    "contact_capacity_check",
+    "contact_network_method",
 ]
 
 #: the identity bar of a capacity check, % of the target's height
 IDENTITY_BAR_PCT = 2.0
 #: the protocol copy row a fitted model must beat (NKN's Table 1 copy, TDCN's Table 4 protocol)
 PROTOCOL_COPY = "copy-unscaled"
+#: the copy row of the contact paper's Table 1 (the local rotations, the root by the leg ratio)
+CONTACT_COPY = "copy"
 
 
 def capacity_clips(config: Mapping) -> TrainingClips:
@@ -78,17 +100,22 @@ class CapacityResult:
     """A capacity check's figures.
 
     Attributes:
-        model_short: the model's mean short score over the pairs of two characters (cm²/cm).
-        copy_short: :data:`PROTOCOL_COPY`'s on the same pairs.
+        model_short: the model's mean short score over the pairs of two characters (cm²/cm; the
+            contact check: Table 1's global position MSE on whole clips).
+        copy_short: the copy row's on the same pairs.
         identity_pct: the model's mean joint position error on a character's own clips (the short
             windows), % of H.
         per_case: one row per case and method.
+        measure: what ``model_short`` is, for the summary.
+        copy_row: the copy row compared with (:data:`PROTOCOL_COPY`, :data:`CONTACT_COPY`).
     """
 
     model_short: float
     copy_short: float
     identity_pct: float
     per_case: pd.DataFrame
+    measure: str = "train short"
+    copy_row: str = PROTOCOL_COPY
 
     @property
     def passed(self) -> bool:
@@ -98,7 +125,7 @@ class CapacityResult:
     def summary(self) -> str:
         """One line: the three figures and the verdict."""
         return (
-            f"train short {self.model_short:.4f} vs {PROTOCOL_COPY} {self.copy_short:.4f}; "
+            f"{self.measure} {self.model_short:.4f} vs {self.copy_row} {self.copy_short:.4f}; "
             f"identity {self.identity_pct:.2f} % of height (bar {IDENTITY_BAR_PCT}); "
             + ("PASS" if self.passed else "FAIL")
         )
@@ -141,3 +168,110 @@ def capacity_check(model: Method, cases: list[EvalCase]) -> CapacityResult:
     return CapacityResult(
         float(short["model"]), float(short[PROTOCOL_COPY]), float(identity.mean()), per_case
     )
+
+
+# ----------------------------------------------------------------------------- contact network
+@dataclass(frozen=True)
+class ContactCapacityCase:
+    """One training clip onto one training character, with its ground truth.
+
+    Attributes:
+        source_character: the clip's performer.
+        target: the character retargeted onto.
+        source: the clip on its performer.
+        truth: the same clip authored on ``target``.
+        foot_contacts: ``(T, 4)`` the source's detected foot contacts (Sec. 3.4).
+    """
+
+    source_character: Character
+    target: Character
+    source: Motion
+    truth: Motion
+    foot_contacts: np.ndarray
+
+    @property
+    def identity(self) -> bool:
+        """A clip onto its own performer."""
+        return self.source_character.name == self.target.name
+
+
+def contact_capacity_cases(config: Mapping) -> list[ContactCapacityCase]:
+    """Every clip the contact run trained on
+    (:func:`~retarget_lib.training.contact.synthetic_training_clips`) onto every training
+    character.
+
+    Raises:
+        ValueError: the config's data is not the synthetic source or has no ``max_clips``.
+    """
+    data = config["data"]
+    if data.get("source", "synthetic") != "synthetic" or not data.get("max_clips"):
+        raise ValueError("a contact capacity check needs data.source: synthetic and data.max_clips")
+    ds = load_synthetic()
+    key = fingerprint_of(dataset_path())[:12]
+    targets = [ds.characters[n] for n in data["train_characters"]]
+    radii = {c.name: body_radii_from_mesh(c.skeleton, c.rest_vertices, c.weights) for c in targets}
+    cases = []
+    for clip in synthetic_training_clips(dict(data), ds):
+        performer = ds.characters[clip.performer]
+        feet = contact_clip(clip.motion, performer, synthetic_clip_key(key, clip)).foot_contacts
+        for target in targets:
+            truth = (
+                clip.motion
+                if target.name == performer.name
+                else make_motion(
+                    clip.family, target.skeleton, clip.seed, body_radii=radii[target.name]
+                )
+            )
+            truth = truth.slice(0, clip.motion.num_frames)
+            cases.append(ContactCapacityCase(performer, target, clip.motion, truth, feet))
+    return cases
+
+
+def contact_capacity_check(
+    model: Callable[[Motion, Character], Motion], cases: list[ContactCapacityCase]
+) -> CapacityResult:
+    """Score the network (``model(source, target character)``, e.g.
+    :func:`~retarget_lib.methods.contact.retarget_with_network` bound to a model) and
+    :data:`CONTACT_COPY` on ``cases``: global position MSE (Table 1), foot contact accuracy, and
+    the identity error (% of ``H``, every frame of a clip onto its performer)."""
+    copy = get_method(CONTACT_COPY).retargeter()
+    rows = []
+    for case in cases:
+        for name, out in (
+            ("model", model(case.source, case.target)),
+            (CONTACT_COPY, copy(case.source, case.target.skeleton)),
+        ):
+            pred, truth = out.global_positions(), case.truth.global_positions()
+            h = case.target.skeleton.height()
+            rows.append(
+                {
+                    "method": name,
+                    "pair": int(not case.identity),
+                    "source": case.source_character.name,
+                    "target": case.target.name,
+                    "clip": case.source.name,
+                    "global position MSE": normalized_mse(pred, truth, h),
+                    "foot contact accuracy": foot_contact_accuracy(out, case.foot_contacts),
+                    "identity_pct": (
+                        100.0 * float(np.linalg.norm(pred - truth, axis=-1).mean() / h)
+                        if case.identity
+                        else np.nan
+                    ),
+                }
+            )
+    per_case = pd.DataFrame(rows)
+    pairs = per_case[per_case.pair == 1].groupby("method")["global position MSE"].mean()
+    identity = per_case[(per_case.pair == 0) & (per_case.method == "model")]["identity_pct"]
+    return CapacityResult(
+        float(pairs["model"]),
+        float(pairs[CONTACT_COPY]),
+        float(identity.mean()),
+        per_case,
+        measure="train global position MSE",
+        copy_row=CONTACT_COPY,
+    )
+
+
+def contact_network_method(model) -> Callable[[Motion, Character], Motion]:
+    """``(source, target character) -> motion`` with the network alone (no ESO)."""
+    return lambda source, target: retarget_with_network(model, source, target)

@@ -25,6 +25,7 @@ Model config keys (all optional; a ``"model"`` sub-dict is used if present):
                        ``normalize_inputs``; :class:`~retarget_lib.models.tdcn.TDCNGenerator`)
 ``height_loss``        NKN only; defaults to ``True`` for ``variant="height"``
 ``root_frame``         NKN only: ``"world"`` (default) or ``"facing"`` root offsets
+``root_height``        NKN only: ``"step"`` (default, integrated) or ``"floor"`` (the root's height)
 ``dilations``, ``kernel``, ``slope``, ``head_hidden``, ``skip_projection``, ``num_layers``,
 ``disc_norm``, ``causal``, ``dense``  passed to the constructors
 =====================  ====================================================================
@@ -198,6 +199,7 @@ def build_model(config: Mapping[str, Any] | None = None) -> ModelPair:
                 "backbone",
                 "normalize_root",
                 "root_frame",
+                "root_height",
                 "height_loss",
                 "dropout",
                 "dilations",

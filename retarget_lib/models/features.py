@@ -49,6 +49,7 @@ from torch import nn
 from ..core.kinematics import forward_kinematics
 from ..core.measures import nkn_height
 from ..core.quantities import discriminator_inputs
+from ..core.quantities import hip_facing as facing_from_hips
 from ..core.skeleton import CANONICAL22, CANONICAL22_PARENTS
 
 Tensor = torch.Tensor
@@ -247,8 +248,8 @@ def root_velocities(root_positions: Tensor) -> Tensor:
 
 
 def hip_facing(positions: Tensor) -> Tensor:
-    """Horizontal facing direction per frame from the hips: ``forward = (left − right hip) × up``
-    (the rule of :meth:`~retarget_lib.core.motion.Motion.facing`).
+    """Horizontal facing direction per frame of canonical-22 positions
+    (:func:`~retarget_lib.core.quantities.hip_facing` of the two up-legs).
 
     Args:
         positions: ``(..., J, 3)`` canonical-22 joint positions (root-relative or world).
@@ -256,9 +257,7 @@ def hip_facing(positions: Tensor) -> Tensor:
     Returns:
         ``(..., 2)`` unit ``(f_x, f_z)``.
     """
-    across = positions[..., _LEFT_UP_LEG, :] - positions[..., _RIGHT_UP_LEG, :]
-    fwd = torch.stack((-across[..., 2], across[..., 0]), -1)  # (a × +Y) in the xz plane
-    return fwd / fwd.norm(dim=-1, keepdim=True).clamp_min(1e-9)
+    return facing_from_hips(positions[..., _LEFT_UP_LEG, :], positions[..., _RIGHT_UP_LEG, :])
 
 
 def to_facing_frame(v: Tensor, facing: Tensor) -> Tensor:
@@ -288,6 +287,7 @@ def nkn_source_features(
     root_positions: Tensor,
     height: Tensor | None = None,
     facing: Tensor | None = None,
+    root_height: Tensor | None = None,
 ) -> Tensor:
     """The NKN encoder input per frame: local joint positions and root velocity (Villegas 2018).
 
@@ -299,6 +299,8 @@ def nkn_source_features(
         facing: optional ``(B, T, 2)`` facing directions (:func:`hip_facing`); when given the root
             velocity is expressed in each frame's facing frame (:func:`to_facing_frame`, the
             authors' NKN code's root representation) instead of world axes.
+        root_height: optional ``(B, T)``; when given it replaces the vertical root step (the
+            NKN option ``root_height="floor"``: the root's height over the floor in leg lengths).
 
     Returns:
         ``(B, 3J + 3, T)`` channels-first.
@@ -309,6 +311,8 @@ def nkn_source_features(
         v = to_facing_frame(v, facing)
     if height is not None:
         v = v / height.view(b, 1, 1)
+    if root_height is not None:
+        v = torch.stack((v[..., 0], root_height, v[..., 2]), -1)
     return torch.cat([positions.reshape(b, t, 3 * j), v], -1).transpose(1, 2)
 
 

@@ -80,10 +80,12 @@ __all__ = [
     "nkn_discriminator_features",
     "NKN_BACKBONES",
     "NKN_ROOT_FRAMES",
+    "NKN_ROOT_HEIGHTS",
 ]
 
 NKN_BACKBONES = ("gru", "dense", "dilated")
 NKN_ROOT_FRAMES = ("world", "facing")
+NKN_ROOT_HEIGHTS = ("step", "floor")
 
 
 class NKNGenerator(nn.Module):
@@ -99,6 +101,11 @@ class NKNGenerator(nn.Module):
             frame's facing frame (:func:`~retarget_lib.models.features.to_facing_frame`, from the
             source's hips; the target keeps the source's heading), so a walk is the same numbers
             whichever way it heads (the authors' code; audit N1).
+        root_height: ``"step"`` (NKN: the vertical root offset is predicted and integrated like
+            the horizontal ones) or ``"floor"``: the vertical channel carries the root's height
+            over the floor in leg lengths, in (``r_y / h_legs(s̄A)``) and out (added to the
+            source's: ``r̂_y = (r_y / h_legs(s̄A) + out_y) · h_legs(s̄B)``), so the height cannot
+            drift over a long clip (audit N1, docs/reproduction.md).
         height_loss: flag for the training code: add TDCN's ``L_h`` (Baseline-height).
         dropout: dropout (GRU: on the decoder input and between stacked layers; conv: after
             every layer). Default 0 for the GRU, 0.1 for the conv backbones (TDCN's rate).
@@ -118,6 +125,7 @@ class NKNGenerator(nn.Module):
         num_layers: int = 1,
         normalize_root: bool = False,
         root_frame: str = "world",
+        root_height: str = "step",
         height_loss: bool = False,
         dropout: float | None = None,
         dilations: Sequence[int] = (3, 9, 27),
@@ -134,6 +142,9 @@ class NKNGenerator(nn.Module):
             raise ValueError(f"root_frame must be one of {NKN_ROOT_FRAMES}, got {root_frame!r}")
         self.normalize_root, self.height_loss = bool(normalize_root), bool(height_loss)
         self.root_frame = root_frame
+        if root_height not in NKN_ROOT_HEIGHTS:
+            raise ValueError(f"root_height must be one of {NKN_ROOT_HEIGHTS}, got {root_height!r}")
+        self.root_height = root_height
         dropout = (0.0 if backbone == "gru" else 0.1) if dropout is None else float(dropout)
         c_in, c_skel, c_out = nkn_input_channels(num_joints), 3 * num_joints, 4 * num_joints + 3
         self.normalizer = FeatureNormalizer(c_in)
@@ -188,7 +199,8 @@ class NKNGenerator(nn.Module):
         Returns:
             :class:`~retarget_lib.models.tdcn.GeneratorOutput`: raw q̂ ``(B, T, J, 4)``, r̂
             ``(B, T, 3)`` = ``r̂_0 + cumsum(v̂)``, and the predicted offsets v̂ ``(B, T, 3)`` in
-            metres per frame.
+            metres per frame (with ``root_height="floor"``: ``r̂_y`` as above and ``v̂_y`` its
+            per-frame steps, 0 at the first frame).
         """
         b, t, j, _ = rotations.shape
         off_src = batched_offsets(offsets_src.to(rotations.dtype), b)
@@ -202,12 +214,20 @@ class NKNGenerator(nn.Module):
             q, v = self._decode_gru(x, off_tgt)
         else:
             q, v = self._decode_conv(x, off_tgt)
+        leg_src, leg_tgt = leg_length(off_src).view(b, 1), leg_length(off_tgt).view(b, 1)
+        height = None
+        if self.root_height == "floor":  # the vertical channel is a height, not a step
+            height = (v[..., 1] + root_positions[..., 1] / leg_src) * leg_tgt
+            v = v * v.new_tensor([1.0, 0.0, 1.0])
         if self.normalize_root:
             v = v * h_tgt.view(b, 1, 1)
         if facing is not None:
             v = from_facing_frame(v, facing)
-        start = root_positions[:, 0] * (leg_length(off_tgt) / leg_length(off_src)).view(b, 1)
-        return GeneratorOutput(q, start.unsqueeze(1) + v.cumsum(1), v)
+        path = (root_positions[:, 0] * (leg_tgt / leg_src)).unsqueeze(1) + v.cumsum(1)
+        if height is not None:
+            path = torch.stack((path[..., 0], height, path[..., 2]), -1)
+            v = torch.stack((v[..., 0], root_velocities(path)[..., 1], v[..., 2]), -1)
+        return GeneratorOutput(q, path, v)
 
     generate = forward
 
@@ -234,7 +254,10 @@ class NKNGenerator(nn.Module):
         if self.root_frame == "facing" and facing is None:
             facing = hip_facing(positions)
         height = nkn_height(offsets_src) if self.normalize_root else None
-        return nkn_source_features(positions, root_positions, height, facing)
+        floor = None
+        if self.root_height == "floor":
+            floor = root_positions[..., 1] / leg_length(offsets_src).view(-1, 1)
+        return nkn_source_features(positions, root_positions, height, facing, floor)
 
     def _split(self, out: Tensor) -> tuple[Tensor, Tensor]:
         j = self.num_joints

@@ -46,7 +46,13 @@ from ..core.skinning import linear_blend_skinning
 from ..data.checkpoints import save_state
 from ..data.manifest import mixamo_local_dir
 from ..data.mixamo_splits import mixamo_contact_training_set
-from ..data.synthetic.dataset import dataset_path, fingerprint_of, load_synthetic
+from ..data.synthetic.dataset import (
+    SyntheticClip,
+    SyntheticDataset,
+    dataset_path,
+    fingerprint_of,
+    load_synthetic,
+)
 from ..data.synthetic.mixamo_convention import data_path as mixamo_convention_path
 from ..data.synthetic.mixamo_convention import load_mixamo_convention, mixamo_convention_split
 from ..devices import autocast
@@ -65,7 +71,15 @@ from .loop import TrainTask, load_checkpoint, seed_everything
 
 Tensor = torch.Tensor
 
-__all__ = ["ContactTraining", "LOG_TERMS", "training_clips", "energy_weights", "export_model"]
+__all__ = [
+    "ContactTraining",
+    "LOG_TERMS",
+    "training_clips",
+    "synthetic_training_clips",
+    "synthetic_clip_key",
+    "energy_weights",
+    "export_model",
+]
 
 #: the terms logged per step (always all of them, 0 when a row switches one off)
 LOG_TERMS: tuple[str, ...] = ("weak", "ee", "foot", "j2j", "int", "total")
@@ -94,20 +108,12 @@ def training_clips(config: dict) -> tuple[list[ContactClip], dict[str, Character
         clips = [contact_clip(motion, targets[name], key) for name, key, motion in mixamo]
     if "synthetic" in parts:
         ds = load_synthetic()
-        names = list(data["train_characters"])
-        unknown = [n for n in names if n not in ds.characters]
-        if unknown:
-            raise ValueError(
-                f"data.train_characters: unknown characters {unknown}; known: "
-                f"{sorted(ds.characters)}"
-            )
         key = fingerprint_of(dataset_path())[:12]
         clips += [
-            contact_clip(c.motion, ds.characters[c.performer], f"{key}_{c.name}")
-            for c in ds.clips
-            if c.performer in names and int(c.name.rsplit("_", 1)[1]) < held_out
+            contact_clip(c.motion, ds.characters[c.performer], synthetic_clip_key(key, c))
+            for c in synthetic_training_clips(data, ds)
         ]
-        targets.update({n: ds.characters[n] for n in names})
+        targets.update({n: ds.characters[n] for n in data["train_characters"]})
     if "mixamo-convention" in parts:
         mc, split = load_mixamo_convention(), mixamo_convention_split()
         key = "mc" + fingerprint_of(mixamo_convention_path())[:12]
@@ -126,6 +132,32 @@ def training_clips(config: dict) -> tuple[list[ContactClip], dict[str, Character
             "no training clip: no clip of the training characters below data.held_out_seed"
         )
     return clips, targets
+
+
+def synthetic_training_clips(data: dict, ds: SyntheticDataset) -> list[SyntheticClip]:
+    """The synthetic clips a contact run trains on: performed by ``data.train_characters``, seeds
+    below ``data.held_out_seed``, in the dataset's order, the first ``data.max_clips`` of them when
+    set (a capacity check's tiny set, :mod:`~retarget_lib.evaluation.capacity`).
+
+    Raises:
+        ValueError: a training character the dataset does not have.
+    """
+    names = list(data["train_characters"])
+    unknown = [n for n in names if n not in ds.characters]
+    if unknown:
+        raise ValueError(
+            f"data.train_characters: unknown characters {unknown}; known: {sorted(ds.characters)}"
+        )
+    held_out = int(data["held_out_seed"])
+    clips = [
+        c for c in ds.clips if c.performer in names and int(c.name.rsplit("_", 1)[1]) < held_out
+    ]
+    return clips[: data["max_clips"]] if data.get("max_clips") else clips
+
+
+def synthetic_clip_key(dataset_key: str, clip: SyntheticClip) -> str:
+    """The contact cache key of a synthetic training clip (its detected contacts are cached)."""
+    return f"{dataset_key}_{clip.name}"
 
 
 def energy_weights(config: dict) -> ContactEnergyWeights:
