@@ -384,6 +384,25 @@ def test_a_floor_height_nkn_scales_the_sources_hip_height_and_cannot_drift():
         NKNGenerator(hidden=SMALL, root_height="absolute")
 
 
+def test_a_standardized_nkn_root_head_outputs_z_scores_of_the_root_channels():
+    """standardized_root: a head bias of 1 on the three root channels gives one input std of each
+    (here a facing-frame step of 2 cm forward, 1 cm sideways), and an unfitted normalizer (std 1)
+    leaves metres as they were."""
+    g = NKNGenerator(
+        hidden=SMALL, backbone="dilated", root_frame="facing", standardized_root=True
+    ).eval()
+    q, r, oa, ob = _motion(1, 20)
+    with torch.no_grad():
+        g.out.weight[-3:] = 0.0
+        g.out.bias[-3:] = torch.tensor([1.0, 0.0, 1.0])
+        g.normalizer.std[-3:] = torch.tensor([0.01, 0.5, 0.02])
+        out = g(q, r, oa, ob)
+    f = hip_facing(source_local_positions(q, oa))
+    fx, fz = f[..., 0], f[..., 1]
+    expected = torch.stack((0.01 * fz + 0.02 * fx, torch.zeros_like(fx), 0.02 * fz - 0.01 * fx), -1)
+    assert torch.allclose(out.root_velocities, expected, atol=1e-6)
+
+
 def test_nkn_gru_decoder_is_online():
     """The GRU baseline is causal: later source frames do not change earlier outputs."""
     g = NKNGenerator(hidden=SMALL).eval()

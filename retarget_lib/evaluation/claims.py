@@ -50,12 +50,17 @@ TIE = 0.02
 #: measurements
 CAUSES: dict[tuple[str, str], str] = {
     ("Table 4", "Baseline"): (
-        "our NKN baseline's root drifts (world-frame root steps in metres, no yaw rate, no "
-        "per-frame loss; the root is 78-96 % of its Mixamo-convention error): docs/reproduction.md"
+        "our NKN baseline integrates its root from per-frame steps and drifts: on test clips that "
+        "stand still it walks off, up to 1 m in 120 frames, and on its own four training clips it "
+        "misses identity by 7 % of H (capacity check): docs/reproduction.md, N1 and section 5"
     ),
-    ("Table 4", "Baseline-height"): "as Baseline (the same root representation)",
-    ("Table 4", "Baseline-dense"): "as Baseline (the same root representation)",
-    ("Table 4", "Baseline-dilated"): "as Baseline (the same root representation)",
+    **{
+        ("Table 4", row): (
+            "as Baseline, and not yet retrained with its facing frame, floor height and z-scored "
+            "inputs (docs/reproduction.md, N1 and N8)"
+        )
+        for row in ("Baseline-height", "Baseline-dense", "Baseline-dilated")
+    },
     ("Table 4", "copy-unscaled"): "as Baseline (the same root representation)",
 }
 #: Table 4's averages

@@ -21,8 +21,9 @@ Model config keys (all optional; a ``"model"`` sub-dict is used if present):
 ``dropout``            generator dropout (TDCN default 0.1, Sec. 5)
 ``normalize_inputs``   ``False`` (default, the paper) or ``True``: the training code fits the
                        generator's :class:`~retarget_lib.models.features.FeatureNormalizer`
-``standardized_root``  TDCN paper form: the root head outputs z-scores (needs
-                       ``normalize_inputs``; :class:`~retarget_lib.models.tdcn.TDCNGenerator`)
+``standardized_root``  TDCN paper form and NKN: the root head outputs z-scores (needs
+                       ``normalize_inputs``; :class:`~retarget_lib.models.tdcn.TDCNGenerator`,
+                       :class:`~retarget_lib.models.nkn.NKNGenerator`)
 ``height_loss``        NKN only; defaults to ``True`` for ``variant="height"``
 ``root_frame``         NKN only: ``"world"`` (default) or ``"facing"`` root offsets
 ``root_height``        NKN only: ``"step"`` (default, integrated) or ``"floor"`` (the root's height)
@@ -200,6 +201,7 @@ def build_model(config: Mapping[str, Any] | None = None) -> ModelPair:
                 "normalize_root",
                 "root_frame",
                 "root_height",
+                "standardized_root",
                 "height_loss",
                 "dropout",
                 "dilations",

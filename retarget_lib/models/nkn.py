@@ -106,6 +106,10 @@ class NKNGenerator(nn.Module):
             over the floor in leg lengths, in (``r_y / h_legs(s̄A)``) and out (added to the
             source's: ``r̂_y = (r_y / h_legs(s̄A) + out_y) · h_legs(s̄B)``), so the height cannot
             drift over a long clip (audit N1, docs/reproduction.md).
+        standardized_root: the root head outputs z-scores: its three channels are multiplied by the
+            input normalizer's std of the same three root channels (needs ``normalize_inputs``;
+            the authors' code de-standardises its root output with the data's std). In metres the
+            head's steps are 1-2 cm a frame, the size of one Adam update of its weights (audit N8).
         height_loss: flag for the training code: add TDCN's ``L_h`` (Baseline-height).
         dropout: dropout (GRU: on the decoder input and between stacked layers; conv: after
             every layer). Default 0 for the GRU, 0.1 for the conv backbones (TDCN's rate).
@@ -126,6 +130,7 @@ class NKNGenerator(nn.Module):
         normalize_root: bool = False,
         root_frame: str = "world",
         root_height: str = "step",
+        standardized_root: bool = False,
         height_loss: bool = False,
         dropout: float | None = None,
         dilations: Sequence[int] = (3, 9, 27),
@@ -145,6 +150,7 @@ class NKNGenerator(nn.Module):
         if root_height not in NKN_ROOT_HEIGHTS:
             raise ValueError(f"root_height must be one of {NKN_ROOT_HEIGHTS}, got {root_height!r}")
         self.root_height = root_height
+        self.standardized_root = bool(standardized_root)
         dropout = (0.0 if backbone == "gru" else 0.1) if dropout is None else float(dropout)
         c_in, c_skel, c_out = nkn_input_channels(num_joints), 3 * num_joints, 4 * num_joints + 3
         self.normalizer = FeatureNormalizer(c_in)
@@ -214,6 +220,8 @@ class NKNGenerator(nn.Module):
             q, v = self._decode_gru(x, off_tgt)
         else:
             q, v = self._decode_conv(x, off_tgt)
+        if self.standardized_root:  # z-scores of the root channels -> their units
+            v = v * self.normalizer.std[-3:]
         leg_src, leg_tgt = leg_length(off_src).view(b, 1), leg_length(off_tgt).view(b, 1)
         height = None
         if self.root_height == "floor":  # the vertical channel is a height, not a step
