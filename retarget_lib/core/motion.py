@@ -218,8 +218,9 @@ class Motion:
         pos, grot = self.fk()
         names = self.skeleton.joint_names
         if "LeftUpLeg" in names and "RightUpLeg" in names:
-            f = hip_facing(
-                _t(pos[:, names.index("LeftUpLeg")]), _t(pos[:, names.index("RightUpLeg")])
+            f = hip_facing(  # fk() of a NumPy motion gives NumPy positions
+                _t(pos[:, names.index("LeftUpLeg")]),  # type: ignore[arg-type]
+                _t(pos[:, names.index("RightUpLeg")]),  # type: ignore[arg-type]
             ).numpy()
             fwd = np.stack((f[:, 0], np.zeros(len(f)), f[:, 1]), -1)
         else:
