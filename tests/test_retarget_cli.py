@@ -146,23 +146,27 @@ def test_tdcn_method_uses_the_shipped_checkpoint(short_source, tmp_path, capsys)
     )
     written = load_bvh(out)
     assert written.num_frames == 240 and np.isfinite(written.rotations).all()
-    assert (
-        main(
-            [
-                "retarget",
-                "--source",
-                str(short_source),
-                "--target",
-                "kato",
-                "--method",
-                "nkn",
-                "--out",
-                str(out),
-            ]
-        )
-        == 0
+    # the NKN baseline (a reproduction, not a default) sinks kato's feet on this clip: the posture
+    # check stops it with its one line instead of writing it (docs/reproduction.md, section 5)
+    code = main(
+        [
+            "retarget",
+            "--source",
+            str(short_source),
+            "--target",
+            "kato",
+            "--method",
+            "nkn",
+            "--out",
+            str(out),
+        ]
     )
-    assert load_bvh(out).num_frames == 240
+    err = capsys.readouterr().err
+    assert code == 0 or (
+        code == 2 and len(err.strip().splitlines()) == 1 and "under the floor" in err
+    ), err
+    if code == 0:
+        assert load_bvh(out).num_frames == 240
     # a TDCN checkpoint given to --method nkn is refused by name
     assert (
         main(

@@ -130,6 +130,8 @@ def test_paper_settings_and_every_table4_row_config():
             and own["data"].pop("source") == "synthetic"
         )
         assert (mc["loss"].pop("reduction"), mc["loss"].pop("standardize")) == ("frame_sum", True)
+        if stem == "tdcn_baseline_mixamo_convention":  # and the root's steps in Lc/La (N1)
+            assert mc["loss"].pop("root_term") == "velocity"
         assert (mc["data"], mc["loss"], mc["model"]) == (
             own["data"],
             {k: v for k, v in own["loss"].items() if k not in ("reduction", "standardize")},
