@@ -126,41 +126,20 @@ def test_character_target_and_errors(short_source, tmp_path, capsys):
     assert "line" in capsys.readouterr().err
 
 
+def _retarget(source, target, method, out, *extra):
+    """``retarget retarget`` on the command line; its exit status."""
+    argv = ["retarget", "--source", str(source), "--target", str(target), "--method", method]
+    return main([*argv, *extra, "--out", str(out)])
+
+
 def test_tdcn_method_uses_the_shipped_checkpoint(short_source, tmp_path, capsys):
     out = tmp_path / "tdcn.bvh"
-    assert (
-        main(
-            [
-                "retarget",
-                "--source",
-                str(short_source),
-                "--target",
-                str(cmu_clip_path("Boxing_Toes.bvh")),
-                "--method",
-                "tdcn",
-                "--out",
-                str(out),
-            ]
-        )
-        == 0
-    )
+    assert _retarget(short_source, cmu_clip_path("Boxing_Toes.bvh"), "tdcn", out) == 0
     written = load_bvh(out)
     assert written.num_frames == 240 and np.isfinite(written.rotations).all()
     # the NKN baseline (a reproduction, not a default) sinks kato's feet on this clip: the posture
     # check stops it with its one line instead of writing it (docs/reproduction.md, section 5)
-    code = main(
-        [
-            "retarget",
-            "--source",
-            str(short_source),
-            "--target",
-            "kato",
-            "--method",
-            "nkn",
-            "--out",
-            str(out),
-        ]
-    )
+    code = _retarget(short_source, "kato", "nkn", out)
     err = capsys.readouterr().err
     assert code == 0 or (
         code == 2 and len(err.strip().splitlines()) == 1 and "under the floor" in err
@@ -168,22 +147,5 @@ def test_tdcn_method_uses_the_shipped_checkpoint(short_source, tmp_path, capsys)
     if code == 0:
         assert load_bvh(out).num_frames == 240
     # a TDCN checkpoint given to --method nkn is refused by name
-    assert (
-        main(
-            [
-                "retarget",
-                "--source",
-                str(short_source),
-                "--target",
-                "kato",
-                "--method",
-                "nkn",
-                "--checkpoint",
-                "tdcn-ours-fast",
-                "--out",
-                str(out),
-            ]
-        )
-        == 2
-    )
+    assert _retarget(short_source, "kato", "nkn", out, "--checkpoint", "tdcn-ours-fast") == 2
     assert "not a nkn one" in capsys.readouterr().err
