@@ -139,8 +139,25 @@ def _identity_pct(method: Method, case: EvalCase) -> float:
     errors = []
     for a, b in short_chunks(case.source.num_frames):
         out = method(case.source.slice(a, b), case.target).global_positions()
-        errors.append(np.linalg.norm(out - truth[a:b], axis=-1).mean())
-    return 100.0 * float(np.mean(errors) / case.target.height())
+        errors.append(_error_pct(out, truth[a:b], case.target.height()))
+    return float(np.mean(errors))
+
+
+def _error_pct(pred: np.ndarray, truth: np.ndarray, height: float) -> float:
+    """Mean joint position error of ``pred`` against ``truth`` (``(T, J, 3)`` metres), % of
+    ``height``: the identity measure of a capacity check."""
+    return 100.0 * float(np.linalg.norm(pred - truth, axis=-1).mean() / height)
+
+
+def _summarise(per_case: pd.DataFrame, column: str, **labels: str) -> CapacityResult:
+    """The model's and the copy row's mean ``column`` over the pairs of two characters, and the
+    model's mean identity over the pairs of a character with itself."""
+    pairs = per_case[per_case.pair == 1].groupby("method")[column].mean()
+    identity = per_case[(per_case.pair == 0) & (per_case.method == "model")]["identity_pct"]
+    copy_row = labels.get("copy_row", PROTOCOL_COPY)
+    return CapacityResult(
+        float(pairs["model"]), float(pairs[copy_row]), float(identity.mean()), per_case, **labels
+    )
 
 
 def capacity_check(model: Method, cases: list[EvalCase]) -> CapacityResult:
@@ -161,13 +178,7 @@ def capacity_check(model: Method, cases: list[EvalCase]) -> CapacityResult:
                     "identity_pct": _identity_pct(method, case) if not case.scenario else np.nan,
                 }
             )
-    per_case = pd.DataFrame(rows)
-    pairs = per_case[per_case.pair == 1]
-    short = pairs.groupby("method")["short"].mean()
-    identity = per_case[(per_case.pair == 0) & (per_case.method == "model")]["identity_pct"]
-    return CapacityResult(
-        float(short["model"]), float(short[PROTOCOL_COPY]), float(identity.mean()), per_case
-    )
+    return _summarise(pd.DataFrame(rows), "short")
 
 
 # ----------------------------------------------------------------------------- contact network
@@ -252,21 +263,12 @@ def contact_capacity_check(
                     "clip": case.source.name,
                     "global position MSE": normalized_mse(pred, truth, h),
                     "foot contact accuracy": foot_contact_accuracy(out, case.foot_contacts),
-                    "identity_pct": (
-                        100.0 * float(np.linalg.norm(pred - truth, axis=-1).mean() / h)
-                        if case.identity
-                        else np.nan
-                    ),
+                    "identity_pct": _error_pct(pred, truth, h) if case.identity else np.nan,
                 }
             )
-    per_case = pd.DataFrame(rows)
-    pairs = per_case[per_case.pair == 1].groupby("method")["global position MSE"].mean()
-    identity = per_case[(per_case.pair == 0) & (per_case.method == "model")]["identity_pct"]
-    return CapacityResult(
-        float(pairs["model"]),
-        float(pairs[CONTACT_COPY]),
-        float(identity.mean()),
-        per_case,
+    return _summarise(
+        pd.DataFrame(rows),
+        "global position MSE",
         measure="train global position MSE",
         copy_row=CONTACT_COPY,
     )
