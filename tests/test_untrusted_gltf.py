@@ -405,6 +405,24 @@ def test_nan_in_a_file_is_blamed_on_that_file(tmp_path, kato_parts, role):  # no
     assert str(good) not in line
 
 
+@pytest.mark.parametrize("role", ["source", "target"])
+@pytest.mark.parametrize("scale", [1.7e-7, 1e-3])
+def test_a_character_of_no_size_is_blamed_on_its_file(tmp_path, kato_parts, role, scale):  # noqa: F811
+    """A rig scaled to 0.3 um or 1.7 mm (a unit error) is refused by name before any work: left
+    in, the other file was blamed for the noise it retargets to (a posture check's message)."""
+
+    def edit(doc, blob):
+        doc["nodes"][0]["scale"] = [scale] * 3
+
+    bad = write(tmp_path / "in", "tiny.glb", *edited(kato_parts, edit))
+    good = write(tmp_path / "in", "good.glb", *edited(kato_parts, lambda doc, blob: None))
+    source, target = (bad, good) if role == "source" else (good, bad)
+    out = tmp_path / "out" / "o.glb"
+    run = run_contained(retarget_argv(source, out, target), tmp_path, out)
+    line = run.assert_error(bad, "m tall")
+    assert str(good) not in line
+
+
 def test_a_draco_compressed_mesh_is_named(tmp_path, kato_parts):  # noqa: F811
     def edit(doc, blob):
         prim = doc["meshes"][0]["primitives"][0]

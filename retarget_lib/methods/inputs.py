@@ -60,6 +60,10 @@ SOURCE_SUFFIXES = (".bvh", ".npz", ".glb", ".gltf", ".vrm", ".fbx")
 TARGET_SUFFIXES = (".bvh", ".glb", ".gltf", ".vrm", ".fbx", ".npz")
 #: glTF 2.0 files: a VRM avatar is a GLB with a humanoid extension (VRM 0.x or 1.0)
 _GLTF = (".glb", ".gltf", ".vrm")
+#: a character shorter than this (metres, :meth:`~retarget_lib.core.skeleton.Skeleton.height`) is
+#: refused by name: no person or toy is; a unit or scale error in the file is (a 1.7e-7 m rig
+#: retargets to noise that later checks would blame on the other file)
+MIN_HEIGHT = 0.01
 
 
 @dataclass
@@ -102,6 +106,17 @@ def _suffix(path: str | os.PathLike) -> str:
     return Path(path).suffix.lower()
 
 
+def check_height(skeleton: Skeleton, path: str | os.PathLike) -> None:
+    """Refuse a character shorter than :data:`MIN_HEIGHT` (or of no finite height), naming
+    ``path``."""
+    height = skeleton.height()
+    if not height >= MIN_HEIGHT:
+        raise InputFileError(
+            f"{path}: the character is {height:.3g} m tall (its rest skeleton); at least "
+            f"{MIN_HEIGHT} m is expected: check the file's scale and units"
+        )
+
+
 def load_source(path: str | os.PathLike, joint_map: str | os.PathLike | None = None) -> Source:
     """Read a source clip by suffix (module docstring).
 
@@ -110,9 +125,15 @@ def load_source(path: str | os.PathLike, joint_map: str | os.PathLike | None = N
         joint_map: a joint map file for joints the rig conventions do not name (docs/joint-maps.md).
 
     Raises:
-        RetargetInputError: an unsupported suffix, or the reader's error for a bad file or joint
-            map.
+        RetargetInputError: an unsupported suffix, a character under :data:`MIN_HEIGHT`, or the
+            reader's error for a bad file or joint map.
     """
+    source = _read_source(path, joint_map)
+    check_height(source.motion.skeleton, path)
+    return source
+
+
+def _read_source(path: str | os.PathLike, joint_map: str | os.PathLike | None) -> Source:
     suffix = _suffix(path)
     if suffix == ".bvh":
         raw = load_bvh(path)
@@ -166,8 +187,8 @@ def load_target(
         joint_map: a joint map file for the target file's joints (docs/joint-maps.md).
 
     Raises:
-        RetargetInputError: an unknown name or suffix, a joint map for a character name, or the
-            reader's error for a bad file or joint map.
+        RetargetInputError: an unknown name or suffix, a joint map for a character name, a
+            character under :data:`MIN_HEIGHT`, or the reader's error for a bad file or joint map.
     """
     suffix = _suffix(target)
     if joint_map is not None and not suffix:
@@ -207,6 +228,7 @@ def load_target(
             f"target {target!r} is neither a file ({', '.join(TARGET_SUFFIXES)}) nor a "
             f"character; characters: {', '.join(CHARACTER_NAMES)}, mannequin-x"
         )
+    check_height(out.skeleton, target)
     if target_mesh is not None:
         character = load_shape_npz(target_mesh)
         character = _fit_mesh(character, out.skeleton, target_mesh, target)
