@@ -396,13 +396,14 @@ class SceneRenderer:
         return x, y
 
     def set_titles(self, titles: Sequence[str], anchors: Sequence[np.ndarray]) -> int:
-        """Centred text labels just above the projected world ``anchors`` (one ``(3,)`` each).
+        """Centred text labels over the projected world ``anchors`` (one ``(3,)`` each), on one base
+        line just above the highest anchor.
 
         Labels are kept inside the image. When neighbours would overlap, the font shrinks (down to
         65 %), then a label that still collides moves up a line (at most three lines).
 
         Returns:
-            the number of text lines used (0 without titles).
+            the number of text lines used (0 without titles): label rows x lines per label.
         """
         for t in self._texts:
             self.pl.remove_actor(t, render=False)
@@ -442,7 +443,10 @@ class SceneRenderer:
         fs = max(8, int(round(base * max(scale, 0.65))))
         # a label wider than the window shrinks until it fits (never cut off at the edges)
         fs = max(6, min(fs, int(base * (w - 12) / (1.12 * max(widths) + 1e-9))))
-        line = 0.95 * fs  # one line of text in pixels (measured: 22 px at size 24)
+        # one label's height in pixels (measured: 22 px a text line at size 24): a label that
+        # moves up clears a whole label of two lines, not one line of it
+        lines = max(text.count("\n") + 1 for _, _, text in items)
+        line = 0.95 * fs * lines
         right: list[float] = []  # right edge of the last label on each line (base line first)
         placed = []
         for (x, y, _), actor in zip(items, actors, strict=False):
@@ -455,10 +459,13 @@ class SceneRenderer:
             right[row : row + 1] = [x + 0.5 * tw]
             placed.append((x, y, row))
         top = h - (1.2 + max(row for _, _, row in placed)) * line  # highest base line
-        for (x, y, row), actor in zip(placed, actors, strict=False):
-            actor.SetPosition(x, min(y + 4, top) + row * line)
+        # one base line for the whole row, above the highest anchor: labels over characters of
+        # different heights cannot meet (a label moved up from a short one's head did)
+        base = min(max(y for _, y, _ in placed) + 4, top)
+        for (x, _, row), actor in zip(placed, actors, strict=False):
+            actor.SetPosition(x, base + row * line)
             self._texts.append(actor)
-        return 1 + max(row for _, _, row in placed)
+        return (1 + max(row for _, _, row in placed)) * lines
 
     def screenshot(self) -> np.ndarray:
         """``(H, W, 3)`` uint8 image of the current scene."""
