@@ -391,35 +391,33 @@ def test_a_joint_name_with_a_line_break_survives_in_a_glb(tmp_path, kato_parts):
     assert "tip\nJOINT injected" in load_gltf_rig(out, joint_map).skeleton.joint_names
 
 
-@pytest.mark.parametrize("role", ["source", "target"])
-def test_nan_in_a_file_is_blamed_on_that_file(tmp_path, kato_parts, role):  # noqa: F811
-    def edit(doc, blob):
-        doc["nodes"][3]["translation"] = [float("nan"), 0.0, 0.0]
-
-    bad = write(tmp_path / "in", "nan.glb", *edited(kato_parts, edit), allow_nan=True)
-    good = write(tmp_path / "in", "good.glb", *edited(kato_parts, lambda doc, blob: None))
-    source, target = (bad, good) if role == "source" else (good, bad)
-    out = tmp_path / "out" / "o.bvh"
-    run = run_contained(retarget_argv(source, out, target), tmp_path, out)
-    line = run.assert_error(bad, "NaN")
-    assert str(good) not in line
+def _nan_bone(doc, blob):
+    doc["nodes"][3]["translation"] = [float("nan"), 0.0, 0.0]
 
 
-@pytest.mark.parametrize("role", ["source", "target"])
-@pytest.mark.parametrize("scale", [1.7e-7, 1e-3])
-def test_a_character_of_no_size_is_blamed_on_its_file(tmp_path, kato_parts, role, scale):  # noqa: F811
-    """A rig scaled to 0.3 um or 1.7 mm (a unit error) is refused by name before any work: left
-    in, the other file was blamed for the noise it retargets to (a posture check's message)."""
-
+def _scaled(scale: float):
     def edit(doc, blob):
         doc["nodes"][0]["scale"] = [scale] * 3
 
-    bad = write(tmp_path / "in", "tiny.glb", *edited(kato_parts, edit))
+    return edit
+
+
+@pytest.mark.parametrize("role", ["source", "target"])
+@pytest.mark.parametrize(
+    "edit, problem",
+    [(_nan_bone, "NaN"), (_scaled(1.7e-7), "m tall"), (_scaled(1e-3), "m tall")],
+    ids=["nan", "0.3um", "1.7mm"],
+)
+def test_a_bad_rig_is_blamed_on_its_own_file(tmp_path, kato_parts, role, edit, problem):  # noqa: F811
+    """A NaN bone, or a rig scaled to 0.3 um or 1.7 mm (a unit error), is refused by its own file's
+    name, the other file's never: left in, a tiny rig retargeted to noise that the posture check
+    blamed on the other file."""
+    bad = write(tmp_path / "in", "bad.glb", *edited(kato_parts, edit), allow_nan=True)
     good = write(tmp_path / "in", "good.glb", *edited(kato_parts, lambda doc, blob: None))
     source, target = (bad, good) if role == "source" else (good, bad)
     out = tmp_path / "out" / "o.glb"
     run = run_contained(retarget_argv(source, out, target), tmp_path, out)
-    line = run.assert_error(bad, "m tall")
+    line = run.assert_error(bad, problem)
     assert str(good) not in line
 
 
