@@ -217,6 +217,7 @@ TDCN: dict[str, Any] = {
         "normalize_root": BOOL,
         "root_frame": choice("world", "facing"),
         "root_height": choice("step", "floor"),
+        "root_residual": BOOL,
         "backbone": TEXT,
         "data": TEXT,
         "loss": TEXT,

@@ -403,6 +403,43 @@ def test_a_standardized_nkn_root_head_outputs_z_scores_of_the_root_channels():
     assert torch.allclose(out.root_velocities, expected, atol=1e-6)
 
 
+@pytest.mark.parametrize("root_frame", ["world", "facing"])
+def test_a_residual_nkn_root_gives_the_sources_path_times_the_leg_ratio(root_frame):
+    """root_residual: a zero root head gives the source's root path scaled by the leg ratio from
+    the scaled start (the ground truth's rule), horizontally with a floor height; a constant head
+    output adds a step of its size in every frame."""
+    q, r, oa, ob = _motion(2, 30, dtype=torch.float64)
+    r = r.clone()
+    r[..., 0] = torch.linspace(0.0, 0.6, 30, dtype=torch.float64)  # a walk along x
+    r[..., 1] = 0.9
+    ratio = (leg_length(ob) / leg_length(oa)).view(2, 1, 1)
+    for height in ("step", "floor"):
+        g = (
+            NKNGenerator(
+                hidden=SMALL,
+                backbone="dilated",
+                root_frame=root_frame,
+                root_height=height,
+                root_residual=True,
+            )
+            .eval()
+            .double()
+        )
+        with torch.no_grad():
+            g.out.weight[-3:] = 0.0
+            g.out.bias[-3:] = 0.0
+            out = g(q, r, oa, ob)
+        assert torch.allclose(out.root_positions, r * ratio, atol=1e-9), height
+    with torch.no_grad():
+        g.out.bias[-3:] = torch.tensor([0.0, 0.0, 0.01], dtype=torch.float64)  # 1 cm a frame
+        moved = g(q, r, oa, ob)
+    extra = (moved.root_velocities - out.root_velocities)[..., [0, 2]].norm(dim=-1)
+    assert torch.allclose(extra, torch.full_like(extra, 0.01), atol=1e-9)
+    assert build_model(
+        {"kind": "nkn", "channels": SMALL, "root_residual": True}
+    ).generator.root_residual
+
+
 def test_nkn_gru_decoder_is_online():
     """The GRU baseline is causal: later source frames do not change earlier outputs."""
     g = NKNGenerator(hidden=SMALL).eval()

@@ -62,6 +62,7 @@ from .features import (
     nkn_source_features,
     root_velocities,
     source_local_positions,
+    to_facing_frame,
 )
 from .tdcn import (
     DEFAULT_SLOPE,
@@ -110,6 +111,13 @@ class NKNGenerator(nn.Module):
             input normalizer's std of the same three root channels (needs ``normalize_inputs``;
             the authors' code de-standardises its root output with the data's std). In metres the
             head's steps are 1-2 cm a frame, the size of one Adam update of its weights (audit N8).
+        root_residual: the head's root steps are added to the source's steps times the leg ratio
+            ``h_legs(s̄B) / h_legs(s̄A)`` (in the model's root frame; with ``root_height="floor"``
+            the horizontal ones), as ``"floor"`` does for the height: an untrained head gives
+            the ground truth's root rule and the network learns the corrections. Ours, not the
+            authors' (audit N1, docs/reproduction.md): their network predicts the steps outright,
+            and under this machine's budget ours regresses them to the mean (0.36 cm a frame
+            forward for a source that stands still).
         height_loss: flag for the training code: add TDCN's ``L_h`` (Baseline-height).
         dropout: dropout (GRU: on the decoder input and between stacked layers; conv: after
             every layer). Default 0 for the GRU, 0.1 for the conv backbones (TDCN's rate).
@@ -131,6 +139,7 @@ class NKNGenerator(nn.Module):
         root_frame: str = "world",
         root_height: str = "step",
         standardized_root: bool = False,
+        root_residual: bool = False,
         height_loss: bool = False,
         dropout: float | None = None,
         dilations: Sequence[int] = (3, 9, 27),
@@ -151,6 +160,7 @@ class NKNGenerator(nn.Module):
             raise ValueError(f"root_height must be one of {NKN_ROOT_HEIGHTS}, got {root_height!r}")
         self.root_height = root_height
         self.standardized_root = bool(standardized_root)
+        self.root_residual = bool(root_residual)
         dropout = (0.0 if backbone == "gru" else 0.1) if dropout is None else float(dropout)
         c_in, c_skel, c_out = nkn_input_channels(num_joints), 3 * num_joints, 4 * num_joints + 3
         self.normalizer = FeatureNormalizer(c_in)
@@ -229,6 +239,13 @@ class NKNGenerator(nn.Module):
             v = v * v.new_tensor([1.0, 0.0, 1.0])
         if self.normalize_root:
             v = v * h_tgt.view(b, 1, 1)
+        if self.root_residual:  # on the source's steps in the same frame, scaled by the legs
+            steps = root_velocities(root_positions)
+            if facing is not None:
+                steps = to_facing_frame(steps, facing)
+            if height is not None:
+                steps = steps * steps.new_tensor([1.0, 0.0, 1.0])
+            v = v + steps * (leg_tgt / leg_src).view(b, 1, 1)
         if facing is not None:
             v = from_facing_frame(v, facing)
         path = (root_positions[:, 0] * (leg_tgt / leg_src)).unsqueeze(1) + v.cumsum(1)
