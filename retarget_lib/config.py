@@ -143,17 +143,17 @@ def parse_override(item: str) -> tuple[list[str], Any]:
 
 
 def set_key(config: dict, keys: list[str], value: Any) -> None:
-    """Set ``config[k0][k1]... = value``; unknown top-level sections are refused (typo guard)."""
+    """Set ``config[k0][k1]... = value``, creating the sections on the way; the key must be one
+    the config's schema allows (:func:`~retarget_lib.config_schema.check_value`, the typo guard),
+    whether or not the file sets it."""
+    problem = check_value(config, keys, value)
+    if problem:
+        raise ConfigError(problem)
     node = config
     for i, k in enumerate(keys[:-1]):
-        if k not in node or not isinstance(node[k], dict):
-            raise ConfigError(
-                f"unknown config section {'.'.join(keys[: i + 1])!r}; "
-                f"known: {sorted(kk for kk, vv in node.items() if isinstance(vv, dict))}"
-            )
-        node = node[k]
-    if keys[-1] not in node:
-        raise ConfigError(f"unknown config key {'.'.join(keys)!r}; known here: {sorted(node)}")
+        node = node.setdefault(k, {})
+        if not isinstance(node, dict):
+            raise ConfigError(f"{'.'.join(keys[: i + 1])!r} is not a section")
     node[keys[-1]] = value
 
 
@@ -193,9 +193,6 @@ def load_config(
             set_key(cfg, keys, value)
         except ConfigError as e:
             raise ConfigError(f"override {item!r}: {e}") from None
-        problem = check_value(cfg, keys, value)
-        if problem:
-            raise ConfigError(f"override {item!r}: {problem}")
     problem = memory_problem(cfg)
     if problem:
         raise ConfigError(f"{path} with {' '.join(overrides)}: {problem}")

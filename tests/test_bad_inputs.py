@@ -347,7 +347,7 @@ def test_contact_config_typo(tmp_path):
     [
         ("model.channels=-4", "model.channels = -4 is invalid: must be an integer > 0"),
         ("train.lr=abc", "train.lr = 'abc' is invalid"),
-        ("train.stesp=3", "unknown config key 'train.stesp'"),
+        ("train.stesp=3", "unknown key 'train.stesp'; allowed in 'train': batch"),
     ],
 )
 def test_config_override_errors(tmp_path, capsys, override, problem):

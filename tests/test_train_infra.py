@@ -28,10 +28,15 @@ def test_config_delta_profile_and_overrides(tmp_path):
     assert cfg["model"] == {"channels": 64, "dropout": 0.1}
     assert cfg["loss"] == {"lambda_h": 0.0} and cfg["train"] == {"steps": 20, "batch": 128}
     assert load_config(tmp_path / "a3.yaml", profile="paper")["model"]["channels"] == 1024
-    with pytest.raises(ConfigError, match="unknown config key 'train.stpes'"):
+    with pytest.raises(ConfigError, match="unknown key 'train.stpes'"):
         load_config(tmp_path / "a3.yaml", ["train.stpes=3"])
     with pytest.raises(ConfigError, match="key.sub=value"):
         load_config(tmp_path / "a3.yaml", ["train.steps"])
+    # a key the schema allows is set even where no file of the chain names it (a section too)
+    cfg = load_config(tmp_path / "a3.yaml", ["loss.gan_weight=0.001", "data.window=60"])
+    assert cfg["loss"] == {"lambda_h": 0.0, "gan_weight": 0.001} and cfg["data"] == {"window": 60}
+    with pytest.raises(ConfigError, match="unknown key 'loss.gan_wieght'"):
+        load_config(tmp_path / "a3.yaml", ["loss.gan_wieght=0.001"])
     write(tmp_path / "noseed.yaml", "model: {channels: 3}\n")
     with pytest.raises(ConfigError, match="seed"):
         load_config(tmp_path / "noseed.yaml")
