@@ -400,7 +400,7 @@ class SceneRenderer:
         line just above the highest anchor.
 
         Labels are kept inside the image. When neighbours would overlap, the font shrinks (down to
-        65 %), then a label that still collides moves up a line (at most three lines).
+        65 %), then a label that still collides moves up by its own height (at most three rows).
 
         Returns:
             the number of text lines used (0 without titles): label rows x lines per label.
