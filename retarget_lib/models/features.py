@@ -235,16 +235,19 @@ def split_generator_features(features: Tensor, num_joints: int = NUM_JOINTS) -> 
     }
 
 
-def root_velocities(root_positions: Tensor) -> Tensor:
+def root_velocities(root_positions: Tensor, facing: Tensor | None = None) -> Tensor:
     """Per-frame root displacement ``v_t = r_t - r_{t-1}`` with ``v_1 = 0`` (NKN's root input).
 
     Args:
         root_positions: ``(B, T, 3)``.
+        facing: optional ``(B, T, 2)`` facing directions (:func:`hip_facing`); when given each
+            step is expressed in its frame's facing frame (:func:`to_facing_frame`).
 
     Returns:
-        ``(B, T, 3)``; ``r_t = r_1 + sum_{k<=t} v_k``.
+        ``(B, T, 3)``; ``r_t = r_1 + sum_{k<=t} v_k`` (world axes without ``facing``).
     """
-    return torch.cat([torch.zeros_like(root_positions[:, :1]), root_positions.diff(dim=1)], 1)
+    v = torch.cat([torch.zeros_like(root_positions[:, :1]), root_positions.diff(dim=1)], 1)
+    return v if facing is None else to_facing_frame(v, facing)
 
 
 def hip_facing(positions: Tensor) -> Tensor:
@@ -306,9 +309,7 @@ def nkn_source_features(
         ``(B, 3J + 3, T)`` channels-first.
     """
     b, t, j, _ = positions.shape
-    v = root_velocities(root_positions)
-    if facing is not None:
-        v = to_facing_frame(v, facing)
+    v = root_velocities(root_positions, facing)
     if height is not None:
         v = v / height.view(b, 1, 1)
     if root_height is not None:

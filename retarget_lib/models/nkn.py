@@ -62,7 +62,6 @@ from .features import (
     nkn_source_features,
     root_velocities,
     source_local_positions,
-    to_facing_frame,
 )
 from .tdcn import (
     DEFAULT_SLOPE,
@@ -240,9 +239,7 @@ class NKNGenerator(nn.Module):
         if self.normalize_root:
             v = v * h_tgt.view(b, 1, 1)
         if self.root_residual:  # on the source's steps in the same frame, scaled by the legs
-            steps = root_velocities(root_positions)
-            if facing is not None:
-                steps = to_facing_frame(steps, facing)
+            steps = root_velocities(root_positions, facing)
             if height is not None:
                 steps = steps * steps.new_tensor([1.0, 0.0, 1.0])
             v = v + steps * (leg_tgt / leg_src).view(b, 1, 1)
