@@ -160,6 +160,30 @@ def test_standardized_root_turns_the_head_output_into_metres_with_the_root_stati
     assert g.standardized_root
 
 
+def test_a_residual_tdcn_root_adds_the_head_to_the_sources_leg_scaled_root():
+    """root_residual (paper form): the head's root output lands on the source's root times the
+    leg ratio; a zero head gives exactly that root (copy's), and the rotations are unchanged."""
+    q, r, off_a, off_b = _motion(2, 12, seed=4, dtype=torch.float64)
+    plain = TDCNGenerator(channels=SMALL).double().eval()
+    res = TDCNGenerator(channels=SMALL, root_residual=True).double().eval()
+    res.load_state_dict(plain.state_dict())
+    a, b = plain.generate(q, r, off_a, off_b), res.generate(q, r, off_a, off_b)
+    ratio = (leg_length(off_b) / leg_length(off_a)).view(2, 1, 1)
+    torch.testing.assert_close(b.root_positions, a.root_positions + r * ratio)  # same head
+    assert torch.equal(b.rotations, a.rotations)
+    with torch.no_grad():
+        res.head.out.weight[-3:] = 0.0
+        res.head.out.bias[-3:] = 0.0
+    torch.testing.assert_close(res.generate(q, r, off_a, off_b).root_positions, r * ratio)
+    with pytest.raises(ValueError, match="paper form"):
+        TDCNGenerator(channels=8, residual=True, root_residual=True)
+    with pytest.raises(ValueError, match="standardized_root"):
+        TDCNGenerator(channels=8, standardized_root=True, root_residual=True)
+    assert build_model(
+        {"kind": "tdcn", "channels": 8, "root_residual": True}
+    ).generator.root_residual
+
+
 # ----------------------------------------------------------------------------------- TDCN
 
 

@@ -27,8 +27,10 @@ Model config keys (all optional; a ``"model"`` sub-dict is used if present):
 ``height_loss``        NKN only; defaults to ``True`` for ``variant="height"``
 ``root_frame``         NKN only: ``"world"`` (default) or ``"facing"`` root offsets
 ``root_height``        NKN only: ``"step"`` (default, integrated) or ``"floor"`` (the root's height)
-``root_residual``      NKN only: ``True`` adds the root head's steps to the source's, scaled by
-                       the leg ratio (:class:`~retarget_lib.models.nkn.NKNGenerator`)
+``root_residual``      TDCN paper form and NKN: ``True`` adds the root head's output (TDCN: the
+                       root; NKN: its steps) to the source's, scaled by the leg ratio
+                       (:class:`~retarget_lib.models.tdcn.TDCNGenerator`,
+                       :class:`~retarget_lib.models.nkn.NKNGenerator`)
 ``dilations``, ``kernel``, ``slope``, ``head_hidden``, ``skip_projection``, ``num_layers``,
 ``disc_norm``, ``causal``, ``dense``  passed to the constructors
 =====================  ====================================================================
@@ -187,6 +189,7 @@ def build_model(config: Mapping[str, Any] | None = None) -> ModelPair:
                 "skip_projection",
                 "residual",
                 "standardized_root",
+                "root_residual",
             ),
         )
         disc = PatchDiscriminator(

@@ -25,7 +25,7 @@ from ..features import (
 )
 from .blocks import DEFAULT_SLOPE, DilatedStack, FrameHead, Tensor, normalize_quaternions
 
-__all__ = ["GeneratorOutput", "TDCNGenerator", "init_identity_head"]
+__all__ = ["GeneratorOutput", "TDCNGenerator", "init_identity_head", "leg_scaled_root"]
 
 
 class GeneratorOutput(NamedTuple):
@@ -55,6 +55,22 @@ def init_identity_head(linear: nn.Linear, num_joints: int, std: float = 0.002) -
         linear.bias[0 : 4 * num_joints : 4] = 1.0
 
 
+def leg_scaled_root(root_positions: Tensor, offsets_src: Tensor, offsets_tgt: Tensor) -> Tensor:
+    """The source's root scaled by the leg-length ratio ``leg(s̄B) / leg(s̄A)``: the root of
+    ``copy``, of the synthetic ground truth and of Villegas et al.'s ``o^(A→B)`` (Eq. 8).
+
+    Args:
+        root_positions: ``(B, T, 3)`` source root positions (metres).
+        offsets_src, offsets_tgt: ``(B, J, 3)`` or ``(J, 3)`` rest offsets.
+
+    Returns:
+        ``(B, T, 3)`` root positions for the target (metres).
+    """
+    b = root_positions.shape[0]
+    ratio = leg_length(offsets_tgt.expand(b, -1, -1)) / leg_length(offsets_src.expand(b, -1, -1))
+    return root_positions * ratio.view(b, 1, 1)
+
+
 class TDCNGenerator(nn.Module):
     """TDCN retargeting generator (Kim et al. 2020, Sec. 3, Fig. 2).
 
@@ -79,6 +95,11 @@ class TDCNGenerator(nn.Module):
             network's root output is compared with standardised targets and de-standardised for
             use). Without it the head regresses metres from a bias initialised at 0, which a
             short run cannot move to the hips' height. The paper does not say; paper form only.
+        root_residual: the head's root output is added to the source's root scaled by the leg
+            ratio (:func:`leg_scaled_root`), the root rule of the residual NKN Baseline
+            (:class:`~retarget_lib.models.nkn.NKNGenerator`); the head starts at 0, i.e. at
+            ``copy``'s root. Ours, not the paper (Eq. 2's head regresses the root outright);
+            paper form only (the residual variant's root is not learned).
 
     Attributes:
         normalizer: :class:`~retarget_lib.models.features.FeatureNormalizer` applied to the input
@@ -101,15 +122,20 @@ class TDCNGenerator(nn.Module):
         parents: Sequence[int] = CANONICAL22_PARENTS,
         residual: bool = False,
         standardized_root: bool = False,
+        root_residual: bool = False,
     ):
         super().__init__()
-        if residual and standardized_root:
+        if residual and (standardized_root or root_residual):
             raise ValueError(
-                "standardized_root is for the paper form: the residual root is not learned"
+                "standardized_root and root_residual are for the paper form: "
+                "the residual variant's root is not learned"
             )
+        if standardized_root and root_residual:
+            raise ValueError("root_residual adds metres to the source's root: no standardized_root")
         self.num_joints = num_joints
         self.residual = bool(residual)
         self.standardized_root = bool(standardized_root)
+        self.root_residual = bool(root_residual)
         default_in = (residual_input_channels if self.residual else generator_input_channels)(
             num_joints
         )
@@ -221,7 +247,10 @@ class TDCNGenerator(nn.Module):
                 rotations, root_positions, offsets_src, offsets_tgt, positions, self.parents
             )
             q, r = self._run(norm(x), normalize=False)
-            return GeneratorOutput(q, self._root_in_metres(r, norm), None)
+            r = self._root_in_metres(r, norm)
+            if self.root_residual:
+                r = r + leg_scaled_root(root_positions, offsets_src, offsets_tgt)
+            return GeneratorOutput(q, r, None)
         b = rotations.shape[0]
         off_a, off_b = offsets_src.expand(b, -1, -1), offsets_tgt.expand(b, -1, -1)
         # one pass over the batch twice: towards the target, and towards the source itself
@@ -282,12 +311,8 @@ class TDCNGenerator(nn.Module):
         Returns:
             ``(q̂ (B, T, J, 4) raw, r̂ (B, T, 3))``.
         """
-        b = rotations.shape[0]
-        ratio = leg_length(offsets_tgt.expand(b, -1, -1)) / leg_length(
-            offsets_src.expand(b, -1, -1)
-        )
-        return align_local_rotations(rotations, align, self.parents), root_positions * ratio.view(
-            b, 1, 1
+        return align_local_rotations(rotations, align, self.parents), leg_scaled_root(
+            root_positions, offsets_src, offsets_tgt
         )
 
     def retarget(
