@@ -360,3 +360,27 @@ def test_updating_a_smooth_mesh_in_place_matches_a_fresh_render():
         finally:
             r.close()
     assert np.abs(shots[0] - shots[1]).mean() < 1.0  # same picture: normals follow the new vertices
+
+
+def test_every_row_of_a_wrapped_lineup_labels_at_one_size(tpose, monkeypatch):
+    """A row whose labels crowd shrinks them; a row with one label would not: the figure uses the
+    smallest size for every row (results/real_worst.png's lone last label was larger)."""
+    from retarget_lib.viz import render
+    from retarget_lib.viz.scene import Scene
+
+    used: list[tuple[int, int]] = []
+
+    class Recording(render.SceneRenderer):
+        def set_titles(self, titles, anchors, font_cap=None):
+            lines = super().set_titles(titles, anchors, font_cap)
+            used.append((len(titles), self.title_font))
+            return lines
+
+    monkeypatch.setattr(render, "SceneRenderer", Recording)
+    scenes = [Scene(positions=tpose, parents=CANONICAL22_PARENTS) for _ in range(4)]
+    titles = [f"a rather long label number {k}\nwith a second line" for k in range(4)]
+    render.render_side_by_side(scenes, titles=titles, ncols=3, window_size=(420, 200))
+    first_pass, final = used[:2], used[2:]
+    assert [n for n, _ in final] == [3, 1]
+    assert first_pass[0][1] < first_pass[1][1]  # the crowded row shrank, the lone label did not
+    assert final[0][1] == final[1][1] == first_pass[0][1]

@@ -134,6 +134,7 @@ class SceneRenderer:
         self._floor = None
         self.floor_y = 0.0
         self._texts: list = []
+        self.title_font: int | None = None  # the last set_titles' size, VTK's units
 
     def close(self) -> None:
         self.pl.close()
@@ -395,12 +396,16 @@ class SceneRenderer:
         x, y, _ = r.GetDisplayPoint()
         return x, y
 
-    def set_titles(self, titles: Sequence[str], anchors: Sequence[np.ndarray]) -> int:
+    def set_titles(
+        self, titles: Sequence[str], anchors: Sequence[np.ndarray], font_cap: int | None = None
+    ) -> int:
         """Centred text labels over the projected world ``anchors`` (one ``(3,)`` each), on one base
         line just above the highest anchor.
 
         Labels are kept inside the image. When neighbours would overlap, the font shrinks (down to
         65 %), then a label that still collides moves up by its own height (at most three rows).
+        The size used is kept in ``title_font`` (VTK's units); ``font_cap`` caps it, so that rows
+        of one figure can share the smallest of their sizes.
 
         Returns:
             the number of text lines used (0 without titles): label rows x lines per label.
@@ -443,6 +448,8 @@ class SceneRenderer:
         fs = max(8, int(round(base * max(scale, 0.65))))
         # a label wider than the window shrinks until it fits (never cut off at the edges)
         fs = max(6, min(fs, int(base * (w - 12) / (1.12 * max(widths) + 1e-9))))
+        fs = fs if font_cap is None else min(fs, font_cap)
+        self.title_font = fs
         # one label's height in pixels (measured: 22 px a text line at size 24): a label that
         # moves up clears a whole label of two lines, not one line of it
         lines = max(text.count("\n") + 1 for _, _, text in items)

@@ -235,13 +235,17 @@ def render_side_by_side(
                 band = max(
                     band, r.set_titles([titles[i] for i in row], [title_anchor(s, size) for s in p])
                 )
+        # every row's labels at the smallest size any row needed (a lone label does not shrink)
+        cap = min((r.title_font for r in renderers if r.title_font is not None), default=None)
         images = []
         for r, row, p in zip(renderers, rows, placed, strict=False):
             r.frame(
                 lo, hi, size, points=points, floor=floor, top_px=r.title_band(band) if band else 0.0
             )
             if band:
-                r.set_titles([titles[i] for i in row], [title_anchor(s, size) for s in p])
+                r.set_titles(
+                    [titles[i] for i in row], [title_anchor(s, size) for s in p], font_cap=cap
+                )
             images.append(r.screenshot())
     finally:
         for r in renderers:
