@@ -39,6 +39,24 @@ def test_the_baseline_against_the_papers_copy_row():
     assert bad.status == "does not" and "root" in bad.cause
 
 
+def test_the_headline_on_one_root_rule_reads_the_residual_root_row():
+    """Where a profile has "ours (residual root)", TDCN's "ours below each NKN row" is judged
+    again with that row as ours, beside the paper-form judgement (which is unchanged)."""
+    table = _table4(
+        {"ours": (3.0, 3.0), "ours (residual root)": (0.3, 0.9), "Baseline": (0.5, 0.7)}
+    )
+    claims = [c for c in tdcn_claims(table, "x") if c.claim.startswith("ours below Baseline (")]
+    by = {(c.claim, c.data): c for c in claims}
+    same = "x, ours as 'ours (residual root)'"
+    assert by[("ours below Baseline (short avg)", "x")].status == "does not"
+    assert by[("ours below Baseline (short avg)", same)].status == "reproduces"
+    long_avg = by[("ours below Baseline (long avg)", same)]
+    assert long_avg.status == "does not" and "one root rule" in long_avg.cause
+    assert long_avg.ours == "0.9 / 0.7"
+    # without the row, no extra claims
+    assert len(tdcn_claims(_table4({"ours": (1.0, 1.0)}), "x")) == 2 * (len(PAPER_TABLE4) - 1) + 1
+
+
 def test_contact_orderings_read_higher_is_better_for_foot_accuracy():
     table1 = pd.DataFrame(
         {
