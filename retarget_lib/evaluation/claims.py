@@ -50,20 +50,16 @@ TIE = 0.02
 #: measured causes of claims that do not reproduce, by (table, row); docs/reproduction.md has the
 #: measurements
 CAUSES: dict[tuple[str, str], str] = {
-    ("Table 4", "Baseline"): (
-        "our NKN baseline's root head adds its steps to the source's, scaled by the leg ratio "
-        "(root_residual, ours): it starts from the ground truth's root rule, which paper-form "
-        "ours has to learn; predicting its steps outright, as the authors' code does, it "
-        "regressed them to the mean under this machine's budget (a source standing still walked "
-        "0.36 cm a frame) and failed its capacity check: docs/reproduction.md, N1 and section 5"
-    ),
     **{
         ("Table 4", row): (
-            "not yet retrained with the Baseline's root (facing frame, floor height, z-scored "
-            "inputs, steps on the source's): they predict their steps outright and drift "
-            "(docs/reproduction.md, N1, N8 and section 5)"
+            "our NKN rows' root head adds its steps to the source's, scaled by the leg ratio "
+            "(root_residual, ours): they start from the ground truth's root rule, which paper-form "
+            "ours has to learn; predicting its steps outright, as the authors' code does, the "
+            "Baseline regressed them to the mean under this machine's budget (a source standing "
+            "still walked 0.36 cm a frame) and failed its capacity check: docs/reproduction.md, N1 "
+            "and section 5"
         )
-        for row in ("Baseline-height", "Baseline-dense", "Baseline-dilated")
+        for row in ("Baseline", "Baseline-height", "Baseline-dense", "Baseline-dilated")
     },
     **{
         (table, "NKN"): (
