@@ -4,14 +4,15 @@
 field's sigma, the ESO iterations, the contact threshold, ...) and shows them behind a slider made
 of plain HTML and a few lines of inline JavaScript: no widget kernel, no CDN. The same display
 bundle carries a PNG of the default value, so front ends that do not run scripts (GitHub's viewer,
-an untrusted notebook, a PDF export) show the still picture, and the HTML book keeps both.
+an untrusted notebook, a PDF export) show the still picture, and the HTML book keeps both. The
+slider's element id is a hash of the pictures and labels, so a re-run writes the same output.
 """
 
 from __future__ import annotations
 
 import base64
+import hashlib
 import html
-import uuid
 from collections.abc import Callable, Sequence
 
 import matplotlib.pyplot as plt
@@ -48,9 +49,13 @@ class Knob:
 
     def html(self) -> str:
         """The slider as self-contained HTML (images inline as base64, no external scripts)."""
-        uid = "knob" + uuid.uuid4().hex[:8]
-        srcs = ["data:image/png;base64," + base64.b64encode(p).decode() for p in self.pngs]
         labels = [html.escape(f"{self.name} = {v}") for v in self.values]
+        # the same pictures and labels give the same id: a re-run writes the same output
+        digest = hashlib.sha1("\n".join(labels).encode())
+        for p in self.pngs:
+            digest.update(p)
+        uid = "knob" + digest.hexdigest()[:8]
+        srcs = ["data:image/png;base64," + base64.b64encode(p).decode() for p in self.pngs]
         js_srcs = "[" + ",".join(f'"{s}"' for s in srcs) + "]"
         js_labels = "[" + ",".join(f'"{s}"' for s in labels) + "]"
         return (
