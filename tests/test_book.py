@@ -81,6 +81,29 @@ def test_remote_reference_pattern_catches_cdn_loads_and_spares_links():
     assert not remote_references('<img src="data:image/png;base64,AAAA">')
 
 
+def test_saved_notebooks_keep_only_widget_views_with_nothing_else_to_show():
+    """What the runner saves: a widget view that comes with HTML or a picture (a knob, the player)
+    is dropped; the widget state goes with the last widget view."""
+    html_out = {book.WIDGET_VIEW: {"model_id": "k"}, "text/html": "<div>", "text/plain": "k"}
+    bare_out = {book.WIDGET_VIEW: {"model_id": "w"}, "text/plain": "w"}
+    state = {"application/vnd.jupyter.widget-state+json": {"state": {}}}
+
+    def notebook(*datas):
+        nb = nbformat.v4.new_notebook()
+        nb.metadata["widgets"] = state
+        outputs = [nbformat.v4.new_output("display_data", data=dict(d)) for d in datas]
+        nb.cells = [nbformat.v4.new_code_cell("k", outputs=outputs)]
+        return nb
+
+    nb = book.drop_widget_views(notebook(html_out))
+    assert nb.cells[0].outputs[0]["data"] == {"text/html": "<div>", "text/plain": "k"}
+    assert "widgets" not in nb.metadata
+    nb = book.drop_widget_views(notebook(html_out, bare_out))
+    assert book.WIDGET_VIEW not in nb.cells[0].outputs[0]["data"]
+    assert nb.cells[0].outputs[1]["data"] == bare_out  # nothing else to show: kept, with its state
+    assert nb.metadata["widgets"] == state
+
+
 def test_widget_view_is_dropped_where_a_picture_or_html_is_there():
     png = base64.b64encode(b"\x89PNG fake").decode()
     nb = nbformat.v4.new_notebook()
@@ -166,8 +189,11 @@ def test_book_from_a_fixture_shows_the_player_and_knob_offline(tmp_path, monkeyp
     executed.mkdir()
     assert run_notebook(src, executed, timeout=300) is not None
     run = nbformat.read(executed / "fixture.ipynb", as_version=4)
-    player_out = run.cells[1].outputs[0]["data"]
-    assert {book.WIDGET_VIEW, "image/png", "text/html"} <= set(player_out)
+    # the runner keeps the offline views and drops the widget view (a random model id)
+    player_out, knob_out = (run.cells[i].outputs[0]["data"] for i in (1, 2))
+    assert {"image/png", "text/html"} <= set(player_out) and book.WIDGET_VIEW not in player_out
+    assert {"image/png", "text/html"} <= set(knob_out) and book.WIDGET_VIEW not in knob_out
+    assert "widgets" not in run.metadata
 
     out = tmp_path / "book"
     pages = build_book(

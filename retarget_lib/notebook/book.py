@@ -158,23 +158,53 @@ def load_learning_path(path: Path = LEARNING_PATH) -> LearningPath:
 
 
 # ------------------------------------------------------------------------------------------- export
+def _has_fallback(data) -> bool:
+    """A widget view's output also carries something else to show (a picture, HTML, ...)."""
+    return bool(set(data) - {WIDGET_VIEW, "text/plain"})
+
+
+def drop_widget_views(nb):
+    """Drop the widget views a saved notebook cannot keep alive (in place; returns ``nb``).
+
+    An output that carries a widget view *and* something else to show (the knobs' and the motion
+    player's HTML slider and still PNG) loses the view: its model id is a fresh random id on every
+    run, and its model's state saved in the notebook would only draw controls that do nothing
+    until the cell is run again, where the HTML slider works without a kernel. The saved widget
+    state goes too once no widget view is left. The runner applies this to every notebook it
+    saves, so a re-run that computes the same values writes the same file; in a running kernel
+    the same cells show the live widgets.
+    """
+    left = False
+    for cell in nb.cells:
+        for out in cell.get("outputs", []):
+            data = out.get("data")
+            if data and WIDGET_VIEW in data:
+                if _has_fallback(data):
+                    del data[WIDGET_VIEW]
+                else:
+                    left = True
+    if not left:
+        nb.metadata.pop("widgets", None)
+    return nb
+
+
 def offline_outputs(nb):
     """Make a notebook's outputs exportable offline (in place; returns ``nb``).
 
     - an output that carries a widget view *and* something else to show (``image/png``,
-      ``text/html``, ...) loses the widget view: the HTML export would render the widget with a
-      script from a CDN, and the still image or offline scrubber is what the page can show;
+      ``text/html``, ...) loses the widget view (:func:`drop_widget_views`): the HTML export would
+      render the widget with a script from a CDN, and the still image or offline scrubber is what
+      the page can show;
     - the notebook's saved widget state is dropped (it only feeds that script);
     - ``image/gif`` outputs get a ``text/html`` ``<img>`` with the GIF inline (nbconvert's HTML
       template has no GIF renderer and would fall back to ``text/plain``).
     """
+    drop_widget_views(nb)
     for cell in nb.cells:
         for out in cell.get("outputs", []):
             data = out.get("data")
             if not data:
                 continue
-            if WIDGET_VIEW in data and set(data) - {WIDGET_VIEW, "text/plain"}:
-                del data[WIDGET_VIEW]
             if "image/gif" in data and "text/html" not in data:
                 gif = data["image/gif"]
                 gif = gif if isinstance(gif, str) else base64.b64encode(gif).decode()
@@ -224,7 +254,7 @@ def widget_only_outputs(nb) -> list[int]:
         i
         for i, cell in enumerate(nb.cells)
         for out in cell.get("outputs", [])
-        if WIDGET_VIEW in out.get("data", {}) and not set(out["data"]) - {WIDGET_VIEW, "text/plain"}
+        if WIDGET_VIEW in out.get("data", {}) and not _has_fallback(out["data"])
     ]
 
 

@@ -5,6 +5,10 @@ book builder (:mod:`retarget_lib.notebook.book`, ``build/book/``). A notebook is
 it, the library, the configs or the data manifest changed since its last successful run, so
 ``make`` is cheap the second time. The wall-clock and CPU seconds of every run (the kernel's CPU
 time included) go to ``<out>/timings.json``, which the book's index and the teacher's guide quote.
+Widget views that come with a picture or HTML to show (the knobs, the motion player) are left out
+of the saved notebooks, with the widget state (:func:`.book.drop_widget_views`): a re-run that
+computes the same values writes the same file, and the saved notebook shows the offline slider
+until its cells run again in a kernel.
 
 Usage::
 
@@ -31,7 +35,7 @@ from pathlib import Path
 
 from ..config import active_profile
 from ..files import REPO_ROOT, atomic_write
-from .book import load_learning_path
+from .book import drop_widget_views, load_learning_path
 from .solutions import solutions_file, with_solutions
 
 TIMINGS_FILE = "timings.json"
@@ -102,6 +106,7 @@ def run_notebook(
         resources={"metadata": {"path": str(notebook.parent)}},
     )
     client.execute()
+    drop_widget_views(nb)  # random model ids, state only a live kernel can drive
     with atomic_write(out_dir / notebook.name, "w") as f:
         nbformat.write(nb, f)
     return {
