@@ -279,6 +279,7 @@ CONTACT: dict[str, Any] = {
         "dropout": DROPOUT,
         "residual": BOOL,
         "lower_body_from_base": BOOL,
+        "root_residual": BOOL,
     },
     "energy": {
         "row": lazy_choice(

@@ -13,6 +13,7 @@ from retarget_lib.models.georet import (
     MOTION_FEATURES,
     GeometryConditionedRNN,
     PointNetEncoder,
+    ResidualBase,
     batch_meshes,
     motion_features,
     normalize_rest_vertices,
@@ -106,6 +107,32 @@ def test_a_fresh_model_outputs_the_rest_pose_and_no_root_motion():
     out = model(*_inputs(1, 4))
     torch.testing.assert_close(out.rotations, quat_identity((1, 4, 22)), atol=0.05, rtol=0)
     assert out.root_velocity.abs().max() < 0.05
+
+
+def test_a_root_residual_network_adds_its_velocity_to_the_sources_leg_scaled_one():
+    """root_residual (paper form, ours): same weights and decoder state, the step's velocity is
+    the paper form's plus the base's o^(A→B) of that frame, the rotations unchanged; it needs the
+    base. (Over a sequence the two differ later: the velocity is fed back to the decoder.)"""
+    source, offsets, verts, weights = _inputs(2, 5)
+    paper = _small_model(seed=3).eval()
+    rooted = _small_model(seed=3, root_residual=True).eval()
+    rooted.load_state_dict(paper.state_dict())
+    o_ab = torch.randn(2, 5, 3, generator=torch.Generator().manual_seed(1)) * 0.02
+    base = ResidualBase(quat_identity((2, 5, 22)), o_ab)
+    with torch.no_grad():
+        h_enc = paper.encode(source)
+        context = paper.target_context(offsets, verts, weights)
+        state = paper.initial_state(context)
+        for t in range(5):
+            rot_a, vel_a, after = paper.decode_step(h_enc[:, t], state, context, base.frame(t))
+            rot_b, vel_b, _ = rooted.decode_step(h_enc[:, t], state, context, base.frame(t))
+            torch.testing.assert_close(rot_b, rot_a)
+            torch.testing.assert_close(vel_b, vel_a + o_ab[:, t])
+            state = after
+        with pytest.raises(ValueError, match="base"):
+            rooted(source, offsets, verts, weights)
+    with pytest.raises(ValueError, match="paper form"):
+        _small_model(residual=True, root_residual=True)
 
 
 def test_forward_equals_step_by_step_decoding():

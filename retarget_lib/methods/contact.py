@@ -150,6 +150,7 @@ def model_from_config(config: dict) -> GeometryConditionedRNN:
         dropout=float(m["dropout"]),
         residual=bool(m.get("residual", False)),
         lower_body_from_base=bool(m.get("lower_body_from_base", False)),
+        root_residual=bool(m.get("root_residual", False)),
     )
 
 

@@ -68,6 +68,12 @@ class GeometryConditionedRNN(nn.Module):
             path are the base's (the rest-compensated copy and the leg-scaled root): the network,
             and ESO through it, correct the spine, neck, head and arms only (see
             :data:`LOWER_BODY`).
+        root_residual: (paper form only; ours) the velocity head's output is added to
+            ``o^(A→B)``, the source's root velocity times the leg ratio (the base's
+            ``root_velocity``), as the residual variant's is and as the NKN Baseline's root steps
+            are (``model.root_residual`` of :class:`~retarget_lib.models.nkn.NKNGenerator`): a head
+            predicting the velocity outright drifts on the capacity check (a source standing still
+            walks off: docs/reproduction.md, section 5). The rotations stay the paper's.
     """
 
     def __init__(
@@ -80,11 +86,17 @@ class GeometryConditionedRNN(nn.Module):
         parents: Sequence[int] = CANONICAL22_PARENTS,
         residual: bool = False,
         lower_body_from_base: bool = False,
+        root_residual: bool = False,
     ):
         super().__init__()
         self.residual = bool(residual)
         if lower_body_from_base and not self.residual:
             raise ValueError("lower_body_from_base needs a residual network (its base)")
+        if root_residual and self.residual:
+            raise ValueError(
+                "root_residual is for the paper form: a residual network already adds o^(A→B)"
+            )
+        self.root_residual = bool(root_residual)
         self.lower_body_from_base = bool(lower_body_from_base)
         fixed = torch.zeros(joints, 1, dtype=torch.bool)
         if self.lower_body_from_base:
@@ -281,6 +293,10 @@ class GeometryConditionedRNN(nn.Module):
             rotations = align_local_rotations(
                 base.rotations.to(rotations.dtype), rotations, self.parents
             )
+            velocity = velocity + base.root_velocity.to(velocity.dtype)
+        elif self.root_residual:
+            if base is None:
+                raise ValueError("a root_residual GeometryConditionedRNN needs the frame's base")
             velocity = velocity + base.root_velocity.to(velocity.dtype)
         local, global_rotations = forward_kinematics(rotations, context.offsets, self.parents, None)
         return (
