@@ -10,18 +10,24 @@ from retarget_lib.notebook.runner import run_notebook
 ROOT = Path(__file__).resolve().parents[1]
 
 
+def _run_twice(source: Path, tmp_path: Path) -> list[bytes]:
+    """The bytes the runner writes for ``source`` in two separate runs."""
+    written = []
+    for run in ("first", "second"):
+        out = tmp_path / run
+        out.mkdir()
+        assert run_notebook(source, out, force=True) is not None
+        written.append((out / source.name).read_bytes())
+    return written
+
+
 def test_a_rerun_that_computes_the_same_values_writes_the_same_file(tmp_path):
     nb = nbformat.v4.new_notebook()
     nb.cells = [nbformat.v4.new_code_cell("x = sum(range(10))\nprint(x)")]
     nb.cells[0].metadata["execution"] = {"iopub.execute_input": "2026-01-01T00:00:00Z"}  # old run
     source = tmp_path / "tiny.ipynb"
     nbformat.write(nb, source)
-    written = []
-    for run in ("first", "second"):
-        out = tmp_path / run
-        out.mkdir()
-        assert run_notebook(source, out, force=True) is not None
-        written.append((out / "tiny.ipynb").read_bytes())
+    written = _run_twice(source, tmp_path)
     assert written[0] == written[1]
     cell = nbformat.reads(written[0].decode(), as_version=4).cells[0]
     assert cell.outputs[0]["text"] == "45\n"
@@ -64,12 +70,7 @@ def test_a_knob_is_live_in_the_kernel_and_saved_as_the_same_offline_output(tmp_p
     ]
     source = tmp_path / "knob.ipynb"
     nbformat.write(nb, source)
-    written = []
-    for run in ("first", "second"):
-        out = tmp_path / run
-        out.mkdir()
-        assert run_notebook(source, out, force=True) is not None
-        written.append((out / "knob.ipynb").read_bytes())
+    written = _run_twice(source, tmp_path)
     assert written[0] == written[1]
     saved = nbformat.reads(written[0].decode(), as_version=4)
     assert set(saved.cells[0].outputs[0]["data"]) == {"text/html", "image/png", "text/plain"}
