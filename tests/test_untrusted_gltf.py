@@ -402,16 +402,34 @@ def _scaled(scale: float):
     return edit
 
 
+def _flat_mesh(doc, blob):
+    """Every vertex at one height: a mesh 0 m tall on a full-size skeleton (what a fuzzed GLB
+    gave: the posture check then divided by the mesh's height, ~1e-7 m, and blamed the source)."""
+    position = doc["meshes"][0]["primitives"][0]["attributes"]["POSITION"]
+    acc = doc["accessors"][position]
+    start = doc["bufferViews"][acc["bufferView"]].get("byteOffset", 0) + acc.get("byteOffset", 0)
+    values = np.frombuffer(bytes(blob[start : start + 12 * acc["count"]]), "<f4").reshape(-1, 3)
+    flat = values.copy()
+    flat[:, 1] = 0.5
+    put_accessor(doc, blob, position, flat)
+    acc["min"][1] = acc["max"][1] = 0.5
+
+
 @pytest.mark.parametrize("role", ["source", "target"])
 @pytest.mark.parametrize(
     "edit, problem",
-    [(_nan_bone, "NaN"), (_scaled(1.7e-7), "m tall"), (_scaled(1e-3), "m tall")],
-    ids=["nan", "0.3um", "1.7mm"],
+    [
+        (_nan_bone, "NaN"),
+        (_scaled(1.7e-7), "m tall"),
+        (_scaled(1e-3), "m tall"),
+        (_flat_mesh, "m tall (its rest mesh)"),
+    ],
+    ids=["nan", "0.3um", "1.7mm", "flat-mesh"],
 )
 def test_a_bad_rig_is_blamed_on_its_own_file(tmp_path, kato_parts, role, edit, problem):  # noqa: F811
-    """A NaN bone, or a rig scaled to 0.3 um or 1.7 mm (a unit error), is refused by its own file's
-    name, the other file's never: left in, a tiny rig retargeted to noise that the posture check
-    blamed on the other file."""
+    """A NaN bone, a rig scaled to 0.3 um or 1.7 mm (a unit error), or a mesh with no height is
+    refused by its own file's name, the other file's never: left in, a tiny rig retargeted to noise
+    that the posture check blamed on the other file."""
     bad = write(tmp_path / "in", "bad.glb", *edited(kato_parts, edit), allow_nan=True)
     good = write(tmp_path / "in", "good.glb", *edited(kato_parts, lambda doc, blob: None))
     source, target = (bad, good) if role == "source" else (good, bad)

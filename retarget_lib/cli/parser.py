@@ -309,7 +309,11 @@ def build_parser() -> argparse.ArgumentParser:
         "against the protocol copy row, and its identity (exit 1 if it fails)",
     )
     p.add_argument("run", help="a `retarget train --out` folder trained from configs/capacity/*")
-    p.add_argument("--checkpoint", default="final.pt", help="file in the run folder (last.pt)")
+    p.add_argument(
+        "--checkpoint",
+        default="final.pt",
+        help="file in the run folder (default final.pt; last.pt for a run stopped before its end)",
+    )
     p.add_argument("--out", help="also write the per-case scores here (CSV)")
     p.set_defaults(func=_cmd_capacity)
 

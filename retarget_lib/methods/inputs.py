@@ -40,6 +40,7 @@ import numpy as np
 
 from ..core.canonical import fold_to_canonical22, stand_upright
 from ..core.character import Character
+from ..core.measures import mesh_standing_height
 from ..core.motion import Motion
 from ..core.rig import Rig
 from ..core.skeleton import Skeleton
@@ -106,15 +107,21 @@ def _suffix(path: str | os.PathLike) -> str:
     return Path(path).suffix.lower()
 
 
-def check_height(skeleton: Skeleton, path: str | os.PathLike) -> None:
+def check_height(
+    skeleton: Skeleton, path: str | os.PathLike, character: Character | None = None
+) -> None:
     """Refuse a character shorter than :data:`MIN_HEIGHT` (or of no finite height), naming
-    ``path``."""
-    height = skeleton.height()
-    if not height >= MIN_HEIGHT:
-        raise InputFileError(
-            f"{path}: the character is {height:.3g} m tall (its rest skeleton); at least "
-            f"{MIN_HEIGHT} m is expected: check the file's scale and units"
-        )
+    ``path``: its rest skeleton, and its rest mesh when it has one (the height the result's
+    posture check, the contact thresholds and the PointNet input divide by)."""
+    heights = [(skeleton.height(), "its rest skeleton")]
+    if character is not None:
+        heights.append((mesh_standing_height(character.rest_vertices), "its rest mesh"))
+    for height, what in heights:
+        if not height >= MIN_HEIGHT:
+            raise InputFileError(
+                f"{path}: the character is {height:.3g} m tall ({what}); at least "
+                f"{MIN_HEIGHT} m is expected: check the file's scale and units"
+            )
 
 
 def load_source(path: str | os.PathLike, joint_map: str | os.PathLike | None = None) -> Source:
@@ -129,7 +136,7 @@ def load_source(path: str | os.PathLike, joint_map: str | os.PathLike | None = N
             reader's error for a bad file or joint map.
     """
     source = _read_source(path, joint_map)
-    check_height(source.motion.skeleton, path)
+    check_height(source.motion.skeleton, path, source.character)
     return source
 
 
@@ -228,9 +235,10 @@ def load_target(
             f"target {target!r} is neither a file ({', '.join(TARGET_SUFFIXES)}) nor a "
             f"character; characters: {', '.join(CHARACTER_NAMES)}, mannequin-x"
         )
-    check_height(out.skeleton, target)
+    check_height(out.skeleton, target, out.character)
     if target_mesh is not None:
         character = load_shape_npz(target_mesh)
+        check_height(character.skeleton, target_mesh, character)
         character = _fit_mesh(character, out.skeleton, target_mesh, target)
         out.character, out.rig = character, Rig.from_character(character)
     return out

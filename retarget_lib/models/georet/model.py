@@ -280,23 +280,21 @@ class GeometryConditionedRNN(nn.Module):
         x = hidden[-1]
         rotations = matrix_to_quat(matrix_from_6d(self.rotation_head(x).view(b, self.joints, 6)))
         velocity = self.velocity_head(x) * h
-        if self.residual:
+        if self.residual or self.root_residual:
             if base is None:
                 raise ValueError(
-                    "a residual GeometryConditionedRNN needs the ResidualBase of the frame"
+                    "a residual or root_residual GeometryConditionedRNN needs the frame's base "
+                    "(a ResidualBase)"
                 )
-            if self.lower_body_from_base:  # no alignment: these joints are the base's
+            if self.residual and self.lower_body_from_base:  # these joints are the base's
                 rotations = torch.where(
                     self._fixed_joints, rotations.new_tensor(IDENTITY), rotations
                 )
                 velocity = torch.zeros_like(velocity)
-            rotations = align_local_rotations(
-                base.rotations.to(rotations.dtype), rotations, self.parents
-            )
-            velocity = velocity + base.root_velocity.to(velocity.dtype)
-        elif self.root_residual:
-            if base is None:
-                raise ValueError("a root_residual GeometryConditionedRNN needs the frame's base")
+            if self.residual:
+                rotations = align_local_rotations(
+                    base.rotations.to(rotations.dtype), rotations, self.parents
+                )
             velocity = velocity + base.root_velocity.to(velocity.dtype)
         local, global_rotations = forward_kinematics(rotations, context.offsets, self.parents, None)
         return (
