@@ -51,6 +51,7 @@ from .retarget_pose import (
     retarget_pose,
     retarget_pose_rotations,
     retarget_pose_skeleton,
+    skeleton_pose_rotations,
 )
 from .skeleton import (
     CANONICAL22_PARENTS,
@@ -108,7 +109,7 @@ def nkn_height(offsets: Tensor) -> Tensor:
     return offsets[..., _HEIGHT_CHILDREN, :].norm(dim=-1).sum(-1)
 
 
-def leg_length(offsets: Tensor) -> Tensor:
+def leg_length(offsets: Tensor, pose: Tensor | None = None) -> Tensor:
     """``h_legs`` of a batch of canonical-22 rest offsets: the height of the hips above the lowest
     foot joint **in the retarget pose** (Villegas et al. 2021, Eq. 8's leg-length ratio).
 
@@ -120,11 +121,13 @@ def leg_length(offsets: Tensor) -> Tensor:
 
     Args:
         offsets: ``(..., 22, 3)`` rest offsets in canonical-22 order (metres).
+        pose: ``(..., 22, 4)`` wxyz their retarget pose if already known (default computed).
 
     Returns:
         ``(...)`` leg lengths in metres.
     """
-    offsets = pose_offsets(offsets, retarget_pose_rotations(offsets).to(offsets.dtype))
+    pose = retarget_pose_rotations(offsets) if pose is None else pose
+    offsets = pose_offsets(offsets, pose.to(offsets.dtype))
     y = offsets[..., 1]
     left = y[..., _LEFT_LEG].cumsum(-1)  # heights below the hips, down the chain
     right = y[..., _RIGHT_LEG].cumsum(-1)
@@ -137,7 +140,9 @@ def skeleton_leg_length(skeleton: Skeleton) -> float:
     :func:`~retarget_lib.core.quantities.leg_ratio`)."""
     if not skeleton.is_canonical22():
         raise JointSetError("the leg length needs the canonical 22 joints")
-    return float(leg_length(torch.from_numpy(skeleton.offsets.astype(np.float64))))
+    offsets = skeleton.offsets.astype(np.float64)
+    pose = torch.from_numpy(skeleton_pose_rotations(offsets))
+    return float(leg_length(torch.from_numpy(offsets), pose))
 
 
 def _retarget_positions(skeleton: Skeleton) -> tuple[np.ndarray, bool]:

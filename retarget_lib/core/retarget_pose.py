@@ -50,6 +50,7 @@ synthetic motions' authoring frame and their ground truth all read it.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 
@@ -369,6 +370,20 @@ def flatten_soles(
     return quat_canonical(out).numpy()
 
 
+def skeleton_pose_rotations(offsets: np.ndarray) -> np.ndarray:
+    """:func:`retarget_pose_rotations` of one skeleton's ``(22, 3)`` rest offsets, as ``(22, 4)``
+    float64, remembered per offsets: building a training set asks it of the same few skeletons
+    thousands of times (every clip pair's alignment and leg ratio)."""
+    key = np.ascontiguousarray(offsets, dtype=np.float64)
+    return _pose_of_offsets(key.tobytes()).copy()
+
+
+@functools.lru_cache(maxsize=512)
+def _pose_of_offsets(key: bytes) -> np.ndarray:
+    offsets = torch.from_numpy(np.frombuffer(key, dtype=np.float64).reshape(-1, 3).copy())
+    return retarget_pose_rotations(offsets).numpy()
+
+
 def retarget_pose(
     skeleton: Skeleton,
     rest_vertices: np.ndarray | None = None,
@@ -386,7 +401,7 @@ def retarget_pose(
         ``(22, 4)`` float64.
     """
     _check(skeleton)
-    pose = retarget_pose_rotations(torch.from_numpy(skeleton.offsets.astype(np.float64))).numpy()
+    pose = skeleton_pose_rotations(skeleton.offsets)
     if rest_vertices is not None and weights is not None and len(rest_vertices):
         pose = flatten_soles(skeleton, pose, rest_vertices, weights)
     return pose
