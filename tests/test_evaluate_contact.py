@@ -7,8 +7,11 @@ from retarget_lib.core.measures import estimated_standing_height
 from retarget_lib.core.motion import Motion
 from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.evaluation.contact import (
+    CONTACT_PROFILES,
     CONTACT_TARGETS,
     ablation_steps,
+    contact_case_names,
+    contact_cases,
     contact_tables,
     foot_contact_accuracy,
     foot_height_error,
@@ -156,3 +159,16 @@ def test_a_rerun_tolerance_is_tight_for_networks_and_looser_for_the_eso_optimisa
     # ESO rows: 2 %, so the 0.08 cm move of one case's foot heights between two CPUs is accepted
     assert rerun_tolerance("Ours (residual)", "foot height error", 0.856) == pytest.approx(0.1)
     assert rerun_tolerance("Ours", "vertex contact MSE", 14.6) == pytest.approx(0.292)
+
+
+def test_contact_cases_builds_only_the_named_cases_in_the_full_order():
+    names = contact_case_names("fast")
+    profile = CONTACT_PROFILES["fast"]
+    per_clip = sum(len(v) for v in CONTACT_TARGETS.values())
+    clips = len(profile["families"]) * len(profile["seeds"])
+    assert len(names) == len(set(names)) == clips * per_clip
+    wanted = [names[-1], names[per_clip + 1], names[0]]  # asked out of order, built in full order
+    built = contact_cases("fast", only=wanted)
+    assert [(c.clip, c.target.name) for c in built] == sorted(wanted, key=names.index)
+    with pytest.raises(ValueError, match="no such fast contact cases"):
+        contact_cases("fast", only=[("moonwalk_000", "gus")])

@@ -4,6 +4,7 @@ accuracy, global position MSE, penetration rate and foot height error of one cas
 
 from __future__ import annotations
 
+from collections.abc import Collection
 from dataclasses import dataclass
 from functools import cache
 
@@ -30,6 +31,7 @@ __all__ = [
     "CONTACT_PROFILES",
     "METRICS",
     "ContactCase",
+    "contact_case_names",
     "contact_cases",
     "evaluate_contact_case",
     "vertex_contact_mse",
@@ -147,15 +149,41 @@ def _character(name: str) -> Character:
     return load_mannequin() if name == CONTACT_SOURCE else make_character(name)
 
 
-def contact_cases(profile: str = "fast") -> list[ContactCase]:
-    """The test cases of ``profile`` (:data:`CONTACT_PROFILES`): every clip × every target."""
+def contact_case_names(profile: str = "fast") -> list[tuple[str, str]]:
+    """``(clip, target)`` of every test case of ``profile``, in :func:`contact_cases`' order,
+    without building any."""
     if profile not in CONTACT_PROFILES:
         raise ValueError(f"unknown profile {profile!r}; choose from {list(CONTACT_PROFILES)}")
+    p = CONTACT_PROFILES[profile]
+    return [
+        (f"{family}_{seed:03d}", name)
+        for family in p["families"]
+        for seed in p["seeds"]
+        for names in CONTACT_TARGETS.values()
+        for name in names
+    ]
+
+
+def contact_cases(
+    profile: str = "fast", only: Collection[tuple[str, str]] | None = None
+) -> list[ContactCase]:
+    """The test cases of ``profile`` (:data:`CONTACT_PROFILES`): every clip × every target.
+
+    Args:
+        profile: a key of :data:`CONTACT_PROFILES`.
+        only: build just these ``(clip, target)`` cases (:func:`contact_case_names`), in order.
+    """
+    names = contact_case_names(profile)
+    wanted = set(names if only is None else only)
+    if unknown := wanted - set(names):
+        raise ValueError(f"no such {profile} contact cases: {sorted(unknown)}")
     p = CONTACT_PROFILES[profile]
     source_char = _character(CONTACT_SOURCE)
     cases = []
     for family in p["families"]:
         for seed in p["seeds"]:
+            if not any(clip == f"{family}_{seed:03d}" for clip, _ in wanted):
+                continue
             motion = make_motion(
                 family, source_char.skeleton, seed, body_radii=_radii(CONTACT_SOURCE)
             )
@@ -168,6 +196,8 @@ def contact_cases(profile: str = "fast") -> list[ContactCase]:
             )
             for names in CONTACT_TARGETS.values():
                 for name in names:
+                    if (motion.name, name) not in wanted:
+                        continue
                     target = _character(name)
                     truth = make_motion(family, target.skeleton, seed, body_radii=_radii(name))
                     truth = truth.slice(0, motion.num_frames)
