@@ -22,10 +22,12 @@ export RETARGET_PROFILE ?= fast
 # the time of each step, printed at the end of `make` and `make test` (.ci/step_times.py)
 RUN_ID := $(shell date +%s%N)
 STEP   := @$(PYTHON) .ci/step_times.py $(RUN_ID)
-# two notebooks or two test workers at a time on a 2-core machine, one OpenMP thread each
-# (more threads than cores oversubscribes and spins)
+# two notebooks or two test workers at a time on a 2-core machine, one thread each: OpenMP, MKL
+# and Mesa's llvmpipe rasteriser (PyVista's offscreen renders), which otherwise starts a thread per
+# core (more threads than cores oversubscribes and spins: notebook 07b took 99 s beside 04 with
+# llvmpipe's threads, 65 s with one)
 JOBS   ?= 2
-ONE_THREAD := OMP_NUM_THREADS=1 MKL_NUM_THREADS=1
+ONE_THREAD := OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 LP_NUM_THREADS=1
 
 .PHONY: all setup system-deps data notebooks book book-teacher workshop test test-slow unit unit-fast unit-threads lint nbval bench tables clean-build
 
