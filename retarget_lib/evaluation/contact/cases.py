@@ -171,7 +171,8 @@ def contact_cases(
 
     Args:
         profile: a key of :data:`CONTACT_PROFILES`.
-        only: build just these ``(clip, target)`` cases (:func:`contact_case_names`), in order.
+        only: build just these ``(clip, target)`` cases (:func:`contact_case_names`), returned
+            in the full order whatever order they are asked in.
     """
     names = contact_case_names(profile)
     wanted = set(names if only is None else only)
