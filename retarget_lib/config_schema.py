@@ -181,6 +181,12 @@ def _table3_rows():
     return TABLE3_ROWS
 
 
+def _ee_scales():
+    from .losses.contact import EE_SCALES  # read late, as _table3_rows
+
+    return EE_SCALES
+
+
 _COMMON = {
     "name": TEXT,
     "seed": NONNEG_INT,
@@ -291,6 +297,9 @@ CONTACT: dict[str, Any] = {
         "rho": NONNEG_NUM,
         "omega": NONNEG_NUM,
         "length_unit": POS_NUM,
+        "ee_scale": lazy_choice(
+            "the Eee scales (retarget_lib.losses.contact.EE_SCALES)", _ee_scales
+        ),
     },
     "data": {
         "window": WINDOW,

@@ -342,6 +342,28 @@ def test_skeleton_energy_weights_terms_and_converts_lengths():
     assert extra_cm.item() == pytest.approx(1e4 * extra_m.item())
 
 
+def test_skeleton_energy_ee_on_the_leg_scale():
+    """``ee_scale="legs"``: Eee asks for the source's end-effector speed times the leg ratio, the
+    speed Eweak asks of the root; as printed (``"height"``) it asks for ``h_B / h_A`` times it."""
+    skel = make_skeleton()
+    a = _motion(skel, seed=0)
+    legs, h_b = 2.0, 1.5 * float(a.height)
+    on_legs = a._replace(positions=a.positions * legs, height=h_b)  # every velocity x leg ratio
+    on_height = a._replace(positions=a.positions * 1.5, height=h_b)  # every velocity x h_B/h_A
+    legs_w = ContactEnergyWeights(ee_scale="legs")
+    printed = ContactEnergyWeights()
+
+    def ee(output, weights):
+        return skeleton_energy(output, a, legs, weights)["ee"].item()
+
+    assert ee(on_legs, legs_w) == pytest.approx(0.0, abs=1e-12)
+    assert ee(on_legs, printed) > 1e-3
+    assert ee(on_height, printed) == pytest.approx(0.0, abs=1e-12)
+    assert legs_w.ee_source_height(1.5, 1.0, 2.0) == 0.75  # h_B / leg ratio
+    with pytest.raises(ValueError, match="ee_scale"):
+        ContactEnergyWeights(ee_scale="arms")
+
+
 def _crossing_triangles():
     """Two triangles, no shared vertex, crossing each other."""
     verts = (

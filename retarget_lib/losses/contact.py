@@ -133,6 +133,10 @@ TABLE3_ROWS: dict[str, dict[str, bool]] = {
 }
 
 
+#: :attr:`ContactEnergyWeights.ee_scale` values: Eq. 9 as printed, or on Eweak's leg-ratio scale.
+EE_SCALES = ("height", "legs")
+
+
 @dataclass(frozen=True)
 class ContactEnergyWeights:
     """Weights of Eqs. 1-9 and the Table 3 switches.
@@ -155,6 +159,11 @@ class ContactEnergyWeights:
         length_unit: metres per length unit in which the weighted terms are measured (0.01 =
             centimetres, our reading of the paper's; see the module docstring and
             :meth:`in_units`).
+        ee_scale: how Eee scales the source's end-effector velocities to the target (Eq. 9):
+            ``"height"`` as printed (``ġ^A / h_A`` against ``ġ^B / h_B``), or ``"legs"``, the
+            scale Eweak gives the root (Eq. 8: ``ġ^B`` against ``(h_legs_B / h_legs_A) ġ^A``,
+            both divided by ``h_B``), so the two terms ask for one speed
+            (:meth:`ee_source_height`).
     """
 
     lambda_j2j: float = 1000.0
@@ -168,10 +177,18 @@ class ContactEnergyWeights:
     use_j2j: bool = True
     geodesic_weights: bool = True
     length_unit: float = 0.01
+    ee_scale: str = "height"
 
     def __post_init__(self) -> None:
         if self.length_unit <= 0:
             raise ValueError(f"length_unit must be positive, got {self.length_unit}")
+        if self.ee_scale not in EE_SCALES:
+            raise ValueError(f"ee_scale must be one of {EE_SCALES}, got {self.ee_scale!r}")
+
+    def ee_source_height(self, height_b: Scalar, height_a: Scalar, leg_ratio: Scalar) -> Scalar:
+        """The height Eq. 9 divides the source's velocities by: ``h_A`` (``ee_scale="height"``)
+        or ``h_B / leg_ratio`` (``"legs"``, so that ``ġ^A / that = leg_ratio · ġ^A / h_B``)."""
+        return height_a if self.ee_scale == "height" else height_b / leg_ratio
 
     def in_units(self, term: str, value: Tensor) -> Tensor:
         """A term computed in metres, expressed in ``length_unit`` (:data:`LENGTH_POWER`)."""
@@ -476,11 +493,11 @@ def skeleton_energy(
         ``{"weak", "ee", "total"}``, each ``(...)``, weighted, lengths in ``weights.length_unit``
         (``"ee"`` is ``ω Eee``).
     """
-    ratio = torch.as_tensor(
+    per_clip = torch.as_tensor(
         leg_ratio, dtype=output.root_velocity.dtype, device=output.root_velocity.device
     )
     ratio = (
-        ratio.unsqueeze(-1) if ratio.dim() else ratio
+        per_clip.unsqueeze(-1) if per_clip.dim() else per_clip
     )  # (...) -> (..., 1): broadcast over frames
     unit = weights.length_unit  # ‖Δo‖² in length_unit²: velocities divided by the unit
     weak = weak_energy(
@@ -491,7 +508,8 @@ def skeleton_energy(
         ratio,
         weights.rho,
     ).mean(-1)
-    ee = end_effector_energy(output.positions, source.positions, output.height, source.height)
+    source_height = weights.ee_source_height(output.height, source.height, per_clip)
+    ee = end_effector_energy(output.positions, source.positions, output.height, source_height)
     return _with_total({"weak": weak, "ee": weights.omega * ee})
 
 

@@ -82,7 +82,10 @@ def frame_terms(
         terms["ee"] = (
             w.omega
             * end_effector_energy_per_frame(
-                window, frame.src_positions, constants.height, constants.source_height
+                window,
+                frame.src_positions,
+                constants.height,
+                w.ee_source_height(constants.height, constants.source_height, constants.leg_ratio),
             )[0, 1]
         )
     unit = w.length_unit
