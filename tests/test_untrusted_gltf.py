@@ -38,10 +38,15 @@ def edited(kato_parts, edit) -> tuple[dict, bytes]:  # noqa: F811
     return doc, bytes(blob)
 
 
+def accessor_start(doc: dict, index: int) -> int:
+    """The byte offset of accessor ``index``'s first element in the binary chunk."""
+    acc = doc["accessors"][index]
+    return doc["bufferViews"][acc["bufferView"]].get("byteOffset", 0) + acc.get("byteOffset", 0)
+
+
 def put_accessor(doc: dict, blob: bytearray, index: int, values: np.ndarray) -> None:
     """Overwrite accessor ``index``'s bytes with ``values`` (same size)."""
-    acc = doc["accessors"][index]
-    start = doc["bufferViews"][acc["bufferView"]].get("byteOffset", 0) + acc.get("byteOffset", 0)
+    start = accessor_start(doc, index)
     raw = np.ascontiguousarray(values, dtype="<f4").tobytes()
     blob[start : start + len(raw)] = raw
 
@@ -407,7 +412,7 @@ def _flat_mesh(doc, blob):
     gave: the posture check then divided by the mesh's height, ~1e-7 m, and blamed the source)."""
     position = doc["meshes"][0]["primitives"][0]["attributes"]["POSITION"]
     acc = doc["accessors"][position]
-    start = doc["bufferViews"][acc["bufferView"]].get("byteOffset", 0) + acc.get("byteOffset", 0)
+    start = accessor_start(doc, position)
     values = np.frombuffer(bytes(blob[start : start + 12 * acc["count"]]), "<f4").reshape(-1, 3)
     flat = values.copy()
     flat[:, 1] = 0.5

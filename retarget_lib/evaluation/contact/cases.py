@@ -21,6 +21,7 @@ from ...geometry.contacts import SelfContacts, detect_foot_contacts, transfer_co
 from ...geometry.penetration import interpenetration_score
 from ...geometry.penetration_rate import penetration_rate
 from ...methods.contact import (
+    ContactClip,
     contact_clip,
 )
 from ..paper import CONTACT_PAPER_METRICS
@@ -149,19 +150,24 @@ def _character(name: str) -> Character:
     return load_mannequin() if name == CONTACT_SOURCE else make_character(name)
 
 
-def contact_case_names(profile: str = "fast") -> list[tuple[str, str]]:
-    """``(clip, target)`` of every test case of ``profile``, in :func:`contact_cases`' order,
-    without building any."""
+def _case_keys(profile: str) -> list[tuple[str, int, str, str]]:
+    """``(family, seed, clip, target)`` of every test case of ``profile``, in order."""
     if profile not in CONTACT_PROFILES:
         raise ValueError(f"unknown profile {profile!r}; choose from {list(CONTACT_PROFILES)}")
     p = CONTACT_PROFILES[profile]
     return [
-        (f"{family}_{seed:03d}", name)
+        (family, seed, f"{family}_{seed:03d}", name)
         for family in p["families"]
         for seed in p["seeds"]
         for names in CONTACT_TARGETS.values()
         for name in names
     ]
+
+
+def contact_case_names(profile: str = "fast") -> list[tuple[str, str]]:
+    """``(clip, target)`` of every test case of ``profile``, in :func:`contact_cases`' order,
+    without building any."""
+    return [(clip, target) for _, _, clip, target in _case_keys(profile)]
 
 
 def contact_cases(
@@ -174,48 +180,48 @@ def contact_cases(
         only: build just these ``(clip, target)`` cases (:func:`contact_case_names`), returned
             in the full order whatever order they are asked in.
     """
-    names = contact_case_names(profile)
-    wanted = set(names if only is None else only)
-    if unknown := wanted - set(names):
+    keys = _case_keys(profile)
+    wanted = {(clip, target) for _, _, clip, target in keys} if only is None else set(only)
+    if unknown := wanted - {(clip, target) for _, _, clip, target in keys}:
         raise ValueError(f"no such {profile} contact cases: {sorted(unknown)}")
-    p = CONTACT_PROFILES[profile]
+    max_frames = CONTACT_PROFILES[profile]["max_frames"]
     source_char = _character(CONTACT_SOURCE)
+    sources: dict[str, tuple[Motion, ContactClip]] = {}  # each clip built once, for its targets
     cases = []
-    for family in p["families"]:
-        for seed in p["seeds"]:
-            if not any(clip == f"{family}_{seed:03d}" for clip, _ in wanted):
-                continue
+    for family, seed, name, target_name in keys:
+        if (name, target_name) not in wanted:
+            continue
+        if name not in sources:
             motion = make_motion(
                 family, source_char.skeleton, seed, body_radii=_radii(CONTACT_SOURCE)
             )
-            motion = motion.slice(0, p["max_frames"]) if p["max_frames"] else motion
-            motion.name = f"{family}_{seed:03d}"
-            clip = contact_clip(
+            motion = motion.slice(0, max_frames) if max_frames else motion
+            motion.name = name
+            sources[name] = (
                 motion,
-                source_char,
-                cache_key=f"eval_{CONTACT_SOURCE}_{motion.name}_{motion.num_frames}",
+                contact_clip(
+                    motion,
+                    source_char,
+                    cache_key=f"eval_{CONTACT_SOURCE}_{name}_{motion.num_frames}",
+                ),
             )
-            for names in CONTACT_TARGETS.values():
-                for name in names:
-                    if (motion.name, name) not in wanted:
-                        continue
-                    target = _character(name)
-                    truth = make_motion(family, target.skeleton, seed, body_radii=_radii(name))
-                    truth = truth.slice(0, motion.num_frames)
-                    cases.append(
-                        ContactCase(
-                            motion.name,
-                            family,
-                            source_char,
-                            target,
-                            motion,
-                            truth,
-                            clip.foot_contacts,
-                            transfer_contacts(clip.self_contacts, source_char, target),
-                            body_type=next(k for k, v in CONTACT_TARGETS.items() if name in v),
-                            contact_rich=family in CONTACT_RICH,
-                        )
-                    )
+        motion, clip = sources[name]
+        target = _character(target_name)
+        truth = make_motion(family, target.skeleton, seed, body_radii=_radii(target_name))
+        cases.append(
+            ContactCase(
+                name,
+                family,
+                source_char,
+                target,
+                motion,
+                truth.slice(0, motion.num_frames),
+                clip.foot_contacts,
+                transfer_contacts(clip.self_contacts, source_char, target),
+                body_type=next(k for k, v in CONTACT_TARGETS.items() if target_name in v),
+                contact_rich=family in CONTACT_RICH,
+            )
+        )
     return cases
 
 

@@ -286,7 +286,7 @@ class GeometryConditionedRNN(nn.Module):
                     "a residual or root_residual GeometryConditionedRNN needs the frame's base "
                     "(a ResidualBase)"
                 )
-            if self.residual and self.lower_body_from_base:  # these joints are the base's
+            if self.lower_body_from_base:  # residual implied; these joints are the base's
                 rotations = torch.where(
                     self._fixed_joints, rotations.new_tensor(IDENTITY), rotations
                 )
