@@ -49,6 +49,7 @@ VARIANTS = {
     "tdcn_ours_mixamo_convention_code_losses_leg_root": "ours",
     "tdcn_ours_mixamo_convention_code": "ours",
     "tdcn_ours_mixamo_convention_root_residual": "ours",
+    "tdcn_ours_root_residual": "ours",
     "tdcn_ours_residual_mixed": "ours-residual",
     **{
         f"{stem}_mixamo_convention": row

@@ -78,7 +78,8 @@ CAUSES: dict[tuple[str, str], str] = {
     ),
 }
 #: the row of paper-form "ours" with the NKN Baseline's root rule (configs/
-#: tdcn_ours_mixamo_convention_root_residual.yaml): TDCN's headline judged on one root rule
+#: tdcn_ours_mixamo_convention_root_residual.yaml, tdcn_ours_root_residual.yaml): TDCN's headline
+#: judged on one root rule
 SAME_ROOT_ROW = "ours (residual root)"
 #: why "ours" on the Baseline's root rule may still lose to an NKN row (measured where it does)
 SAME_ROOT_CAUSE = (
