@@ -315,6 +315,7 @@ CONTACT: dict[str, Any] = {
         "lr": POS_NUM,
         "betas": BETAS,
         "lr_decay": Rule("a number in (0, 1]", lambda v: _is_num(v) and 0 < v <= 1),
+        "decay_from": Rule("null (the per-epoch decay alone) or a number in [0, 1]", DECAY_FROM.ok),
         "checkpoint_every": STEPS,
         "compile": BOOL,
     },

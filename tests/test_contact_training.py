@@ -46,6 +46,20 @@ def test_clip_has_detected_hand_contacts(small):
     )
 
 
+def test_the_rate_follows_the_papers_epochs_and_the_optional_linear_tail(small):
+    clips, targets, config = small  # 4 steps, 2 epochs, lr 1e-4, lr_decay 0.95 (App. B.1)
+    paper = ContactTraining(
+        {**config, "train": {**config["train"], "decay_from": None}}, clips, targets
+    )
+    assert [paper.rate(i) for i in range(4)] == pytest.approx([1e-4, 1e-4, 0.95e-4, 0.95e-4])
+    assert config["train"]["decay_from"] == 0.5  # the fast profile's tail
+    settled = ContactTraining(config, clips, targets)
+    # steps 0-1 as the paper; steps 2, 3 of the second epoch scaled by 2/2 and 1/2 (never 0)
+    assert [settled.rate(i) for i in range(4)] == pytest.approx([1e-4, 1e-4, 0.95e-4, 0.475e-4])
+    settled.step(3)
+    assert settled.optimizer.param_groups[0]["lr"] == pytest.approx(0.475e-4)
+
+
 @pytest.mark.slow
 def test_training_logs_every_term_and_resumes_exactly(small, tmp_path):
     clips, targets, config = small

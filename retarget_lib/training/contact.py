@@ -28,7 +28,10 @@ proportioned like the real rigs (:func:`training_clips`), alone or ``synthetic+m
 
 **Epochs.** The paper trains 10 epochs with a learning-rate decay of 0.95 per epoch; here an
 "epoch" is ``train.steps / train.epochs`` steps, so the decay and the Efoot ramp follow the same
-schedule at any budget.
+schedule at any budget. The fast profile adds a linear tail (``train.decay_from: 0.5``, as the
+TDCN fast profile): at 0.95 per epoch the rate ends at 0.63x, and the network's root velocity,
+which the rotation term moves with every step, is then a different 0.1-0.4 cm a frame at each step
+at which a run might stop; with the rate ending near 0 it settles.
 """
 
 from __future__ import annotations
@@ -67,7 +70,7 @@ from ..losses.contact import (
 from ..methods.contact import ContactClip, contact_clip, eweak_rotations, model_from_config
 from ..models.georet import ResidualBase, batch_meshes, pose_outputs
 from .distributed import SINGLE, Distributed, prepare_module
-from .loop import TrainTask, load_checkpoint, seed_everything
+from .loop import TrainTask, learning_rate, load_checkpoint, seed_everything
 
 Tensor = torch.Tensor
 
@@ -248,6 +251,7 @@ class ContactTraining:
         )
         self.steps, self.epochs = int(t["steps"]), int(t["epochs"])
         self.batch, self.lr, self.decay = int(t["batch"]), float(t["lr"]), float(t["lr_decay"])
+        self.decay_from = t.get("decay_from")
 
     def task(self) -> TrainTask:
         return TrainTask({"model": self.model}, {"adam": self.optimizer}, self.step)
@@ -373,12 +377,20 @@ class ContactTraining:
         terms["total"] = terms["weak"] + terms["ee"] + terms["foot"] + terms["j2j"] + terms["int"]
         return {k: terms[k] for k in LOG_TERMS}
 
+    def rate(self, index: int) -> float:
+        """Adam's rate at step ``index``: the paper's ``lr_decay`` per epoch, times the linear
+        tail of :func:`~retarget_lib.training.loop.learning_rate` when ``train.decay_from`` is set
+        (the rate then ends near 0, so the last step's weights are settled ones)."""
+        return learning_rate(
+            self.lr * self.decay ** self.epoch(index), index, self.steps, self.decay_from
+        )
+
     def step(self, index: int) -> dict[str, float]:
         """One Adam step on ``Efull`` of a batch (this rank's shard in a multi-process run);
         returns the mean of each :data:`LOG_TERMS` term."""
         epoch = self.epoch(index)
         for group in self.optimizer.param_groups:
-            group["lr"] = self.lr * self.decay**epoch
+            group["lr"] = self.rate(index)
         weights = self.weights.with_foot_ramp(epoch, self.epochs)
         draws = self._sample()
         with self.layout.rank_random(int(self.config["seed"]), index, self.device):

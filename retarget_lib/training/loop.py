@@ -36,6 +36,29 @@ from ..losses import NonFiniteLossError
 from .distributed import SINGLE, Distributed
 
 
+def learning_rate(lr: float, index: int, steps: int, decay_from: float | None) -> float:
+    """Adam's learning rate at step ``index`` of ``steps``: constant, or constant up to the fraction
+    ``decay_from`` of the run and then linear towards 0 (the GAN schedule of CycleGAN, Zhu et al.
+    2017, Sec. 7: same Adam betas (0.5, 0.999) as both trainers here). A function of the step
+    alone, so a resumed run continues the same schedule.
+
+    Args:
+        lr: the base rate (``train.lr``).
+        index: 0-based step.
+        steps: the run's total steps (``train.steps``).
+        decay_from: ``None`` for the paper's constant rate, else a fraction in [0, 1].
+
+    Returns:
+        the rate; the last step of a decayed run uses ``lr / (decayed steps)``, never 0.
+    """
+    if decay_from is None:
+        return lr
+    start = int(round(float(decay_from) * steps))
+    if index < start:
+        return lr
+    return lr * (steps - index) / max(steps - start, 1)
+
+
 def seed_everything(seed: int) -> None:
     """Seed Python's ``random``, NumPy's global RNG and torch (CPU) with ``seed``."""
     random.seed(seed)

@@ -109,12 +109,12 @@ from ..models.features import (
     source_local_positions,
 )
 from .distributed import SINGLE, Distributed, prepare_module
-from .loop import TrainTask, load_checkpoint, seed_everything
+from .loop import TrainTask, learning_rate, load_checkpoint, seed_everything
 from .tdcn_data import TrainingBatch, TrainingClips, WindowSampler, config_training_clips
 
 Tensor = torch.Tensor
 
-__all__ = ["RetargetTraining", "export_generator", "learning_rate", "loss_weights"]
+__all__ = ["RetargetTraining", "export_generator", "loss_weights"]
 
 #: (generator loss on scores, discriminator loss on (real, fake) scores) per ``loss.gan``
 _GANS = {
@@ -166,29 +166,6 @@ def _check_row(resolved: dict, config: dict, weights: TDCNLossWeights) -> None:
 
 
 # ---------------------------------------------------------------------------- training
-def learning_rate(lr: float, index: int, steps: int, decay_from: float | None) -> float:
-    """Adam's learning rate at step ``index`` of ``steps``: constant, or constant up to the fraction
-    ``decay_from`` of the run and then linear towards 0 (the GAN schedule of CycleGAN, Zhu et al.
-    2017, Sec. 7: same Adam betas (0.5, 0.999) as here). A function of the step alone, so a resumed
-    run continues the same schedule.
-
-    Args:
-        lr: the base rate (``train.lr``).
-        index: 0-based step.
-        steps: the run's total steps (``train.steps``).
-        decay_from: ``None`` for the paper's constant rate, else a fraction in [0, 1].
-
-    Returns:
-        the rate; the last step of a decayed run uses ``lr / (decayed steps)``, never 0.
-    """
-    if decay_from is None:
-        return lr
-    start = int(round(float(decay_from) * steps))
-    if index < start:
-        return lr
-    return lr * (steps - index) / max(steps - start, 1)
-
-
 class RetargetTraining:
     """Generator, discriminator, optimisers, sampler and the training step of one Table 4 row.
 
