@@ -18,7 +18,7 @@ Values shown in messages are cut short (:func:`~retarget_lib.errors.short_repr`)
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import Any
 
@@ -56,10 +56,19 @@ class Rule:
     Attributes:
         allowed: the allowed values in words (used in the error message).
         ok: ``ok(value) -> bool``.
+        listed: for a choice read late (:func:`lazy_choice`), ``listed()`` gives its values, which
+            the error message then lists after ``allowed``.
     """
 
     allowed: str
     ok: Callable[[Any], bool]
+    listed: Callable[[], Iterable[Any]] | None = None
+
+    def words(self) -> str:
+        """``allowed``, followed by the values of a late-read choice."""
+        if self.listed is None:
+            return self.allowed
+        return f"{self.allowed}: {', '.join(map(str, self.listed()))}"
 
 
 def _is_int(v: Any) -> bool:
@@ -125,8 +134,9 @@ def choice(*values: Any) -> Rule:
 
 
 def lazy_choice(describe: str, values: Callable[[], Any]) -> Rule:
-    """One of ``values()`` (imported on first use: the tables live in modules that load torch)."""
-    return Rule(f"one of {describe}", lambda v: v in values())
+    """One of ``values()`` (imported on first use: the tables live in modules that load torch);
+    the error message names ``describe`` and lists the values."""
+    return Rule(f"one of {describe}", lambda v: v in values(), values)
 
 
 #: TDCN Table 4 rows → model config deltas (A2/A3 change data/loss, not the network), the names
@@ -244,9 +254,7 @@ TDCN: dict[str, Any] = {
         "max_clips": up_to(100_000),
         "max_characters": up_to(1_000),
         "source": lazy_choice(
-            "synthetic, mixamo-convention, synthetic+mixamo-convention, mixamo-local "
-            "($RETARGET_MIXAMO) or mixamo-local+synthetic",
-            _data_sources,
+            "the data sources (mixamo-local reads $RETARGET_MIXAMO)", _data_sources
         ),
     },
     "loss": {
@@ -288,18 +296,14 @@ CONTACT: dict[str, Any] = {
         "root_residual": BOOL,
     },
     "energy": {
-        "row": lazy_choice(
-            "the Table 3 rows (retarget_lib.losses.contact.TABLE3_ROWS)", _table3_rows
-        ),
+        "row": lazy_choice("the Table 3 rows", _table3_rows),
         "lambda_j2j": NONNEG_NUM,
         "beta_int": NONNEG_NUM,
         "gamma_foot": NONNEG_NUM,
         "rho": NONNEG_NUM,
         "omega": NONNEG_NUM,
         "length_unit": POS_NUM,
-        "ee_scale": lazy_choice(
-            "the Eee scales (retarget_lib.losses.contact.EE_SCALES)", _ee_scales
-        ),
+        "ee_scale": lazy_choice("the Eee scales", _ee_scales),
     },
     "data": {
         "window": WINDOW,
@@ -358,7 +362,7 @@ def _problem(schema: dict, keys: list[str], value: Any) -> str | None:
                 return found
         return None
     if not node.ok(value):
-        return f"{'.'.join(keys)} = {short_repr(value)} is invalid: must be {node.allowed}"
+        return f"{'.'.join(keys)} = {short_repr(value)} is invalid: must be {node.words()}"
     return None
 
 

@@ -202,6 +202,22 @@ def train_run(tmp_path, path, *overrides):
         # file; the error names the config that refers to it, not the path it could not find
         (f"base: {CONFIGS / 'tdcn_paper.yaml'}\n  model", (), "model' is no config file"),
         (f"base: {CONFIGS / 'tdcn_paper.yaml'}\ntrain: {{lr: {'9' * 400}}}\n", (), "train.lr = "),
+        # a choice read late lists its values (losses.contact.EE_SCALES, TABLE3_ROWS)
+        (
+            f"base: {CONFIGS / 'contact_paper.yaml'}\n",
+            ("energy.ee_scale=arms",),
+            "must be one of the Eee scales: height, legs",
+        ),
+        (
+            f"base: {CONFIGS / 'contact_paper.yaml'}\n",
+            ("energy.row=Efoot",),
+            "one of the Table 3 rows: Eskel, Eskel+Efoot, Eskel+Efoot+Eint w/o w,",
+        ),
+        (
+            f"base: {CONFIGS / 'contact_paper.yaml'}\n",
+            ("train.decay_from=2",),
+            "train.decay_from = 2 is invalid: must be null (the per-epoch decay alone) or a number",
+        ),
     ],
 )
 def test_a_hostile_config_stops_before_any_work(tmp_path, no_training, text, overrides, problem):

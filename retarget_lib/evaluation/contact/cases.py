@@ -181,8 +181,9 @@ def contact_cases(
             in the full order whatever order they are asked in.
     """
     keys = _case_keys(profile)
-    wanted = {(clip, target) for _, _, clip, target in keys} if only is None else set(only)
-    if unknown := wanted - {(clip, target) for _, _, clip, target in keys}:
+    every = {(clip, target) for _, _, clip, target in keys}
+    wanted = every if only is None else set(only)
+    if unknown := wanted - every:
         raise ValueError(f"no such {profile} contact cases: {sorted(unknown)}")
     max_frames = CONTACT_PROFILES[profile]["max_frames"]
     source_char = _character(CONTACT_SOURCE)
