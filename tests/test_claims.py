@@ -75,6 +75,24 @@ def test_contact_orderings_read_higher_is_better_for_foot_accuracy():
     assert len(claims) == 4 * (len(PAPER_TABLE1) - 1)
 
 
+def test_a_cause_for_one_measure_wins_and_the_others_fall_back():
+    """CAUSES may name one measure of a row: the NKN row's position and foot-accuracy claims carry
+    their measured causes, its vertex-contact one (no cause recorded) says "unknown"."""
+    table1 = pd.DataFrame(
+        {
+            "ours interpenetration": {"Ours": 0.1, "NKN": 0.2},
+            "ours vertex contact MSE": {"Ours": 5.0, "NKN": 1.0},
+            "ours foot contact accuracy": {"Ours": 0.5, "NKN": 0.9},
+            "ours global position MSE": {"Ours": 9.0, "NKN": 1.0},
+        }
+    )
+    by = {c.claim: c for c in contact_claims({"table1": table1}, "x") if c.table == "Table 1"}
+    assert "feet" in by["Ours better than NKN (foot contact accuracy)"].cause
+    assert "root" in by["Ours below NKN (global position MSE)"].cause
+    assert by["Ours below NKN (vertex contact MSE)"].cause == "unknown"
+    assert by["Ours below NKN (interpenetration)"].cause == ""  # reproduces
+
+
 def test_written_from_a_results_folder(tmp_path):
     _table4({"ours": (1.0, 1.0), "Baseline": (2.0, 2.0)}).to_csv(tmp_path / "table4.csv")
     csv_path, md_path = write_claims(tmp_path)

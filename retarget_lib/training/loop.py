@@ -46,7 +46,8 @@ def learning_rate(lr: float, index: int, steps: int, decay_from: float | None) -
         lr: the base rate (``train.lr``).
         index: 0-based step.
         steps: the run's total steps (``train.steps``).
-        decay_from: ``None`` for the paper's constant rate, else a fraction in [0, 1].
+        decay_from: ``None``: ``lr`` at every step (the TDCN paper's constant rate), else a
+            fraction in [0, 1].
 
     Returns:
         the rate; the last step of a decayed run uses ``lr / (decayed steps)``, never 0.
