@@ -6,16 +6,20 @@ import torch
 from skeletons import make_skeleton
 
 from retarget_lib.cli import main
+from retarget_lib.config import load_config
 from retarget_lib.core.motion import Motion
 from retarget_lib.core.rotations import quat_from_axis_angle
 from retarget_lib.evaluation.capacity import (
     CONTACT_COPY,
     PROTOCOL_COPY,
+    EnergyAtTruth,
     capacity_cases,
     capacity_check,
     contact_capacity_cases,
     contact_capacity_check,
+    contact_energy_at_truth,
 )
+from retarget_lib.methods.contact import model_from_config
 from retarget_lib.methods.registry import get_method
 from retarget_lib.training.tdcn_data import stack_clips
 
@@ -132,3 +136,41 @@ def test_the_contact_check_passes_a_network_that_learnt_its_clips_and_fails_the_
     shifted = contact_capacity_check(off_by_a_centimetre, cases)
     h = cases[0].target.skeleton.height()
     assert abs(shifted.identity_pct - 1.0 / h) < 1e-9  # every joint 1 cm off, in % of H (m)
+
+
+def _tiny_contact_config(row: str) -> dict:
+    """configs/capacity/contact_skeleton.yaml on one clip of one character, a small network."""
+    overrides = ["data.train_characters=[ada]", "data.max_clips=1", f"energy.row={row}"]
+    overrides += ["model.hidden=32", "model.geometry=16"]
+    return load_config("configs/capacity/contact_skeleton.yaml", overrides, profile="fast")
+
+
+def test_the_contact_energy_is_read_at_the_truth_of_a_clip_onto_its_own_performer():
+    """Onto its own performer the truth is the source: Eweak and Eee are 0 there (to float32
+    rounding of the rotation matrices, 1e-6 per entry), so Eskel+Efoot at the truth is below an
+    untrained network's. Efull adds Eint, which the truth itself has (the synthetic clip's arms
+    and legs pass into the mesh, as real clips do)."""
+    config = _tiny_contact_config("Eskel+Efoot")
+    torch.manual_seed(0)
+    result = contact_energy_at_truth(config, model_from_config(config))
+    assert result.windows == 6  # one clip onto its performer: 2 windows x 3 sampled frames
+    assert result.truth["weak"] < 1e-6 and result.truth["ee"] < 1e-6
+    assert result.network["weak"] > 1.0  # random rotations, rho = 1000 on squared entries
+    assert result.truth_is_minimum and "no higher than the network" in result.summary()
+    full = _tiny_contact_config("Efull")
+    at_truth = contact_energy_at_truth(full, model_from_config(full))
+    assert at_truth.truth["int"] > 0 and at_truth.truth["weak"] < 1e-6
+
+
+def test_an_energy_lower_off_the_truth_is_reported():
+    """The verdict follows the totals, and the line names every non-zero term."""
+    terms = dict(weak=0.0, ee=0.0, foot=0.0, j2j=0.0, int=0.0)
+    off = EnergyAtTruth(
+        "Efull",
+        4,
+        {**terms, "weak": 3.0, "int": 1.0, "total": 4.0},
+        {**terms, "int": 5.0, "total": 5.0},
+    )
+    assert not off.truth_is_minimum
+    assert "minimum is not the truth" in off.summary() and "int 5" in off.summary()
+    assert "weak 3, int 1" in off.summary()

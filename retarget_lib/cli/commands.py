@@ -129,6 +129,7 @@ def _cmd_capacity(args: argparse.Namespace) -> int:
         capacity_clips,
         contact_capacity_cases,
         contact_capacity_check,
+        contact_energy_at_truth,
         contact_network_method,
     )
     from ..methods.contact import load_contact_model
@@ -160,6 +161,8 @@ def _cmd_capacity(args: argparse.Namespace) -> int:
             get_method(method).retargeter(checkpoint), capacity_cases(capacity_clips(config))
         )
     print(f"{run.name} ({method}, {checkpoint.name}): {result.summary()}")
+    if method == "contact":
+        print(contact_energy_at_truth(config, model).summary())
     if args.out:
         with atomic_write(args.out, "w") as f:
             result.per_case.to_csv(f, index=False)

@@ -22,7 +22,10 @@ character; its Table 1 position error (``global position MSE``, the same normali
 on whole clips) on the pairs of two characters must fall below Table 1's copy row on those pairs,
 and its identity below the same bar. The ground truth is each clip authored on the target
 (:func:`~retarget_lib.data.synthetic.motions.make_motion` with the clip's family and seed), as in
-Table 1.
+Table 1. It is trained without ground truth, on an energy, so its check also reads that energy
+at the ground truth (:func:`contact_energy_at_truth`, on each clip onto its own performer, where
+the truth is the source): when the truth's energy is above the network's, the energy's minimum is
+not the truth, and no network trained on it can pass the identity bar.
 """
 
 from __future__ import annotations
@@ -32,6 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
+import torch
 
 from ..core.character import Character
 from ..core.motion import Motion
@@ -39,7 +43,12 @@ from ..data.synthetic.dataset import dataset_path, fingerprint_of, load_syntheti
 from ..data.synthetic.motions import body_radii_from_mesh, make_motion
 from ..methods.contact import contact_clip, retarget_with_network
 from ..methods.registry import get_method
-from ..training.contact import synthetic_clip_key, synthetic_training_clips
+from ..training.contact import (
+    ContactTraining,
+    identity_truth,
+    synthetic_clip_key,
+    synthetic_training_clips,
+)
 from ..training.tdcn_data import TrainingClips, config_training_clips
 from .contact.cases import foot_contact_accuracy
 from .tdcn.cases import EvalCase, Method, evaluate_case, normalized_mse, short_chunks
@@ -55,6 +64,8 @@ __all__ = [
     "contact_capacity_cases",
     "contact_capacity_check",
     "contact_network_method",
+    "EnergyAtTruth",
+    "contact_energy_at_truth",
 ]
 
 #: the identity bar of a capacity check, % of the target's height
@@ -277,3 +288,85 @@ def contact_capacity_check(
 def contact_network_method(model) -> Callable[[Motion, Character], Motion]:
     """``(source, target character) -> motion`` with the network alone (no ESO)."""
     return lambda source, target: retarget_with_network(model, source, target)
+
+
+@dataclass(frozen=True)
+class EnergyAtTruth:
+    """A contact run's training energy (its Table 3 row) on windows of its clips onto their own
+    performers, where the ground truth is the source itself.
+
+    Attributes:
+        row: the energy (``energy.row``).
+        windows: how many (window, sampled frame) draws it is averaged over.
+        network: mean of each weighted term (:data:`~retarget_lib.training.contact.LOG_TERMS`) of
+            the network's output.
+        truth: the same of the ground truth.
+    """
+
+    row: str
+    windows: int
+    network: dict[str, float]
+    truth: dict[str, float]
+
+    @property
+    def truth_is_minimum(self) -> bool:
+        """The truth's energy is at most the network's: the energy does not pull away from it."""
+        return self.truth["total"] <= self.network["total"]
+
+    def summary(self) -> str:
+        """One line: both totals, their non-zero terms, and what it means."""
+
+        def terms(values: dict[str, float]) -> str:
+            parts = [f"{k} {v:.4g}" for k, v in values.items() if k != "total" and v > 0]
+            return ", ".join(parts) or "every term 0"
+
+        verdict = (
+            "the truth is no higher than the network"
+            if self.truth_is_minimum
+            else "the energy's minimum is not the truth: minimising it moves off the truth"
+        )
+        return (
+            f"{self.row} on its own clips ({self.windows} windows): network "
+            f"{self.network['total']:.4g} ({terms(self.network)}), ground truth "
+            f"{self.truth['total']:.4g} ({terms(self.truth)}); {verdict}"
+        )
+
+
+def contact_energy_at_truth(
+    config: Mapping, model: torch.nn.Module, starts: int = 2, frames: int = 3
+) -> EnergyAtTruth:
+    """Read a contact run's training energy at the network's output and at the ground truth.
+
+    Every training clip onto its own performer (the truth is the source: its rotations and root
+    velocity, :func:`~retarget_lib.training.contact.identity_truth`), ``starts`` windows of
+    ``data.window`` frames spread over the clip, each with ``frames`` sampled frames for Ej2j and
+    Eint (the trainer samples one at random), weighted as at the last epoch (Efoot's ramp).
+
+    Args:
+        config: the run's merged config (its ``config.yaml``).
+        model: the trained network (:func:`~retarget_lib.methods.contact.load_contact_model`).
+        starts, frames: windows per clip and sampled frames per window.
+    """
+    trainer = ContactTraining({**config, "train": {**config["train"], "compile": False}})
+    last = trainer.window - 1
+    draws = [
+        (clip, start, target, frame)
+        for clip in trainer.clips
+        for target in trainer.targets
+        if target.character.name == clip.character.name
+        for start in np.unique(
+            np.linspace(0, clip.motion.num_frames - trainer.window, starts).astype(int)
+        )
+        for frame in np.unique(np.linspace(0, last, frames).astype(int))
+    ]
+    weights = trainer.weights.with_foot_ramp(trainer.epochs - 1, trainer.epochs)
+    model.eval()
+    with torch.no_grad():
+        network = trainer.energies(draws, weights, network=model)
+        truth = trainer.energies(draws, weights, network=identity_truth)
+    return EnergyAtTruth(
+        str(config["energy"]["row"]),
+        len(draws),
+        {k: float(v.mean()) for k, v in network.items()},
+        {k: float(v.mean()) for k, v in truth.items()},
+    )

@@ -36,8 +36,10 @@ at which a run might stop; with the rate ending near 0 it settles.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import torch
@@ -82,6 +84,7 @@ __all__ = [
     "synthetic_clip_key",
     "energy_weights",
     "export_model",
+    "identity_truth",
 ]
 
 #: the terms logged per step (always all of them, 0 when a row switches one off)
@@ -294,8 +297,17 @@ class ContactTraining:
         self,
         draws: list[tuple[ContactClip, int, _Target, int]],
         weights: ContactEnergyWeights,
+        network: Callable[..., Any] | None = None,
     ) -> dict[str, Tensor]:
-        """Weighted ``Efull`` terms of one batch (each ``(B,)``), :data:`LOG_TERMS` keys."""
+        """Weighted ``Efull`` terms of one batch (each ``(B,)``), :data:`LOG_TERMS` keys.
+
+        Args:
+            draws: ``(clip, window start, target, sampled frame)`` per row (:meth:`_sample`).
+            weights: the energy's weights (this epoch's Efoot ramp applied).
+            network: what maps the inputs to ``(rotations, root_velocity)`` (default the model
+                being trained); :func:`identity_truth` gives the ground truth of draws whose target
+                is the clip's own performer, so the energy can be read at the truth.
+        """
         win, dev = slice(0, self.window), self.device
         sl = [slice(s, s + self.window) for _, s, _, _ in draws]
         features = torch.stack([c.features[s] for (c, *_), s in zip(draws, sl, strict=False)]).to(
@@ -321,7 +333,7 @@ class ContactTraining:
         )
         verts, skin = batch_meshes([t.vertices for t in targets], [t.weights for t in targets])
         with autocast(dev, self.amp):
-            out = self.model(
+            out = (network or self.model)(
                 features,
                 offsets,
                 verts,
@@ -401,6 +413,15 @@ class ContactTraining:
             self.layout.average_gradients(self.model)
             self.optimizer.step()
         return {k: float(v.detach().mean()) for k, v in terms.items()}
+
+
+def identity_truth(*inputs: Any) -> ResidualBase:
+    """The ground truth of clips retargeted onto their own performers, in the place of a network
+    (:meth:`ContactTraining.energies`'s ``network``): the residual base the network is given,
+    Eweak's ``θ^A`` (the performer's own rotations: on its own rest pose they need no
+    re-expression) and the source's root velocity times the leg ratio (1 onto itself). Only draws
+    whose target is the performer have this as their truth."""
+    return inputs[5]
 
 
 def export_model(checkpoint: str | Path, out: str | Path) -> Path:
