@@ -83,8 +83,10 @@ NONNEG_INT = Rule("an integer >= 0", lambda v: _is_int(v) and v >= 0)
 POS_NUM = Rule("a finite number > 0", lambda v: _is_num(v) and v > 0)
 NONNEG_NUM = Rule("a finite number >= 0", lambda v: _is_num(v) and v >= 0)
 FRACTION = Rule("a number in [0, 1]", lambda v: _is_num(v) and 0 <= v <= 1)
+#: ``train.decay_from`` of both trainers: where the linear tail to 0 starts, as a fraction of the
+#: steps (:func:`~retarget_lib.training.loop.learning_rate`)
 DECAY_FROM = Rule(
-    "null (constant rate) or a number in [0, 1]",
+    "null (no linear tail) or a number in [0, 1]",
     lambda v: v is None or (_is_num(v) and 0 <= v <= 1),
 )
 DROPOUT = Rule("null or a number in [0, 1)", lambda v: v is None or (_is_num(v) and 0 <= v < 1))
@@ -319,7 +321,7 @@ CONTACT: dict[str, Any] = {
         "lr": POS_NUM,
         "betas": BETAS,
         "lr_decay": Rule("a number in (0, 1]", lambda v: _is_num(v) and 0 < v <= 1),
-        "decay_from": Rule("null (the per-epoch decay alone) or a number in [0, 1]", DECAY_FROM.ok),
+        "decay_from": DECAY_FROM,
         "checkpoint_every": STEPS,
         "compile": BOOL,
     },

@@ -216,7 +216,7 @@ def train_run(tmp_path, path, *overrides):
         (
             f"base: {CONFIGS / 'contact_paper.yaml'}\n",
             ("train.decay_from=2",),
-            "train.decay_from = 2 is invalid: must be null (the per-epoch decay alone) or a number",
+            "train.decay_from = 2 is invalid: must be null (no linear tail) or a number in [0, 1]",
         ),
     ],
 )
