@@ -236,6 +236,7 @@ TDCN: dict[str, Any] = {
         "root_frame": choice("world", "facing"),
         "root_height": choice("step", "floor"),
         "root_residual": BOOL,
+        "positions_frame": choice("world", "facing", "root"),
         "backbone": TEXT,
         "data": TEXT,
         "loss": TEXT,

@@ -12,7 +12,7 @@ import torch
 
 from retarget_lib.core.kinematics import forward_kinematics
 from retarget_lib.core.measures import leg_length, nkn_height
-from retarget_lib.core.rotations import quat_normalize
+from retarget_lib.core.rotations import quat_mul, quat_normalize
 from retarget_lib.core.skeleton import CANONICAL22_PARENTS, canonical22_skeleton
 from retarget_lib.models import (
     TABLE4_ROWS,
@@ -32,6 +32,7 @@ from retarget_lib.models.features import (
     generator_features,
     generator_input_channels,
     hip_facing,
+    positions_in_frame,
     source_local_positions,
     split_generator_features,
     to_facing_frame,
@@ -362,6 +363,79 @@ def test_facing_frame_round_trip_and_the_hips_rule():
     assert torch.allclose(hip_facing(p), torch.tensor([0.0, 1.0]), atol=1e-6)
     turn = torch.tensor([[0.0, 0, 1], [0, 1, 0], [-1, 0, 0]])  # +90 degrees about +Y: +z -> +x
     assert torch.allclose(hip_facing(p @ turn.T), torch.tensor([1.0, 0.0]), atol=1e-6)
+
+
+def _yawed(q, angle):
+    """``q`` with every root rotation turned by ``angle`` radians about +Y (wxyz)."""
+    half = torch.tensor(angle / 2)
+    turn = torch.tensor([half.cos(), 0.0, half.sin(), 0.0])
+    out = q.clone()
+    out[..., 0, :] = quat_mul(turn.expand_as(q[..., 0, :]), q[..., 0, :])
+    return out
+
+
+def test_positions_in_the_root_and_facing_frames():
+    """``"root"`` is FK with the root's rotation set to identity (the authors' TDCN input);
+    ``"facing"`` turns every frame to face +z, so a yaw of the whole motion leaves it unchanged
+    (the authors' NKN input); ``"world"`` is Eq. 1's ``p`` itself. float32 FK: 1e-5 m."""
+    q, _, oa, _ = _motion(2, 9)
+    p = source_local_positions(q, oa)
+    unrooted = q.clone()
+    unrooted[..., 0, :] = torch.tensor([1.0, 0.0, 0.0, 0.0])
+    assert torch.allclose(
+        positions_in_frame(p, "root", q[..., 0, :]), source_local_positions(unrooted, oa), atol=1e-5
+    )
+    assert positions_in_frame(p, "world") is p
+    facing = positions_in_frame(p, "facing")
+    assert torch.allclose(hip_facing(facing), torch.tensor([0.0, 1.0]).expand(2, 9, 2), atol=1e-5)
+    turned = source_local_positions(_yawed(q, 1.3), oa)
+    assert not torch.allclose(turned, p, atol=1e-2)  # the yaw moves world-axis positions...
+    assert torch.allclose(positions_in_frame(turned, "facing"), facing, atol=1e-5)  # not these
+    with pytest.raises(ValueError, match="needs the root rotations"):
+        positions_in_frame(p, "root")
+    with pytest.raises(ValueError, match="frame must be one of"):
+        positions_in_frame(p, "hips")
+
+
+def test_each_network_reads_positions_in_its_frame():
+    """A root-frame TDCN's input (and so the features its normaliser is fitted on) has the
+    root-frame ``p``; a facing-frame NKN's encoder input and fed-back pose are facing-frame, so a
+    yawed source gives it the same encoder input; the residual TDCN refuses the option."""
+    q, r, oa, ob = _motion(2, 12)
+    tdcn = TDCNGenerator(channels=SMALL, positions_frame="root")
+    x = split_generator_features(tdcn.input_features(q, r, oa, ob))
+    expected = positions_in_frame(source_local_positions(q, oa), "root", q[..., 0, :])
+    assert torch.allclose(x["p"], expected, atol=1e-6)
+    world = split_generator_features(TDCNGenerator(channels=SMALL).input_features(q, r, oa, ob))
+    assert torch.equal(world["p"], split_generator_features(generator_features(q, r, oa, ob))["p"])
+    nkn = NKNGenerator(hidden=SMALL, positions_frame="facing")
+    p, p_turned = source_local_positions(q, oa), source_local_positions(_yawed(q, 0.7), oa)
+    still = r * torch.tensor([0.0, 1.0, 0.0])  # no root steps: the yaw changes only p
+    a = nkn.source_features(p, still, oa)[:, : 3 * J]
+    assert torch.allclose(a, nkn.source_features(p_turned, still, oa)[:, : 3 * J], atol=1e-5)
+    assert not torch.allclose(
+        a, NKNGenerator(hidden=SMALL).source_features(p_turned, still, oa)[:, : 3 * J], atol=1e-3
+    )
+    world_nkn = NKNGenerator(hidden=SMALL)
+    facings = []
+    for model in (nkn, world_nkn):  # the head's root: a quarter turn about +Y, whatever its input
+        with torch.no_grad():
+            model.out.weight[:4] = 0.0
+            model.out.bias[:4] = torch.tensor([0.5**0.5, 0.0, 0.5**0.5, 0.0])
+            enc, skel = torch.zeros(2, SMALL), ob.reshape(2, 3 * J)
+            states, prev = [torch.zeros(2, SMALL)], torch.zeros(2, 3 * J + 3)
+            _, _, fed_back, _ = model.decode_step(enc, skel, prev, states, ob)
+        facings.append(hip_facing(fed_back[:, : 3 * J].reshape(2, J, 3)))
+    assert torch.allclose(facings[0], torch.tensor([0.0, 1.0]).expand(2, 2), atol=1e-5)
+    rest = hip_facing(ob)  # the up-legs hang from the root: their rest offsets give the facing
+    turned = torch.stack((rest[:, 1], -rest[:, 0]), -1)  # a quarter turn about +Y: +z -> +x
+    assert torch.allclose(facings[1], turned, atol=1e-5) and not torch.allclose(
+        facings[1], facings[0], atol=0.1
+    )
+    with pytest.raises(ValueError, match="paper form"):
+        TDCNGenerator(channels=SMALL, residual=True, positions_frame="root")
+    with pytest.raises(ValueError, match="world or facing"):
+        NKNGenerator(hidden=SMALL, positions_frame="root")
 
 
 def test_a_facing_frame_nkn_steps_along_the_sources_heading():

@@ -31,6 +31,9 @@ Model config keys (all optional; a ``"model"`` sub-dict is used if present):
                        root; NKN: its steps) to the source's, scaled by the leg ratio
                        (:class:`~retarget_lib.models.tdcn.TDCNGenerator`,
                        :class:`~retarget_lib.models.nkn.NKNGenerator`)
+``positions_frame``    TDCN paper form: ``"world"`` (default, Eq. 1) or ``"root"``; NKN:
+                       ``"world"`` or ``"facing"`` (:data:`~retarget_lib.models.features.
+                       POSITION_FRAMES`; the authors' code, audit T5 / N4)
 ``dilations``, ``kernel``, ``slope``, ``head_hidden``, ``skip_projection``, ``num_layers``,
 ``disc_norm``, ``causal``, ``dense``  passed to the constructors
 =====================  ====================================================================
@@ -190,6 +193,7 @@ def build_model(config: Mapping[str, Any] | None = None) -> ModelPair:
                 "residual",
                 "standardized_root",
                 "root_residual",
+                "positions_frame",
             ),
         )
         disc = PatchDiscriminator(
@@ -208,6 +212,7 @@ def build_model(config: Mapping[str, Any] | None = None) -> ModelPair:
                 "root_height",
                 "standardized_root",
                 "root_residual",
+                "positions_frame",
                 "height_loss",
                 "dropout",
                 "dilations",

@@ -50,6 +50,7 @@ from ..core.kinematics import forward_kinematics
 from ..core.measures import nkn_height
 from ..core.quantities import discriminator_inputs
 from ..core.quantities import hip_facing as facing_from_hips
+from ..core.rotations import quat_conjugate, quat_rotate
 from ..core.skeleton import CANONICAL22, CANONICAL22_PARENTS
 
 Tensor = torch.Tensor
@@ -62,6 +63,8 @@ __all__ = [
     "nkn_input_channels",
     "batched_offsets",
     "source_local_positions",
+    "POSITION_FRAMES",
+    "positions_in_frame",
     "generator_features",
     "split_generator_features",
     "root_velocities",
@@ -139,6 +142,40 @@ def source_local_positions(
     if offsets.dim() == 3:
         offsets = offsets.unsqueeze(1)  # (B, 1, J, 3): broadcast over time
     return forward_kinematics(rotations, offsets, parents, None).positions
+
+
+#: the axes a network can be given the joint positions ``p`` in (``model.positions_frame``):
+#: ``"world"`` world axes, the root's rotation applied (TDCN Eq. 1, the paper); ``"facing"`` each
+#: frame's facing frame (the authors' NKN code, audit N4); ``"root"`` the root joint's own axes,
+#: i.e. FK with the root's rotation set to identity (the authors' TDCN code, audit T5)
+POSITION_FRAMES = ("world", "facing", "root")
+
+
+def positions_in_frame(
+    positions: Tensor, frame: str, root_rotations: Tensor | None = None
+) -> Tensor:
+    """Root-relative joint positions expressed in one of :data:`POSITION_FRAMES`.
+
+    Args:
+        positions: ``(..., J, 3)`` canonical-22 ``p`` in world axes
+            (:func:`source_local_positions`).
+        frame: ``"world"`` (returned as they are), ``"facing"`` (rotated about the vertical into
+            the frame's facing frame, :func:`hip_facing` and :func:`to_facing_frame`) or ``"root"``
+            (rotated by the inverse of the root's rotation).
+        root_rotations: ``(..., 4)`` wxyz root rotations, needed for ``"root"``.
+
+    Returns:
+        ``(..., J, 3)``.
+    """
+    if frame == "world":
+        return positions
+    if frame == "facing":
+        return to_facing_frame(positions, hip_facing(positions).unsqueeze(-2))
+    if frame == "root":
+        if root_rotations is None:
+            raise ValueError('positions_in_frame(..., "root") needs the root rotations')
+        return quat_rotate(quat_conjugate(root_rotations).unsqueeze(-2), positions)
+    raise ValueError(f"frame must be one of {POSITION_FRAMES}, got {frame!r}")
 
 
 def generator_features(

@@ -60,6 +60,7 @@ from .features import (
     hip_facing,
     nkn_input_channels,
     nkn_source_features,
+    positions_in_frame,
     root_velocities,
     source_local_positions,
 )
@@ -117,6 +118,10 @@ class NKNGenerator(nn.Module):
             authors' (audit N1, docs/reproduction.md): their network predicts the steps outright,
             and under this machine's budget ours regresses them to the mean (0.36 cm a frame
             forward for a source that stands still).
+        positions_frame: the axes of the joint positions the encoder reads and the GRU decoder
+            feeds back (:data:`~retarget_lib.models.features.POSITION_FRAMES`): ``"world"`` (the
+            root's rotation applied, as TDCN's Eq. 1) or ``"facing"`` (each frame's facing frame,
+            the authors' code; audit N4).
         height_loss: flag for the training code: add TDCN's ``L_h`` (Baseline-height).
         dropout: dropout (GRU: on the decoder input and between stacked layers; conv: after
             every layer). Default 0 for the GRU, 0.1 for the conv backbones (TDCN's rate).
@@ -139,6 +144,7 @@ class NKNGenerator(nn.Module):
         root_height: str = "step",
         standardized_root: bool = False,
         root_residual: bool = False,
+        positions_frame: str = "world",
         height_loss: bool = False,
         dropout: float | None = None,
         dilations: Sequence[int] = (3, 9, 27),
@@ -155,6 +161,9 @@ class NKNGenerator(nn.Module):
             raise ValueError(f"root_frame must be one of {NKN_ROOT_FRAMES}, got {root_frame!r}")
         self.normalize_root, self.height_loss = bool(normalize_root), bool(height_loss)
         self.root_frame = root_frame
+        if positions_frame not in ("world", "facing"):
+            raise ValueError(f"positions_frame must be world or facing, got {positions_frame!r}")
+        self.positions_frame = positions_frame
         if root_height not in NKN_ROOT_HEIGHTS:
             raise ValueError(f"root_height must be one of {NKN_ROOT_HEIGHTS}, got {root_height!r}")
         self.root_height = root_height
@@ -279,7 +288,8 @@ class NKNGenerator(nn.Module):
         floor = None
         if self.root_height == "floor":
             floor = root_positions[..., 1] / leg_length(offsets_src).view(-1, 1)
-        return nkn_source_features(positions, root_positions, height, facing, floor)
+        p = positions_in_frame(positions, self.positions_frame)
+        return nkn_source_features(p, root_positions, height, facing, floor)
 
     def _split(self, out: Tensor) -> tuple[Tensor, Tensor]:
         j = self.num_joints
@@ -332,6 +342,7 @@ class NKNGenerator(nn.Module):
             new.append(cell(inp if i == 0 else self.dropout(new[i - 1]), states[i]))
         q, v = self._split(self.out(new[-1]))
         p = forward_kinematics(normalize_quaternions(q), off_tgt, self.parents, None).positions
+        p = positions_in_frame(p, self.positions_frame)
         return q, v, torch.cat([p.reshape(p.shape[0], -1), v], -1), new
 
     def compile_decoder(self) -> None:

@@ -103,7 +103,6 @@ from ..losses.tdcn import CODE_END_EFFECTOR_IDS
 from ..methods.tdcn import model_config
 from ..models import build_model, normalize_quaternions, resolve_config
 from ..models.features import (
-    generator_features,
     residual_generator_features,
     root_velocities,
     source_local_positions,
@@ -277,11 +276,14 @@ class RetargetTraining:
             _NORMALIZER_WINDOWS, torch.Generator().manual_seed(int(self.config["seed"]))
         )
         p = source_local_positions(b.rotations, b.offsets_source)
-        if self.resolved["kind"] == "tdcn":
-            features = (
-                residual_generator_features if self.generator.residual else generator_features
+        if self.resolved["kind"] == "tdcn" and self.generator.residual:
+            x = residual_generator_features(
+                b.rotations, b.root_positions, b.offsets_source, b.offsets_target, p
             )
-            x = features(b.rotations, b.root_positions, b.offsets_source, b.offsets_target, p)
+        elif self.resolved["kind"] == "tdcn":
+            x = self.generator.input_features(
+                b.rotations, b.root_positions, b.offsets_source, b.offsets_target, p
+            )
         else:
             x = self.generator.source_features(p, b.root_positions, b.offsets_source)
         self.generator.normalizer.fit(x)

@@ -20,8 +20,10 @@ from ..features import (
     FeatureNormalizer,
     generator_features,
     generator_input_channels,
+    positions_in_frame,
     residual_generator_features,
     residual_input_channels,
+    source_local_positions,
 )
 from .blocks import DEFAULT_SLOPE, DilatedStack, FrameHead, Tensor, normalize_quaternions
 
@@ -100,6 +102,9 @@ class TDCNGenerator(nn.Module):
             (:class:`~retarget_lib.models.nkn.NKNGenerator`); the head starts at 0, i.e. at
             ``copy``'s root. Ours, not the paper (Eq. 2's head regresses the root outright);
             paper form only (the residual variant's root is not learned).
+        positions_frame: the axes of the input ``p`` (:data:`~retarget_lib.models.features.
+            POSITION_FRAMES`): ``"world"`` (Eq. 1, the root's rotation applied) or ``"root"``
+            (the root's rotation removed, the authors' released code; audit T5). Paper form only.
 
     Attributes:
         normalizer: :class:`~retarget_lib.models.features.FeatureNormalizer` applied to the input
@@ -123,8 +128,13 @@ class TDCNGenerator(nn.Module):
         residual: bool = False,
         standardized_root: bool = False,
         root_residual: bool = False,
+        positions_frame: str = "world",
     ):
         super().__init__()
+        if positions_frame not in ("world", "root"):
+            raise ValueError(f"positions_frame must be world or root, got {positions_frame!r}")
+        if residual and positions_frame != "world":
+            raise ValueError("positions_frame is for the paper form (the residual's p is Eq. 1's)")
         if residual and (standardized_root or root_residual):
             raise ValueError(
                 "standardized_root and root_residual are for the paper form: "
@@ -136,6 +146,7 @@ class TDCNGenerator(nn.Module):
         self.residual = bool(residual)
         self.standardized_root = bool(standardized_root)
         self.root_residual = bool(root_residual)
+        self.positions_frame = positions_frame
         default_in = (residual_input_channels if self.residual else generator_input_channels)(
             num_joints
         )
@@ -243,9 +254,7 @@ class TDCNGenerator(nn.Module):
         """
         norm = self.normalizer if normalizer is None else normalizer
         if not self.residual:
-            x = generator_features(
-                rotations, root_positions, offsets_src, offsets_tgt, positions, self.parents
-            )
+            x = self.input_features(rotations, root_positions, offsets_src, offsets_tgt, positions)
             q, r = self._run(norm(x), normalize=False)
             r = self._root_in_metres(r, norm)
             if self.root_residual:
@@ -268,6 +277,35 @@ class TDCNGenerator(nn.Module):
         align = quat_mul(base.unsqueeze(1), correction)
         q, r = self.compose_residual(align, rotations, root_positions, offsets_src, offsets_tgt)
         return GeneratorOutput(q, r, None)
+
+    def input_features(
+        self,
+        rotations: Tensor,
+        root_positions: Tensor,
+        offsets_src: Tensor,
+        offsets_tgt: Tensor,
+        positions: Tensor | None = None,
+    ) -> Tensor:
+        """The paper form's raw input ``[p, q, r, s̄B]`` (Eq. 2,
+        :func:`~retarget_lib.models.features.generator_features`) with ``p`` in this model's
+        ``positions_frame``; what :meth:`generate` feeds the normalizer and the training code fits
+        it on.
+
+        Args:
+            rotations: ``(B, T, J, 4)`` source local quaternions.
+            root_positions: ``(B, T, 3)`` source root positions.
+            offsets_src, offsets_tgt: ``(B, J, 3)`` or ``(J, 3)`` rest offsets.
+            positions: optional precomputed ``(B, T, J, 3)`` ``p`` in world axes.
+
+        Returns:
+            ``(B, 10J + 3, T)``.
+        """
+        if positions is None:
+            positions = source_local_positions(rotations, offsets_src, self.parents)
+        p = positions_in_frame(positions, self.positions_frame, rotations[..., 0, :])
+        return generator_features(
+            rotations, root_positions, offsets_src, offsets_tgt, p, self.parents
+        )
 
     def compose_residual(
         self,
