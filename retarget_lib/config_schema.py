@@ -272,7 +272,7 @@ TDCN: dict[str, Any] = {
         "position_joints": choice("all", "end_effectors"),
         "root_scale": choice("height", "leg_length"),
         "root_term": choice("position", "velocity"),
-        **{f"lambda_{k}": NONNEG_NUM for k in "ctharogd"},
+        **{f"lambda_{k}": NONNEG_NUM for k in "ctharogds"},
     },
     "train": {
         "steps": STEPS,

@@ -26,6 +26,7 @@ from retarget_lib.losses import (
     orientation_loss,
     reconstruction_loss,
     regularization_loss,
+    root_smoothness_loss,
     sigmoid_ce_discriminator_loss,
     sigmoid_ce_generator_loss,
     smooth_l1,
@@ -333,6 +334,25 @@ def test_orientation_both_branches_and_angle_only():
     assert approx(orientation_loss(a, b), (0.5 * EXCESS20 + 2.292526803190927) / 2)
     # as printed, E(.) keeps only the angle: a 30° yaw vs a 30° roll costs nothing
     assert approx(orientation_loss(t([[quat_deg(30, yaw)]]), t([[quat_deg(30, (0, 0, 1.0))]])), 0.0)
+
+
+# ------------------------------------------------------------------------------ Ls (NKN code)
+
+
+def test_root_smoothness_hand_values():
+    # steps (m/frame) of one sample: (0.01, 0, 0) -> (0.03, 0, 0) -> (0.03, 0.02, 0)
+    # changes: (0.02, 0, 0), (0, 0.02, 0): squared sums 0.0004 per frame pair
+    v_b = t([[[0.01, 0.0, 0.0], [0.03, 0.0, 0.0], [0.03, 0.02, 0.0]]])
+    # frame_sum (the authors' code): channels summed, mean over the 2 pairs = 0.0004
+    assert approx(root_smoothness_loss(v_b, reduction="frame_sum"), 0.0004)
+    # mean: over 2 pairs x 3 channels = 0.0008 / 6
+    assert approx(root_smoothness_loss(v_b), 0.0008 / 6)
+    # a constant velocity costs nothing; with the cycle output the two means are averaged
+    still = t([[[0.02, 0.0, 0.01]] * 3])
+    assert approx(root_smoothness_loss(still, still, "frame_sum"), 0.0)
+    assert approx(root_smoothness_loss(v_b, still, "frame_sum"), 0.5 * 0.0004)
+    with pytest.raises(ValueError, match="v_b_hat must have 3 dims ending in 3"):
+        root_smoothness_loss(t([[0.0, 0.0, 0.0]]))
 
 
 # ------------------------------------------------------------------------------ Eq. 6

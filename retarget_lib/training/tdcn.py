@@ -94,6 +94,7 @@ from ..losses import (
     height_loss,
     orientation_loss,
     regularization_loss,
+    root_smoothness_loss,
     sigmoid_ce_discriminator_loss,
     sigmoid_ce_generator_loss,
     total_generator_loss,
@@ -158,6 +159,8 @@ def _check_row(resolved: dict, config: dict, weights: TDCNLossWeights) -> None:
             f"loss.lambda_h must be {'> 0' if resolved.get('height_loss') else '0'} "
             "for this NKN variant"
         )
+    if resolved["kind"] != "nkn" and weights.lambda_s != 0:
+        problems.append("loss.lambda_s must be 0 (the root smoothness needs NKN's root steps)")
     if config["loss"]["gan"] not in _GANS:
         problems.append(f"loss.gan must be one of {list(_GANS)}")
     if problems:
@@ -319,8 +322,9 @@ class RetargetTraining:
             batch: a :class:`TrainingBatch`.
 
         Returns:
-            ``(terms, x̂B)``: scalar tensors ``Lc, Lt, Lh, La, Lr, Lo`` (unweighted), and the
-            retargeted motion (``p (B,W,J,3)``, raw ``q (B,W,J,4)``, ``r (B,W,3)``).
+            ``(terms, x̂B)``: scalar tensors ``Lc, Lt, Lh, La, Lr, Lo, Ld`` and, for NKN, ``Ls``
+            (unweighted), and the retargeted motion (``p (B,W,J,3)``, raw ``q (B,W,J,4)``,
+            ``r (B,W,3)``).
         """
         q_a, r_a, off_a, off_b = (
             batch.rotations,
@@ -382,6 +386,8 @@ class RetargetTraining:
                 self._reference(q_a, off_a, off_b), p_b, self.generator.parents, red
             ),
         }
+        if out_b.root_velocities is not None and out_a.root_velocities is not None:  # NKN
+            terms["Ls"] = root_smoothness_loss(out_b.root_velocities, out_a.root_velocities, red)
         return terms, x_b_hat
 
     def discriminator_loss(self, batch: TrainingBatch, x_b_hat: MotionTensors) -> Tensor:

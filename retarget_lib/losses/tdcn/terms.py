@@ -1,6 +1,7 @@
 """TDCN's loss terms but the adversarial one (Kim, Park, Kwon, Han, Eurographics 2020, Sec. 4.2):
 the cycle Lc (Eq. 7) and its reconstruction form, the twist Lt (Eq. 8), the height Lh (Eqs.
-15-17), the bone directions Ld, the regularisation Lr (Eq. 22) and the orientation Lo (Eq. 23).
+15-17), the bone directions Ld, the regularisation Lr (Eq. 22) and the orientation Lo (Eq. 23); and
+the NKN baseline's root smoothness Ls (the authors' code; not in either paper).
 Reductions: :mod:`.tensors`.
 
 Notation (paper → here). ``A`` is the source character, ``B`` the target; a hat marks network
@@ -73,6 +74,7 @@ __all__ = [
     "orientation_loss",
     "reconstruction_loss",
     "regularization_loss",
+    "root_smoothness_loss",
     "twist_angle",
     "twist_loss",
     "twist_penalty",
@@ -413,3 +415,33 @@ def orientation_loss(theta_a: Tensor, theta_b_hat: Tensor, reduction: Reduction 
     check_last_dim("theta_a", theta_a, 4, 3)
     check_last_dim("theta_b_hat", theta_b_hat, 4, 3)
     return smooth_l1(quat_angle(theta_a) - quat_angle(theta_b_hat), reduction)
+
+
+def root_smoothness_loss(
+    v_b_hat: Tensor, v_a_hat: Tensor | None = None, reduction: Reduction = "mean"
+) -> Tensor:
+    """Root smoothness ``Ls = ½ (Σ_c (Δv̂^B_{t,c})² + Σ_c (Δv̂^A_{t,c})²)``, ``Δv_t = v_t − v_{t−1}``:
+    the squared frame-to-frame change of the root's per-frame steps, on the retargeted and the
+    cycle outputs. Not in NKN's or TDCN's paper: the NKN authors' code adds it to their
+    generator's loss (``smoothness`` in ``online_retargeting_cycle_adv_model.py``, on their root
+    output de-standardised: the facing-frame velocity and the yaw rate) at ``omega`` (0.01 in
+    their README's training command, 10 by the script's default). Ours has no yaw rate
+    (docs/reproduction.md N1): it smooths the root's steps, in metres per frame.
+
+    Reduction: per frame pair the channels are summed (``"frame_sum"``, the code's) or averaged
+    (``"mean"``), then the mean over ``B · (T − 1)``; the two outputs' means are averaged.
+
+    Args:
+        v_b_hat: ``(B, T, 3)`` retargeted root steps ``v̂^B`` (NKN's root offsets).
+        v_a_hat: ``(B, T, 3)`` the cycle's root steps ``v̂^A``, or ``None`` to omit.
+        reduction: ``"mean"``, ``"frame_sum"`` → scalar; their ``per_sample`` forms → ``(B,)``.
+    """
+    check_last_dim("v_b_hat", v_b_hat, 3, 3)
+
+    def rough(v: Tensor) -> Tensor:
+        return reduce_elements((v[:, 1:] - v[:, :-1]).pow(2), reduction)
+
+    if v_a_hat is None:
+        return rough(v_b_hat)
+    check_last_dim("v_a_hat", v_a_hat, 3, 3)
+    return 0.5 * (rough(v_b_hat) + rough(v_a_hat))

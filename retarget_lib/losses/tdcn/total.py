@@ -24,6 +24,8 @@ class TDCNLossWeights:
     required nor added. ``lambda_c`` is not in the paper (Lc is unweighted there); it stays 1.
 
     ``lambda_g`` is used *inside* :func:`height_loss`, not by :func:`total_generator_loss`.
+    ``lambda_d`` (Ld, ours) and ``lambda_s`` (the NKN authors' code's root smoothness Ls,
+    :func:`~retarget_lib.losses.tdcn.terms.root_smoothness_loss`) are in neither paper: 0 here.
     """
 
     lambda_c: float = 1.0
@@ -34,6 +36,7 @@ class TDCNLossWeights:
     lambda_o: float = 1.0
     lambda_g: float = 5.0
     lambda_d: float = 0.0
+    lambda_s: float = 0.0
 
 
 #: term name (as in Eq. 6, also the CSV column) -> its weight's field in :class:`TDCNLossWeights`
@@ -45,6 +48,7 @@ TERM_WEIGHTS: dict[str, str] = {
     "Lr": "lambda_r",
     "Lo": "lambda_o",
     "Ld": "lambda_d",
+    "Ls": "lambda_s",
 }
 
 
