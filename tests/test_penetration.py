@@ -31,7 +31,12 @@ from retarget_lib.geometry.penetration import (
     interpenetration_score,
     plan_energy,
 )
-from retarget_lib.geometry.penetration_rate import cap_holes, penetration_rate, ray_winding_numbers
+from retarget_lib.geometry.penetration_rate import (
+    cap_holes,
+    limb_vertices_inside,
+    penetration_rate,
+    ray_winding_numbers,
+)
 
 FLAT = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]  # normal +z, circumcentre (.5, .5, 0)
 # a vertical triangle in the plane y = 0.25 whose edge x = z-axis-parallel pierces FLAT at (0.25,
@@ -382,6 +387,31 @@ def test_penetration_rate_of_a_box_half_inside():
     }
     with pytest.raises(ValueError, match="unknown joints"):
         penetration_rate(v, f, weights, {"tail": ["Tail"]})
+
+
+def test_penetration_rate_leaves_out_what_the_rest_pose_already_has_inside():
+    big_v, big_f = box(1.0, [0.0, 0.0, 0.0])
+    rest, f = merged((big_v, big_f), box(0.2, [0.5, 0.0, 0.0]))  # 4 arm corners inside at rest
+    weights = np.zeros((len(rest), 22))
+    weights[: len(big_v), J["Spine"]] = 1.0
+    weights[len(big_v) :, J["LeftForeArm"]] = 1.0
+    arm = {"arm": ["LeftForeArm"]}
+    assert penetration_rate(rest, f, weights, arm, rest_vertices=rest) == {"arm": 0.0}
+    assert not limb_vertices_inside(rest, f, weights, arm, rest_vertices=rest).any()
+    # the arm pushed 0.2 in -x: all 8 corners inside; the 4 outside at rest count, 4 of 4
+    pushed = rest.copy()
+    pushed[len(big_v) :, 0] -= 0.2
+    assert penetration_rate(pushed, f, weights, arm) == {"arm": 1.0}
+    assert penetration_rate(pushed, f, weights, arm, rest_vertices=rest) == {"arm": 1.0}
+    assert limb_vertices_inside(pushed, f, weights, arm, rest_vertices=rest).sum() == 4
+    # pulled 0.2 in +x: every corner outside, whichever way it is counted
+    pulled = rest.copy()
+    pulled[len(big_v) :, 0] += 0.2
+    assert penetration_rate(pulled, f, weights, arm, rest_vertices=rest) == {"arm": 0.0}
+    # an arm wholly inside at rest has nothing left to count
+    inside = rest.copy()
+    inside[len(big_v) :, 0] -= 0.3
+    assert math.isnan(penetration_rate(inside, f, weights, arm, rest_vertices=inside)["arm"])
 
 
 # ---------------------------------------------------------------------------- a synthetic character

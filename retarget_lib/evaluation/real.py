@@ -26,7 +26,9 @@ Measures, per (character, method, clip); lengths as a percentage of the target's
   (frame, foot joint) labels on which they disagree; 0 when every contact is kept.
 * ``arm_penetration``: the share of arm vertices inside the rest of the body (mean of both arms,
   :func:`~retarget_lib.geometry.penetration_rate.penetration_rate`, winding numbers on the skinned
-  real mesh), every :data:`PENETRATION_EVERY`-th frame.
+  real mesh), every :data:`PENETRATION_EVERY`-th frame; arm vertices already inside the body in
+  the character's rest pose are left out (the mesh as modelled: unposed, four of the eleven real
+  characters score 0.018-0.047, their mean 0.012), so the rest pose scores 0.
 * ``hand_gap_pct``: on a clip with labelled hand-hand contacts (clap), the mean absolute
   difference, over the labelled frames, between the distance of the two hand joints and that
   distance on the source (scaled by the height ratio): how far hands that touch end up from
@@ -214,7 +216,9 @@ def real_measures(result: Motion, clip: RealClip, character: Character) -> dict[
     }
     frames = np.arange(0, result.num_frames, PENETRATION_EVERY)
     verts = character.skinned(result.rotations[frames], result.root_positions[frames])
-    rates = penetration_rate(verts, character.faces, character.weights, ARMS)
+    rates = penetration_rate(
+        verts, character.faces, character.weights, ARMS, rest_vertices=character.rest_vertices
+    )
     out["arm_penetration"] = float(np.nanmean(list(rates.values())))
     if clip.hands_touch is not None and clip.hands_touch.any():
         lh, rh = J["LeftHand"], J["RightHand"]
@@ -385,7 +389,12 @@ def worst_cases(
         )
         frames = np.arange(0, result.num_frames, PENETRATION_EVERY)
         verts = character.skinned(result.rotations[frames], result.root_positions[frames])
-        inside = [limb_vertices_inside(v, character.faces, character.weights, ARMS) for v in verts]
+        inside = [
+            limb_vertices_inside(
+                v, character.faces, character.weights, ARMS, character.rest_vertices
+            )
+            for v in verts
+        ]
         k = int(np.argmax([m.sum() for m in inside]))
         out.append(
             WorstCase(
@@ -460,9 +469,9 @@ def run_real_evaluation(
             "frames each). Lengths in % of the target's "
             "height; lower is better in every column (identity: 0 is exact; foot contact mismatch: "
             "1 - the foot contact "
-            "accuracy of Villegas et al.; jitter: 0 is as smooth as the source).\n\n"
-            + markdown_table(table, 3)
-            + "\n"
+            "accuracy of Villegas et al.; arm penetration: the share of arm vertices inside the "
+            "body that are outside it in the character's rest pose; jitter: 0 is as smooth as "
+            "the source).\n\n" + markdown_table(table, 3) + "\n"
         )
     return table, worst_cases(per_case, methods, clips)
 
