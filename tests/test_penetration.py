@@ -414,6 +414,29 @@ def test_penetration_rate_leaves_out_what_the_rest_pose_already_has_inside():
     assert math.isnan(penetration_rate(inside, f, weights, arm, rest_vertices=inside)["arm"])
 
 
+def test_limb_vertices_inside_of_a_stack_is_each_frame_and_averages_to_the_rate():
+    big_v, big_f = box(1.0, [0.0, 0.0, 0.0])
+    rest, f = merged((big_v, big_f), box(0.2, [0.5, 0.0, 0.0]))
+    weights = np.zeros((len(rest), 22))
+    weights[: len(big_v), J["Spine"]] = 1.0
+    weights[len(big_v) :, J["LeftForeArm"]] = 1.0
+    arm = {"arm": ["LeftForeArm"]}
+    pushed, pulled = rest.copy(), rest.copy()
+    pushed[len(big_v) :, 0] -= 0.2
+    pulled[len(big_v) :, 0] += 0.2
+    stack = np.stack([rest, pushed, pulled])
+    masks = limb_vertices_inside(stack, f, weights, arm, rest_vertices=rest)
+    assert masks.shape == (3, len(rest))
+    for frame, mask in zip(stack, masks, strict=True):
+        np.testing.assert_array_equal(
+            mask, limb_vertices_inside(frame, f, weights, arm, rest_vertices=rest)
+        )
+    assert masks.sum(1).tolist() == [0, 4, 0]  # only the 4 corners outside at rest count
+    # the rate averages the frames' shares of those 4 counted corners: (0 + 1 + 0) / 3
+    rate = penetration_rate(stack, f, weights, arm, rest_vertices=rest)["arm"]
+    assert rate == pytest.approx(1 / 3)
+
+
 # ---------------------------------------------------------------------------- a synthetic character
 def test_character_rest_pose_is_clean_and_forearm_in_torso_is_not():
     from retarget_lib.data.synthetic.characters import make_character

@@ -389,13 +389,10 @@ def worst_cases(
         )
         frames = np.arange(0, result.num_frames, PENETRATION_EVERY)
         verts = character.skinned(result.rotations[frames], result.root_positions[frames])
-        inside = [
-            limb_vertices_inside(
-                v, character.faces, character.weights, ARMS, character.rest_vertices
-            )
-            for v in verts
-        ]
-        k = int(np.argmax([m.sum() for m in inside]))
+        inside = limb_vertices_inside(
+            verts, character.faces, character.weights, ARMS, character.rest_vertices
+        )
+        k = int(np.argmax(inside.sum(1)))
         out.append(
             WorstCase(
                 row,

@@ -142,6 +142,17 @@ def penetration_rate(
     Returns:
         ``{limb: rate in [0, 1]}`` (``nan`` for a limb with no vertex).
     """
+    rates = {}
+    for name, _, inside in _limbs_inside(vertices, faces, weights, limbs, rest_vertices):
+        rates[name] = float(inside.mean(axis=1).mean()) if inside.shape[1] else float("nan")
+    return rates
+
+
+def _limbs_inside(vertices, faces, weights, limbs, rest_vertices):
+    """Per limb, ``(name, indices (K,), inside (T, K) bool)``: the limb's counted vertices (with
+    ``rest_vertices``, those outside the body at rest; the rest test runs once, not per frame) and,
+    per frame, which of them lie inside the rest of the body. Arguments as
+    :func:`penetration_rate`; ``vertices`` may be ``(V, 3)`` (then ``T = 1``)."""
     frames = np.asarray(
         vertices.detach().cpu().numpy() if isinstance(vertices, torch.Tensor) else vertices,
         dtype=np.float64,
@@ -153,24 +164,22 @@ def penetration_rate(
     weights = np.asarray(weights, dtype=np.float64)
     if weights.shape != (frames.shape[1], len(CANONICAL22)):
         raise ValueError(f"weights must be ({frames.shape[1]}, 22), got {weights.shape}")
+    rest = None if rest_vertices is None else np.asarray(rest_vertices, dtype=np.float64)
     owner = weights.argmax(1)
-    rates = {}
     for name, joints in (DEFAULT_LIMBS if limbs is None else limbs).items():
         unknown = [j for j in joints if j not in CANONICAL22]
         if unknown:
             raise ValueError(f"limb {name!r}: unknown joints {unknown}")
         in_limb = np.isin(owner, [CANONICAL22.index(j) for j in joints])
         counted = np.ones(int(in_limb.sum()), dtype=bool)
-        if rest_vertices is not None and in_limb.any():
-            rest = np.asarray(rest_vertices, dtype=np.float64)
+        if rest is not None and in_limb.any():
             counted = ~_inside_body(rest, faces, in_limb)
-        if not counted.any():
-            rates[name] = float("nan")
-            continue
-        rates[name] = float(
-            np.mean([_inside_body(frame, faces, in_limb)[counted].mean() for frame in frames])
+        inside = np.array(
+            [_inside_body(frame, faces, in_limb)[counted] for frame in frames]
+            if counted.any()
+            else np.zeros((len(frames), 0), dtype=bool)
         )
-    return rates
+        yield name, np.flatnonzero(in_limb)[counted], inside
 
 
 def _inside_body(vertices: np.ndarray, faces: np.ndarray, in_limb: np.ndarray) -> np.ndarray:
@@ -187,24 +196,20 @@ def limb_vertices_inside(
     limbs: Mapping[str, Sequence[str]] | None = None,
     rest_vertices=None,
 ) -> np.ndarray:
-    """``(V,)`` bool: the vertices of one posed mesh that :func:`penetration_rate` counts as inside
-    the body (a limb vertex inside the rest of the body; with ``rest_vertices``, only one that is
-    outside it in the rest pose); every other vertex is ``False``.
+    """The vertices of posed meshes that :func:`penetration_rate` counts as inside the body (a
+    limb vertex inside the rest of the body; with ``rest_vertices``, only one that is outside it in
+    the rest pose); every other vertex is ``False``.
 
     Args:
-        vertices: ``(V, 3)`` metres; faces, weights, limbs, rest_vertices: as
+        vertices: ``(V, 3)`` or ``(T, V, 3)`` metres; faces, weights, limbs, rest_vertices: as
             :func:`penetration_rate`.
+
+    Returns:
+        ``(V,)`` bool for one mesh, ``(T, V)`` for a stack.
     """
-    vertices = np.asarray(vertices, dtype=np.float64)
-    faces = as_face_array(faces, len(vertices))
-    owner = np.asarray(weights).argmax(1)
-    out = np.zeros(len(vertices), dtype=bool)
-    for joints in (DEFAULT_LIMBS if limbs is None else limbs).values():
-        in_limb = np.isin(owner, [CANONICAL22.index(j) for j in joints])
-        if in_limb.any():
-            inside = _inside_body(vertices, faces, in_limb)
-            if rest_vertices is not None:
-                rest = np.asarray(rest_vertices, dtype=np.float64)
-                inside &= ~_inside_body(rest, faces, in_limb)
-            out[np.flatnonzero(in_limb)[inside]] = True
-    return out
+    single = np.ndim(vertices) == 2
+    num_frames = 1 if single else len(vertices)
+    out = np.zeros((num_frames, np.shape(vertices)[-2]), dtype=bool)
+    for _, indices, inside in _limbs_inside(vertices, faces, weights, limbs, rest_vertices):
+        out[:, indices] = inside
+    return out[0] if single else out
