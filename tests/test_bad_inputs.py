@@ -41,6 +41,8 @@ from retarget_lib.io import BVHError, ShapeError, load_bvh, load_shape_npz, save
 from retarget_lib.io.bvh import MAX_FILE_BYTES
 from retarget_lib.skeleton import to_canonical22
 
+pytestmark = pytest.mark.tooling  # nothing here depends on the thread count (make unit-threads)
+
 CONFIGS = REPO_ROOT / "configs"
 
 

@@ -19,6 +19,8 @@ from retarget_lib.notebook.book import (
 )
 from retarget_lib.notebook.viewer import VIEWER_PAGE
 
+pytestmark = pytest.mark.tooling  # nothing here depends on the thread count (make unit-threads)
+
 ROOT = Path(__file__).resolve().parents[1]
 NOTEBOOK_FILES = sorted(p.name for p in (ROOT / "notebooks").glob("*.ipynb"))
 

@@ -16,6 +16,8 @@ from retarget_lib.files import DataError, cache_dir, sha256_file
 from retarget_lib.io import BVHError, load_bvh, save_bvh
 from retarget_lib.io.bvh import UNIT_SCALES
 
+pytestmark = pytest.mark.tooling  # nothing here depends on the thread count (make unit-threads)
+
 # A two-joint file; line numbers are used by the malformed-input tests below.
 GOOD = """HIERARCHY
 ROOT Hips

@@ -1,9 +1,12 @@
 """The claims table: each paper ordering judged on hand-made tables with known answers."""
 
 import pandas as pd
+import pytest
 
 from retarget_lib.evaluation.claims import claims_table, contact_claims, tdcn_claims, write_claims
 from retarget_lib.evaluation.paper import PAPER_TABLE1, PAPER_TABLE4
+
+pytestmark = pytest.mark.tooling  # nothing here depends on the thread count (make unit-threads)
 
 
 def _table4(values: dict[str, tuple[float, float]]) -> pd.DataFrame:

@@ -11,6 +11,8 @@ from retarget_lib.methods.registry import method_names
 from retarget_lib.models import build_model
 from retarget_lib.viz import diagrams
 
+pytestmark = pytest.mark.tooling  # nothing here depends on the thread count (make unit-threads)
+
 
 def _texts(fig):
     return [t.get_text() for t in fig.findobj(Text)]

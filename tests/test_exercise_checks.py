@@ -25,6 +25,8 @@ from retarget_lib.notebook.exercises import (
     random_pose,
 )
 
+pytestmark = pytest.mark.tooling  # nothing here depends on the thread count (make unit-threads)
+
 
 def no_number_but_the_label(message: str, label: str) -> None:
     """The message names the exercise and contains no other digit (no value, shape or size)."""

@@ -14,6 +14,7 @@ from pathlib import Path
 import nbformat
 import pytest
 
+from retarget_lib.notebook.runner import longest_first
 from retarget_lib.notebook.solutions import read_solutions, solutions_file, student_cells
 
 NOTEBOOK_DIR = Path(__file__).resolve().parents[1] / "notebooks"
@@ -191,10 +192,7 @@ def spoiled_answers(solutions: dict[str, str]) -> dict[str, str]:
     return out
 
 
-@pytest.mark.slow
-@pytest.mark.data
-@pytest.mark.parametrize("path", CONVERTED, ids=lambda p: p.name)
-def test_every_check_says_not_answered_passes_the_solutions_and_fails_wrong_answers(path):
+def _every_check_says_not_answered_passes_the_solutions_and_fails_wrong_answers(path):
     """Each notebook's lesson executed once, then its exercises four times in the same kernel
     (:func:`~retarget_lib.notebook.grading.grade_variants`): unanswered, with constants, with the
     reference answers spoiled, with the solutions."""
@@ -229,3 +227,29 @@ def test_every_check_says_not_answered_passes_the_solutions_and_fails_wrong_answ
             assert "check raised" not in r.line, f"{name} {r.label}: the check broke: {r.line}"
             # nothing of the reference: no digit but the label's
             assert not re.search(r"\d", r.line.replace(f"Exercise {r.label}", "")), r.line
+
+
+# Two classes, so that `make test-slow` (pytest-xdist --dist loadscope: a module or a class goes to
+# one worker) runs them on its two workers: each notebook's lesson is executed once more in full
+# here, most of test-slow's time. The halves alternate down the notebooks' reference times.
+_BY_TIME = longest_first(CONVERTED)
+
+
+@pytest.mark.slow
+@pytest.mark.data
+class TestExercisesFirstHalf:
+    @pytest.mark.parametrize("path", _BY_TIME[::2], ids=lambda p: p.name)
+    def test_every_check_says_not_answered_passes_the_solutions_and_fails_wrong_answers(self, path):
+        _every_check_says_not_answered_passes_the_solutions_and_fails_wrong_answers(path)
+
+
+@pytest.mark.slow
+@pytest.mark.data
+class TestExercisesSecondHalf:
+    @pytest.mark.parametrize("path", _BY_TIME[1::2], ids=lambda p: p.name)
+    def test_every_check_says_not_answered_passes_the_solutions_and_fails_wrong_answers(self, path):
+        _every_check_says_not_answered_passes_the_solutions_and_fails_wrong_answers(path)
+
+
+def test_the_two_halves_hold_every_notebook_once():
+    assert sorted(_BY_TIME[::2] + _BY_TIME[1::2]) == sorted(CONVERTED)

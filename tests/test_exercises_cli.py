@@ -9,6 +9,8 @@ import pytest
 
 from retarget_lib.cli import main
 
+pytestmark = pytest.mark.tooling  # nothing here depends on the thread count (make unit-threads)
+
 SETUP = """import numpy as np
 
 from retarget_lib.notebook.exercises import NotAnswered, check_function, check_prediction"""

@@ -48,6 +48,8 @@ from retarget_lib.io.fbx_write import (
 from retarget_lib.io.gltf import load_gltf_motion, load_gltf_rig
 from retarget_lib.io.gltf_write import save_glb
 
+pytestmark = pytest.mark.tooling  # nothing here depends on the thread count (make unit-threads)
+
 FBX = "/usr/share/assimp/models/FBX"
 needs_assimp = pytest.mark.skipif(
     fbx_missing() is not None, reason=f"fbx extra not installed: {fbx_missing()}"

@@ -22,9 +22,12 @@ from retarget_lib.io import fbx, load_bvh, save_bvh
 from retarget_lib.io.fbx import fbx_missing, load_fbx_rig
 from retarget_lib.io.gltf import load_gltf_motion, skin
 
-pytestmark = pytest.mark.skipif(
-    fbx_missing() is not None, reason=f"fbx extra not installed: {fbx_missing()}"
-)
+pytestmark = [
+    pytest.mark.tooling,
+    pytest.mark.skipif(
+        fbx_missing() is not None, reason=f"fbx extra not installed: {fbx_missing()}"
+    ),
+]
 FILE = Path(__file__).parent / "data" / "multi_mesh_blender.fbx"
 #: metres: the file's mesh is the character decimated to a tenth (vertices collapsed onto their
 #: neighbours: at most 3.9 cm from a vertex of the full mesh, measured)

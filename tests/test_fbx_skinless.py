@@ -26,6 +26,8 @@ from retarget_lib.io.fbx import fbx_missing, load_fbx_animation
 from retarget_lib.io.gltf import load_gltf_animation, load_gltf_motion, load_gltf_rig
 from retarget_lib.io.joint_maps import fold_to_canonical22, to_canonical22
 
+pytestmark = pytest.mark.tooling  # nothing here depends on the thread count (make unit-threads)
+
 needs_assimp = pytest.mark.skipif(
     fbx_missing() is not None, reason=f"fbx extra not installed: {fbx_missing()}"
 )

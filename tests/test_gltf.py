@@ -32,6 +32,8 @@ from retarget_lib.io.gltf_validator import validate_gltf, validator_missing
 from retarget_lib.io.gltf_write import _Builder, save_glb
 from retarget_lib.io.rig_maps import RIG_MAPS, map_joints
 
+pytestmark = pytest.mark.tooling  # nothing here depends on the thread count (make unit-threads)
+
 ASSIMP = "/usr/share/assimp/models/glTF2"
 #: float32 storage: positions of a ~2 m body to ~1e-6 m; FK through 22 float32 rotations ~1e-5 m
 F32_POS, F32_FK = 2e-6, 5e-5

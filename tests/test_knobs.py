@@ -9,6 +9,8 @@ import pytest
 from retarget_lib.viz import knobs
 from retarget_lib.viz.knobs import WIDGET_VIEW, knob, live_kernel
 
+pytestmark = pytest.mark.tooling  # nothing here depends on the thread count (make unit-threads)
+
 FALLBACK = {"text/html", "image/png", "text/plain"}
 VALUES = [10, 20, 30, 40]
 

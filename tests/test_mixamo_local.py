@@ -29,6 +29,8 @@ from retarget_lib.io import load_bvh, load_shape_npz
 from retarget_lib.io.fbx import fbx_missing
 from retarget_lib.io.fbx_write import save_fbx
 
+pytestmark = pytest.mark.tooling  # nothing here depends on the thread count (make unit-threads)
+
 
 @pytest.fixture(scope="module")
 def fixture_dir(tmp_path_factory):

@@ -15,6 +15,8 @@ import pytest
 
 from retarget_lib.notebook.prose_lint import notebook_violations, scan_markdown, section_problems
 
+pytestmark = pytest.mark.tooling  # nothing here depends on the thread count (make unit-threads)
+
 NOTEBOOKS = sorted((Path(__file__).resolve().parents[1] / "notebooks").glob("[0-9][0-9]*_*.ipynb"))
 
 

@@ -6,8 +6,11 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
+import pytest
 
 from retarget_lib.viz.plots import plot_grouped_barh  # noqa: E402
+
+pytestmark = pytest.mark.tooling  # nothing here depends on the thread count (make unit-threads)
 
 
 def test_grouped_barh_log_axis_legend_readable_labels_and_zero_marked():

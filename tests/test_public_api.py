@@ -1,6 +1,8 @@
 """The public contract of docs/architecture.md stays importable from its documented paths, and those
 names are the library's own objects (not copies)."""
 
+import pytest
+
 from retarget_lib import kinematics, skeleton
 from retarget_lib.core import skeleton as core_skeleton
 from retarget_lib.core.kinematics import forward_kinematics as core_fk
@@ -9,6 +11,8 @@ from retarget_lib.io.bvh import load_bvh as bvh_load
 from retarget_lib.io.bvh import save_bvh as bvh_save
 from retarget_lib.kinematics import forward_kinematics
 from retarget_lib.skeleton import to_canonical22
+
+pytestmark = pytest.mark.tooling  # nothing here depends on the thread count (make unit-threads)
 
 
 def test_contract_names_are_the_library_objects():

@@ -15,6 +15,8 @@ from retarget_lib.data.synthetic.motions import make_motion
 from retarget_lib.io import save_glb
 from retarget_lib.io.gltf import load_gltf_motion, load_gltf_rig
 
+pytestmark = pytest.mark.tooling  # nothing here depends on the thread count (make unit-threads)
+
 #: file axes -> library axes of the cases: Z up (the character lies along +Z), facing -Z, a quarter
 #: turn about the vertical, and Z up facing +X
 TURNS = {

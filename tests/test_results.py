@@ -12,6 +12,8 @@ from retarget_lib.evaluation.results import compare_with_stored, load_result, wr
 from retarget_lib.evaluation.tdcn import rerun_tolerance
 from retarget_lib.files import DataError
 
+pytestmark = pytest.mark.tooling  # nothing here depends on the thread count (make unit-threads)
+
 
 def _entry():
     return table_checkpoints("tdcn")["ours"]

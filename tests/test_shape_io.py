@@ -7,6 +7,8 @@ from retarget_lib.core.skeleton import CANONICAL22
 from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.io.shape import SHAPE_KEYS, load_shape_npz, save_shape_npz
 
+pytestmark = pytest.mark.tooling  # nothing here depends on the thread count (make unit-threads)
+
 
 @pytest.fixture(scope="module")
 def character():

@@ -14,6 +14,8 @@ from retarget_lib.notebook.solutions import (
     write_injected,
 )
 
+pytestmark = pytest.mark.tooling  # nothing here depends on the thread count (make unit-threads)
+
 SOLUTIONS = '''"""Reference answers of notebook 07 (not a module: blocks run in the notebook)."""
 
 # exercise 07.1

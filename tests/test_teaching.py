@@ -9,6 +9,8 @@ import pytest  # noqa: E402
 from retarget_lib.notebook.teaching import prose  # noqa: E402
 from retarget_lib.viz import knob  # noqa: E402
 
+pytestmark = pytest.mark.tooling  # nothing here depends on the thread count (make unit-threads)
+
 
 def test_prose_renders_values_dedented():
     x = 0.123

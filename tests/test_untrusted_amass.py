@@ -16,6 +16,8 @@ from retarget_lib.data.synthetic.amass_clip import AMASS_CLIP_PATH
 from retarget_lib.errors import AMASSError, LimitError
 from retarget_lib.io.amass import load_amass
 
+pytestmark = pytest.mark.tooling  # nothing here depends on the thread count (make unit-threads)
+
 
 def clip_arrays() -> dict[str, np.ndarray]:
     with np.load(AMASS_CLIP_PATH) as data:

@@ -16,6 +16,8 @@ from retarget_lib.core.skeleton import JointSetError
 from retarget_lib.files import REPO_ROOT
 from retarget_lib.io.rig_maps import load_mapping_file
 
+pytestmark = pytest.mark.tooling  # nothing here depends on the thread count (make unit-threads)
+
 CONFIGS = REPO_ROOT / "configs"
 BOMB = "a: &a [x, x, x, x, x, x, x, x, x, x]\n" + "".join(
     f"{b}: &{b} [{', '.join(['*' + a] * 10)}]\n"

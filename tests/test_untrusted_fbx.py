@@ -19,9 +19,12 @@ from retarget_lib.errors import FBXError, LimitError
 from retarget_lib.io import fbx, fbx_write
 from retarget_lib.io.fbx import fbx_missing, load_fbx_motion, load_fbx_rig
 
-pytestmark = pytest.mark.skipif(
-    fbx_missing() is not None, reason=f"fbx extra not installed: {fbx_missing()}"
-)
+pytestmark = [
+    pytest.mark.tooling,
+    pytest.mark.skipif(
+        fbx_missing() is not None, reason=f"fbx extra not installed: {fbx_missing()}"
+    ),
+]
 
 
 def kato_fbx(path: Path, monkeypatch=None, skeleton=None, mesh=None) -> Path:

@@ -21,6 +21,8 @@ from retarget_lib.errors import GLTFError, LimitError
 from retarget_lib.io.bvh import load_bvh
 from retarget_lib.io.gltf import load_gltf_motion, load_gltf_rig
 
+pytestmark = pytest.mark.tooling  # nothing here depends on the thread count (make unit-threads)
+
 IBM, TIMES = 4, 5  # accessor indices in kato's GLB: inverse bind matrices, key times
 
 

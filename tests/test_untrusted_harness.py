@@ -32,6 +32,8 @@ from retarget_lib.core.rig import Rig
 from retarget_lib.data.synthetic.characters import make_character
 from retarget_lib.io.gltf_write import save_glb
 
+pytestmark = pytest.mark.tooling  # nothing here depends on the thread count (make unit-threads)
+
 #: the memory a case may take beyond what the process already uses
 CAP_BYTES = 2 * 2**30
 

@@ -25,6 +25,8 @@ from retarget_lib.files import (
 )
 from retarget_lib.io.gltf import load_gltf_rig
 
+pytestmark = pytest.mark.tooling  # nothing here depends on the thread count (make unit-threads)
+
 
 def gltf_with_buffer(folder: Path, uri: str, blob: bytes, kato_parts) -> Path:  # noqa: F811
     """``folder/a.gltf``: kato's JSON whose one buffer is the file ``uri`` (``blob`` not

@@ -6,6 +6,8 @@ import pytest
 from retarget_lib import viz
 from retarget_lib.core.skeleton import CANONICAL22_PARENTS, canonical22_skeleton
 
+pytestmark = pytest.mark.tooling  # nothing here depends on the thread count (make unit-threads)
+
 
 @pytest.fixture(scope="module")
 def tpose():

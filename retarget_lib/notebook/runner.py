@@ -154,13 +154,13 @@ def record_timings(out_dir: Path, timings: dict[str, dict]) -> None:
         json.dump(dict(sorted(merged.items())), f, indent=1)
 
 
-def longest_first(notebooks: list[Path], out_dir: Path) -> list[Path]:
+def longest_first(notebooks: list[Path], out_dir: Path | None = None) -> list[Path]:
     """``notebooks`` ordered by their last known execution time, longest first, so that ``--jobs``
     does not start the longest one last (times from ``out_dir/timings.json``, else
     :data:`REFERENCE_TIMINGS`; an unknown notebook counts as long)."""
     known: dict[str, float] = {}
-    for path in (REFERENCE_TIMINGS, out_dir / TIMINGS_FILE):
-        if path.exists():
+    for path in (REFERENCE_TIMINGS, None if out_dir is None else out_dir / TIMINGS_FILE):
+        if path is not None and path.exists():
             known.update({name: t["seconds"] for name, t in json.loads(path.read_text()).items()})
     return sorted(notebooks, key=lambda nb: -known.get(nb.name, float("inf")))
 
