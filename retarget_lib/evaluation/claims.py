@@ -79,7 +79,9 @@ CAUSES: dict[tuple[str, ...], str] = {
             "batch 8, C1): on the fast contact cases its feet are 5.2 cm off in the source's "
             "contact frames (Eskel's 2.9, copy's 1.9) and its root 37 cm off the truth by frame "
             "59, so its foot contact accuracy is near chance (0.56), and ESO's 30 steps a frame "
-            "do not bring the feet down (5.4 cm): docs/reproduction.md, C9"
+            "do not bring the feet down (5.4 cm). Budget measured (C1; scratch runs at 2x and 4x "
+            "the steps): Ours 0.64 and 0.61, Efull + IK 0.89 and 0.89 (paper 0.82): with budget "
+            "the IK's feet reproduce, ESO's do not: docs/reproduction.md, C1 and C9"
         )
         for table, rows in (
             ("Table 1", ("Efull + IK", "NKN")),
@@ -95,7 +97,8 @@ CAUSES: dict[tuple[str, ...], str] = {
             "beyond App. B.1's 15 cm reach: no contact is then optimised, and ESO's rotation term "
             "(rho 10, towards the source's local rotations) moves the hands through the encoder "
             "state; on the 8 fast cases where it rises (5.59 -> 12.30; lowered on the other 22), "
-            "7.45 without that term: docs/reproduction.md, section 4"
+            "7.45 without that term. At 4x the training steps (C1, a scratch run) Ours is 2.88 "
+            "against Efull + IK's 2.95 and copy's 6.31: docs/reproduction.md, section 4 and C1"
         )
         for key in (
             ("Table 1", "Efull + IK", "vertex contact MSE"),
